@@ -1,0 +1,91 @@
+// Rotations on SO(3): skew, exp, log, the tangent operator H of Muñoz, Jelenić & Crisfield (2003)
+// eq. (4) and its inverse, the Cayley map with the tangent-scaled vector used by the conserving
+// schemes (eq. 17), and unit quaternions.
+//
+// Conventions (used everywhere in msflex):
+//  - hat(v) w = v x w.
+//  - Spatial ("spin") variations: delta Lambda = hat(delta_theta) Lambda.
+//  - For Lambda = exp(hat(psi)) Lambda_n:  delta_theta = H(psi) delta_psi  (left tangent).
+//  - exp(hat(psi))^T d exp(hat(psi)) = hat(H(psi)^T d psi)  (material form).
+//  - Quaternions are (w, x, y, z) and are never sign-canonicalised, so a quaternion tracked by
+//    composition q_{n+1} = q(omega) * q_n with |omega| < pi distinguishes 0 from 2 pi (q = -1).
+#pragma once
+
+#include <Eigen/Core>
+#include <cmath>
+
+namespace msflex {
+
+using Vec3 = Eigen::Vector3d;
+using Mat3 = Eigen::Matrix3d;
+
+inline Mat3 Skew(const Vec3 &v)
+{
+  Mat3 s;
+  s << 0.0, -v(2), v(1), v(2), 0.0, -v(0), -v(1), v(0), 0.0;
+  return s;
+}
+
+inline Vec3 Unskew(const Mat3 &s) { return Vec3(0.5 * (s(2, 1) - s(1, 2)), 0.5 * (s(0, 2) - s(2, 0)), 0.5 * (s(1, 0) - s(0, 1))); }
+
+// The entire functions c_n(x) = sum_k (-x)^k / (2k+n)!, x = theta^2, and their first two
+// derivatives with respect to x. c0 = cos(theta), c1 = sin(theta)/theta, c2 = (1-cos)/theta^2,
+// c3 = (theta - sin)/theta^3, ... Every Rodrigues-type operator below is built from them, so
+// all small-angle branches live in one place.
+struct RotationSeries {
+  double c[7];   // c_0 .. c_6
+  double dc[7];  // d c_n / dx
+  double ddc[7]; // d^2 c_n / dx^2
+};
+RotationSeries EvaluateRotationSeries(double x);
+
+// A Rodrigues-type operator F(psi) = I + alpha(x) hat(psi) + beta(x) hat(psi)^2, x = |psi|^2,
+// with the derivatives of alpha and beta with respect to x. exp, H and H^{-1} are of this form.
+struct RodriguesForm {
+  double alpha, alpha_x, alpha_xx;
+  double beta, beta_x, beta_xx;
+};
+RodriguesForm ExpForm(const RotationSeries &s);             // alpha = c1, beta = c2
+RodriguesForm TangentForm(const RotationSeries &s);         // H: alpha = c2, beta = c3
+RodriguesForm TangentInverseForm(const RotationSeries &s);  // H^{-1}: alpha = -1/2, beta = (c3 - 2 c4)/(2 c2)
+
+Mat3 RodriguesMatrix(const RodriguesForm &f, const Vec3 &psi);
+// d/dpsi [F(psi)^T a]   (3x3)
+Mat3 RodriguesTransposeApplyJacobian(const RodriguesForm &f, const Vec3 &psi, const Vec3 &a);
+// d/dpsi [F(psi) a]     (3x3)
+Mat3 RodriguesApplyJacobian(const RodriguesForm &f, const Vec3 &psi, const Vec3 &a);
+// d^2/dpsi^2 [ m . F(psi)^T a ]   (3x3, symmetric)
+Mat3 RodriguesTransposeApplyHessian(const RodriguesForm &f, const Vec3 &psi, const Vec3 &a, const Vec3 &m);
+
+// exp: R^3 -> SO(3)
+Mat3 ExpSO3(const Vec3 &psi);
+// log: SO(3) -> R^3 with |psi| in [0, pi]; robust near 0 and near pi.
+Vec3 LogSO3(const Mat3 &R);
+// H(psi) of eq. (4) and its inverse (singular at |psi| = 2 pi).
+Mat3 TangentH(const Vec3 &psi);
+Mat3 TangentHInverse(const Vec3 &psi);
+
+// Cayley map cay(a) = I + 4/(4 + |a|^2) (hat(a) + hat(a)^2 / 2), equal to exp(psi) for the
+// tangent-scaled vector a = tan(|psi|/2)/(|psi|/2) psi.
+Mat3 CayleySO3(const Vec3 &a);
+Vec3 TangentScaledFromRotationVector(const Vec3 &psi); // a = 2 tan(|psi|/2) psi/|psi|, |psi| < pi
+Vec3 RotationVectorFromTangentScaled(const Vec3 &a);   // psi = 2 atan(|a|/2) a/|a|
+// S(a)^{-1} = (I + hat(a)/2) / (1 + |a|^2/4) of eq. (17): maps mid-point quantities so that
+// Lambda_{n+1} - Lambda_n = hat(a) (Lambda_n + Lambda_{n+1})/2.
+Mat3 CayleyMidpointOperatorInverse(const Vec3 &a);
+
+// Unit quaternions (w, x, y, z).
+struct Quaternion {
+  double w = 1.0, x = 0.0, y = 0.0, z = 0.0;
+  Vec3   vec() const { return Vec3(x, y, z); }
+};
+Quaternion QuaternionMultiply(const Quaternion &p, const Quaternion &q);
+Quaternion QuaternionFromRotationVector(const Vec3 &psi);
+Quaternion QuaternionFromMatrix(const Mat3 &R);
+Mat3       QuaternionToMatrix(const Quaternion &q);
+Quaternion QuaternionNormalize(const Quaternion &q);
+Quaternion QuaternionConjugate(const Quaternion &q);
+// Rotation angle in [0, 2 pi] of a tracked quaternion: 2 atan2(|v|, w). q = -1 gives 2 pi.
+double QuaternionTrackedAngle(const Quaternion &q);
+
+} // namespace msflex

@@ -1,0 +1,164 @@
+// The msflex model: plain data produced by the input reader (io/) and consumed by everything
+// downstream. No PETSc, no MPI here. Beam lines and arcs are already expanded into nodes and
+// elements; every object remembers where in the input it came from so later checks can name the
+// file and line.
+#pragma once
+
+#include "math/rotation.hpp"
+
+#include <array>
+#include <string>
+#include <vector>
+
+namespace msflex {
+
+// Where an object was defined: file and 1-based line/column.
+struct SourceMark {
+  std::string file;
+  int         line   = 0;
+  int         column = 0;
+};
+
+// A scalar function of (pseudo-)time that multiplies a load or a prescribed motion.
+struct TimeFunction {
+  enum class Kind { Constant, Linear, Table, Harmonic };
+  std::string name;
+  Kind        kind = Kind::Linear;
+  // Constant: value = offset. Linear: value = offset + slope * t.
+  // Harmonic: value = offset + amplitude * sin(2 pi frequency t + phase).
+  // Table: piecewise linear through (times[i], values[i]), constant beyond the ends.
+  double              offset = 0.0, slope = 1.0, amplitude = 0.0, frequency = 0.0, phase = 0.0;
+  std::vector<double> times, values;
+  SourceMark          mark;
+  double              Evaluate(double t) const;
+};
+
+// Cross-section constants in the section frame (t1 = beam axis, t2, t3 principal axes).
+struct Section {
+  std::string name;
+  double      EA = 0, GA2 = 0, GA3 = 0, GJ = 0, EI2 = 0, EI3 = 0; // N, N, N, N m^2, N m^2, N m^2
+  double      rhoA = 0;                                           // mass per unit length, kg/m
+  Vec3        rhoJ = Vec3::Zero();                                // rotational inertia per length (J1, J2, J3), kg m
+  SourceMark  mark;
+};
+
+struct Node {
+  std::string name;     // user name, or "<beam>.<k>" for nodes generated inside a beam line
+  Vec3        position; // reference position, m
+  SourceMark  mark;
+};
+
+// A Lagrange beam element of order 1 (2 nodes) or 2 (3 nodes, middle node in the middle).
+struct BeamElement {
+  int                 section = -1;
+  int                 order   = 1;
+  std::array<int, 3>  nodes{{-1, -1, -1}};
+  // Reference section triads at the element's nodes: columns t1 (axis), t2, t3. The current triad
+  // of the section at element node a is R_node * reference_triads[a], where R_node is the node's
+  // rotation from the reference configuration (identity at the start).
+  std::array<Mat3, 3> reference_triads{{Mat3::Identity(), Mat3::Identity(), Mat3::Identity()}};
+  int                 beam = -1; // index into Model::beams
+};
+
+// A generated beam (line or arc): a named group of consecutive elements.
+struct Beam {
+  std::string      name;
+  int              section = -1;
+  int              order   = 1;
+  std::vector<int> elements;
+  std::vector<int> nodes; // in order along the beam, including both end nodes
+  SourceMark       mark;
+};
+
+struct NodeSet {
+  std::string      name;
+  std::vector<int> nodes;
+  SourceMark       mark;
+};
+
+enum DofIndex { DOF_UX = 0, DOF_UY, DOF_UZ, DOF_RX, DOF_RY, DOF_RZ };
+
+// A support fixes or prescribes any subset of the six DOFs of a set of nodes. Prescribed
+// displacements are global components; a prescribed rotation component k is applied as the
+// spin about global axis k (exact when a single rotation component is prescribed or all three
+// are). value(t) = values[k] * function(t).
+struct Support {
+  enum class Kind { Free, Fixed, Prescribed };
+  std::vector<int>      nodes;
+  std::array<Kind, 6>   kind{{Kind::Free, Kind::Free, Kind::Free, Kind::Free, Kind::Free, Kind::Free}};
+  std::array<double, 6> values{{0, 0, 0, 0, 0, 0}};
+  int                   function = -1; // index into Model::functions; -1: linear ramp value * t
+  SourceMark            mark;
+};
+
+// Concentrated load on each node of a set: value(t) = (force, moment) * function(t).
+// Dead loads keep their global direction; follower loads are given in the node's rotated frame
+// (f = R_node f0, m = R_node m0).
+struct NodalLoad {
+  std::vector<int> nodes;
+  Vec3             force  = Vec3::Zero();
+  Vec3             moment = Vec3::Zero();
+  bool             follower = false;
+  int              function = -1;
+  SourceMark       mark;
+};
+
+// Distributed dead load per unit reference length on a set of elements. With gravity = true the
+// load is rhoA * acceleration on every element (elements lists all of them).
+struct DistributedLoad {
+  std::vector<int> elements;
+  Vec3             force_per_length = Vec3::Zero(); // N/m, or m/s^2 when gravity
+  bool             gravity          = false;
+  int              function         = -1;
+  SourceMark       mark;
+};
+
+struct Probe {
+  std::string name;
+  int         node = -1;
+  SourceMark  mark;
+};
+
+// Static analysis: the loads are multiplied by their functions of the pseudo-time t in
+// [0, end_time]; the default function is the ramp f(t) = t, so t is the load factor.
+struct AnalysisSettings {
+  std::string         type                   = "static";
+  double              end_time               = 1.0;
+  double              initial_step           = 0.1;
+  double              min_step               = 1e-6;
+  double              max_step               = 1.0;
+  double              growth_factor          = 1.5;  // step multiplier after easy steps
+  int                 easy_iterations        = 5;    // a step converged in <= this many iterations is easy
+  int                 easy_steps_to_grow     = 2;    // consecutive easy steps before growing
+  double              max_rotation_increment = 1.0;  // rad: a step whose |omega| exceeds it is halved
+  int                 max_newton_iterations  = 25;
+  double              newton_rtol            = 1e-10;
+  double              newton_atol            = 1e-50;
+  std::vector<double> output_times;                  // steps are shortened to hit these exactly
+  SourceMark          mark;
+};
+
+struct OutputSettings {
+  std::string file;       // HDF5 output; default: input file name with .h5, in the working directory
+  int         every = 1;  // write every n-th converged step (the last step is always written)
+  SourceMark  mark;
+};
+
+struct Model {
+  std::string                  input_file;
+  std::string                  input_text; // copy of the input, stored in the output for provenance
+  std::vector<TimeFunction>    functions;
+  std::vector<Section>         sections;
+  std::vector<Node>            nodes;
+  std::vector<Beam>            beams;
+  std::vector<BeamElement>     elements;
+  std::vector<NodeSet>         node_sets;
+  std::vector<Support>         supports;
+  std::vector<NodalLoad>       nodal_loads;
+  std::vector<DistributedLoad> distributed_loads;
+  std::vector<Probe>           probes;
+  AnalysisSettings             analysis;
+  OutputSettings               output;
+};
+
+} // namespace msflex

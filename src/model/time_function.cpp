@@ -1,0 +1,30 @@
+#include "model/model.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+namespace msflex {
+
+double TimeFunction::Evaluate(double t) const
+{
+  switch (kind) {
+  case Kind::Constant:
+    return offset;
+  case Kind::Linear:
+    return offset + slope * t;
+  case Kind::Harmonic:
+    return offset + amplitude * std::sin(2.0 * M_PI * frequency * t + phase);
+  case Kind::Table: {
+    if (times.empty()) return 0.0;
+    if (t <= times.front()) return values.front();
+    if (t >= times.back()) return values.back();
+    const auto   it = std::upper_bound(times.begin(), times.end(), t);
+    const size_t i  = (size_t)(it - times.begin());
+    const double s  = (t - times[i - 1]) / (times[i] - times[i - 1]);
+    return (1.0 - s) * values[i - 1] + s * values[i];
+  }
+  }
+  return 0.0;
+}
+
+} // namespace msflex

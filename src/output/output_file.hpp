@@ -1,0 +1,70 @@
+// The msflex HDF5 result file and its XDMF sidecar (layout: docs/output.md).
+//
+// All calls are collective over the communicator given to Open. In this version the solver
+// gathers global arrays to rank 0 and only rank 0 touches the file; the arrays passed on other
+// ranks are ignored (they may be empty). The file is flushed after every frame and history row,
+// so a killed run leaves a readable file holding every completed step.
+#pragma once
+
+#include <petscsys.h>
+
+#include <string>
+#include <vector>
+
+namespace msflex {
+
+struct OutputMesh {
+  std::vector<double>      node_coordinates; // n_nodes * 3, reference positions
+  std::vector<std::string> node_names;       // n_nodes
+  std::vector<int>         element_nodes;    // n_elements * 3, 0-based node indices, -1 padded (2-node elements)
+  std::vector<int>         element_order;    // n_elements: 1 (2 nodes) or 2 (3 nodes, middle node second)
+  std::vector<int>         element_beam;     // n_elements: index into beam_names
+  std::vector<std::string> beam_names;
+};
+
+struct OutputFrame {
+  int                 step = 0;   // converged step number (0 = initial state)
+  double              time = 0.0; // time, or pseudo-time (load factor) in statics
+  std::vector<double> position;           // n_nodes * 3
+  std::vector<double> displacement;       // n_nodes * 3
+  std::vector<double> rotation;           // n_nodes * 4, quaternion (w, x, y, z) from the reference configuration
+  std::vector<double> element_resultants; // n_elements * 6: N1 N2 N3 M1 M2 M3, section frame, mean over Gauss points
+  std::vector<double> element_strains;    // n_elements * 6: Gamma - Gamma0 (3), K - K0 (3), mean over Gauss points
+};
+
+struct ProbeSample {
+  std::string name;
+  double      position[3]     = {0, 0, 0};
+  double      displacement[3] = {0, 0, 0};
+  double      rotation[4]     = {1, 0, 0, 0};
+  double      rotation_angle  = 0; // tracked angle 2 atan2(|q_v|, q_w) in [0, 2 pi]
+};
+
+class OutputFile {
+public:
+  OutputFile() = default;
+  OutputFile(const OutputFile &)            = delete;
+  OutputFile &operator=(const OutputFile &) = delete;
+  ~OutputFile();
+
+  // Creates `path` (an existing file is an error unless overwrite) and its sidecar
+  // `path` with the extension replaced by .xmf. Writes /input and /mesh.
+  PetscErrorCode Open(MPI_Comm comm, const std::string &path, bool overwrite, const std::string &input_file, const std::string &input_text,
+                      const OutputMesh &mesh);
+  // Writes /frames/<step> and rewrites the .xmf sidecar to list every frame written so far.
+  PetscErrorCode WriteFrame(const OutputFrame &frame);
+  // Appends one row to /history (one extensible 1-D dataset per name; the set of names must be
+  // the same on every call, "time" first) and one sample per probe to /probes/<name>/...
+  PetscErrorCode AppendHistory(const std::vector<std::string> &names, const std::vector<double> &values, const std::vector<ProbeSample> &probes);
+  PetscErrorCode Close();
+
+  const std::string &Path() const { return path_; }
+
+private:
+  struct Impl;
+  Impl       *impl_ = nullptr;
+  MPI_Comm    comm_ = MPI_COMM_NULL;
+  std::string path_;
+};
+
+} // namespace msflex
