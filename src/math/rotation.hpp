@@ -12,6 +12,7 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <Eigen/Geometry>
 #include <cmath>
 
 namespace msflex {
@@ -70,8 +71,8 @@ Mat3 TangentHInverse(const Vec3 &psi);
 Mat3 CayleySO3(const Vec3 &a);
 Vec3 TangentScaledFromRotationVector(const Vec3 &psi); // a = 2 tan(|psi|/2) psi/|psi|, |psi| < pi
 Vec3 RotationVectorFromTangentScaled(const Vec3 &a);   // psi = 2 atan(|a|/2) a/|a|
-// S(a)^{-1} = (I + hat(a)/2) / (1 + |a|^2/4) of eq. (17): maps mid-point quantities so that
-// Lambda_{n+1} - Lambda_n = hat(a) (Lambda_n + Lambda_{n+1})/2.
+// S(a)^{-1} = (I + hat(a)/2) / (1 + |a|^2/4) of eq. (17): the tangent operator of the Cayley map,
+// d cay(a) cay(a)^T = hat(S(a)^{-1} da).
 Mat3 CayleyMidpointOperatorInverse(const Vec3 &a);
 
 // Unit quaternions (w, x, y, z).

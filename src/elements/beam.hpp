@@ -1,0 +1,68 @@
+// Geometrically exact (Reissner–Simo) 3D beam with the strain-invariant interpolation of
+// rotations of Jelenić & Crisfield (CMAME 171, 1999), Lagrange elements of 2 or 3 nodes and
+// reduced Gauss integration (n_nodes - 1 points).
+//
+// Kinematics (element node c = reference node: node 0 for 2 nodes, the middle node for 3):
+//   psi_a  = log(Lambda_c^T Lambda_a)          local rotation of node a (psi_c = 0)
+//   rho_a  = Lambda_c^T (x_a - x_c)            local position of node a (rho_c = 0)
+//   Psi(s) = sum_a I_a(s) psi_a,   Lambda(s) = Lambda_c exp(Psi(s))
+//   Gamma  = Lambda^T x' = exp(Psi)^T rho',    K = H(Psi)^T Psi'          (material strains)
+//   N = C_N (Gamma - Gamma_0),  M = C_M (K - K_0),  C_N = diag(EA, GA2, GA3), C_M = diag(GJ, EI2, EI3)
+// For 2 nodes this is the geodesic Lambda(s) = Lambda_1 exp(xi psi_2), identical to Jelenić &
+// Crisfield's mid-node reference. Strains depend only on relative rotations and positions, so the
+// element is objective (invariant under a superposed rigid motion) and path-independent (total
+// Lagrangian in the nodal triads).
+//
+// Residual and tangent are with respect to nodal displacements and spatial spin variations
+// (delta Lambda_a = hat(delta theta_a) Lambda_a): r = d Pi / d(x, theta), K = d r / d(x, theta).
+// Kernels are pure functions: no PETSc, no MPI, no allocation.
+#pragma once
+
+#include "math/rotation.hpp"
+
+namespace msflex {
+
+constexpr int kBeamMaxNodes = 3;
+constexpr int kBeamMaxGauss = 2;
+constexpr int kBeamMaxDofs  = 6 * kBeamMaxNodes;
+
+struct BeamSectionStiffness {
+  Vec3 axial_shear;       // EA, GA2, GA3
+  Vec3 torsion_bending;   // GJ, EI2, EI3
+};
+
+// Everything about an element that is fixed after set-up (computed from the reference configuration).
+struct BeamElementReference {
+  int    num_nodes      = 2;
+  int    num_gauss      = 1;
+  int    reference_node = 0;
+  double length         = 0.0;                         // reference arc length
+  double weight_jacobian[kBeamMaxGauss]{};             // Gauss weight * ds/dxi
+  double shape[kBeamMaxGauss][kBeamMaxNodes]{};        // I_a at the Gauss points
+  double shape_derivative[kBeamMaxGauss][kBeamMaxNodes]{}; // dI_a/ds at the Gauss points
+  double nodal_length[kBeamMaxNodes]{};                // integral of I_a ds (consistent dead loads)
+  Vec3   strain0[kBeamMaxGauss];                       // Gamma_0
+  Vec3   curvature0[kBeamMaxGauss];                    // K_0
+};
+
+// Strains and stress resultants at the Gauss points (section frame).
+struct BeamGaussResults {
+  Vec3 strain[kBeamMaxGauss];     // Gamma - Gamma_0
+  Vec3 curvature[kBeamMaxGauss];  // K - K_0
+  Vec3 force[kBeamMaxGauss];      // N
+  Vec3 moment[kBeamMaxGauss];     // M
+};
+
+enum class BeamKernelStatus { Ok, DegenerateGeometry, RotationTooLarge };
+
+// Reference data from reference nodal positions and section triads (columns t1, t2, t3).
+BeamKernelStatus BeamElementSetup(int num_nodes, const Vec3 *reference_positions, const Mat3 *reference_triads, BeamElementReference *ref);
+
+// Internal forces (residual, 6 per node: force then moment), optionally the tangent (row-major,
+// 6n x 6n), the strain energy and the Gauss-point results. `positions` and `triads` are the
+// current nodal positions and section triads. Fails (RotationTooLarge) when a relative nodal
+// rotation inside the element reaches pi.
+BeamKernelStatus BeamInternalForces(const BeamElementReference &ref, const BeamSectionStiffness &section, const Vec3 *positions, const Mat3 *triads,
+                                    double *residual, double *tangent, double *strain_energy, BeamGaussResults *results);
+
+} // namespace msflex
