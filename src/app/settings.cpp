@@ -1,0 +1,56 @@
+#include "app/settings.hpp"
+
+#include <cmath>
+#include <vector>
+
+namespace msflex {
+
+PetscErrorCode SettingsFromOptions(MPI_Comm comm, Model *model, RunOptions *options)
+{
+  AnalysisSettings &a = model->analysis;
+  PetscInt          easy_iterations = a.easy_iterations, easy_steps = a.easy_steps_to_grow, max_newton = a.max_newton_iterations;
+  PetscFunctionBeginUser;
+  PetscOptionsBegin(comm, "analysis_", "Analysis settings (defaults: the input's analysis section)", "msflex");
+  PetscCall(PetscOptionsReal("-end_time", "Final (pseudo-)time", "", a.end_time, &a.end_time, nullptr));
+  PetscCall(PetscOptionsReal("-initial_step", "First step size", "", a.initial_step, &a.initial_step, nullptr));
+  PetscCall(PetscOptionsReal("-min_step", "Smallest step before giving up", "", a.min_step, &a.min_step, nullptr));
+  PetscCall(PetscOptionsReal("-max_step", "Largest step", "", a.max_step, &a.max_step, nullptr));
+  PetscCall(PetscOptionsReal("-growth_factor", "Step growth after easy steps", "", a.growth_factor, &a.growth_factor, nullptr));
+  PetscCall(PetscOptionsInt("-easy_iterations", "Newton iterations of an easy step", "", easy_iterations, &easy_iterations, nullptr));
+  PetscCall(PetscOptionsInt("-easy_steps_to_grow", "Easy steps in a row before growing", "", easy_steps, &easy_steps, nullptr));
+  PetscCall(PetscOptionsInt("-max_newton_iterations", "Newton iterations per step", "", max_newton, &max_newton, nullptr));
+  PetscCall(PetscOptionsReal("-max_rotation_increment", "Largest nodal rotation per step, rad", "", a.max_rotation_increment, &a.max_rotation_increment, nullptr));
+  PetscCall(PetscOptionsReal("-newton_rtol", "Newton relative residual tolerance", "", a.newton_rtol, &a.newton_rtol, nullptr));
+  PetscCall(PetscOptionsReal("-newton_atol", "Newton absolute residual tolerance", "", a.newton_atol, &a.newton_atol, nullptr));
+  PetscOptionsEnd();
+  a.easy_iterations       = (int)easy_iterations;
+  a.easy_steps_to_grow    = (int)easy_steps;
+  a.max_newton_iterations = (int)max_newton;
+  const struct {
+    const char *name;
+    double      value;
+  } positive[] = {{"-analysis_end_time", a.end_time},         {"-analysis_initial_step", a.initial_step},     {"-analysis_min_step", a.min_step},
+                  {"-analysis_max_step", a.max_step},         {"-analysis_max_rotation_increment", a.max_rotation_increment},
+                  {"-analysis_newton_rtol", a.newton_rtol},   {"-analysis_easy_iterations", (double)a.easy_iterations},
+                  {"-analysis_easy_steps_to_grow", (double)a.easy_steps_to_grow}, {"-analysis_max_newton_iterations", (double)a.max_newton_iterations}};
+  for (const auto &p : positive) PetscCheck(std::isfinite(p.value) && p.value > 0, comm, PETSC_ERR_USER_INPUT, "option %s must be positive, got %g", p.name, p.value);
+  PetscCheck(a.growth_factor >= 1.0, comm, PETSC_ERR_USER_INPUT, "option -analysis_growth_factor must be >= 1, got %g", a.growth_factor);
+  PetscCheck(a.min_step <= a.initial_step, comm, PETSC_ERR_USER_INPUT, "min_step %g is larger than initial_step %g", a.min_step, a.initial_step);
+  PetscCheck(a.max_rotation_increment < M_PI, comm, PETSC_ERR_USER_INPUT, "max_rotation_increment must be below pi, got %g", a.max_rotation_increment);
+
+  char     file[PETSC_MAX_PATH_LEN];
+  PetscInt every = model->output.every; // default: the input's output.every
+  PetscCall(PetscStrncpy(file, model->output.file.c_str(), sizeof(file)));
+  PetscOptionsBegin(comm, "output_", "Output settings", "msflex");
+  PetscCall(PetscOptionsString("-file", "HDF5 result file", "", file, file, sizeof(file), nullptr));
+  PetscCall(PetscOptionsInt("-every", "Write every n-th converged step", "", every, &every, nullptr));
+  PetscCall(PetscOptionsBool("-overwrite", "Replace an existing result file", "", options->output_overwrite, &options->output_overwrite, nullptr));
+  PetscOptionsEnd();
+  PetscCheck(every >= 1, comm, PETSC_ERR_USER_INPUT, "option -output_every must be >= 1, got %" PetscInt_FMT, every);
+  options->output_file  = file;
+  options->output_every = every;
+  PetscCall(PetscOptionsGetBool(nullptr, nullptr, "-quiet", &options->quiet, nullptr));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+} // namespace msflex

@@ -1,0 +1,31 @@
+// Newton's method (PETSc SNES) on the step increments, shared by every analysis.
+//
+// Defaults, all changeable with -snes_*, -ksp_*, -pc_* options:
+//  - newtonls with the msflex line search ("shell"): the full Newton step unless the new
+//    configuration cannot be evaluated (an element's relative rotation reaches pi, or a NaN),
+//    then the step is halved up to 8 times. The residual norm is a poor merit function for
+//    rotation-dominated beams (it rises by orders of magnitude in the first, correct iteration
+//    of a large-rotation step), so norm-decrease line searches (bt, l2) stall; they remain
+//    available through -snes_linesearch_type.
+//  - convergence when |R| <= rtol * max(|R_0|, |f|), with |f| the magnitude of the internal and
+//    external forces (the norm of all element and load contributions before they cancel): the
+//    relative test of PETSc measured against the force level as well, so a small load increment
+//    on a heavily loaded structure does not ask for a residual below round-off.
+//  - MUMPS LU; the symbolic factorisation is reused while the matrix pattern is unchanged.
+#pragma once
+
+#include "assembly/assembler.hpp"
+#include "model/model.hpp"
+
+#include <petscsnes.h>
+
+namespace msflex {
+
+struct NewtonContext {
+  Assembler *assembler = nullptr;
+  MPI_Comm   comm      = MPI_COMM_NULL;
+};
+
+PetscErrorCode NewtonSolverCreate(MPI_Comm comm, const AnalysisSettings &analysis, NewtonContext *context, SNES *snes);
+
+} // namespace msflex

@@ -1,0 +1,34 @@
+// Step-size control in the style of PETSc's TSAdapt: halve on failure, grow after a run of easy
+// steps, and never step past the next output time or the end. Shared by statics (the step is a
+// load-factor / pseudo-time increment) and dynamics.
+#pragma once
+
+namespace msflex {
+
+struct StepControllerSettings {
+  double initial_step       = 0.1;
+  double min_step           = 1e-6;
+  double max_step           = 1.0;
+  double growth_factor      = 1.5;
+  int    easy_iterations    = 5;
+  int    easy_steps_to_grow = 2;
+};
+
+class StepController {
+public:
+  explicit StepController(const StepControllerSettings &settings) : settings_(settings), step_(settings.initial_step) {}
+  // The next step from t, shortened to land exactly on `target` (next output time or the end).
+  double Propose(double t, double target) const;
+  // A converged step of size dt taking `iterations` Newton iterations.
+  void Accept(double dt, int iterations);
+  // A failed attempt of size dt: halves it. Returns false when the halved step is below min_step.
+  bool Reject(double dt);
+  double NominalStep() const { return step_; }
+
+private:
+  StepControllerSettings settings_;
+  double                 step_;
+  int                    easy_run_ = 0;
+};
+
+} // namespace msflex

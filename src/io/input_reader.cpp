@@ -1,0 +1,549 @@
+// The YAML model reader: top-level structure, functions, sections, nodes, sets, supports, loads,
+// probes, analysis and output settings. Beams are expanded in input_beams.cpp and static
+// mechanisms are detected in input_mechanism_check.cpp. The schema is documented in docs/input.md.
+#include "io/input_reader.hpp"
+
+#include "io/input_reader_internal.hpp"
+#include "io/input_yaml_util.hpp"
+
+#include <array>
+#include <cmath>
+#include <exception>
+#include <filesystem>
+#include <fstream>
+#include <iterator>
+#include <utility>
+
+namespace msflex {
+
+namespace input_detail {
+
+SourceMark ReaderContext::MarkOf(const YAML::Mark &mark) const
+{
+  if (mark.is_null()) return SourceMark{model.input_file, 0, 0};
+  return SourceMark{model.input_file, mark.line + 1, mark.column + 1};
+}
+
+namespace {
+
+const char *KindName(NameKind kind)
+{
+  switch (kind) {
+  case NameKind::Node:
+    return "node";
+  case NameKind::Beam:
+    return "beam";
+  case NameKind::Set:
+    return "set";
+  }
+  return "name";
+}
+
+// Index of the object called `name` in `objects`, or -1.
+template <class NamedType>
+int IndexByName(const std::vector<NamedType> &objects, const std::string &name)
+{
+  for (size_t index = 0; index < objects.size(); ++index)
+    if (objects[index].name == name) return static_cast<int>(index);
+  return -1;
+}
+
+template <class NamedType>
+void RequireUniqueName(const std::vector<NamedType> &objects, const std::string &name, const std::string &kind, const MappingReader &entry)
+{
+  const int existing = IndexByName(objects, name);
+  if (existing >= 0)
+    FailAt(entry.Required("name").Mark(), "duplicate " + kind + " name " + Quote(name) + " (first defined at line " +
+                                              std::to_string(objects[existing].mark.line) + ")");
+}
+
+} // namespace
+
+void ReaderContext::RegisterName(const std::string &name, NameKind kind, int index, const SourceMark &mark)
+{
+  const auto [existing, inserted] = names.emplace(name, NamedObject{kind, index, mark.line});
+  if (!inserted)
+    FailAt(mark, "name " + Quote(name) + " of this " + KindName(kind) + " is already used by the " + KindName(existing->second.kind) +
+                     " at line " + std::to_string(existing->second.line) + " (nodes, beams and sets share one namespace)");
+}
+
+int ReaderContext::NodeIndex(const MappingReader &entry, const std::string &key) const
+{
+  const YAML::Node &value = entry.Required(key);
+  const std::string name  = ReadString(value, key);
+  const auto        found = names.find(name);
+  if (found == names.end()) FailAt(value.Mark(), "unknown node " + Quote(name) + " for " + Quote(key) + " in " + entry.Description());
+  if (found->second.kind != NameKind::Node)
+    FailAt(value.Mark(), Quote(key) + " must name a node, but " + Quote(name) + " is a " + KindName(found->second.kind));
+  return found->second.index;
+}
+
+int ReaderContext::SectionIndex(const MappingReader &entry, const std::string &key) const
+{
+  const YAML::Node &value = entry.Required(key);
+  const std::string name  = ReadString(value, key);
+  const int         index = IndexByName(model.sections, name);
+  if (index < 0) FailAt(value.Mark(), "unknown section " + Quote(name) + " for " + Quote(key) + " in " + entry.Description());
+  return index;
+}
+
+int ReaderContext::OptionalFunctionIndex(const MappingReader &entry, const std::string &key) const
+{
+  const YAML::Node *value = entry.Find(key);
+  if (value == nullptr) return -1;
+  const std::string name  = ReadString(*value, key);
+  const int         index = IndexByName(model.functions, name);
+  if (index < 0) FailAt(value->Mark(), "unknown function " + Quote(name) + " for " + Quote(key) + " in " + entry.Description());
+  return index;
+}
+
+std::vector<int> ReaderContext::ResolveNodes(const YAML::Node &value, const std::string &key) const
+{
+  std::vector<int>  nodes;
+  std::vector<bool> already_listed(model.nodes.size(), false);
+  const auto        add = [&](int node) {
+    if (!already_listed[node]) nodes.push_back(node);
+    already_listed[node] = true;
+  };
+  for (const NameReference &reference : ReadNameList(value, key)) {
+    const auto found = names.find(reference.name);
+    if (found == names.end()) FailAt(reference.mark, "unknown node, set or beam " + Quote(reference.name) + " in " + Quote(key));
+    const NamedObject &object = found->second;
+    if (object.kind == NameKind::Node) add(object.index);
+    if (object.kind == NameKind::Beam)
+      for (int node : model.beams[object.index].nodes) add(node);
+    if (object.kind == NameKind::Set)
+      for (int node : model.node_sets[object.index].nodes) add(node);
+  }
+  return nodes;
+}
+
+namespace {
+
+void ReadTablePoints(const YAML::Node &points, TimeFunction &function)
+{
+  for (const YAML::Node &point : ReadNonEmptyList(points, "points")) {
+    if (!point.IsSequence() || point.size() != 2)
+      FailAt(point.Mark(), "expected a [t, value] pair in 'points' of function " + Quote(function.name) + ", got " + DescribeValue(point));
+    const double time = ReadNumber(point[0], "points");
+    if (!function.times.empty() && !(time > function.times.back()))
+      FailAt(point[0].Mark(), "times in 'points' of function " + Quote(function.name) + " must be strictly increasing, got " +
+                                  point[0].Scalar() + " after " + FormatNumber(function.times.back()));
+    function.times.push_back(time);
+    function.values.push_back(ReadNumber(point[1], "points"));
+  }
+}
+
+TimeFunction ReadFunction(const YAML::Node &item, const ReaderContext &context)
+{
+  const MappingReader entry(item, "function");
+  TimeFunction        function;
+  function.name = entry.String("name");
+  function.mark = context.MarkOf(entry.Mark());
+  RequireUniqueName(context.model.functions, function.name, "function", entry);
+  const std::string type = entry.String("type");
+  if (type == "constant") {
+    entry.RequireOnlyKeys({"name", "type", "value"});
+    function.kind   = TimeFunction::Kind::Constant;
+    function.offset = entry.Number("value");
+  } else if (type == "linear") {
+    entry.RequireOnlyKeys({"name", "type", "slope", "offset"});
+    function.kind   = TimeFunction::Kind::Linear;
+    function.slope  = entry.Number("slope", 1.0);
+    function.offset = entry.Number("offset", 0.0);
+  } else if (type == "table") {
+    entry.RequireOnlyKeys({"name", "type", "points"});
+    function.kind = TimeFunction::Kind::Table;
+    ReadTablePoints(entry.Required("points"), function);
+  } else if (type == "harmonic") {
+    entry.RequireOnlyKeys({"name", "type", "amplitude", "frequency", "phase", "offset"});
+    function.kind      = TimeFunction::Kind::Harmonic;
+    function.amplitude = entry.Number("amplitude");
+    function.frequency = entry.Number("frequency");
+    function.phase     = entry.Number("phase", 0.0);
+    function.offset    = entry.Number("offset", 0.0);
+  } else {
+    FailAt(entry.Required("type").Mark(),
+           "unknown function type " + Quote(type) + " in " + entry.Description() + "; expected constant, linear, table or harmonic");
+  }
+  return function;
+}
+
+Vec3 ReadNonNegativeVec3(const YAML::Node &value, const std::string &key)
+{
+  const Vec3 vector = ReadVec3(value, key);
+  for (int component = 0; component < 3; ++component)
+    if (vector(component) < 0.0)
+      FailAt(value[component].Mark(), "components of " + Quote(key) + " must not be negative, got " + value[component].Scalar());
+  return vector;
+}
+
+Section ReadSection(const YAML::Node &item, const ReaderContext &context)
+{
+  const MappingReader entry(item, "section", {"name", "EA", "GA2", "GA3", "GJ", "EI2", "EI3", "rhoA", "rhoJ"});
+  Section             section;
+  section.name = entry.String("name");
+  section.mark = context.MarkOf(entry.Mark());
+  RequireUniqueName(context.model.sections, section.name, "section", entry);
+  section.EA   = entry.PositiveNumber("EA");
+  section.GA2  = entry.PositiveNumber("GA2");
+  section.GA3  = entry.PositiveNumber("GA3");
+  section.GJ   = entry.PositiveNumber("GJ");
+  section.EI2  = entry.PositiveNumber("EI2");
+  section.EI3  = entry.PositiveNumber("EI3");
+  section.rhoA = entry.NonNegativeNumber("rhoA", 0.0);
+  if (const YAML::Node *rhoJ = entry.Find("rhoJ")) section.rhoJ = ReadNonNegativeVec3(*rhoJ, "rhoJ");
+  return section;
+}
+
+void ReadNodes(const YAML::Node &mapping, ReaderContext &context)
+{
+  const MappingReader entries(mapping, "'nodes'");
+  if (entries.Entries().empty()) FailAt(entries.Mark(), "'nodes' must map at least one node name to its position");
+  for (const MappingReader::Entry &entry : entries.Entries()) {
+    if (entry.key.empty()) FailAt(entry.key_node.Mark(), "node names must not be empty");
+    const int index = static_cast<int>(context.model.nodes.size());
+    Node      node{entry.key, ReadVec3(entry.value, entry.key), context.MarkOf(entry.key_node.Mark())};
+    context.RegisterName(node.name, NameKind::Node, index, node.mark);
+    context.model.nodes.push_back(std::move(node));
+  }
+}
+
+// Every node named under `nodes:` must carry stiffness; a stray node would be singular.
+void CheckEveryNodeConnected(const Model &model, size_t user_node_count)
+{
+  std::vector<bool> connected(model.nodes.size(), false);
+  for (const BeamElement &element : model.elements)
+    for (int node : element.nodes)
+      if (node >= 0) connected[node] = true;
+  for (size_t node = 0; node < user_node_count; ++node)
+    if (!connected[node]) FailAt(model.nodes[node].mark, "node " + Quote(model.nodes[node].name) + " is not connected to any beam");
+}
+
+void ReadSets(const YAML::Node *mapping, ReaderContext &context)
+{
+  if (mapping == nullptr || mapping->IsNull()) return;
+  const MappingReader entries(*mapping, "'sets'");
+  for (const MappingReader::Entry &entry : entries.Entries()) {
+    NodeSet set;
+    set.name = entry.key;
+    set.mark = context.MarkOf(entry.key_node.Mark());
+    for (const NameReference &reference : ReadNameList(entry.value, entry.key)) {
+      const auto found = context.names.find(reference.name);
+      if (found == context.names.end() || found->second.kind == NameKind::Set)
+        FailAt(reference.mark, "set " + Quote(set.name) + " lists " + Quote(reference.name) + ", which is not a node or a beam");
+    }
+    set.nodes = context.ResolveNodes(entry.value, entry.key);
+    context.RegisterName(set.name, NameKind::Set, static_cast<int>(context.model.node_sets.size()), set.mark);
+    context.model.node_sets.push_back(std::move(set));
+  }
+}
+
+void ReadFixedDofs(const YAML::Node &fix, Support &support)
+{
+  if (fix.IsScalar() && fix.Scalar() == "all") {
+    support.kind.fill(Support::Kind::Fixed);
+    return;
+  }
+  if (!fix.IsSequence()) FailAt(fix.Mark(), "expected 'all' or a list of DOF names for 'fix', got " + DescribeValue(fix));
+  for (const YAML::Node &dof : fix) support.kind[ReadDofName(dof, "fix")] = Support::Kind::Fixed;
+}
+
+void ReadPrescribedDofs(const YAML::Node &prescribe, Support &support)
+{
+  const MappingReader entries(prescribe, "'prescribe'");
+  for (const MappingReader::Entry &entry : entries.Entries()) {
+    const int dof = ReadDofName(entry.key_node, "prescribe");
+    if (support.kind[dof] == Support::Kind::Fixed)
+      FailAt(entry.key_node.Mark(), "DOF " + Quote(entry.key) + " is both fixed and prescribed in the same support");
+    support.kind[dof]   = Support::Kind::Prescribed;
+    support.values[dof] = ReadNumber(entry.value, entry.key);
+  }
+}
+
+Support ReadSupport(const YAML::Node &item, const ReaderContext &context)
+{
+  const MappingReader entry(item, "support", {"nodes", "fix", "prescribe", "function"});
+  Support             support;
+  support.mark  = context.MarkOf(entry.Mark());
+  support.nodes = context.ResolveNodes(entry.Required("nodes"), "nodes");
+  if (const YAML::Node *fix = entry.Find("fix")) ReadFixedDofs(*fix, support);
+  if (const YAML::Node *prescribe = entry.Find("prescribe")) ReadPrescribedDofs(*prescribe, support);
+  support.function = context.OptionalFunctionIndex(entry, "function");
+  bool constrains_something = false;
+  for (Support::Kind kind : support.kind) constrains_something = constrains_something || kind != Support::Kind::Free;
+  if (!constrains_something) FailAt(entry.Mark(), "a support must fix or prescribe at least one DOF (use 'fix' or 'prescribe')");
+  return support;
+}
+
+// A DOF may be fixed by several supports, but a prescribed DOF must have exactly one support:
+// two prescriptions (or a prescription and a fixation) contradict each other.
+void CheckSupportConflicts(const Model &model)
+{
+  struct Constraint {
+    int           support = -1;
+    Support::Kind kind    = Support::Kind::Free;
+  };
+  std::vector<std::array<Constraint, 6>> constraints(model.nodes.size());
+  for (size_t support_index = 0; support_index < model.supports.size(); ++support_index) {
+    const Support &support = model.supports[support_index];
+    for (int node : support.nodes)
+      for (int dof = 0; dof < 6; ++dof) {
+        if (support.kind[dof] == Support::Kind::Free) continue;
+        Constraint &previous = constraints[node][dof];
+        const bool  both_fixed = previous.kind == Support::Kind::Fixed && support.kind[dof] == Support::Kind::Fixed;
+        if (previous.support >= 0 && !both_fixed)
+          FailAt(support.mark, "DOF " + Quote(DofName(dof)) + " of node " + Quote(model.nodes[node].name) +
+                                   " is already constrained by the support at line " +
+                                   std::to_string(model.supports[previous.support].mark.line) +
+                                   "; a prescribed DOF must belong to exactly one support");
+        previous = Constraint{static_cast<int>(support_index), support.kind[dof]};
+      }
+  }
+}
+
+std::vector<int> AllElements(const Model &model)
+{
+  std::vector<int> elements(model.elements.size());
+  for (size_t element = 0; element < elements.size(); ++element) elements[element] = static_cast<int>(element);
+  return elements;
+}
+
+std::vector<int> ElementsOfBeams(const YAML::Node &beams, const ReaderContext &context)
+{
+  std::vector<int>  elements;
+  std::vector<bool> listed_beams(context.model.beams.size(), false);
+  for (const NameReference &reference : ReadNameList(beams, "beams")) {
+    const auto found = context.names.find(reference.name);
+    if (found == context.names.end() || found->second.kind != NameKind::Beam)
+      FailAt(reference.mark, "unknown beam " + Quote(reference.name) + " in 'beams'");
+    if (listed_beams[found->second.index]) continue;
+    listed_beams[found->second.index] = true;
+    const std::vector<int> &beam_elements = context.model.beams[found->second.index].elements;
+    elements.insert(elements.end(), beam_elements.begin(), beam_elements.end());
+  }
+  return elements;
+}
+
+// A load entry is a nodal load (`nodes`), gravity (`gravity`) or a distributed load (`beams`).
+void ReadLoad(const YAML::Node &item, ReaderContext &context)
+{
+  const MappingReader entry(item, "load");
+  const int kinds = int(entry.Has("nodes")) + int(entry.Has("gravity")) + int(entry.Has("beams"));
+  if (kinds != 1)
+    FailAt(entry.Mark(), "a load needs exactly one of 'nodes' (nodal load), 'gravity' or 'beams' (distributed load), got " +
+                             std::to_string(kinds));
+  Model &model = context.model;
+  if (entry.Has("nodes")) {
+    entry.RequireOnlyKeys({"nodes", "force", "moment", "follower", "function"});
+    if (!entry.Has("force") && !entry.Has("moment")) FailAt(entry.Mark(), "a nodal load needs 'force' or 'moment'");
+    NodalLoad load;
+    load.nodes    = context.ResolveNodes(entry.Required("nodes"), "nodes");
+    load.force    = entry.Vector("force", Vec3::Zero());
+    load.moment   = entry.Vector("moment", Vec3::Zero());
+    load.follower = entry.Bool("follower", false);
+    load.function = context.OptionalFunctionIndex(entry, "function");
+    load.mark     = context.MarkOf(entry.Mark());
+    model.nodal_loads.push_back(std::move(load));
+    return;
+  }
+  DistributedLoad load;
+  if (entry.Has("gravity")) {
+    entry.RequireOnlyKeys({"gravity", "function"});
+    load.gravity          = true;
+    load.elements         = AllElements(model);
+    load.force_per_length = entry.Vector("gravity");
+  } else {
+    entry.RequireOnlyKeys({"beams", "distributed", "function"});
+    load.elements         = ElementsOfBeams(entry.Required("beams"), context);
+    load.force_per_length = entry.Vector("distributed");
+  }
+  load.function = context.OptionalFunctionIndex(entry, "function");
+  load.mark     = context.MarkOf(entry.Mark());
+  model.distributed_loads.push_back(std::move(load));
+}
+
+Probe ReadProbe(const YAML::Node &item, const ReaderContext &context)
+{
+  const MappingReader entry(item, "probe", {"name", "node"});
+  Probe               probe;
+  probe.name = entry.String("name");
+  probe.mark = context.MarkOf(entry.Mark());
+  RequireUniqueName(context.model.probes, probe.name, "probe", entry);
+  probe.node = context.NodeIndex(entry, "node");
+  return probe;
+}
+
+void ReadOutputTimes(const YAML::Node &value, AnalysisSettings &analysis)
+{
+  for (const YAML::Node &item : ReadOptionalList(&value, "output_times")) {
+    const double time = ReadNumber(item, "output_times");
+    if (!(time > 0.0 && time <= analysis.end_time))
+      FailAt(item.Mark(), "'output_times' must lie in (0, end_time = " + FormatNumber(analysis.end_time) + "], got " + item.Scalar());
+    if (!analysis.output_times.empty() && !(time > analysis.output_times.back()))
+      FailAt(item.Mark(), "'output_times' must be strictly increasing, got " + item.Scalar() + " after " +
+                              FormatNumber(analysis.output_times.back()));
+    analysis.output_times.push_back(time);
+  }
+}
+
+void ReadAnalysis(const YAML::Node *mapping, const ReaderContext &context, AnalysisSettings &analysis)
+{
+  if (mapping == nullptr || mapping->IsNull()) return;
+  const MappingReader entry(*mapping, "'analysis'",
+                            {"type", "end_time", "initial_step", "min_step", "max_step", "growth_factor", "easy_iterations",
+                             "easy_steps_to_grow", "max_rotation_increment", "max_newton_iterations", "newton_rtol", "newton_atol",
+                             "output_times"});
+  analysis.mark = context.MarkOf(entry.Mark());
+  analysis.type = entry.String("type", analysis.type);
+  if (analysis.type != "static")
+    FailAt(entry.Required("type").Mark(), "unsupported analysis type " + Quote(analysis.type) + "; only 'static' is available");
+  analysis.end_time     = entry.PositiveNumber("end_time", analysis.end_time);
+  analysis.initial_step = entry.PositiveNumber("initial_step", analysis.initial_step);
+  analysis.min_step     = entry.PositiveNumber("min_step", analysis.min_step);
+  if (analysis.min_step > analysis.initial_step)
+    FailAt(entry.Has("min_step") ? entry.Required("min_step").Mark() : entry.Required("initial_step").Mark(),
+           "'min_step' (" + FormatNumber(analysis.min_step) + ") must not exceed 'initial_step' (" +
+               FormatNumber(analysis.initial_step) + ")");
+  analysis.max_step = entry.PositiveNumber("max_step", analysis.max_step);
+  if (analysis.max_step < analysis.initial_step)
+    FailAt(entry.Has("max_step") ? entry.Required("max_step").Mark() : entry.Required("initial_step").Mark(),
+           "'max_step' (" + FormatNumber(analysis.max_step) + ") must not be less than 'initial_step' (" +
+               FormatNumber(analysis.initial_step) + ")");
+  analysis.growth_factor = entry.Number("growth_factor", analysis.growth_factor);
+  if (analysis.growth_factor < 1.0)
+    FailAt(entry.Required("growth_factor").Mark(), "'growth_factor' must be at least 1, got " + entry.Required("growth_factor").Scalar());
+  analysis.easy_iterations        = entry.Integer("easy_iterations", 1, analysis.easy_iterations);
+  analysis.easy_steps_to_grow     = entry.Integer("easy_steps_to_grow", 1, analysis.easy_steps_to_grow);
+  analysis.max_rotation_increment = entry.PositiveNumber("max_rotation_increment", analysis.max_rotation_increment);
+  // A rotation increment of pi or more cannot be told apart from a smaller one in the other sense.
+  if (analysis.max_rotation_increment >= M_PI)
+    FailAt(entry.Required("max_rotation_increment").Mark(),
+           "'max_rotation_increment' must be less than pi, got " + entry.Required("max_rotation_increment").Scalar());
+  analysis.max_newton_iterations = entry.Integer("max_newton_iterations", 1, analysis.max_newton_iterations);
+  analysis.newton_rtol           = entry.PositiveNumber("newton_rtol", analysis.newton_rtol);
+  analysis.newton_atol           = entry.NonNegativeNumber("newton_atol", analysis.newton_atol);
+  if (const YAML::Node *output_times = entry.Find("output_times")) ReadOutputTimes(*output_times, analysis);
+}
+
+// "input/rollup.yaml" -> "rollup.h5": results go to the working directory, named after the input.
+std::string DefaultOutputFile(const std::string &input_file)
+{
+  const std::filesystem::path name = std::filesystem::path(input_file).filename();
+  if (name.empty()) return "msflex.h5";
+  return std::filesystem::path(name).replace_extension(".h5").string();
+}
+
+void ReadOutput(const YAML::Node *mapping, const ReaderContext &context, OutputSettings &output)
+{
+  output.file = DefaultOutputFile(context.model.input_file);
+  if (mapping == nullptr || mapping->IsNull()) return;
+  const MappingReader entry(*mapping, "'output'", {"file", "every"});
+  output.mark  = context.MarkOf(entry.Mark());
+  output.file  = entry.String("file", output.file);
+  output.every = entry.Integer("every", 1, output.every);
+}
+
+YAML::Node LoadSingleDocument(const std::string &text)
+{
+  const std::vector<YAML::Node> documents = YAML::LoadAll(text);
+  if (documents.empty() || documents.front().IsNull())
+    FailAt(YAML::Mark::null_mark(), "the input is empty; expected a mapping of top-level keys");
+  if (documents.size() > 1)
+    FailAt(documents[1].Mark(), "the input holds " + std::to_string(documents.size()) + " YAML documents; expected one");
+  if (!documents.front().IsMap())
+    FailAt(documents.front().Mark(), "the top level must be a mapping of keys such as 'sections', 'nodes' and 'beams', got " +
+                                         DescribeValue(documents.front()));
+  return documents.front();
+}
+
+Model ParseModel(const std::string &text, const std::string &file_label)
+{
+  ReaderContext context;
+  context.model.input_file = file_label;
+  context.model.input_text = text;
+  const MappingReader top(LoadSingleDocument(text), "the top-level mapping",
+                          {"title", "functions", "sections", "nodes", "beams", "sets", "supports", "loads", "probes", "analysis", "output"});
+  // The model has no place for the title; it is validated here and kept in input_text.
+  if (top.Has("title")) top.String("title");
+  Model &model = context.model;
+  for (const YAML::Node &item : ReadOptionalList(top.Find("functions"), "functions")) model.functions.push_back(ReadFunction(item, context));
+  for (const YAML::Node &item : ReadNonEmptyList(top.Required("sections"), "sections")) model.sections.push_back(ReadSection(item, context));
+  ReadNodes(top.Required("nodes"), context);
+  const size_t user_node_count = model.nodes.size();
+  ReadBeams(top.Required("beams"), context);
+  CheckEveryNodeConnected(model, user_node_count);
+  ReadSets(top.Find("sets"), context);
+  for (const YAML::Node &item : ReadOptionalList(top.Find("supports"), "supports")) model.supports.push_back(ReadSupport(item, context));
+  CheckSupportConflicts(model);
+  for (const YAML::Node &item : ReadOptionalList(top.Find("loads"), "loads")) ReadLoad(item, context);
+  for (const YAML::Node &item : ReadOptionalList(top.Find("probes"), "probes")) model.probes.push_back(ReadProbe(item, context));
+  ReadAnalysis(top.Find("analysis"), context, model.analysis);
+  ReadOutput(top.Find("output"), context, model.output);
+  if (model.analysis.type == "static") CheckStaticMechanisms(model);
+  return std::move(context.model);
+}
+
+InputError MakeError(const std::string &file, const YAML::Mark &mark, const std::string &message)
+{
+  if (mark.is_null()) return InputError{file, 0, 0, message};
+  return InputError{file, mark.line + 1, mark.column + 1, message};
+}
+
+} // namespace
+
+} // namespace input_detail
+
+std::string InputError::Format() const
+{
+  std::string location = file;
+  if (line > 0) location += ":" + std::to_string(line) + ":" + std::to_string(column);
+  return location + ": error: " + message;
+}
+
+bool ReadModelString(const std::string &text, const std::string &file_label, Model *model, InputError *error)
+{
+  using namespace input_detail;
+  if (model == nullptr || error == nullptr) return false;
+  // Everything that can throw (yaml-cpp, our own InputFailure, allocation) stops here.
+  try {
+    *model = ParseModel(text, file_label);
+    return true;
+  } catch (const InputFailure &failure) {
+    *error = InputError{file_label, failure.line, failure.column, failure.message};
+  } catch (const YAML::ParserException &exception) {
+    *error = MakeError(file_label, exception.mark, "YAML syntax error: " + exception.msg);
+  } catch (const YAML::Exception &exception) {
+    *error = MakeError(file_label, exception.mark, "YAML error: " + exception.msg);
+  } catch (const std::exception &exception) {
+    *error = InputError{file_label, 0, 0, std::string("internal error while reading the input: ") + exception.what()};
+  } catch (...) {
+    *error = InputError{file_label, 0, 0, "internal error while reading the input"};
+  }
+  return false;
+}
+
+bool ReadModelFile(const std::string &path, Model *model, InputError *error)
+{
+  if (model == nullptr || error == nullptr) return false;
+  try {
+    // A directory opens as a stream on Linux but cannot be read, so it is rejected up front.
+    std::error_code directory_check;
+    std::ifstream   stream(path, std::ios::binary);
+    if (!stream || std::filesystem::is_directory(path, directory_check)) {
+      *error = InputError{path, 0, 0, "cannot open input file " + input_detail::Quote(path)};
+      return false;
+    }
+    const std::string text{std::istreambuf_iterator<char>(stream), std::istreambuf_iterator<char>()};
+    if (stream.bad()) {
+      *error = InputError{path, 0, 0, "cannot read input file " + input_detail::Quote(path)};
+      return false;
+    }
+    return ReadModelString(text, path, model, error);
+  } catch (const std::exception &exception) {
+    *error = InputError{path, 0, 0, "cannot read input file " + input_detail::Quote(path) + ": " + exception.what()};
+  }
+  return false;
+}
+
+} // namespace msflex

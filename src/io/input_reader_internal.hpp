@@ -1,0 +1,46 @@
+// State shared by the parts of the input reader (private to src/io/).
+#pragma once
+
+#include "io/input_yaml_util.hpp"
+#include "model/model.hpp"
+
+#include <string>
+#include <unordered_map>
+#include <vector>
+
+namespace msflex::input_detail {
+
+// Nodes, beams and sets share one namespace, so a name in `supports`, `loads` or `sets` is never
+// ambiguous.
+enum class NameKind { Node, Beam, Set };
+
+struct NamedObject {
+  NameKind kind  = NameKind::Node;
+  int      index = -1; // into Model::nodes, Model::beams or Model::node_sets
+  int      line  = 0;
+};
+
+struct ReaderContext {
+  Model                                        model;
+  std::unordered_map<std::string, NamedObject> names;
+
+  SourceMark MarkOf(const YAML::Mark &mark) const;
+  // Adds a node, beam or set name; a name used twice is an error at `mark`.
+  void RegisterName(const std::string &name, NameKind kind, int index, const SourceMark &mark);
+  // Index of the node / section / function named by `key` of `entry`; an unknown name is an error.
+  int NodeIndex(const MappingReader &entry, const std::string &key) const;
+  int SectionIndex(const MappingReader &entry, const std::string &key) const;
+  // -1 (the default ramp f(t) = t) when `key` is absent.
+  int OptionalFunctionIndex(const MappingReader &entry, const std::string &key) const;
+  // The nodes of a node, set or beam name or of a list of such names: deduplicated, first seen first.
+  std::vector<int> ResolveNodes(const YAML::Node &value, const std::string &key) const;
+};
+
+// Reads `beams` and expands every beam (line or arc) into nodes and elements (input_beams.cpp).
+void ReadBeams(const YAML::Node &beams, ReaderContext &context);
+
+// Fails when a connected group of beams is not held against all six rigid-body motions by its
+// supports, which would make the static stiffness matrix singular (input_mechanism_check.cpp).
+void CheckStaticMechanisms(const Model &model);
+
+} // namespace msflex::input_detail

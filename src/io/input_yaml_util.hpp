@@ -1,0 +1,103 @@
+// Typed reads of YAML values for the input reader (private to src/io/).
+//
+// Every helper either returns a validated value or throws InputFailure located at the offending
+// node. InputFailure never leaves the reader: ReadModelString converts it into an InputError. The
+// exception keeps the many small readers free of error plumbing.
+#pragma once
+
+#include "math/rotation.hpp"
+#include "model/model.hpp"
+
+#include <yaml-cpp/yaml.h>
+
+#include <initializer_list>
+#include <string>
+#include <vector>
+
+namespace msflex::input_detail {
+
+struct InputFailure {
+  int         line   = 0; // 1-based; 0 when unknown
+  int         column = 0; // 1-based; 0 when unknown
+  std::string message;
+};
+
+[[noreturn]] void FailAt(const YAML::Mark &mark, const std::string &message);
+[[noreturn]] void FailAt(const SourceMark &mark, const std::string &message);
+
+std::string Quote(const std::string &text); // 'text'
+std::string FormatNumber(double number);     // shortest readable form, e.g. 0.5 or 1e-06
+// How a value reads in a message: 'abc', a list, a mapping or an empty value.
+std::string DescribeValue(const YAML::Node &value);
+
+// Single values; `key` names the value in messages.
+double      ReadNumber(const YAML::Node &value, const std::string &key); // finite
+double      ReadPositiveNumber(const YAML::Node &value, const std::string &key);
+double      ReadNonNegativeNumber(const YAML::Node &value, const std::string &key);
+int         ReadInteger(const YAML::Node &value, const std::string &key, int minimum);
+bool        ReadBool(const YAML::Node &value, const std::string &key);
+std::string ReadString(const YAML::Node &value, const std::string &key); // non-empty scalar
+Vec3        ReadVec3(const YAML::Node &value, const std::string &key);   // 3 finite numbers
+int         ReadDofName(const YAML::Node &value, const std::string &key); // ux..rz -> DOF_UX..DOF_RZ
+const char *DofName(int dof);
+
+// The items of a list. An absent or empty (null) optional list has no items.
+std::vector<YAML::Node> ReadOptionalList(const YAML::Node *value, const std::string &key);
+// A present, non-empty list.
+std::vector<YAML::Node> ReadNonEmptyList(const YAML::Node &value, const std::string &key);
+
+// A name as written in the input, with its location for messages.
+struct NameReference {
+  std::string name;
+  YAML::Mark  mark;
+};
+// A single name or a non-empty list of names.
+std::vector<NameReference> ReadNameList(const YAML::Node &value, const std::string &key);
+
+// One YAML mapping, read key by key. The constructor rejects non-mappings and duplicate keys;
+// RequireOnlyKeys rejects unknown keys (typos would otherwise be silently ignored).
+class MappingReader {
+public:
+  struct Entry {
+    std::string key;
+    YAML::Node  key_node;
+    YAML::Node  value;
+  };
+
+  // `kind` names the mapping in messages ("section", "'analysis'"); when the mapping has a scalar
+  // `name` key the description becomes e.g. "section 'steel'".
+  MappingReader(const YAML::Node &mapping, const std::string &kind);
+  MappingReader(const YAML::Node &mapping, const std::string &kind, std::initializer_list<const char *> allowed_keys);
+
+  void RequireOnlyKeys(std::initializer_list<const char *> allowed_keys) const;
+
+  const std::vector<Entry> &Entries() const { return entries_; }
+  const std::string        &Description() const { return description_; }
+  const YAML::Mark         &Mark() const { return mark_; }
+
+  bool              Has(const std::string &key) const { return Find(key) != nullptr; }
+  const YAML::Node *Find(const std::string &key) const; // nullptr when absent
+  const YAML::Node &Required(const std::string &key) const;
+
+  double      Number(const std::string &key) const;
+  double      Number(const std::string &key, double fallback) const;
+  double      PositiveNumber(const std::string &key) const;
+  double      PositiveNumber(const std::string &key, double fallback) const;
+  double      NonNegativeNumber(const std::string &key, double fallback) const;
+  int         Integer(const std::string &key, int minimum) const;
+  int         Integer(const std::string &key, int minimum, int fallback) const;
+  bool        Bool(const std::string &key, bool fallback) const;
+  std::string String(const std::string &key) const;
+  std::string String(const std::string &key, const std::string &fallback) const;
+  Vec3        Vector(const std::string &key) const;
+  Vec3        Vector(const std::string &key, const Vec3 &fallback) const;
+
+private:
+  const Entry *FindEntry(const std::string &key) const;
+
+  std::vector<Entry> entries_;
+  std::string        description_;
+  YAML::Mark         mark_;
+};
+
+} // namespace msflex::input_detail

@@ -1,0 +1,514 @@
+#include "output/output_file.hpp"
+
+#include <hdf5.h>
+
+#include <charconv>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+// Checks the result of an HDF5 call (negative means failure) inside an OutputFile::Impl member,
+// whose `path` names the file in the message. HDF5 prints its own error stack to stderr as well.
+#define PetscCallHDF5(call) \
+  PetscCheck((call) >= 0, PETSC_COMM_SELF, PETSC_ERR_FILE_OPEN, "HDF5 call failed on output file '%s': %s", path.c_str(), #call)
+
+namespace msflex {
+
+namespace {
+
+// Rows per chunk of the extensible history and probe datasets: appending a row touches one chunk.
+constexpr hsize_t kHistoryChunkRows = 256;
+
+// Owns one HDF5 identifier of any kind (file, group, dataset, dataspace, type, property list):
+// H5Idec_ref closes whatever it refers to, so early returns on errors leak nothing.
+class H5Id {
+public:
+  H5Id() = default;
+  H5Id(const H5Id &)            = delete;
+  H5Id &operator=(const H5Id &) = delete;
+  ~H5Id() { Reset(); }
+
+  H5Id &operator=(hid_t id)
+  {
+    Reset();
+    id_ = id;
+    return *this;
+  }
+  operator hid_t() const { return id_; }
+  // Gives up ownership, for a close whose result must be checked (H5Fclose).
+  hid_t Release()
+  {
+    const hid_t id = id_;
+    id_            = H5I_INVALID_HID;
+    return id;
+  }
+
+private:
+  void Reset()
+  {
+    if (id_ >= 0) H5Idec_ref(id_);
+    id_ = H5I_INVALID_HID;
+  }
+  hid_t id_ = H5I_INVALID_HID;
+};
+
+// Runs `root_work` (returning PetscErrorCode) on rank 0 only and makes its outcome collective:
+// rank 0 broadcasts its error code and message, and every rank raises the same error, so no rank
+// is left waiting in a later collective call. Rank 0's handler is silenced meanwhile so that the
+// message is reported once, by the collective PetscCheck.
+template <class RootWork>
+PetscErrorCode RunOnRoot(MPI_Comm comm, RootWork &&root_work)
+{
+  PetscMPIInt    rank;
+  PetscErrorCode status = PETSC_SUCCESS;
+  char           message[1024] = "";
+
+  PetscFunctionBeginUser;
+  PetscCallMPI(MPI_Comm_rank(comm, &rank));
+  if (rank == 0) {
+    PetscCall(PetscPushErrorHandler(PetscReturnErrorHandler, nullptr));
+    status = root_work();
+    PetscCall(PetscPopErrorHandler());
+    if (status != PETSC_SUCCESS) {
+      char *specific;
+      PetscCall(PetscErrorMessage(status, nullptr, &specific));
+      PetscCall(PetscStrncpy(message, specific, sizeof message));
+    }
+  }
+  PetscCallMPI(MPI_Bcast(&status, 1, MPI_INT, 0, comm));
+  if (status != PETSC_SUCCESS) PetscCallMPI(MPI_Bcast(message, sizeof message, MPI_CHAR, 0, comm));
+  PetscCheck(status == PETSC_SUCCESS, comm, status, "%s", message);
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+// Escapes the characters that may not appear literally in XML text or attribute values.
+std::string XmlEscape(const std::string &text)
+{
+  std::string escaped;
+  for (const char c : text) {
+    switch (c) {
+    case '&': escaped += "&amp;"; break;
+    case '<': escaped += "&lt;"; break;
+    case '>': escaped += "&gt;"; break;
+    case '"': escaped += "&quot;"; break;
+    default: escaped += c;
+    }
+  }
+  return escaped;
+}
+
+// The shortest decimal text that reads back as exactly `value` (0.1, not 0.10000000000000001).
+std::string ShortestDecimal(double value)
+{
+  char text[32];
+  return std::string(text, std::to_chars(text, text + sizeof text, value).ptr);
+}
+
+std::string FrameGroupName(int step)
+{
+  char name[32];
+  std::snprintf(name, sizeof name, "/frames/%06d", step);
+  return name;
+}
+
+} // namespace
+
+// Rank 0's side of the output file: the open HDF5 file and what the XDMF sidecar must list.
+// On the other ranks an Impl exists (so every rank agrees the file is open) but holds no file.
+// The members return PETSc error codes raised on PETSC_COMM_SELF; RunOnRoot shares them.
+struct OutputFile::Impl {
+  struct FrameEntry {
+    int    step;
+    double time;
+  };
+
+  explicit Impl(const std::string &h5_path)
+    : path(h5_path), xdmf_path(std::filesystem::path(h5_path).replace_extension(".xmf").string()),
+      h5_file_name(std::filesystem::path(h5_path).filename().string())
+  {
+  }
+
+  PetscErrorCode Create(bool overwrite, const std::string &input_file, const std::string &input_text, const OutputMesh &mesh);
+  PetscErrorCode WriteMesh(const OutputMesh &mesh);
+  PetscErrorCode WriteFrame(const OutputFrame &frame);
+  PetscErrorCode AppendHistory(const std::vector<std::string> &names, const std::vector<double> &values, const std::vector<ProbeSample> &probes);
+  PetscErrorCode WriteXdmf() const;
+  PetscErrorCode Close();
+
+  // Creates dataset `name` under `parent` with shape `dims` ({} = scalar) and writes `data`, laid
+  // out in `memory_type`, stored as `file_type`.
+  PetscErrorCode WriteDataset(hid_t parent, const char *name, hid_t file_type, hid_t memory_type, const std::vector<hsize_t> &dims, const void *data);
+  PetscErrorCode WriteDoubles(hid_t parent, const char *name, const std::vector<hsize_t> &dims, const std::vector<double> &data);
+  PetscErrorCode WriteInts(hid_t parent, const char *name, const std::vector<hsize_t> &dims, const std::vector<int> &data);
+  PetscErrorCode WriteStrings(hid_t parent, const char *name, const std::vector<hsize_t> &dims, const std::vector<std::string> &strings);
+  // Attaches scalar attribute `name` to the object at `object` (relative to `location`).
+  PetscErrorCode WriteAttribute(hid_t location, const char *object, const char *name, hid_t file_type, hid_t memory_type, const void *value);
+  PetscErrorCode CreateStringType(H5Id *type);
+  // Writes `entry` (shape `entry_dims`, {} for a scalar) as row `rows_written` of the extensible
+  // float64 dataset `name` under `parent`, creating the dataset for the first row.
+  PetscErrorCode AppendRow(hid_t parent, const char *name, const std::vector<hsize_t> &entry_dims, const double *entry);
+
+  std::string path;         // the .h5 file, as given to Open
+  std::string xdmf_path;    // the sidecar: path with the extension replaced by .xmf
+  std::string h5_file_name; // base name of path, by which the sidecar refers to it
+  H5Id        file;
+  hsize_t     n_nodes = 0, n_elements = 0;
+  std::vector<int>         segment_element; // element of each 2-node visualisation segment
+  std::vector<FrameEntry>  frames;          // in the order written
+  hsize_t                  rows_written = 0;
+  std::vector<std::string> history_names, probe_names; // fixed by the first history row
+};
+
+PetscErrorCode OutputFile::Impl::CreateStringType(H5Id *type)
+{
+  PetscFunctionBeginUser;
+  // Variable-length UTF-8: what h5py and the HDF5 tools read back as text.
+  PetscCallHDF5(*type = H5Tcopy(H5T_C_S1));
+  PetscCallHDF5(H5Tset_size(*type, H5T_VARIABLE));
+  PetscCallHDF5(H5Tset_cset(*type, H5T_CSET_UTF8));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode OutputFile::Impl::WriteDataset(hid_t parent, const char *name, hid_t file_type, hid_t memory_type, const std::vector<hsize_t> &dims,
+                                              const void *data)
+{
+  H5Id    space, dataset;
+  hsize_t n_values = 1;
+
+  PetscFunctionBeginUser;
+  for (const hsize_t d : dims) n_values *= d;
+  PetscCallHDF5(space = dims.empty() ? H5Screate(H5S_SCALAR) : H5Screate_simple((int)dims.size(), dims.data(), nullptr));
+  PetscCallHDF5(dataset = H5Dcreate2(parent, name, file_type, space, H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT));
+  // An empty vector may have no buffer, which H5Dwrite rejects even for nothing to write.
+  if (n_values > 0) PetscCallHDF5(H5Dwrite(dataset, memory_type, H5S_ALL, H5S_ALL, H5P_DEFAULT, data));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode OutputFile::Impl::WriteDoubles(hid_t parent, const char *name, const std::vector<hsize_t> &dims, const std::vector<double> &data)
+{
+  PetscFunctionBeginUser;
+  PetscCall(WriteDataset(parent, name, H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, dims, data.data()));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode OutputFile::Impl::WriteInts(hid_t parent, const char *name, const std::vector<hsize_t> &dims, const std::vector<int> &data)
+{
+  PetscFunctionBeginUser;
+  PetscCall(WriteDataset(parent, name, H5T_STD_I32LE, H5T_NATIVE_INT, dims, data.data()));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode OutputFile::Impl::WriteStrings(hid_t parent, const char *name, const std::vector<hsize_t> &dims, const std::vector<std::string> &strings)
+{
+  H5Id                      type;
+  std::vector<const char *> pointers;
+
+  PetscFunctionBeginUser;
+  for (const std::string &s : strings) pointers.push_back(s.c_str());
+  PetscCall(CreateStringType(&type));
+  PetscCall(WriteDataset(parent, name, type, type, dims, pointers.data()));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode OutputFile::Impl::WriteAttribute(hid_t location, const char *object, const char *name, hid_t file_type, hid_t memory_type, const void *value)
+{
+  H5Id space, attribute;
+
+  PetscFunctionBeginUser;
+  PetscCallHDF5(space = H5Screate(H5S_SCALAR));
+  PetscCallHDF5(attribute = H5Acreate_by_name(location, object, name, file_type, space, H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT));
+  PetscCallHDF5(H5Awrite(attribute, memory_type, value));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode OutputFile::Impl::AppendRow(hid_t parent, const char *name, const std::vector<hsize_t> &entry_dims, const double *entry)
+{
+  // Dataset shape (rows, entry_dims...); the new row is one hyperslab of shape (1, entry_dims...).
+  std::vector<hsize_t> dims{rows_written + 1}, row_start{rows_written}, row_count{1};
+  H5Id                 dataset, file_space, memory_space;
+
+  PetscFunctionBeginUser;
+  dims.insert(dims.end(), entry_dims.begin(), entry_dims.end());
+  row_start.resize(dims.size(), 0);
+  row_count.insert(row_count.end(), entry_dims.begin(), entry_dims.end());
+  const int rank = (int)dims.size();
+  if (rows_written == 0) {
+    std::vector<hsize_t> max_dims = dims, chunk = dims;
+    H5Id                 properties;
+    max_dims[0] = H5S_UNLIMITED;
+    chunk[0]    = kHistoryChunkRows;
+    PetscCallHDF5(file_space = H5Screate_simple(rank, dims.data(), max_dims.data()));
+    PetscCallHDF5(properties = H5Pcreate(H5P_DATASET_CREATE));
+    PetscCallHDF5(H5Pset_chunk(properties, rank, chunk.data()));
+    PetscCallHDF5(dataset = H5Dcreate2(parent, name, H5T_IEEE_F64LE, file_space, H5P_DEFAULT, properties, H5P_DEFAULT));
+  } else {
+    PetscCallHDF5(dataset = H5Dopen2(parent, name, H5P_DEFAULT));
+    PetscCallHDF5(H5Dset_extent(dataset, dims.data()));
+    PetscCallHDF5(file_space = H5Dget_space(dataset));
+  }
+  PetscCallHDF5(H5Sselect_hyperslab(file_space, H5S_SELECT_SET, row_start.data(), nullptr, row_count.data(), nullptr));
+  PetscCallHDF5(memory_space = H5Screate_simple(rank, row_count.data(), nullptr));
+  PetscCallHDF5(H5Dwrite(dataset, H5T_NATIVE_DOUBLE, memory_space, file_space, H5P_DEFAULT, entry));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode OutputFile::Impl::Create(bool overwrite, const std::string &input_file, const std::string &input_text, const OutputMesh &mesh)
+{
+  H5Id            group, string_type;
+  const char     *input_file_c = input_file.c_str();
+  std::error_code unreadable; // not thrown: an unreadable directory shows in H5Fcreate's failure
+
+  PetscFunctionBeginUser;
+  PetscCheck(overwrite || !std::filesystem::exists(path, unreadable), PETSC_COMM_SELF, PETSC_ERR_USER_INPUT,
+             "output file '%s' exists; pass -output_overwrite to replace it", path.c_str());
+  PetscCallHDF5(file = H5Fcreate(path.c_str(), overwrite ? H5F_ACC_TRUNC : H5F_ACC_EXCL, H5P_DEFAULT, H5P_DEFAULT));
+
+  PetscCall(WriteStrings(file, "input", {}, {input_text}));
+  PetscCall(CreateStringType(&string_type));
+  PetscCall(WriteAttribute(file, "input", "file", string_type, string_type, &input_file_c));
+  PetscCall(WriteMesh(mesh));
+  for (const char *name : {"/frames", "/history", "/probes"}) PetscCallHDF5(group = H5Gcreate2(file, name, H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT));
+  PetscCallHDF5(H5Fflush(file, H5F_SCOPE_LOCAL));
+  // The sidecar is written now, empty, so that it never describes an earlier run's frames.
+  PetscCall(WriteXdmf());
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode OutputFile::Impl::WriteMesh(const OutputMesh &mesh)
+{
+  H5Id             group;
+  std::vector<int> segments;
+
+  PetscFunctionBeginUser;
+  n_nodes    = mesh.node_coordinates.size() / 3;
+  n_elements = mesh.element_order.size();
+  const hsize_t n_beams = mesh.beam_names.size();
+  PetscCheck(mesh.node_coordinates.size() == 3 * n_nodes && mesh.node_names.size() == n_nodes, PETSC_COMM_SELF, PETSC_ERR_ARG_SIZ,
+             "output file '%s': %zu node coordinates and %zu node names do not describe n x 3 and n", path.c_str(), mesh.node_coordinates.size(),
+             mesh.node_names.size());
+  PetscCheck(mesh.element_nodes.size() == 3 * n_elements && mesh.element_beam.size() == n_elements, PETSC_COMM_SELF, PETSC_ERR_ARG_SIZ,
+             "output file '%s': element arrays of sizes %zu (nodes), %zu (order), %zu (beam) do not describe n x 3, n, n", path.c_str(),
+             mesh.element_nodes.size(), mesh.element_order.size(), mesh.element_beam.size());
+  for (hsize_t e = 0; e < n_elements; ++e) {
+    const int  order = mesh.element_order[e];
+    const int *nodes = &mesh.element_nodes[3 * e];
+    PetscCheck(order == 1 || order == 2, PETSC_COMM_SELF, PETSC_ERR_ARG_OUTOFRANGE, "output file '%s': element %llu has order %d", path.c_str(),
+               (unsigned long long)e, order);
+    PetscCheck(mesh.element_beam[e] >= 0 && (hsize_t)mesh.element_beam[e] < n_beams, PETSC_COMM_SELF, PETSC_ERR_ARG_OUTOFRANGE,
+               "output file '%s': element %llu refers to beam %d of %llu", path.c_str(), (unsigned long long)e, mesh.element_beam[e],
+               (unsigned long long)n_beams);
+    PetscCheck(order == 2 || nodes[2] == -1, PETSC_COMM_SELF, PETSC_ERR_ARG_WRONG, "output file '%s': 2-node element %llu is not padded with -1",
+               path.c_str(), (unsigned long long)e);
+    for (int a = 0; a <= order; ++a)
+      PetscCheck(nodes[a] >= 0 && (hsize_t)nodes[a] < n_nodes, PETSC_COMM_SELF, PETSC_ERR_ARG_OUTOFRANGE,
+                 "output file '%s': element %llu refers to node %d of %llu", path.c_str(), (unsigned long long)e, nodes[a],
+                 (unsigned long long)n_nodes);
+    // Consecutive element nodes form the segments: (n0, n1) and, for order 2, (n1, n2).
+    for (int a = 0; a < order; ++a) {
+      segments.push_back(nodes[a]);
+      segments.push_back(nodes[a + 1]);
+      segment_element.push_back((int)e);
+    }
+  }
+
+  PetscCallHDF5(group = H5Gcreate2(file, "/mesh", H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT));
+  PetscCall(WriteDoubles(group, "node_coordinates", {n_nodes, 3}, mesh.node_coordinates));
+  PetscCall(WriteStrings(group, "node_names", {n_nodes}, mesh.node_names));
+  PetscCall(WriteInts(group, "element_nodes", {n_elements, 3}, mesh.element_nodes));
+  PetscCall(WriteInts(group, "element_order", {n_elements}, mesh.element_order));
+  PetscCall(WriteInts(group, "element_beam", {n_elements}, mesh.element_beam));
+  PetscCall(WriteStrings(group, "beam_names", {n_beams}, mesh.beam_names));
+  PetscCall(WriteInts(group, "segments", {segment_element.size(), 2}, segments));
+  PetscCall(WriteInts(group, "segment_element", {segment_element.size()}, segment_element));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode OutputFile::Impl::WriteFrame(const OutputFrame &frame)
+{
+  const hsize_t       n_segments = segment_element.size();
+  const std::string   group_name = FrameGroupName(frame.step);
+  std::vector<double> segment_force(3 * n_segments), segment_moment(3 * n_segments);
+  H5Id                group;
+
+  PetscFunctionBeginUser;
+  PetscCheck(frame.step >= 0, PETSC_COMM_SELF, PETSC_ERR_ARG_OUTOFRANGE, "output file '%s': negative step %d", path.c_str(), frame.step);
+  for (const FrameEntry &written : frames)
+    PetscCheck(written.step != frame.step, PETSC_COMM_SELF, PETSC_ERR_ARG_WRONG, "output file '%s': frame of step %d already written", path.c_str(),
+               frame.step);
+  PetscCheck(frame.position.size() == 3 * n_nodes && frame.displacement.size() == 3 * n_nodes && frame.rotation.size() == 4 * n_nodes,
+             PETSC_COMM_SELF, PETSC_ERR_ARG_SIZ, "output file '%s': step %d: nodal arrays do not match %llu nodes", path.c_str(), frame.step,
+             (unsigned long long)n_nodes);
+  PetscCheck(frame.element_resultants.size() == 6 * n_elements && frame.element_strains.size() == 6 * n_elements, PETSC_COMM_SELF, PETSC_ERR_ARG_SIZ,
+             "output file '%s': step %d: element arrays do not match %llu elements", path.c_str(), frame.step, (unsigned long long)n_elements);
+  for (hsize_t s = 0; s < n_segments; ++s)
+    for (int i = 0; i < 3; ++i) {
+      segment_force[3 * s + i]  = frame.element_resultants[6 * segment_element[s] + i];
+      segment_moment[3 * s + i] = frame.element_resultants[6 * segment_element[s] + 3 + i];
+    }
+
+  PetscCallHDF5(group = H5Gcreate2(file, group_name.c_str(), H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT));
+  PetscCall(WriteAttribute(group, ".", "step", H5T_STD_I32LE, H5T_NATIVE_INT, &frame.step));
+  PetscCall(WriteAttribute(group, ".", "time", H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, &frame.time));
+  PetscCall(WriteDoubles(group, "position", {n_nodes, 3}, frame.position));
+  PetscCall(WriteDoubles(group, "displacement", {n_nodes, 3}, frame.displacement));
+  PetscCall(WriteDoubles(group, "rotation", {n_nodes, 4}, frame.rotation));
+  PetscCall(WriteDoubles(group, "element_resultants", {n_elements, 6}, frame.element_resultants));
+  PetscCall(WriteDoubles(group, "element_strains", {n_elements, 6}, frame.element_strains));
+  PetscCall(WriteDoubles(group, "segment_force", {n_segments, 3}, segment_force));
+  PetscCall(WriteDoubles(group, "segment_moment", {n_segments, 3}, segment_moment));
+  PetscCallHDF5(H5Fflush(file, H5F_SCOPE_LOCAL));
+  frames.push_back({frame.step, frame.time});
+  PetscCall(WriteXdmf());
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode OutputFile::Impl::AppendHistory(const std::vector<std::string> &names, const std::vector<double> &values,
+                                               const std::vector<ProbeSample> &probes)
+{
+  std::vector<std::string> sample_names;
+  H5Id                     history, probes_group;
+
+  PetscFunctionBeginUser;
+  for (const ProbeSample &probe : probes) sample_names.push_back(probe.name);
+  PetscCheck(names.size() == values.size(), PETSC_COMM_SELF, PETSC_ERR_ARG_SIZ, "output file '%s': %zu history names but %zu values", path.c_str(),
+             names.size(), values.size());
+  PetscCheck(!names.empty() && names.front() == "time", PETSC_COMM_SELF, PETSC_ERR_ARG_WRONG, "output file '%s': the first history series must be 'time'",
+             path.c_str());
+  if (rows_written == 0) {
+    history_names = names;
+    probe_names   = sample_names;
+  }
+  PetscCheck(names == history_names && sample_names == probe_names, PETSC_COMM_SELF, PETSC_ERR_ARG_WRONG,
+             "output file '%s': history and probe names must be the same in every row", path.c_str());
+
+  PetscCallHDF5(history = H5Gopen2(file, "/history", H5P_DEFAULT));
+  for (size_t i = 0; i < names.size(); ++i) PetscCall(AppendRow(history, names[i].c_str(), {}, &values[i]));
+  PetscCallHDF5(probes_group = H5Gopen2(file, "/probes", H5P_DEFAULT));
+  for (const ProbeSample &probe : probes) {
+    H5Id group;
+    if (rows_written == 0) PetscCallHDF5(group = H5Gcreate2(probes_group, probe.name.c_str(), H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT));
+    else PetscCallHDF5(group = H5Gopen2(probes_group, probe.name.c_str(), H5P_DEFAULT));
+    PetscCall(AppendRow(group, "position", {3}, probe.position));
+    PetscCall(AppendRow(group, "displacement", {3}, probe.displacement));
+    PetscCall(AppendRow(group, "rotation", {4}, probe.rotation));
+    PetscCall(AppendRow(group, "rotation_angle", {}, &probe.rotation_angle));
+  }
+  PetscCallHDF5(H5Fflush(file, H5F_SCOPE_LOCAL));
+  ++rows_written;
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode OutputFile::Impl::WriteXdmf() const
+{
+  const hsize_t      n_segments = segment_element.size();
+  const std::string  h5_name    = XmlEscape(h5_file_name);
+  const std::string  temporary  = xdmf_path + ".tmp";
+  std::ostringstream xml;
+
+  // One <DataItem> referring to a dataset of the .h5 file by its relative name.
+  const auto data_item = [&](const char *number_type, int precision, hsize_t rows, int columns, const std::string &dataset) {
+    std::ostringstream item;
+    item << "<DataItem Format=\"HDF\" NumberType=\"" << number_type << "\" Precision=\"" << precision << "\" Dimensions=\"" << rows << " " << columns
+         << "\">" << h5_name << ":" << dataset << "</DataItem>";
+    return item.str();
+  };
+  const auto attribute = [&](const char *name, const char *type, const char *center, const std::string &item) {
+    xml << "        <Attribute Name=\"" << name << "\" AttributeType=\"" << type << "\" Center=\"" << center << "\">\n          " << item
+        << "\n        </Attribute>\n";
+  };
+
+  PetscFunctionBeginUser;
+  xml << "<?xml version=\"1.0\" ?>\n"
+      << "<Xdmf Version=\"3.0\">\n"
+      << "  <Domain>\n"
+      << "    <Grid Name=\"msflex\" GridType=\"Collection\" CollectionType=\"Temporal\">\n";
+  for (const FrameEntry &frame : frames) {
+    const std::string group = FrameGroupName(frame.step);
+    xml << "      <Grid Name=\"step " << frame.step << "\" GridType=\"Uniform\">\n"
+        << "        <Time Value=\"" << ShortestDecimal(frame.time) << "\"/>\n"
+        << "        <Topology TopologyType=\"Polyline\" NodesPerElement=\"2\" NumberOfElements=\"" << n_segments << "\">\n"
+        << "          " << data_item("Int", 4, n_segments, 2, "/mesh/segments") << "\n"
+        << "        </Topology>\n"
+        << "        <Geometry GeometryType=\"XYZ\">\n"
+        << "          " << data_item("Float", 8, n_nodes, 3, group + "/position") << "\n"
+        << "        </Geometry>\n";
+    attribute("displacement", "Vector", "Node", data_item("Float", 8, n_nodes, 3, group + "/displacement"));
+    attribute("rotation", "Matrix", "Node", data_item("Float", 8, n_nodes, 4, group + "/rotation"));
+    attribute("force", "Vector", "Cell", data_item("Float", 8, n_segments, 3, group + "/segment_force"));
+    attribute("moment", "Vector", "Cell", data_item("Float", 8, n_segments, 3, group + "/segment_moment"));
+    xml << "      </Grid>\n";
+  }
+  xml << "    </Grid>\n"
+      << "  </Domain>\n"
+      << "</Xdmf>\n";
+
+  // Written aside and renamed over the old sidecar, so a reader never sees a half-written one.
+  std::ofstream out(temporary, std::ios::trunc);
+  out << xml.str();
+  out.close();
+  PetscCheck(out.good(), PETSC_COMM_SELF, PETSC_ERR_FILE_OPEN, "cannot write XDMF sidecar '%s'", temporary.c_str());
+  PetscCheck(std::rename(temporary.c_str(), xdmf_path.c_str()) == 0, PETSC_COMM_SELF, PETSC_ERR_FILE_OPEN, "cannot rename '%s' to '%s'",
+             temporary.c_str(), xdmf_path.c_str());
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode OutputFile::Impl::Close()
+{
+  PetscFunctionBeginUser;
+  PetscCallHDF5(H5Fclose(file.Release()));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+OutputFile::~OutputFile()
+{
+  // Not collective: only rank 0 holds a file, which the Impl's H5Id closes.
+  delete impl_;
+}
+
+PetscErrorCode OutputFile::Open(MPI_Comm comm, const std::string &path, bool overwrite, const std::string &input_file, const std::string &input_text,
+                                const OutputMesh &mesh)
+{
+  PetscFunctionBeginUser;
+  PetscCheck(!impl_, comm, PETSC_ERR_ARG_WRONGSTATE, "cannot open output file '%s': '%s' is still open", path.c_str(), path_.c_str());
+  comm_ = comm;
+  path_ = path;
+  impl_ = new Impl(path);
+  const PetscErrorCode status = RunOnRoot(comm_, [&] { return impl_->Create(overwrite, input_file, input_text, mesh); });
+  if (status != PETSC_SUCCESS) {
+    // A failed Open leaves nothing open, so the object can be opened again.
+    delete impl_;
+    impl_ = nullptr;
+  }
+  PetscCall(status);
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode OutputFile::WriteFrame(const OutputFrame &frame)
+{
+  PetscFunctionBeginUser;
+  PetscCheck(impl_, PETSC_COMM_SELF, PETSC_ERR_ARG_WRONGSTATE, "WriteFrame: no output file is open");
+  PetscCall(RunOnRoot(comm_, [&] { return impl_->WriteFrame(frame); }));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode OutputFile::AppendHistory(const std::vector<std::string> &names, const std::vector<double> &values, const std::vector<ProbeSample> &probes)
+{
+  PetscFunctionBeginUser;
+  PetscCheck(impl_, PETSC_COMM_SELF, PETSC_ERR_ARG_WRONGSTATE, "AppendHistory: no output file is open");
+  PetscCall(RunOnRoot(comm_, [&] { return impl_->AppendHistory(names, values, probes); }));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode OutputFile::Close()
+{
+  PetscFunctionBeginUser;
+  if (!impl_) PetscFunctionReturn(PETSC_SUCCESS); // closing twice is harmless, as for files
+  const PetscErrorCode status = RunOnRoot(comm_, [&] { return impl_->Close(); });
+  delete impl_;
+  impl_ = nullptr;
+  PetscCall(status);
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+} // namespace msflex

@@ -1,0 +1,119 @@
+#include "output/results.hpp"
+
+namespace msflex {
+
+void BuildOutputMesh(const Model &model, OutputMesh *mesh)
+{
+  mesh->node_coordinates.clear();
+  mesh->node_names.clear();
+  for (const Node &node : model.nodes) {
+    for (int i = 0; i < 3; ++i) mesh->node_coordinates.push_back(node.position(i));
+    mesh->node_names.push_back(node.name);
+  }
+  mesh->element_nodes.clear();
+  mesh->element_order.clear();
+  mesh->element_beam.clear();
+  for (const BeamElement &element : model.elements) {
+    for (int a = 0; a < 3; ++a) mesh->element_nodes.push_back(a <= element.order ? element.nodes[a] : -1);
+    mesh->element_order.push_back(element.order);
+    mesh->element_beam.push_back(element.beam);
+  }
+  mesh->beam_names.clear();
+  for (const Beam &beam : model.beams) mesh->beam_names.push_back(beam.name);
+}
+
+// Each rank fills the entries it owns in zeroed global arrays; a sum on rank 0 assembles them.
+// O(model size) per rank: adequate until the distributed output of large networks.
+PetscErrorCode GatherFrame(MPI_Comm comm, const Model &model, const Assembler &assembler, const std::vector<ElementResults> &element_results, int step,
+                           double time, OutputFrame *frame)
+{
+  PetscMPIInt rank;
+  PetscFunctionBeginUser;
+  PetscCallMPI(MPI_Comm_rank(comm, &rank));
+  const DofMap &map          = assembler.Map();
+  const size_t  num_nodes    = model.nodes.size();
+  const size_t  num_elements = model.elements.size();
+  // Per node: position (3), displacement (3), quaternion (4); per element: strains (6), resultants (6).
+  std::vector<double> node_data(10 * num_nodes, 0.0), element_data(12 * num_elements, 0.0);
+  const std::vector<NodeState> &nodes = assembler.LocalNodes();
+  for (PetscInt l = 0; l < map.num_owned_nodes; ++l) {
+    const int         node = map.local_nodes[l];
+    const NodeState  &s    = nodes[l];
+    const Quaternion  q    = NodeStateCurrentQuaternion(s);
+    double           *out  = &node_data[10 * node];
+    for (int i = 0; i < 3; ++i) {
+      out[i]     = s.position(i);
+      out[3 + i] = s.position(i) - model.nodes[node].position(i);
+    }
+    out[6] = q.w, out[7] = q.x, out[8] = q.y, out[9] = q.z;
+  }
+  for (size_t k = 0; k < map.local_elements.size(); ++k) {
+    const ElementResults &r   = element_results[k];
+    double               *out = &element_data[12 * map.local_elements[k]];
+    for (int i = 0; i < 3; ++i) {
+      out[i]     = r.strain(i);
+      out[3 + i] = r.curvature(i);
+      out[6 + i] = r.force(i);
+      out[9 + i] = r.moment(i);
+    }
+  }
+  std::vector<double> node_sum(rank == 0 ? node_data.size() : 0), element_sum(rank == 0 ? element_data.size() : 0);
+  PetscCallMPI(MPI_Reduce(node_data.data(), node_sum.data(), (int)node_data.size(), MPI_DOUBLE, MPI_SUM, 0, comm));
+  PetscCallMPI(MPI_Reduce(element_data.data(), element_sum.data(), (int)element_data.size(), MPI_DOUBLE, MPI_SUM, 0, comm));
+
+  *frame      = OutputFrame{};
+  frame->step = step;
+  frame->time = time;
+  if (rank != 0) PetscFunctionReturn(PETSC_SUCCESS);
+  for (size_t i = 0; i < num_nodes; ++i) {
+    const double *in = &node_sum[10 * i];
+    frame->position.insert(frame->position.end(), in, in + 3);
+    frame->displacement.insert(frame->displacement.end(), in + 3, in + 6);
+    frame->rotation.insert(frame->rotation.end(), in + 6, in + 10);
+  }
+  for (size_t e = 0; e < num_elements; ++e) {
+    const double *in = &element_sum[12 * e];
+    frame->element_strains.insert(frame->element_strains.end(), in, in + 6);
+    frame->element_resultants.insert(frame->element_resultants.end(), in + 6, in + 12);
+  }
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode SampleProbes(MPI_Comm comm, const Model &model, const Assembler &assembler, std::vector<ProbeSample> *samples)
+{
+  PetscFunctionBeginUser;
+  const DofMap                 &map   = assembler.Map();
+  const std::vector<NodeState> &nodes = assembler.LocalNodes();
+  const size_t                  count = model.probes.size();
+  std::vector<double>           local(11 * count, 0.0), global(11 * count, 0.0);
+  for (size_t p = 0; p < count; ++p) {
+    const int node = model.probes[p].node;
+    const int l    = map.node_to_local[node];
+    if (l < 0 || l >= map.num_owned_nodes) continue;
+    const NodeState  &s   = nodes[l];
+    const Quaternion  q   = NodeStateCurrentQuaternion(s);
+    double           *out = &local[11 * p];
+    for (int i = 0; i < 3; ++i) {
+      out[i]     = s.position(i);
+      out[3 + i] = s.position(i) - model.nodes[node].position(i);
+    }
+    out[6] = q.w, out[7] = q.x, out[8] = q.y, out[9] = q.z;
+    out[10] = QuaternionTrackedAngle(q);
+  }
+  PetscCall(MPIU_Allreduce(local.data(), global.data(), (PetscMPIInt)global.size(), MPI_DOUBLE, MPI_SUM, comm));
+  samples->assign(count, ProbeSample{});
+  for (size_t p = 0; p < count; ++p) {
+    ProbeSample  &sample = (*samples)[p];
+    const double *in     = &global[11 * p];
+    sample.name          = model.probes[p].name;
+    for (int i = 0; i < 3; ++i) {
+      sample.position[i]     = in[i];
+      sample.displacement[i] = in[3 + i];
+    }
+    for (int i = 0; i < 4; ++i) sample.rotation[i] = in[6 + i];
+    sample.rotation_angle = in[10];
+  }
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+} // namespace msflex

@@ -1,0 +1,427 @@
+// Tests of the YAML model reader: expansion of valid models, and the bad-input corpus in
+// tests/bad_input/ (each file states the expected message and line in its first two lines).
+#include "io/input_reader.hpp"
+
+#include <gtest/gtest.h>
+
+#include <Eigen/Geometry>
+
+#include <algorithm>
+#include <cctype>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <string>
+#include <vector>
+
+#ifndef MSFLEX_BAD_INPUT_DIR
+#error "MSFLEX_BAD_INPUT_DIR must name the tests/bad_input directory"
+#endif
+
+namespace msflex {
+namespace {
+
+constexpr double kTolerance = 1e-12;
+
+Model ReadValid(const std::string &text)
+{
+  Model      model;
+  InputError error;
+  EXPECT_TRUE(ReadModelString(text, "valid.yaml", &model, &error)) << error.Format();
+  return model;
+}
+
+InputError ReadInvalid(const std::string &text)
+{
+  Model      model;
+  InputError error;
+  EXPECT_FALSE(ReadModelString(text, "invalid.yaml", &model, &error));
+  return error;
+}
+
+int NodeIndex(const Model &model, const std::string &name)
+{
+  for (size_t index = 0; index < model.nodes.size(); ++index)
+    if (model.nodes[index].name == name) return static_cast<int>(index);
+  ADD_FAILURE() << "no node " << name;
+  return -1;
+}
+
+void ExpectOrthonormal(const Mat3 &triad)
+{
+  EXPECT_LT((triad.transpose() * triad - Mat3::Identity()).norm(), 1e-12);
+  EXPECT_NEAR(triad.determinant(), 1.0, 1e-12);
+}
+
+const char *const kFullModel = R"(title: Everything once
+functions:
+  - {name: ramp2, type: linear, slope: 2, offset: 0.5}
+  - {name: hold, type: constant, value: 3}
+  - {name: cycle, type: table, points: [[0, 0], [1, 1], [2, 0]]}
+  - {name: shake, type: harmonic, amplitude: 2, frequency: 0.5}
+sections:
+  - {name: steel, EA: 1.0e7, GA2: 4.0e6, GA3: 4.0e6, GJ: 8.0e5, EI2: 8.0e5, EI3: 8.0e5, rhoA: 7.8, rhoJ: [0.1, 0.05, 0.05]}
+nodes:
+  root: [0, 0, 0]
+  tip: [10, 0, 0]
+beams:
+  - {name: arm, section: steel, from: root, to: tip, elements: 4}
+sets:
+  ends: [root, tip, root]
+  everything: [arm]
+supports:
+  - {nodes: root, fix: all}
+  - nodes: [tip]
+    prescribe: {ux: 0.5, rz: 1.0}
+    function: cycle
+loads:
+  - {nodes: ends, force: [0, 0, 600], follower: true, function: shake}
+  - {gravity: [0, 0, -9.81]}
+  - {beams: arm, distributed: [0, 0, -10], function: hold}
+probes:
+  - {name: middle, node: arm.2}
+analysis:
+  end_time: 2.0
+  initial_step: 0.05
+  min_step: 1.0e-4
+  output_times: [0.5, 2.0]
+output:
+  every: 3
+)";
+
+TEST(InputReader, FullModelIsReadCompletely)
+{
+  const Model model = ReadValid(kFullModel);
+  EXPECT_EQ(model.input_file, "valid.yaml");
+  EXPECT_EQ(model.input_text, kFullModel);
+
+  ASSERT_EQ(model.functions.size(), 4u);
+  EXPECT_EQ(model.functions[0].kind, TimeFunction::Kind::Linear);
+  EXPECT_DOUBLE_EQ(model.functions[0].Evaluate(1.0), 2.5);
+  EXPECT_EQ(model.functions[1].kind, TimeFunction::Kind::Constant);
+  EXPECT_DOUBLE_EQ(model.functions[1].Evaluate(7.0), 3.0);
+  EXPECT_EQ(model.functions[2].kind, TimeFunction::Kind::Table);
+  EXPECT_DOUBLE_EQ(model.functions[2].Evaluate(1.5), 0.5);
+  EXPECT_EQ(model.functions[3].kind, TimeFunction::Kind::Harmonic);
+  EXPECT_NEAR(model.functions[3].Evaluate(0.5), 2.0, 1e-12);
+
+  ASSERT_EQ(model.sections.size(), 1u);
+  EXPECT_DOUBLE_EQ(model.sections[0].GA2, 4.0e6);
+  EXPECT_DOUBLE_EQ(model.sections[0].rhoA, 7.8);
+  EXPECT_DOUBLE_EQ(model.sections[0].rhoJ(1), 0.05);
+
+  // 2 named nodes + 3 interior nodes, 4 two-node elements.
+  ASSERT_EQ(model.nodes.size(), 5u);
+  ASSERT_EQ(model.elements.size(), 4u);
+  ASSERT_EQ(model.beams.size(), 1u);
+  EXPECT_EQ(model.beams[0].nodes, (std::vector<int>{0, 2, 3, 4, 1}));
+  EXPECT_EQ(model.nodes[3].name, "arm.2");
+  EXPECT_LT((model.nodes[3].position - Vec3(5, 0, 0)).norm(), kTolerance);
+  EXPECT_EQ(model.nodes[3].mark.line, 13);
+  EXPECT_EQ(model.elements[1].nodes, (std::array<int, 3>{{2, 3, -1}}));
+  EXPECT_EQ(model.elements[1].beam, 0);
+
+  ASSERT_EQ(model.node_sets.size(), 2u);
+  EXPECT_EQ(model.node_sets[0].nodes, (std::vector<int>{0, 1}));
+  EXPECT_EQ(model.node_sets[1].nodes, model.beams[0].nodes);
+
+  ASSERT_EQ(model.supports.size(), 2u);
+  for (Support::Kind kind : model.supports[0].kind) EXPECT_EQ(kind, Support::Kind::Fixed);
+  EXPECT_EQ(model.supports[0].function, -1);
+  EXPECT_EQ(model.supports[1].nodes, (std::vector<int>{1}));
+  EXPECT_EQ(model.supports[1].kind[DOF_UX], Support::Kind::Prescribed);
+  EXPECT_EQ(model.supports[1].kind[DOF_UY], Support::Kind::Free);
+  EXPECT_DOUBLE_EQ(model.supports[1].values[DOF_RZ], 1.0);
+  EXPECT_EQ(model.supports[1].function, 2);
+  EXPECT_EQ(model.supports[1].mark.line, 19);
+
+  ASSERT_EQ(model.nodal_loads.size(), 1u);
+  EXPECT_EQ(model.nodal_loads[0].nodes, (std::vector<int>{0, 1}));
+  EXPECT_TRUE(model.nodal_loads[0].follower);
+  EXPECT_DOUBLE_EQ(model.nodal_loads[0].force(2), 600.0);
+  EXPECT_EQ(model.nodal_loads[0].function, 3);
+  ASSERT_EQ(model.distributed_loads.size(), 2u);
+  EXPECT_TRUE(model.distributed_loads[0].gravity);
+  EXPECT_EQ(model.distributed_loads[0].elements, (std::vector<int>{0, 1, 2, 3}));
+  EXPECT_EQ(model.distributed_loads[0].function, -1);
+  EXPECT_FALSE(model.distributed_loads[1].gravity);
+  EXPECT_DOUBLE_EQ(model.distributed_loads[1].force_per_length(2), -10.0);
+  EXPECT_EQ(model.distributed_loads[1].function, 1);
+
+  ASSERT_EQ(model.probes.size(), 1u);
+  EXPECT_EQ(model.probes[0].node, 3);
+
+  EXPECT_DOUBLE_EQ(model.analysis.end_time, 2.0);
+  EXPECT_DOUBLE_EQ(model.analysis.min_step, 1.0e-4);
+  EXPECT_DOUBLE_EQ(model.analysis.max_step, 1.0);
+  EXPECT_EQ(model.analysis.max_newton_iterations, 25);
+  EXPECT_EQ(model.analysis.output_times, (std::vector<double>{0.5, 2.0}));
+  EXPECT_EQ(model.output.file, "valid.h5");
+  EXPECT_EQ(model.output.every, 3);
+}
+
+const char *const kLineHead = R"(sections:
+  - {name: s, EA: 1, GA2: 1, GA3: 1, GJ: 1, EI2: 1, EI3: 1}
+nodes:
+  a: [1, 2, 3]
+  b: [1, 2, 7]
+supports:
+  - {nodes: a, fix: all}
+beams:
+)";
+
+TEST(InputReader, LineBeamTriadsFollowOrientationRollAndTwist)
+{
+  const Model model = ReadValid(std::string(kLineHead) +
+                                "  - {name: line, section: s, from: a, to: b, elements: 2, orientation: [1, 1, 0], roll: 0.3, twist: 0.4}\n");
+  ASSERT_EQ(model.elements.size(), 2u);
+  const Vec3 t1 = Vec3::UnitZ();
+  const Vec3 t2 = Vec3(1, 1, 0).normalized();
+  for (int element = 0; element < 2; ++element)
+    for (int a = 0; a < 2; ++a) {
+      const Mat3  &triad = model.elements[element].reference_triads[a];
+      const double angle = 0.3 + 0.4 * 0.5 * (element + a); // fraction s/L = (element + a) / 2
+      ExpectOrthonormal(triad);
+      EXPECT_LT((triad.col(0) - t1).norm(), kTolerance);
+      EXPECT_LT((triad.col(1) - (std::cos(angle) * t2 + std::sin(angle) * t1.cross(t2))).norm(), kTolerance);
+    }
+}
+
+TEST(InputReader, DefaultOrientationAvoidsVerticalAxis)
+{
+  const std::string head = R"(sections:
+  - {name: s, EA: 1, GA2: 1, GA3: 1, GJ: 1, EI2: 1, EI3: 1}
+nodes: {a: [0, 0, 0], b: [0, 3, 0], c: [4, 0, 0]}
+supports: [{nodes: a, fix: all}]
+beams:
+  - {name: up, section: s, from: a, to: b, elements: 1}
+  - {name: along, section: s, from: a, to: c, elements: 1}
+)";
+  const Model model = ReadValid(head);
+  EXPECT_LT((model.elements[0].reference_triads[0].col(1) - Vec3(-1, 0, 0)).norm(), kTolerance);
+  EXPECT_LT((model.elements[1].reference_triads[0].col(1) - Vec3(0, 1, 0)).norm(), kTolerance);
+  EXPECT_LT((model.elements[1].reference_triads[1].col(2) - Vec3(0, 0, 1)).norm(), kTolerance);
+}
+
+TEST(InputReader, OrderTwoPutsMiddleNodeInTheMiddle)
+{
+  const Model model = ReadValid(std::string(kLineHead) + "  - {name: quad, section: s, from: a, to: b, elements: 3, order: 2}\n");
+  // 3 elements of order 2: 7 nodes along the beam, 5 of them generated.
+  ASSERT_EQ(model.nodes.size(), 7u);
+  ASSERT_EQ(model.elements.size(), 3u);
+  EXPECT_EQ(model.beams[0].order, 2);
+  for (const BeamElement &element : model.elements) {
+    EXPECT_EQ(element.order, 2);
+    for (int node : element.nodes) ASSERT_GE(node, 0);
+    const Vec3 midpoint = 0.5 * (model.nodes[element.nodes[0]].position + model.nodes[element.nodes[2]].position);
+    EXPECT_LT((model.nodes[element.nodes[1]].position - midpoint).norm(), kTolerance);
+  }
+  EXPECT_EQ(model.elements[0].nodes[0], NodeIndex(model, "a"));
+  EXPECT_EQ(model.elements[2].nodes[2], NodeIndex(model, "b"));
+  EXPECT_EQ(model.elements[1].nodes[1], NodeIndex(model, "quad.3"));
+}
+
+TEST(InputReader, ArcNodesAndTriads)
+{
+  const double      radius = 100.0;
+  const std::string text   = R"(sections:
+  - {name: s, EA: 1, GA2: 1, GA3: 1, GJ: 1, EI2: 1, EI3: 1}
+nodes:
+  start: [0, 0, 0]
+  end: [100, 100, 0]
+beams:
+  - name: bend
+    section: s
+    from: start
+    to: end
+    elements: 8
+    order: 2
+    arc: {center: [0, 100, 0]}
+supports:
+  - {nodes: start, fix: all}
+)";
+  const Model       model  = ReadValid(text);
+  const Vec3        center(0, 100, 0);
+  ASSERT_EQ(model.nodes.size(), 17u);
+  ASSERT_EQ(model.elements.size(), 8u);
+  const std::vector<int> &chain = model.beams[0].nodes;
+  ASSERT_EQ(chain.size(), 17u);
+  for (size_t k = 0; k < chain.size(); ++k) {
+    // The default normal (from - c) x (to - c) is +z: a quarter circle counter-clockwise about z.
+    const double angle = 0.5 * M_PI * static_cast<double>(k) / 16.0;
+    const Vec3   expected = center + radius * Vec3(std::sin(angle), -std::cos(angle), 0.0);
+    EXPECT_LT((model.nodes[chain[k]].position - expected).norm(), 1e-9) << "node " << k;
+  }
+  for (const BeamElement &element : model.elements)
+    for (int a = 0; a < 3; ++a) {
+      const Mat3 &triad    = element.reference_triads[a];
+      const Vec3 &position = model.nodes[element.nodes[a]].position;
+      ExpectOrthonormal(triad);
+      const Vec3 to_center = (center - position).normalized();
+      EXPECT_LT((triad.col(1) - to_center).norm(), 1e-12);
+      EXPECT_LT((triad.col(0) - Vec3::UnitZ().cross(-to_center)).norm(), 1e-12); // tangent, direction of travel
+      EXPECT_LT((triad.col(2) - triad.col(0).cross(triad.col(1))).norm(), 1e-12);
+      EXPECT_LT((triad.col(2) - Vec3::UnitZ()).norm(), 1e-12);
+    }
+}
+
+TEST(InputReader, ArcWithNormalRunsTheLongWay)
+{
+  // Counter-clockwise about -z from (0, 0) to (100, 100) around (0, 100) is three quarters of a turn.
+  const std::string text = R"(sections:
+  - {name: s, EA: 1, GA2: 1, GA3: 1, GJ: 1, EI2: 1, EI3: 1}
+nodes: {start: [0, 0, 0], end: [100, 100, 0]}
+beams:
+  - {name: loop, section: s, from: start, to: end, elements: 3, arc: {center: [0, 100, 0], normal: [0, 0, -1]}}
+supports: [{nodes: [start, end], fix: all}]
+)";
+  const Model model = ReadValid(text);
+  // After a quarter turn clockwise about z the beam is at (-100, 100).
+  EXPECT_LT((model.nodes[NodeIndex(model, "loop.1")].position - Vec3(-100, 100, 0)).norm(), 1e-9);
+  EXPECT_LT((model.nodes[NodeIndex(model, "loop.2")].position - Vec3(0, 200, 0)).norm(), 1e-9);
+  EXPECT_LT((model.elements[0].reference_triads[0].col(2) - Vec3(0, 0, -1)).norm(), 1e-12);
+}
+
+TEST(InputReader, GeneratedCountsForSeveralBeams)
+{
+  const std::string text = R"(sections:
+  - {name: s, EA: 1, GA2: 1, GA3: 1, GJ: 1, EI2: 1, EI3: 1}
+nodes: {a: [0, 0, 0], b: [1, 0, 0], c: [1, 1, 0]}
+beams:
+  - {name: first, section: s, from: a, to: b, elements: 5}
+  - {name: second, section: s, from: b, to: c, elements: 4, order: 2}
+  - {name: branch, section: s, from: second.3, to: a, elements: 2}
+supports: [{nodes: a, fix: all}]
+)";
+  const Model model = ReadValid(text);
+  // 3 named + 4 + 7 + 1 generated nodes; 5 + 4 + 2 elements.
+  EXPECT_EQ(model.nodes.size(), 15u);
+  EXPECT_EQ(model.elements.size(), 11u);
+  EXPECT_EQ(model.beams[1].elements, (std::vector<int>{5, 6, 7, 8}));
+  EXPECT_EQ(model.beams[2].nodes.front(), NodeIndex(model, "second.3"));
+}
+
+TEST(InputReader, DefaultsAndOutputName)
+{
+  const std::string text = R"(sections: [{name: s, EA: 1, GA2: 1, GA3: 1, GJ: 1, EI2: 1, EI3: 1}]
+nodes: {a: [0, 0, 0], b: [1, 0, 0]}
+beams: [{name: only, section: s, from: a, to: b, elements: 1}]
+supports: [{nodes: only, fix: [ux, uy, uz, rx, ry, rz]}]
+loads:
+)";
+  Model      model;
+  InputError error;
+  ASSERT_TRUE(ReadModelString(text, "input/dir.v2/roll.yaml", &model, &error)) << error.Format();
+  EXPECT_EQ(model.output.file, "roll.h5");
+  EXPECT_EQ(model.output.every, 1);
+  EXPECT_EQ(model.analysis.type, "static");
+  EXPECT_DOUBLE_EQ(model.analysis.initial_step, 0.1);
+  EXPECT_TRUE(model.functions.empty());
+  EXPECT_TRUE(model.nodal_loads.empty());
+  EXPECT_EQ(model.elements[0].order, 1);
+  EXPECT_EQ(model.elements[0].nodes[2], -1);
+}
+
+TEST(InputReader, SupportsAcrossABeamRestrainAllModes)
+{
+  // Pinned translations at two nodes leave the rotation about the line through them free; a
+  // third pinned node off that line (via a second beam) removes it.
+  const std::string head = R"(sections: [{name: s, EA: 1, GA2: 1, GA3: 1, GJ: 1, EI2: 1, EI3: 1}]
+nodes: {a: [0, 0, 0], b: [1, 0, 0], c: [1, 1, 0]}
+beams:
+  - {name: ab, section: s, from: a, to: b, elements: 2}
+  - {name: bc, section: s, from: b, to: c, elements: 2}
+)";
+  const InputError error = ReadInvalid(head + "supports: [{nodes: [a, b], fix: [ux, uy, uz]}]\n");
+  EXPECT_NE(error.message.find("mechanism: beam(s) 'ab', 'bc' can move as a rigid body (5 of 6"), std::string::npos) << error.message;
+  EXPECT_EQ(error.line, 4);
+  ReadValid(head + "supports: [{nodes: [a, b, c], fix: [ux, uy, uz]}]\n");
+}
+
+TEST(InputReader, FormatAndUnreadableFile)
+{
+  Model      model;
+  InputError error;
+  EXPECT_FALSE(ReadModelFile("/nonexistent/dir/x.yaml", &model, &error));
+  EXPECT_EQ(error.line, 0);
+  EXPECT_EQ(error.message, "cannot open input file '/nonexistent/dir/x.yaml'");
+  EXPECT_EQ(error.Format(), "/nonexistent/dir/x.yaml: error: cannot open input file '/nonexistent/dir/x.yaml'");
+  EXPECT_FALSE(ReadModelFile(MSFLEX_BAD_INPUT_DIR, &model, &error));
+  EXPECT_NE(error.message.find("cannot open input file"), std::string::npos);
+
+  const InputError located{"a.yaml", 3, 7, "boom"};
+  EXPECT_EQ(located.Format(), "a.yaml:3:7: error: boom");
+}
+
+// ---- The bad-input corpus ----------------------------------------------------------------
+
+struct BadInputCase {
+  std::string path;
+  std::string expected_message; // from "# expect: ..."
+  int         expected_line = -1; // from "# line: N"
+};
+
+std::vector<std::string> BadInputFiles()
+{
+  // The error_code form does not throw: a missing directory yields no cases and fails the
+  // count test below instead of aborting the whole test program.
+  std::vector<std::string> files;
+  std::error_code          missing_directory;
+  for (const auto &entry : std::filesystem::directory_iterator(MSFLEX_BAD_INPUT_DIR, missing_directory))
+    if (entry.path().extension() == ".yaml") files.push_back(entry.path().string());
+  std::sort(files.begin(), files.end());
+  return files;
+}
+
+// Value of a "# <tag>: value" comment line, or "" when the line has another form.
+std::string CommentValue(const std::string &line, const std::string &tag)
+{
+  const std::string prefix = "# " + tag + ":";
+  if (line.compare(0, prefix.size(), prefix) != 0) return "";
+  const size_t start = line.find_first_not_of(' ', prefix.size());
+  return start == std::string::npos ? "" : line.substr(start);
+}
+
+BadInputCase ReadBadInputCase(const std::string &path)
+{
+  BadInputCase  bad_input;
+  std::ifstream stream(path);
+  std::string   first_line, second_line;
+  std::getline(stream, first_line);
+  std::getline(stream, second_line);
+  bad_input.path             = path;
+  bad_input.expected_message = CommentValue(first_line, "expect");
+  const std::string line     = CommentValue(second_line, "line");
+  if (!line.empty()) bad_input.expected_line = std::stoi(line);
+  return bad_input;
+}
+
+class BadInput : public ::testing::TestWithParam<std::string> {};
+
+TEST_P(BadInput, FailsWithExpectedMessageAndLine)
+{
+  const BadInputCase bad_input = ReadBadInputCase(GetParam());
+  ASSERT_FALSE(bad_input.expected_message.empty()) << GetParam() << ": first line must be '# expect: <message part>'";
+  ASSERT_GE(bad_input.expected_line, 0) << GetParam() << ": second line must be '# line: N'";
+  Model      model;
+  InputError error;
+  ASSERT_FALSE(ReadModelFile(bad_input.path, &model, &error)) << GetParam() << " was accepted";
+  EXPECT_NE(error.message.find(bad_input.expected_message), std::string::npos) << error.Format();
+  EXPECT_EQ(error.line, bad_input.expected_line) << error.Format();
+  EXPECT_EQ(error.file, bad_input.path);
+}
+
+std::string TestNameFromPath(const ::testing::TestParamInfo<std::string> &info)
+{
+  std::string name = std::filesystem::path(info.param).stem().string();
+  for (char &character : name)
+    if (!std::isalnum(static_cast<unsigned char>(character))) character = '_';
+  return name;
+}
+
+INSTANTIATE_TEST_SUITE_P(Corpus, BadInput, ::testing::ValuesIn(BadInputFiles()), TestNameFromPath);
+
+TEST(BadInputCorpus, HasAtLeast25Cases) { EXPECT_GE(BadInputFiles().size(), 25u); }
+
+} // namespace
+} // namespace msflex
