@@ -1,0 +1,164 @@
+// The assembled system: the global Jacobian (element tangents, column scaling by H(omega),
+// follower loads, constrained and prescribed DOFs, ghost nodes under MPI) against central finite
+// differences of the assembled residual with respect to the Newton unknowns, at a deformed state
+// with large increments. Runs on any number of ranks.
+#include "assembly/assembler.hpp"
+#include "io/input_reader.hpp"
+#include "parallel/partition.hpp"
+
+#include <gtest/gtest.h>
+#include <petscmat.h>
+
+#include <cstdio>
+#include <random>
+
+using namespace msflex;
+
+namespace {
+
+// A frame of two beams meeting at a rigid corner: 2- and 3-node elements, a curved twisted
+// column, dead and follower tip loads, a distributed load, fixed, partly fixed and prescribed DOFs.
+const char *kModel = R"(
+sections:
+  - {name: s, EA: 3.0e3, GA2: 1.2e3, GA3: 9.0e2, GJ: 40, EI2: 60, EI3: 80, rhoA: 1.5}
+nodes:
+  base: [0, 0, 0]
+  corner: [0.3, 0.1, 2]
+  end: [1.8, 1.0, 2.2]
+beams:
+  - {name: column, section: s, from: base, to: corner, elements: 3, order: 2, twist: 0.7, arc: {center: [4, 0.6, 0.395]}}
+  - {name: arm, section: s, from: corner, to: end, elements: 4, order: 1, roll: 0.4}
+supports:
+  - {nodes: base, fix: all}
+  - {nodes: end, fix: [uz, rx]}
+  - {nodes: end, prescribe: {ry: 0.3}}
+loads:
+  - {nodes: corner, force: [3, -2, 1], moment: [1, 2, -1]}
+  - {nodes: end, force: [2, 1, -4], moment: [-2, 1, 3], follower: true}
+  - {beams: arm, distributed: [0, 1, -2]}
+  - {gravity: [0, 0, -9.81]}
+)";
+
+struct AssembledSystem {
+  Model     model;
+  DofMap    map;
+  Assembler assembler;
+};
+
+PetscErrorCode Build(AssembledSystem *system)
+{
+  InputError error;
+  PetscFunctionBeginUser;
+  PetscCheck(ReadModelString(kModel, "test_assembly", &system->model, &error), PETSC_COMM_WORLD, PETSC_ERR_USER_INPUT, "%s", error.Format().c_str());
+  std::vector<int> node_rank;
+  PetscCall(PartitionNodes(PETSC_COMM_WORLD, system->model, PartitionerType::Simple, &node_rank));
+  PetscCall(DofMapCreate(PETSC_COMM_WORLD, system->model, node_rank, &system->map));
+  PetscCall(system->assembler.Setup(PETSC_COMM_WORLD, system->model, system->map));
+  PetscCall(system->assembler.BeginStep(0.0, 0.8));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode Residual(Assembler &assembler, Vec x, Vec r)
+{
+  PetscBool ok;
+  PetscFunctionBeginUser;
+  PetscCall(assembler.SetIncrements(x));
+  PetscCall(assembler.AssembleResidual(r, &ok));
+  PetscCheck(ok, PETSC_COMM_SELF, PETSC_ERR_PLIB, "residual not evaluable");
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+// ||J - J_fd||_F / ||J||_F with J_fd by central differences, column by column.
+PetscErrorCode JacobianRelativeError(double *relative_error)
+{
+  AssembledSystem system;
+  Vec             x, r_plus, r_minus, column;
+  Mat             fd;
+  PetscInt        n, first, last;
+  PetscFunctionBeginUser;
+  PetscCall(Build(&system));
+  Assembler &assembler = system.assembler;
+  PetscCall(VecDuplicate(assembler.SolutionTemplate(), &x));
+  PetscCall(VecDuplicate(x, &r_plus));
+  PetscCall(VecDuplicate(x, &r_minus));
+  PetscCall(VecDuplicate(x, &column));
+  PetscCall(VecGetSize(x, &n));
+  PetscCall(VecGetOwnershipRange(x, &first, &last));
+  // A deformed state: increments of up to 0.15 in displacement and 0.6 rad in rotation.
+  std::mt19937                           gen(42);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  for (PetscInt i = 0; i < n; ++i) {
+    const double value = u(gen);
+    if (i >= first && i < last) PetscCall(VecSetValue(x, i, value * 0.15, INSERT_VALUES));
+  }
+  PetscCall(VecAssemblyBegin(x));
+  PetscCall(VecAssemblyEnd(x));
+  PetscBool ok;
+  PetscCall(assembler.SetIncrements(x));
+  PetscCall(assembler.AssembleJacobian(assembler.Jacobian(), &ok));
+  PetscCheck(ok, PETSC_COMM_SELF, PETSC_ERR_PLIB, "jacobian not evaluable");
+  PetscCall(MatDuplicate(assembler.Jacobian(), MAT_DO_NOT_COPY_VALUES, &fd));
+  PetscCall(MatSetOption(fd, MAT_NEW_NONZERO_ALLOCATION_ERR, PETSC_FALSE));
+  const double h = 1e-6;
+  for (PetscInt j = 0; j < n; ++j) {
+    const bool owner = j >= first && j < last; // only the owner perturbs x_j
+    if (owner) PetscCall(VecSetValue(x, j, h, ADD_VALUES));
+    PetscCall(VecAssemblyBegin(x));
+    PetscCall(VecAssemblyEnd(x));
+    PetscCall(Residual(assembler, x, r_plus));
+    if (owner) PetscCall(VecSetValue(x, j, -2 * h, ADD_VALUES));
+    PetscCall(VecAssemblyBegin(x));
+    PetscCall(VecAssemblyEnd(x));
+    PetscCall(Residual(assembler, x, r_minus));
+    if (owner) PetscCall(VecSetValue(x, j, h, ADD_VALUES));
+    PetscCall(VecAssemblyBegin(x));
+    PetscCall(VecAssemblyEnd(x));
+    PetscCall(VecWAXPY(column, -1.0, r_minus, r_plus));
+    PetscCall(VecScale(column, 1.0 / (2 * h)));
+    const PetscScalar *values;
+    PetscCall(VecGetArrayRead(column, &values));
+    for (PetscInt i = first; i < last; ++i)
+      if (values[i - first] != 0.0) PetscCall(MatSetValue(fd, i, j, values[i - first], INSERT_VALUES));
+    PetscCall(VecRestoreArrayRead(column, &values));
+  }
+  PetscCall(MatAssemblyBegin(fd, MAT_FINAL_ASSEMBLY));
+  PetscCall(MatAssemblyEnd(fd, MAT_FINAL_ASSEMBLY));
+  PetscReal jacobian_norm, difference_norm;
+  PetscCall(MatNorm(assembler.Jacobian(), NORM_FROBENIUS, &jacobian_norm));
+  PetscCall(MatAXPY(fd, -1.0, assembler.Jacobian(), DIFFERENT_NONZERO_PATTERN));
+  PetscCall(MatNorm(fd, NORM_FROBENIUS, &difference_norm));
+  *relative_error = difference_norm / jacobian_norm;
+  PetscCall(MatDestroy(&fd));
+  PetscCall(VecDestroy(&x));
+  PetscCall(VecDestroy(&r_plus));
+  PetscCall(VecDestroy(&r_minus));
+  PetscCall(VecDestroy(&column));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+} // namespace
+
+TEST(AssembledSystem, JacobianMatchesFiniteDifferences)
+{
+  double relative_error = 1.0;
+  ASSERT_EQ(JacobianRelativeError(&relative_error), PETSC_SUCCESS);
+  PetscMPIInt size;
+  MPI_Comm_size(PETSC_COMM_WORLD, &size);
+  PetscPrintf(PETSC_COMM_WORLD, "assembled Jacobian on %d rank(s): ||J - J_fd||_F / ||J||_F = %.2e\n", size, relative_error);
+  EXPECT_LT(relative_error, 1e-6);
+}
+
+int main(int argc, char **argv)
+{
+  ::testing::InitGoogleTest(&argc, argv);
+  PetscCall(PetscInitialize(&argc, &argv, nullptr, nullptr));
+  PetscMPIInt rank;
+  MPI_Comm_rank(PETSC_COMM_WORLD, &rank);
+  if (rank != 0) {
+    ::testing::TestEventListeners &listeners = ::testing::UnitTest::GetInstance()->listeners();
+    delete listeners.Release(listeners.default_result_printer());
+  }
+  const int failed = RUN_ALL_TESTS();
+  PetscCall(PetscFinalize());
+  return failed;
+}
