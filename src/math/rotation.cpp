@@ -5,43 +5,44 @@
 namespace msflex {
 
 namespace {
-constexpr double kPi = 3.14159265358979323846;
-
-// Below this x = theta^2 the power series is summed; above it the closed forms are used.
-// At x = 4 the series terms fall below 1e-30 after 20 terms, and the closed forms above it lose
-// at most a digit to cancellation.
+// Below this x = theta^2 the power series is summed; above it the closed forms are used
+// (at x = 4 the closed forms lose at most a digit to cancellation).
 constexpr double kSeriesLimit = 4.0;
-constexpr int    kSeriesTerms = 22;
+constexpr int    kMaxSeriesTerms = 24;
+constexpr int    kNumFunctions   = sizeof(RotationSeries::c) / sizeof(double);
 
-double Factorial(int n)
-{
-  double f = 1.0;
-  for (int i = 2; i <= n; ++i) f *= i;
-  return f;
-}
+struct InverseFactorials {
+  double value[2 * kMaxSeriesTerms + kNumFunctions + 2];
+  InverseFactorials()
+  {
+    value[0] = 1.0;
+    for (int m = 1; m < (int)(sizeof(value) / sizeof(double)); ++m) value[m] = value[m - 1] / m;
+  }
+};
+const InverseFactorials kInverseFactorial;
 } // namespace
 
 RotationSeries EvaluateRotationSeries(double x)
 {
   RotationSeries s{};
+  const double  *inv_fact = kInverseFactorial.value;
   if (x < kSeriesLimit) {
-    // c_n = sum_k (-x)^k/(2k+n)!, c_n' = sum_k k (-1)^k x^(k-1)/(2k+n)!, c_n'' likewise.
-    for (int n = 0; n <= 6; ++n) {
-      double c = 0.0, dc = 0.0, ddc = 0.0, xk = 1.0, xkm1 = 0.0, xkm2 = 0.0;
-      double inv_fact = 1.0 / Factorial(n);
-      for (int k = 0; k < kSeriesTerms; ++k) {
-        const double sign = (k % 2 == 0) ? 1.0 : -1.0;
-        c += sign * xk * inv_fact;
-        if (k >= 1) dc += sign * k * xkm1 * inv_fact;
-        if (k >= 2) ddc += sign * k * (k - 1) * xkm2 * inv_fact;
-        xkm2 = xkm1;
-        xkm1 = xk;
-        xk *= x;
-        inv_fact /= (double)(2 * k + n + 1) * (double)(2 * k + n + 2);
+    // c_n = sum_k (-x)^k/(2k+n)!, c_n' = sum_k k (-x)^(k-1) (-1)/(2k+n)!, c_n'' likewise. Terms
+    // shrink at least like x^k/(2k)!; stop once that bound is below 1e-20 (all c_n, n <= 4, are
+    // at least 1/24 there, their derivatives at least 1/4000).
+    double power = 1.0; // (-x)^k
+    double power_minus_one = 0.0, power_minus_two = 0.0; // (-x)^(k-1), (-x)^(k-2)
+    for (int k = 0; k < kMaxSeriesTerms; ++k) {
+      for (int n = 0; n < kNumFunctions; ++n) {
+        const double f = inv_fact[2 * k + n];
+        s.c[n] += power * f;
+        s.dc[n] -= k * power_minus_one * f;
+        s.ddc[n] += k * (k - 1) * power_minus_two * f;
       }
-      s.c[n]   = c;
-      s.dc[n]  = dc;
-      s.ddc[n] = ddc;
+      if (std::abs(power) * inv_fact[2 * k] < 1e-20 && k >= 2) break;
+      power_minus_two = power_minus_one;
+      power_minus_one = power;
+      power *= -x;
     }
     return s;
   }
@@ -49,13 +50,13 @@ RotationSeries EvaluateRotationSeries(double x)
   s.c[0]             = std::cos(theta);
   s.c[1]             = std::sin(theta) / theta;
   // c_{n+2} = (1/n! - c_n)/x
-  for (int n = 0; n + 2 <= 6; ++n) s.c[n + 2] = (1.0 / Factorial(n) - s.c[n]) / x;
+  for (int n = 0; n + 2 < kNumFunctions; ++n) s.c[n + 2] = (inv_fact[n] - s.c[n]) / x;
   // d c_0/dx = -sin(theta)/(2 theta) = -c1/2;  2 x c_n' = c_{n-1} - n c_n for n >= 1.
   s.dc[0] = -0.5 * s.c[1];
-  for (int n = 1; n <= 6; ++n) s.dc[n] = (s.c[n - 1] - n * s.c[n]) / (2.0 * x);
+  for (int n = 1; n < kNumFunctions; ++n) s.dc[n] = (s.c[n - 1] - n * s.c[n]) / (2.0 * x);
   // Differentiate 2 x c_n' = c_{n-1} - n c_n:  2 c_n' + 2 x c_n'' = c_{n-1}' - n c_n'.
   s.ddc[0] = -0.5 * s.dc[1];
-  for (int n = 1; n <= 6; ++n) s.ddc[n] = (s.dc[n - 1] - (n + 2) * s.dc[n]) / (2.0 * x);
+  for (int n = 1; n < kNumFunctions; ++n) s.ddc[n] = (s.dc[n - 1] - (n + 2) * s.dc[n]) / (2.0 * x);
   return s;
 }
 

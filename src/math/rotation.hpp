@@ -34,9 +34,9 @@ inline Vec3 Unskew(const Mat3 &s) { return Vec3(0.5 * (s(2, 1) - s(1, 2)), 0.5 *
 // c3 = (theta - sin)/theta^3, ... Every Rodrigues-type operator below is built from them, so
 // all small-angle branches live in one place.
 struct RotationSeries {
-  double c[7];   // c_0 .. c_6
-  double dc[7];  // d c_n / dx
-  double ddc[7]; // d^2 c_n / dx^2
+  double c[5];   // c_0 .. c_4
+  double dc[5];  // d c_n / dx
+  double ddc[5]; // d^2 c_n / dx^2
 };
 RotationSeries EvaluateRotationSeries(double x);
 
