@@ -79,6 +79,7 @@ PetscErrorCode Assembler::Setup(MPI_Comm comm, const Model &model, const DofMap 
   PetscCall(MatMPIAIJSetPreallocation(jacobian_, 0, diagonal_nonzeros.data(), 0, off_diagonal_nonzeros.data()));
   PetscCall(MatSetOption(jacobian_, MAT_NEW_NONZERO_ALLOCATION_ERR, PETSC_TRUE));
   PetscCall(MatCreateVecs(jacobian_, &solution_template_, nullptr));
+  PetscCall(CreateCsrDestinations());
 
   // Scatter from the distributed unknowns to the free DOFs of every local node (owned and ghost).
   std::vector<PetscInt> from;
@@ -95,6 +96,112 @@ PetscErrorCode Assembler::Setup(MPI_Comm comm, const Model &model, const DofMap 
   PetscCall(VecCreateSeq(PETSC_COMM_SELF, (PetscInt)from.size(), &ghosted_increments_));
   PetscCall(VecScatterCreate(solution_template_, from_is, ghosted_increments_, nullptr, &to_ghosted_));
   PetscCall(ISDestroy(&from_is));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+// Fixes the pattern with one assembly of zeros, then records where each element-matrix entry
+// lands in the CSR arrays of the owned rows.
+PetscErrorCode Assembler::CreateCsrDestinations()
+{
+  const DofMap &map = *map_;
+  PetscBool     is_seq, is_mpi;
+  PetscFunctionBeginUser;
+  const std::vector<double> zeros(kBeamMaxDofs * kBeamMaxDofs, 0.0);
+  for (int e : map.local_elements) {
+    PetscInt  indices[kBeamMaxDofs];
+    const int nd = ElementIndices(model_->elements[e], map, indices);
+    PetscCall(MatSetValues(jacobian_, nd, indices, nd, indices, zeros.data(), ADD_VALUES));
+  }
+  PetscCall(MatAssemblyBegin(jacobian_, MAT_FINAL_ASSEMBLY));
+  PetscCall(MatAssemblyEnd(jacobian_, MAT_FINAL_ASSEMBLY));
+  PetscCall(PetscObjectTypeCompare((PetscObject)jacobian_, MATSEQAIJ, &is_seq));
+  PetscCall(PetscObjectTypeCompare((PetscObject)jacobian_, MATMPIAIJ, &is_mpi));
+  csr_destinations_.clear();
+  if (!is_seq && !is_mpi) PetscFunctionReturn(PETSC_SUCCESS);
+
+  const PetscInt *off_diagonal_columns = nullptr; // global column of each off-diagonal block column, ascending
+  PetscInt        num_off_diagonal_columns = 0;
+  diagonal_block_ = jacobian_;
+  off_diagonal_block_ = nullptr;
+  if (is_mpi) {
+    PetscCall(MatMPIAIJGetSeqAIJ(jacobian_, &diagonal_block_, &off_diagonal_block_, &off_diagonal_columns));
+    PetscCall(MatGetSize(off_diagonal_block_, nullptr, &num_off_diagonal_columns));
+  }
+  const PetscInt *ia, *ja, *ib = nullptr, *jb = nullptr;
+  PetscInt        num_rows;
+  PetscBool       done;
+  PetscCall(MatGetRowIJ(diagonal_block_, 0, PETSC_FALSE, PETSC_FALSE, &num_rows, &ia, &ja, &done));
+  PetscCheck(done, PETSC_COMM_SELF, PETSC_ERR_PLIB, "no CSR access to the diagonal block");
+  if (off_diagonal_block_) {
+    PetscCall(MatGetRowIJ(off_diagonal_block_, 0, PETSC_FALSE, PETSC_FALSE, &num_rows, &ib, &jb, &done));
+    PetscCheck(done, PETSC_COMM_SELF, PETSC_ERR_PLIB, "no CSR access to the off-diagonal block");
+  }
+  // Position of column `column` in CSR row `row`, or -1.
+  auto find = [](const PetscInt *row_start, const PetscInt *columns, PetscInt row, PetscInt column) -> PetscInt {
+    const PetscInt *begin = columns + row_start[row], *end = columns + row_start[row + 1];
+    const PetscInt *it    = std::lower_bound(begin, end, column);
+    return (it != end && *it == column) ? (PetscInt)(it - columns) : -1;
+  };
+  const PetscInt first = map.first_owned, last = map.first_owned + map.num_owned;
+  csr_destinations_.resize(map.local_elements.size());
+  for (size_t k = 0; k < map.local_elements.size(); ++k) {
+    PetscInt  indices[kBeamMaxDofs];
+    const int nd = ElementIndices(model_->elements[map.local_elements[k]], map, indices);
+    std::vector<PetscInt> &destination = csr_destinations_[k];
+    destination.assign(nd * nd, kCsrSkip);
+    for (int i = 0; i < nd; ++i) {
+      const PetscInt row = indices[i];
+      if (row < 0) continue;
+      if (row < first || row >= last) {
+        for (int j = 0; j < nd; ++j) destination[i * nd + j] = kCsrOtherRank;
+        continue;
+      }
+      for (int j = 0; j < nd; ++j) {
+        const PetscInt column = indices[j];
+        if (column < 0) continue;
+        PetscInt slot;
+        if (column >= first && column < last) {
+          slot = find(ia, ja, row - first, column - first);
+        } else {
+          const PetscInt *it = std::lower_bound(off_diagonal_columns, off_diagonal_columns + num_off_diagonal_columns, column);
+          const PetscInt  local_column = (PetscInt)(it - off_diagonal_columns);
+          slot = (it != off_diagonal_columns + num_off_diagonal_columns && *it == column) ? find(ib, jb, row - first, local_column) : -1;
+          if (slot >= 0) slot = kCsrOffDiagonal - slot;
+        }
+        PetscCheck(slot != -1, PETSC_COMM_SELF, PETSC_ERR_PLIB, "entry (%" PetscInt_FMT ", %" PetscInt_FMT ") missing from the preallocated pattern", row, column);
+        destination[i * nd + j] = slot;
+      }
+    }
+  }
+  PetscCall(MatRestoreRowIJ(diagonal_block_, 0, PETSC_FALSE, PETSC_FALSE, &num_rows, &ia, &ja, &done));
+  if (off_diagonal_block_) PetscCall(MatRestoreRowIJ(off_diagonal_block_, 0, PETSC_FALSE, PETSC_FALSE, &num_rows, &ib, &jb, &done));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+// Adds one element matrix (row-major, num_dofs^2): owned rows straight into the CSR values,
+// rows of other ranks through MatSetValues (PETSc's stash).
+PetscErrorCode Assembler::AddElementMatrix(size_t local_element, const PetscInt *indices, int num_dofs, const double *values, PetscScalar *diagonal_values,
+                                           PetscScalar *off_diagonal_values)
+{
+  PetscFunctionBeginUser;
+  if (csr_destinations_.empty()) {
+    PetscCall(MatSetValues(jacobian_, num_dofs, indices, num_dofs, indices, values, ADD_VALUES));
+    PetscFunctionReturn(PETSC_SUCCESS);
+  }
+  const PetscInt *destination = csr_destinations_[local_element].data();
+  for (int i = 0; i < num_dofs; ++i) {
+    const PetscInt *row_destination = destination + i * num_dofs;
+    const double   *row_values      = values + i * num_dofs;
+    if (row_destination[0] == kCsrOtherRank) {
+      PetscCall(MatSetValues(jacobian_, 1, &indices[i], num_dofs, indices, row_values, ADD_VALUES));
+      continue;
+    }
+    for (int j = 0; j < num_dofs; ++j) {
+      const PetscInt slot = row_destination[j];
+      if (slot >= 0) diagonal_values[slot] += row_values[j];
+      else if (slot <= kCsrOffDiagonal) off_diagonal_values[kCsrOffDiagonal - slot] += row_values[j];
+    }
+  }
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
@@ -239,11 +346,17 @@ PetscErrorCode Assembler::AssembleResidual(Vec residual, PetscBool *geometry_ok)
 PetscErrorCode Assembler::AssembleJacobian(Mat jacobian, PetscBool *geometry_ok)
 {
   PetscFunctionBeginUser;
+  PetscCheck(jacobian == jacobian_, PETSC_COMM_SELF, PETSC_ERR_SUP, "the assembler assembles into its own matrix only");
   PetscCall(PetscLogEventBegin(event_jacobian, 0, 0, 0, 0));
   const Model  &model = *model_;
   const DofMap &map   = *map_;
   *geometry_ok        = PETSC_TRUE;
   PetscCall(MatZeroEntries(jacobian));
+  PetscScalar *diagonal_values = nullptr, *off_diagonal_values = nullptr;
+  if (!csr_destinations_.empty()) {
+    PetscCall(MatSeqAIJGetArray(diagonal_block_, &diagonal_values));
+    if (off_diagonal_block_) PetscCall(MatSeqAIJGetArray(off_diagonal_block_, &off_diagonal_values));
+  }
   for (size_t k = 0; k < map.local_elements.size(); ++k) {
     const BeamElement &element = model.elements[map.local_elements[k]];
     const int          n       = element.order + 1;
@@ -257,18 +370,28 @@ PetscErrorCode Assembler::AssembleJacobian(Mat jacobian, PetscBool *geometry_ok)
       triads[a]          = s.rotation * element.reference_triads[a];
       tangents[a]        = &s.rotation_tangent;
     }
-    double                 r[kBeamMaxDofs], k_spin[kBeamMaxDofs * kBeamMaxDofs];
+    double                 r[kBeamMaxDofs], K[kBeamMaxDofs * kBeamMaxDofs];
     PetscInt               indices[kBeamMaxDofs];
-    const BeamKernelStatus status = BeamInternalForces(element_references_[k], section_stiffness_[element.section], positions, triads, r, k_spin, nullptr, nullptr);
+    const BeamKernelStatus status = BeamInternalForces(element_references_[k], section_stiffness_[element.section], positions, triads, r, K, nullptr, nullptr);
     if (status != BeamKernelStatus::Ok) {
       *geometry_ok = PETSC_FALSE;
       continue;
     }
     // Column scaling from spins to incremental rotation vectors: d theta_b = H(omega_b) d omega_b.
-    Eigen::Map<Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>> K(k_spin, nd, nd);
-    for (int b = 0; b < n; ++b) K.middleCols<3>(6 * b + 3) = (K.middleCols<3>(6 * b + 3) * *tangents[b]).eval();
+    for (int b = 0; b < n; ++b) {
+      const Mat3 &H = *tangents[b];
+      for (int i = 0; i < nd; ++i) {
+        double *row = &K[i * nd + 6 * b + 3];
+        const double k0 = row[0], k1 = row[1], k2 = row[2];
+        for (int j = 0; j < 3; ++j) row[j] = k0 * H(0, j) + k1 * H(1, j) + k2 * H(2, j);
+      }
+    }
     ElementIndices(element, map, indices);
-    PetscCall(MatSetValues(jacobian, nd, indices, nd, indices, k_spin, ADD_VALUES));
+    PetscCall(AddElementMatrix(k, indices, nd, K, diagonal_values, off_diagonal_values));
+  }
+  if (!csr_destinations_.empty()) {
+    PetscCall(MatSeqAIJRestoreArray(diagonal_block_, &diagonal_values));
+    if (off_diagonal_block_) PetscCall(MatSeqAIJRestoreArray(off_diagonal_block_, &off_diagonal_values));
   }
   // Follower loads: d(-Lambda f0) = hat(f) d theta.
   for (PetscInt l = 0; l < map.num_owned_nodes; ++l) {

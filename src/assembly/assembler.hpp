@@ -60,6 +60,9 @@ public:
 
 private:
   PetscErrorCode ApplyPrescribedIncrements(double t_start, double t_end);
+  PetscErrorCode CreateCsrDestinations();
+  PetscErrorCode AddElementMatrix(size_t local_element, const PetscInt *indices, int num_dofs, const double *values, PetscScalar *diagonal_values,
+                                  PetscScalar *off_diagonal_values);
   double         FunctionValue(int function, double t) const;
 
   MPI_Comm                          comm_  = MPI_COMM_NULL;
@@ -79,6 +82,16 @@ private:
   Vec        ghosted_increments_ = nullptr; // sequential: the free DOFs of the local nodes
   VecScatter to_ghosted_        = nullptr;
   std::vector<PetscInt> ghosted_slot_;      // per local node and DOF: index in ghosted_increments_, -1 if constrained
+
+  // Direct assembly into the CSR value arrays of the owned rows (the pattern is fixed by exact
+  // preallocation, so the position of every element-matrix entry is computed once). Per local
+  // element, per entry (row-major): kCsrSkip (constrained row or column), kCsrOtherRank (row
+  // owned by another rank: goes through MatSetValues), an index >= 0 into the diagonal block's
+  // values, or kCsrOffDiagonal - index for the off-diagonal block. Empty when the matrix type
+  // is not AIJ: then everything goes through MatSetValues.
+  static constexpr PetscInt kCsrSkip = -1, kCsrOtherRank = -2, kCsrOffDiagonal = -3;
+  std::vector<std::vector<PetscInt>> csr_destinations_;
+  Mat                                diagonal_block_ = nullptr, off_diagonal_block_ = nullptr; // borrowed from jacobian_
 };
 
 } // namespace msflex

@@ -46,40 +46,45 @@ bool LocalCoordinates(int num_nodes, int c, const Vec3 *positions, const Mat3 *t
 }
 
 template <int NN>
-using LocalVector = Eigen::Matrix<double, 6 * (NN - 1), 1>;
-template <int NN>
-using LocalMatrix = Eigen::Matrix<double, 6 * (NN - 1), 6 * (NN - 1)>;
-template <int NN>
 using NodalMatrix = Eigen::Matrix<double, 6 * NN, 6 * NN, Eigen::RowMajor>;
+
+// Per Gauss point, the 3x3 products from which every block of the local stiffness is a scalar
+// combination (I_a, I'_a are the shape functions and derivatives at the point):
+//   local gradient   g_rho_a = wJ I'_a E N,   g_psi_a = wJ [I_a (A^T N + B^T M) + I'_a H M]
+//   material blocks  d(Gamma, K)/d(rho_a, psi_a) = [[I'_a E^T, I_a A], [0, I_a B + I'_a H^T]]
+//   geometric blocks (rho_a, psi_b): I'_a I_b P;  (psi_a, psi_b): I_a I_b (Sg + Sk) + I'_a I_b Q + I_a I'_b Q^T
+struct GaussProducts {
+  double wJ;
+  Vec3   EN, AN_BM, HM;                // E N, A^T N + B^T M, H M
+  Mat3   ECE, ECA, ACA;                // E C_N E^T, E C_N A, A^T C_N A
+  Mat3   BCB, BCH, HCH;                // B^T C_M B, B^T C_M H^T, H C_M H^T
+  Mat3   P, Q, S;                      // d(E N)/dPsi, d(H M)/dPsi, Sg + Sk
+};
 
 template <int NN>
 BeamKernelStatus InternalForces(const BeamElementReference &ref, const BeamSectionStiffness &section, const Vec3 *positions, const Mat3 *triads,
                                 double *residual_out, double *tangent_out, double *energy_out, BeamGaussResults *results)
 {
-  constexpr int NL = 6 * (NN - 1); // local coordinates: (rho_a, psi_a) of the non-reference nodes
-  const int     c  = ref.reference_node;
-  Vec3          rho[NN], psi[NN];
+  const int c = ref.reference_node;
+  Vec3      rho[NN], psi[NN];
   if (!LocalCoordinates(NN, c, positions, triads, rho, psi)) return BeamKernelStatus::RotationTooLarge;
-
-  // Map non-reference node a to its slot in the local vector.
-  int slot[NN], others[NN - 1];
-  for (int a = 0, o = 0; a < NN; ++a) {
-    slot[a] = (a == c) ? -1 : o;
+  int others[NN - 1];
+  for (int a = 0, o = 0; a < NN; ++a)
     if (a != c) others[o++] = a;
-  }
 
-  const bool        want_tangent = tangent_out != nullptr;
-  LocalVector<NN>   g_local      = LocalVector<NN>::Zero();
-  LocalMatrix<NN>   K_local      = LocalMatrix<NN>::Zero();
-  double            energy       = 0.0;
-  const Vec3       &CN           = section.axial_shear;
-  const Vec3       &CM           = section.torsion_bending;
+  const bool   want_tangent = tangent_out != nullptr;
+  const Vec3  &CN = section.axial_shear, &CM = section.torsion_bending;
+  double       energy = 0.0;
+  Vec3         g_rho[NN], g_psi[NN]; // gradient of the energy with respect to the local coordinates
+  for (int a = 0; a < NN; ++a) g_rho[a].setZero(), g_psi[a].setZero();
+  GaussProducts gauss[kBeamMaxGauss];
 
   for (int gp = 0; gp < ref.num_gauss; ++gp) {
     const double *I  = ref.shape[gp];
     const double *dI = ref.shape_derivative[gp];
-    const double  wJ = ref.weight_jacobian[gp];
-    Vec3          Psi = Vec3::Zero(), dPsi = Vec3::Zero(), drho = Vec3::Zero();
+    GaussProducts &G = gauss[gp];
+    G.wJ             = ref.weight_jacobian[gp];
+    Vec3 Psi = Vec3::Zero(), dPsi = Vec3::Zero(), drho = Vec3::Zero();
     for (int a = 0; a < NN; ++a) {
       Psi += I[a] * psi[a];
       dPsi += dI[a] * psi[a];
@@ -89,14 +94,12 @@ BeamKernelStatus InternalForces(const BeamElementReference &ref, const BeamSecti
     const RodriguesForm  Fe     = ExpForm(series);
     const RodriguesForm  Fh     = TangentForm(series);
     const Mat3           E      = RodriguesMatrix(Fe, Psi);
-    const Mat3           Hm     = RodriguesMatrix(Fh, Psi);
-    const Vec3           Gamma  = E.transpose() * drho;
-    const Vec3           Kappa  = Hm.transpose() * dPsi;
-    const Vec3           eps    = Gamma - ref.strain0[gp];
-    const Vec3           kap    = Kappa - ref.curvature0[gp];
+    const Mat3           H      = RodriguesMatrix(Fh, Psi);
+    const Vec3           eps    = E.transpose() * drho - ref.strain0[gp];   // Gamma - Gamma_0
+    const Vec3           kap    = H.transpose() * dPsi - ref.curvature0[gp]; // K - K_0
     const Vec3           N      = CN.cwiseProduct(eps);
     const Vec3           M      = CM.cwiseProduct(kap);
-    energy += 0.5 * wJ * (eps.dot(N) + kap.dot(M));
+    energy += 0.5 * G.wJ * (eps.dot(N) + kap.dot(M));
     if (results) {
       results->strain[gp]    = eps;
       results->curvature[gp] = kap;
@@ -106,85 +109,97 @@ BeamKernelStatus InternalForces(const BeamElementReference &ref, const BeamSecti
     // dGamma = A dPsi + E^T drho',  dK = B dPsi + H^T dPsi'
     const Mat3 A = RodriguesTransposeApplyJacobian(Fe, Psi, drho);
     const Mat3 B = RodriguesTransposeApplyJacobian(Fh, Psi, dPsi);
-
-    // Strain-displacement blocks D_a = d(Gamma, K)/d(rho_a, psi_a).
-    Eigen::Matrix<double, 6, 6> D[NN];
+    G.EN         = E * N;
+    G.AN_BM      = A.transpose() * N + B.transpose() * M;
+    G.HM         = H * M;
     for (int a : others) {
-      D[a].setZero();
-      D[a].template block<3, 3>(0, 0) = dI[a] * E.transpose();
-      D[a].template block<3, 3>(0, 3) = I[a] * A;
-      D[a].template block<3, 3>(3, 3) = I[a] * B + dI[a] * Hm.transpose();
+      g_rho[a] += G.wJ * dI[a] * G.EN;
+      g_psi[a] += G.wJ * (I[a] * G.AN_BM + dI[a] * G.HM);
     }
-    Eigen::Matrix<double, 6, 1> stress;
-    stress << N, M;
-    for (int a : others) g_local.template segment<6>(6 * slot[a]) += wJ * D[a].transpose() * stress;
     if (!want_tangent) continue;
-
-    // Material part: D_a^T C D_b.
-    Eigen::Matrix<double, 6, 1> Cdiag;
-    Cdiag << CN, CM;
-    for (int a : others) {
-      const Eigen::Matrix<double, 6, 6> DaC = D[a].transpose() * Cdiag.asDiagonal();
-      for (int b : others) K_local.template block<6, 6>(6 * slot[a], 6 * slot[b]) += wJ * DaC * D[b];
-    }
-    // Geometric part: second derivatives of N.Gamma + M.K at fixed N, M.
-    const Mat3 P  = RodriguesApplyJacobian(Fe, Psi, N);                 // d(E N)/dPsi
-    const Mat3 Q  = RodriguesApplyJacobian(Fh, Psi, M);                 // d(H M)/dPsi
-    const Mat3 Sg = RodriguesTransposeApplyHessian(Fe, Psi, drho, N);   // d2(N.E^T rho')/dPsi2
-    const Mat3 Sk = RodriguesTransposeApplyHessian(Fh, Psi, dPsi, M);   // d2(M.H^T Psi')/dPsi2
-    for (int a : others) {
-      for (int b : others) {
-        auto Kab = K_local.template block<6, 6>(6 * slot[a], 6 * slot[b]);
-        Kab.template block<3, 3>(0, 3) += wJ * dI[a] * I[b] * P;
-        Kab.template block<3, 3>(3, 0) += wJ * I[a] * dI[b] * P.transpose();
-        Kab.template block<3, 3>(3, 3) += wJ * (I[a] * I[b] * (Sg + Sk) + dI[a] * I[b] * Q + I[a] * dI[b] * Q.transpose());
-      }
-    }
+    const Mat3 ECN = E * CN.asDiagonal(), ACN = A.transpose() * CN.asDiagonal();
+    const Mat3 BCM = B.transpose() * CM.asDiagonal(), HCM = H * CM.asDiagonal();
+    G.ECE = ECN * E.transpose();
+    G.ECA = ECN * A;
+    G.ACA = ACN * A;
+    G.BCB = BCM * B;
+    G.BCH = BCM * H.transpose();
+    G.HCH = HCM * H.transpose();
+    G.P   = RodriguesApplyJacobian(Fe, Psi, N);
+    G.Q   = RodriguesApplyJacobian(Fh, Psi, M);
+    G.S   = RodriguesTransposeApplyHessian(Fe, Psi, drho, N) + RodriguesTransposeApplyHessian(Fh, Psi, dPsi, M);
   }
-
-  // Chain rule to nodal (x, theta): delta rho_a = Lc^T (dx_a - dx_c + hat(d_a) dtheta_c),
-  // delta psi_a = Hinv(psi_a) Lc^T (dtheta_a - dtheta_c), d_a = x_a - x_c.
-  const Mat3                                   Lc  = triads[c];
-  const Mat3                                   LcT = Lc.transpose();
-  Eigen::Matrix<double, NL, 6 * NN>            T   = Eigen::Matrix<double, NL, 6 * NN>::Zero();
-  Mat3                                         Hinv[NN];
-  RodriguesForm                                Finv[NN];
-  for (int a : others) {
-    const int o = 6 * slot[a];
-    Finv[a]     = TangentInverseForm(EvaluateRotationSeries(psi[a].squaredNorm()));
-    Hinv[a]     = RodriguesMatrix(Finv[a], psi[a]);
-    const Vec3 d = positions[a] - positions[c];
-    T.template block<3, 3>(o, 6 * a)         = LcT;
-    T.template block<3, 3>(o, 6 * c)         = -LcT;
-    T.template block<3, 3>(o, 6 * c + 3)     = LcT * Skew(d);
-    T.template block<3, 3>(o + 3, 6 * a + 3) = Hinv[a] * LcT;
-    T.template block<3, 3>(o + 3, 6 * c + 3) = -Hinv[a] * LcT;
-  }
-  Eigen::Map<Eigen::Matrix<double, 6 * NN, 1>> residual(residual_out);
-  residual = T.transpose() * g_local;
   if (energy_out) *energy_out = energy;
+
+  // Chain rule to nodal (x, theta), with d_a = x_a - x_c, L = Lambda_c:
+  //   delta rho_a = L^T (dx_a - dx_c) + M_a dtheta_c,  M_a = L^T hat(d_a)
+  //   delta psi_a = P_a (dtheta_a - dtheta_c),         P_a = Hinv(psi_a) L^T
+  const Mat3    &L  = triads[c];
+  const Mat3     LT = L.transpose();
+  Mat3           Pm[NN], Mm[NN];
+  RodriguesForm  Finv[NN];
+  Eigen::Map<Eigen::Matrix<double, 6 * NN, 1>> residual(residual_out);
+  residual.setZero();
+  for (int a : others) {
+    Finv[a]      = TangentInverseForm(EvaluateRotationSeries(psi[a].squaredNorm()));
+    Pm[a]        = RodriguesMatrix(Finv[a], psi[a]) * LT;
+    Mm[a]        = LT * Skew(positions[a] - positions[c]);
+    const Vec3 f = L * g_rho[a];
+    const Vec3 m = Pm[a].transpose() * g_psi[a];
+    residual.template segment<3>(6 * a) += f;
+    residual.template segment<3>(6 * a + 3) += m;
+    residual.template segment<3>(6 * c) -= f;
+    residual.template segment<3>(6 * c + 3) += Mm[a].transpose() * g_rho[a] - m;
+  }
   if (!want_tangent) return BeamKernelStatus::Ok;
 
   Eigen::Map<NodalMatrix<NN>> K(tangent_out);
-  K = T.transpose() * K_local * T;
-  // Terms from the configuration dependence of T at fixed local gradient g:
-  //   f_a = Lc g_rho_a, m_a = Lc Hinv_a^T g_psi_a, G_a = Lc d(Hinv^T g_psi)/dpsi Hinv_a Lc^T.
+  K.setZero();
   for (int a : others) {
-    const int  o   = 6 * slot[a];
-    const Vec3 f   = Lc * g_local.template segment<3>(o);
-    const Vec3 gps = g_local.template segment<3>(o + 3);
-    const Vec3 m   = Lc * (Hinv[a].transpose() * gps);
-    const Mat3 G   = Lc * RodriguesTransposeApplyJacobian(Finv[a], psi[a], gps) * Hinv[a] * LcT;
-    const Vec3 d   = positions[a] - positions[c];
+    for (int b : others) {
+      // Local stiffness blocks of (a, b), summed over the Gauss points.
+      Mat3 Krr = Mat3::Zero(), Krp = Mat3::Zero(), Kpr = Mat3::Zero(), Kpp = Mat3::Zero();
+      for (int gp = 0; gp < ref.num_gauss; ++gp) {
+        const GaussProducts &G  = gauss[gp];
+        const double        *I  = ref.shape[gp];
+        const double        *dI = ref.shape_derivative[gp];
+        Krr += (G.wJ * dI[a] * dI[b]) * G.ECE;
+        Krp += (G.wJ * dI[a] * I[b]) * (G.ECA + G.P);
+        Kpr += (G.wJ * I[a] * dI[b]) * (G.ECA + G.P).transpose();
+        Kpp += G.wJ * (I[a] * I[b] * (G.ACA + G.BCB + G.S) + I[a] * dI[b] * (G.BCH + G.Q.transpose()) + dI[a] * I[b] * (G.BCH.transpose() + G.Q) +
+                       dI[a] * dI[b] * G.HCH);
+      }
+      const Mat3 PaT = Pm[a].transpose();
+      const Mat3 LKrr = L * Krr, LKrp = L * Krp, PKpr = PaT * Kpr, PKpp = PaT * Kpp;
+      const Mat3 Nxx = LKrr * LT, Nxt = LKrp * Pm[b], Ntx = PKpr * LT, Ntt = PKpp * Pm[b];
+      // The rank-3 part of the map (M_b on dtheta_c) adds to the columns and rows of theta_c.
+      const Mat3 Cx = LKrr * Mm[b], Ct = PKpr * Mm[b];
+      const Mat3 MaT = Mm[a].transpose();
+      const Mat3 Rx = MaT * Krr * LT, Rt = MaT * Krp * Pm[b], Ecc = MaT * Krr * Mm[b];
+      auto add = [&K](int row, int column, const Mat3 &block) { K.template block<3, 3>(row, column) += block; };
+      const int ax = 6 * a, at = 6 * a + 3, bx = 6 * b, bt = 6 * b + 3, cx = 6 * c, ct = 6 * c + 3;
+      add(ax, bx, Nxx), add(ax, bt, Nxt), add(at, bx, Ntx), add(at, bt, Ntt);
+      add(ax, cx, -Nxx), add(ax, ct, Cx - Nxt), add(at, cx, -Ntx), add(at, ct, Ct - Ntt);
+      add(cx, bx, -Nxx), add(cx, bt, -Nxt), add(ct, bx, Rx - Ntx), add(ct, bt, Rt - Ntt);
+      add(cx, cx, Nxx), add(cx, ct, Nxt - Cx), add(ct, cx, Ntx - Rx), add(ct, ct, Ntt - Ct - Rt + Ecc);
+    }
+  }
+  // Terms from the configuration dependence of the map at fixed local gradient g:
+  //   f_a = L g_rho_a, m_a = P_a^T g_psi_a, G_a = L d(Hinv^T g_psi)/dpsi P_a.
+  for (int a : others) {
+    const Vec3 f  = L * g_rho[a];
+    const Vec3 m  = Pm[a].transpose() * g_psi[a];
+    const Mat3 Ga = L * RodriguesTransposeApplyJacobian(Finv[a], psi[a], g_psi[a]) * Pm[a];
+    const Vec3 d  = positions[a] - positions[c];
     const Mat3 hf = Skew(f), hm = Skew(m);
     K.template block<3, 3>(6 * a, 6 * c + 3) -= hf;
     K.template block<3, 3>(6 * c, 6 * c + 3) += hf;
     K.template block<3, 3>(6 * c + 3, 6 * a) += hf;
     K.template block<3, 3>(6 * c + 3, 6 * c) -= hf;
-    K.template block<3, 3>(6 * c + 3, 6 * c + 3) += Skew(d) * hf + hm + G;
-    K.template block<3, 3>(6 * a + 3, 6 * c + 3) -= hm + G;
-    K.template block<3, 3>(6 * a + 3, 6 * a + 3) += G;
-    K.template block<3, 3>(6 * c + 3, 6 * a + 3) -= G;
+    K.template block<3, 3>(6 * c + 3, 6 * c + 3) += Skew(d) * hf + hm + Ga;
+    K.template block<3, 3>(6 * a + 3, 6 * c + 3) -= hm + Ga;
+    K.template block<3, 3>(6 * a + 3, 6 * a + 3) += Ga;
+    K.template block<3, 3>(6 * c + 3, 6 * a + 3) -= Ga;
   }
   return BeamKernelStatus::Ok;
 }
