@@ -9,6 +9,10 @@ PetscErrorCode SettingsFromOptions(MPI_Comm comm, Model *model, RunOptions *opti
 {
   AnalysisSettings &a = model->analysis;
   PetscInt          easy_iterations = a.easy_iterations, easy_steps = a.easy_steps_to_grow, max_newton = a.max_newton_iterations;
+  // -analysis_output_times replaces the input's list; room for as many entries as anyone types.
+  std::vector<PetscReal> output_times(1024);
+  PetscInt               num_output_times = (PetscInt)output_times.size();
+  PetscBool              output_times_set = PETSC_FALSE;
   PetscFunctionBeginUser;
   PetscOptionsBegin(comm, "analysis_", "Analysis settings (defaults: the input's analysis section)", "msflex");
   PetscCall(PetscOptionsReal("-end_time", "Final (pseudo-)time", "", a.end_time, &a.end_time, nullptr));
@@ -22,7 +26,9 @@ PetscErrorCode SettingsFromOptions(MPI_Comm comm, Model *model, RunOptions *opti
   PetscCall(PetscOptionsReal("-max_rotation_increment", "Largest nodal rotation per step, rad", "", a.max_rotation_increment, &a.max_rotation_increment, nullptr));
   PetscCall(PetscOptionsReal("-newton_rtol", "Newton relative residual tolerance", "", a.newton_rtol, &a.newton_rtol, nullptr));
   PetscCall(PetscOptionsReal("-newton_atol", "Newton absolute residual tolerance", "", a.newton_atol, &a.newton_atol, nullptr));
+  PetscCall(PetscOptionsRealArray("-output_times", "Times the steps must land on (comma separated)", "", output_times.data(), &num_output_times, &output_times_set));
   PetscOptionsEnd();
+  if (output_times_set) a.output_times.assign(output_times.begin(), output_times.begin() + num_output_times);
   a.easy_iterations       = (int)easy_iterations;
   a.easy_steps_to_grow    = (int)easy_steps;
   a.max_newton_iterations = (int)max_newton;
@@ -37,6 +43,9 @@ PetscErrorCode SettingsFromOptions(MPI_Comm comm, Model *model, RunOptions *opti
   PetscCheck(a.growth_factor >= 1.0, comm, PETSC_ERR_USER_INPUT, "option -analysis_growth_factor must be >= 1, got %g", a.growth_factor);
   PetscCheck(a.min_step <= a.initial_step, comm, PETSC_ERR_USER_INPUT, "min_step %g is larger than initial_step %g", a.min_step, a.initial_step);
   PetscCheck(a.max_rotation_increment < M_PI, comm, PETSC_ERR_USER_INPUT, "max_rotation_increment must be below pi, got %g", a.max_rotation_increment);
+  for (size_t i = 0; i < a.output_times.size(); ++i)
+    PetscCheck(a.output_times[i] > 0 && a.output_times[i] <= a.end_time && (i == 0 || a.output_times[i] > a.output_times[i - 1]), comm, PETSC_ERR_USER_INPUT,
+               "output time %g must lie in (0, end_time = %g] and exceed the one before it", a.output_times[i], a.end_time);
 
   char     file[PETSC_MAX_PATH_LEN];
   PetscInt every = model->output.every; // default: the input's output.every
