@@ -29,6 +29,16 @@ Assembler::~Assembler()
   VecScatterDestroy(&to_ghosted_);
 }
 
+void Assembler::ElementConfiguration(const BeamElement &element, Vec3 *positions, Mat3 *triads, const Mat3 **rotation_tangents) const
+{
+  for (int a = 0; a <= element.order; ++a) {
+    const NodeState &s = nodes_[map_->node_to_local[element.nodes[a]]];
+    positions[a]       = s.position;
+    triads[a]          = s.rotation * element.reference_triads[a];
+    if (rotation_tangents) rotation_tangents[a] = &s.rotation_tangent;
+  }
+}
+
 double Assembler::FunctionValue(int function, double t) const { return function < 0 ? t : model_->functions[function].Evaluate(t); }
 
 PetscErrorCode Assembler::Setup(MPI_Comm comm, const Model &model, const DofMap &map)
@@ -306,11 +316,7 @@ PetscErrorCode Assembler::AssembleResidual(Vec residual, PetscBool *geometry_ok)
     const int          n       = element.order + 1;
     Vec3               positions[kBeamMaxNodes];
     Mat3               triads[kBeamMaxNodes];
-    for (int a = 0; a < n; ++a) {
-      const NodeState &s = nodes_[map.node_to_local[element.nodes[a]]];
-      positions[a]       = s.position;
-      triads[a]          = s.rotation * element.reference_triads[a];
-    }
+    ElementConfiguration(element, positions, triads, nullptr);
     double                 r[kBeamMaxDofs];
     PetscInt               indices[kBeamMaxDofs];
     const BeamKernelStatus status = BeamInternalForces(element_references_[k], section_stiffness_[element.section], positions, triads, r, nullptr, nullptr, nullptr);
@@ -364,12 +370,7 @@ PetscErrorCode Assembler::AssembleJacobian(Mat jacobian, PetscBool *geometry_ok)
     Vec3               positions[kBeamMaxNodes];
     Mat3               triads[kBeamMaxNodes];
     const Mat3        *tangents[kBeamMaxNodes];
-    for (int a = 0; a < n; ++a) {
-      const NodeState &s = nodes_[map.node_to_local[element.nodes[a]]];
-      positions[a]       = s.position;
-      triads[a]          = s.rotation * element.reference_triads[a];
-      tangents[a]        = &s.rotation_tangent;
-    }
+    ElementConfiguration(element, positions, triads, tangents);
     double                 r[kBeamMaxDofs], K[kBeamMaxDofs * kBeamMaxDofs];
     PetscInt               indices[kBeamMaxDofs];
     const BeamKernelStatus status = BeamInternalForces(element_references_[k], section_stiffness_[element.section], positions, triads, r, K, nullptr, nullptr);
@@ -454,14 +455,9 @@ PetscErrorCode Assembler::EvaluateResults(std::vector<ElementResults> *results, 
   results->resize(map.local_elements.size());
   for (size_t k = 0; k < map.local_elements.size(); ++k) {
     const BeamElement &element = model.elements[map.local_elements[k]];
-    const int          n       = element.order + 1;
     Vec3               positions[kBeamMaxNodes];
     Mat3               triads[kBeamMaxNodes];
-    for (int a = 0; a < n; ++a) {
-      const NodeState &s = nodes_[map.node_to_local[element.nodes[a]]];
-      positions[a]       = s.position;
-      triads[a]          = s.rotation * element.reference_triads[a];
-    }
+    ElementConfiguration(element, positions, triads, nullptr);
     double           r[kBeamMaxDofs], energy = 0.0;
     BeamGaussResults gauss;
     const BeamKernelStatus status = BeamInternalForces(element_references_[k], section_stiffness_[element.section], positions, triads, r, nullptr, &energy, &gauss);

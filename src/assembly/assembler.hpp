@@ -64,6 +64,8 @@ private:
   PetscErrorCode AddElementMatrix(size_t local_element, const PetscInt *indices, int num_dofs, const double *values, PetscScalar *diagonal_values,
                                   PetscScalar *off_diagonal_values);
   double         FunctionValue(int function, double t) const;
+  // Current nodal positions and section triads of an element (and the nodes' H(omega) if asked).
+  void ElementConfiguration(const BeamElement &element, Vec3 *positions, Mat3 *triads, const Mat3 **rotation_tangents) const;
 
   MPI_Comm                          comm_  = MPI_COMM_NULL;
   const Model                      *model_ = nullptr;

@@ -22,6 +22,19 @@ void BuildOutputMesh(const Model &model, OutputMesh *mesh)
   for (const Beam &beam : model.beams) mesh->beam_names.push_back(beam.name);
 }
 
+// Position (3), displacement (3), quaternion (4) and tracked rotation angle (1) of a node.
+constexpr int kNodeRecordSize = 11;
+static void PackNodeRecord(const Model &model, int node, const NodeState &state, double *out)
+{
+  const Quaternion q = NodeStateCurrentQuaternion(state);
+  for (int i = 0; i < 3; ++i) {
+    out[i]     = state.position(i);
+    out[3 + i] = state.position(i) - model.nodes[node].position(i);
+  }
+  out[6] = q.w, out[7] = q.x, out[8] = q.y, out[9] = q.z;
+  out[10] = QuaternionTrackedAngle(q);
+}
+
 // Each rank fills the entries it owns in zeroed global arrays; a sum on rank 0 assembles them.
 // O(model size) per rank: adequate until the distributed output of large networks.
 PetscErrorCode GatherFrame(MPI_Comm comm, const Model &model, const Assembler &assembler, const std::vector<ElementResults> &element_results, int step,
@@ -33,20 +46,10 @@ PetscErrorCode GatherFrame(MPI_Comm comm, const Model &model, const Assembler &a
   const DofMap &map          = assembler.Map();
   const size_t  num_nodes    = model.nodes.size();
   const size_t  num_elements = model.elements.size();
-  // Per node: position (3), displacement (3), quaternion (4); per element: strains (6), resultants (6).
-  std::vector<double> node_data(10 * num_nodes, 0.0), element_data(12 * num_elements, 0.0);
+  // Per node a node record; per element: strains (6), resultants (6).
+  std::vector<double> node_data(kNodeRecordSize * num_nodes, 0.0), element_data(12 * num_elements, 0.0);
   const std::vector<NodeState> &nodes = assembler.LocalNodes();
-  for (PetscInt l = 0; l < map.num_owned_nodes; ++l) {
-    const int         node = map.local_nodes[l];
-    const NodeState  &s    = nodes[l];
-    const Quaternion  q    = NodeStateCurrentQuaternion(s);
-    double           *out  = &node_data[10 * node];
-    for (int i = 0; i < 3; ++i) {
-      out[i]     = s.position(i);
-      out[3 + i] = s.position(i) - model.nodes[node].position(i);
-    }
-    out[6] = q.w, out[7] = q.x, out[8] = q.y, out[9] = q.z;
-  }
+  for (PetscInt l = 0; l < map.num_owned_nodes; ++l) PackNodeRecord(model, map.local_nodes[l], nodes[l], &node_data[kNodeRecordSize * map.local_nodes[l]]);
   for (size_t k = 0; k < map.local_elements.size(); ++k) {
     const ElementResults &r   = element_results[k];
     double               *out = &element_data[12 * map.local_elements[k]];
@@ -66,7 +69,7 @@ PetscErrorCode GatherFrame(MPI_Comm comm, const Model &model, const Assembler &a
   frame->time = time;
   if (rank != 0) PetscFunctionReturn(PETSC_SUCCESS);
   for (size_t i = 0; i < num_nodes; ++i) {
-    const double *in = &node_sum[10 * i];
+    const double *in = &node_sum[kNodeRecordSize * i];
     frame->position.insert(frame->position.end(), in, in + 3);
     frame->displacement.insert(frame->displacement.end(), in + 3, in + 6);
     frame->rotation.insert(frame->rotation.end(), in + 6, in + 10);
@@ -85,26 +88,17 @@ PetscErrorCode SampleProbes(MPI_Comm comm, const Model &model, const Assembler &
   const DofMap                 &map   = assembler.Map();
   const std::vector<NodeState> &nodes = assembler.LocalNodes();
   const size_t                  count = model.probes.size();
-  std::vector<double>           local(11 * count, 0.0), global(11 * count, 0.0);
+  std::vector<double>           local(kNodeRecordSize * count, 0.0), global(kNodeRecordSize * count, 0.0);
   for (size_t p = 0; p < count; ++p) {
     const int node = model.probes[p].node;
     const int l    = map.node_to_local[node];
-    if (l < 0 || l >= map.num_owned_nodes) continue;
-    const NodeState  &s   = nodes[l];
-    const Quaternion  q   = NodeStateCurrentQuaternion(s);
-    double           *out = &local[11 * p];
-    for (int i = 0; i < 3; ++i) {
-      out[i]     = s.position(i);
-      out[3 + i] = s.position(i) - model.nodes[node].position(i);
-    }
-    out[6] = q.w, out[7] = q.x, out[8] = q.y, out[9] = q.z;
-    out[10] = QuaternionTrackedAngle(q);
+    if (l >= 0 && l < map.num_owned_nodes) PackNodeRecord(model, node, nodes[l], &local[kNodeRecordSize * p]);
   }
   PetscCall(MPIU_Allreduce(local.data(), global.data(), (PetscMPIInt)global.size(), MPI_DOUBLE, MPI_SUM, comm));
   samples->assign(count, ProbeSample{});
   for (size_t p = 0; p < count; ++p) {
     ProbeSample  &sample = (*samples)[p];
-    const double *in     = &global[11 * p];
+    const double *in     = &global[kNodeRecordSize * p];
     sample.name          = model.probes[p].name;
     for (int i = 0; i < 3; ++i) {
       sample.position[i]     = in[i];
