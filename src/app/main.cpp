@@ -10,7 +10,7 @@ static const char help[] = "msflex: flexible mechanisms of geometrically exact b
 
 #include "app/settings.hpp"
 #include "core/errors.hpp"
-#include "integrators/static_solver.hpp"
+#include "integrators/analysis.hpp"
 #include "io/input_reader.hpp"
 
 #include <petscsys.h>
@@ -41,7 +41,7 @@ static PetscErrorCode RunMsflex(int argc, char **argv)
   PetscCall(ReadModelEverywhere(comm, argv[1], &model));
   RunOptions options;
   PetscCall(SettingsFromOptions(comm, &model, &options));
-  PetscCall(RunStaticAnalysis(comm, model, options));
+  PetscCall(RunAnalysis(comm, model, options));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 

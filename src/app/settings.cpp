@@ -13,8 +13,14 @@ PetscErrorCode SettingsFromOptions(MPI_Comm comm, Model *model, RunOptions *opti
   std::vector<PetscReal> output_times(1024);
   PetscInt               num_output_times = (PetscInt)output_times.size();
   PetscBool              output_times_set = PETSC_FALSE;
+  char                   type[32], integrator[32];
   PetscFunctionBeginUser;
+  PetscCall(PetscStrncpy(type, a.type.c_str(), sizeof(type)));
+  PetscCall(PetscStrncpy(integrator, a.integrator.c_str(), sizeof(integrator)));
   PetscOptionsBegin(comm, "analysis_", "Analysis settings (defaults: the input's analysis section)", "msflex");
+  PetscCall(PetscOptionsString("-type", "static or dynamic", "", type, type, sizeof(type), nullptr));
+  PetscCall(PetscOptionsString("-integrator", "newmark, mc, em or genalpha", "", integrator, integrator, sizeof(integrator), nullptr));
+  PetscCall(PetscOptionsReal("-spectral_radius", "rho_infinity of genalpha", "", a.spectral_radius, &a.spectral_radius, nullptr));
   PetscCall(PetscOptionsReal("-end_time", "Final (pseudo-)time", "", a.end_time, &a.end_time, nullptr));
   PetscCall(PetscOptionsReal("-initial_step", "First step size", "", a.initial_step, &a.initial_step, nullptr));
   PetscCall(PetscOptionsReal("-min_step", "Smallest step before giving up", "", a.min_step, &a.min_step, nullptr));
@@ -28,6 +34,13 @@ PetscErrorCode SettingsFromOptions(MPI_Comm comm, Model *model, RunOptions *opti
   PetscCall(PetscOptionsReal("-newton_atol", "Newton absolute residual tolerance", "", a.newton_atol, &a.newton_atol, nullptr));
   PetscCall(PetscOptionsRealArray("-output_times", "Times the steps must land on (comma separated)", "", output_times.data(), &num_output_times, &output_times_set));
   PetscOptionsEnd();
+  a.type       = type;
+  a.integrator = integrator;
+  PetscCheck(a.type == "static" || a.type == "dynamic", comm, PETSC_ERR_USER_INPUT, "option -analysis_type must be static or dynamic, got '%s'", type);
+  PetscCheck(a.integrator == "newmark" || a.integrator == "mc" || a.integrator == "em" || a.integrator == "genalpha", comm, PETSC_ERR_USER_INPUT,
+             "option -analysis_integrator must be newmark, mc, em or genalpha, got '%s'", integrator);
+  PetscCheck(a.spectral_radius >= 0.0 && a.spectral_radius <= 1.0, comm, PETSC_ERR_USER_INPUT, "option -analysis_spectral_radius must lie in [0, 1], got %g",
+             a.spectral_radius);
   if (output_times_set) a.output_times.assign(output_times.begin(), output_times.begin() + num_output_times);
   a.easy_iterations       = (int)easy_iterations;
   a.easy_steps_to_grow    = (int)easy_steps;

@@ -19,6 +19,14 @@ int ElementIndices(const BeamElement &element, const DofMap &map, PetscInt *indi
     for (int d = 0; d < 6; ++d) indices[6 * a + d] = map.node_dofs[element.nodes[a]][d];
   return 6 * num_nodes;
 }
+
+// Body-frame rotary inertia that an element lumps to its node a by nodal quadrature of eq. (17):
+// integral of I_a ds times the section inertia rhoJ turned from the section into the node frame.
+Mat3 LumpedRotaryInertia(const BeamElementReference &ref, const BeamElement &element, const Section &section, int a)
+{
+  const Mat3 &T0 = element.reference_triads[a];
+  return ref.nodal_length[a] * (T0 * section.rhoJ.asDiagonal() * T0.transpose());
+}
 } // namespace
 
 Assembler::~Assembler()
@@ -39,7 +47,27 @@ void Assembler::ElementConfiguration(const BeamElement &element, Vec3 *positions
   }
 }
 
+void Assembler::ElementStartConfiguration(const BeamElement &element, Vec3 *positions, Mat3 *triads) const
+{
+  for (int a = 0; a <= element.order; ++a) {
+    const NodeState &s = nodes_[map_->node_to_local[element.nodes[a]]];
+    positions[a]       = s.position_start;
+    triads[a]          = QuaternionToMatrix(s.rotation_start) * element.reference_triads[a];
+  }
+}
+
 double Assembler::FunctionValue(int function, double t) const { return function < 0 ? t : model_->functions[function].Evaluate(t); }
+
+// Derivatives of a load or motion function by second-order one-sided differences (the tables are
+// only piecewise smooth, so stay on the side of the coming motion).
+double Assembler::FunctionDerivative(int function, double t, int order) const
+{
+  const double h = 1e-4 * std::max(1.0, std::abs(t));
+  const double f0 = FunctionValue(function, t), f1 = FunctionValue(function, t + h), f2 = FunctionValue(function, t + 2 * h);
+  if (order == 1) return (-3.0 * f0 + 4.0 * f1 - f2) / (2.0 * h);
+  const double f3 = FunctionValue(function, t + 3 * h);
+  return (2.0 * f0 - 5.0 * f1 + 4.0 * f2 - f3) / (h * h);
+}
 
 PetscErrorCode Assembler::Setup(MPI_Comm comm, const Model &model, const DofMap &map)
 {
@@ -54,28 +82,58 @@ PetscErrorCode Assembler::Setup(MPI_Comm comm, const Model &model, const DofMap 
 
   for (const Section &s : model.sections) section_stiffness_.push_back({Vec3(s.EA, s.GA2, s.GA3), Vec3(s.GJ, s.EI2, s.EI3)});
 
-  element_references_.resize(map.local_elements.size());
-  for (size_t k = 0; k < map.local_elements.size(); ++k) {
-    const BeamElement &element = model.elements[map.local_elements[k]];
-    const int          n       = element.order + 1;
+  auto setup_element = [&](int e, BeamElementReference *ref) -> PetscErrorCode {
+    const BeamElement &element = model.elements[e];
     Vec3               positions[kBeamMaxNodes];
-    for (int a = 0; a < n; ++a) positions[a] = model.nodes[element.nodes[a]].position;
-    const BeamKernelStatus status = BeamElementSetup(n, positions, element.reference_triads.data(), &element_references_[k]);
+    PetscFunctionBeginUser;
+    for (int a = 0; a <= element.order; ++a) positions[a] = model.nodes[element.nodes[a]].position;
+    const BeamKernelStatus status = BeamElementSetup(element.order + 1, positions, element.reference_triads.data(), ref);
     const Beam            &beam   = model.beams[element.beam];
-    MSFLEX_INPUT_CHECK(status == BeamKernelStatus::Ok, beam.mark, "beam '%s': element %d is degenerate (zero length or reference triads turning by pi or more)",
-                       beam.name.c_str(), (int)k);
-  }
+    MSFLEX_INPUT_CHECK(status == BeamKernelStatus::Ok, beam.mark, "beam '%s': an element is degenerate (zero length or reference triads turning by pi or more)",
+                       beam.name.c_str());
+    PetscFunctionReturn(PETSC_SUCCESS);
+  };
+  element_references_.resize(map.local_elements.size());
+  for (size_t k = 0; k < map.local_elements.size(); ++k) PetscCall(setup_element(map.local_elements[k], &element_references_[k]));
 
   nodes_.resize(map.local_nodes.size());
   for (size_t l = 0; l < nodes_.size(); ++l) {
     nodes_[l].position_start = model.nodes[map.local_nodes[l]].position;
     NodeStateUpdateCurrent(&nodes_[l]);
   }
+  // Rotary inertia of owned nodes from every element that touches them (on any rank) and from
+  // their rigid bodies, whose translational inertia sits at their centre of mass.
+  node_inertia_.assign(map.num_owned_nodes, Mat3::Zero());
+  for (size_t e = 0; e < model.elements.size(); ++e) {
+    const BeamElement &element = model.elements[e];
+    if (model.sections[element.section].rhoJ.isZero(0.0)) continue;
+    BeamElementReference ref;
+    bool                 setup_done = false;
+    for (int a = 0; a <= element.order; ++a) {
+      const int l = map.node_to_local[element.nodes[a]];
+      if (l < 0 || l >= map.num_owned_nodes) continue;
+      if (!setup_done) PetscCall(setup_element((int)e, &ref));
+      setup_done = true;
+      node_inertia_[l] += LumpedRotaryInertia(ref, element, model.sections[element.section], a);
+    }
+  }
+  rigid_bodies_.clear();
+  for (const RigidBody &body : model.rigid_bodies) {
+    const int l = map.node_to_local[body.node];
+    if (l < 0 || l >= map.num_owned_nodes) continue;
+    node_inertia_[l] += body.inertia;
+    LocalRigidBody local;
+    local.local_node = l;
+    local.mass       = body.mass;
+    local.offset     = body.offset;
+    rigid_bodies_.push_back(local);
+  }
+
   element_line_load_.assign(map.local_elements.size(), Vec3::Zero());
   dead_force_.assign(map.num_owned_nodes, Vec3::Zero());
-  dead_moment_      = dead_force_;
-  follower_force_   = dead_force_;
-  follower_moment_  = dead_force_;
+  dead_moment_ = follower_force_start_ = follower_moment_start_ = follower_force_end_ = follower_moment_end_ = dead_force_;
+  element_force_scratch_.assign(kBeamMaxDofs * map.local_elements.size(), 0.0);
+  element_correction_scratch_.assign(kBeamMaxDofs * map.local_elements.size(), 0.0);
 
   // Matrix with exact preallocation; a missed preallocation is a bug, so make it an error.
   std::vector<PetscInt> diagonal_nonzeros, off_diagonal_nonzeros;
@@ -121,6 +179,11 @@ PetscErrorCode Assembler::CreateCsrDestinations()
     PetscInt  indices[kBeamMaxDofs];
     const int nd = ElementIndices(model_->elements[e], map, indices);
     PetscCall(MatSetValues(jacobian_, nd, indices, nd, indices, zeros.data(), ADD_VALUES));
+  }
+  // Nodal blocks (inertia, follower loads, rigid bodies), also of nodes that carry no element.
+  for (PetscInt l = 0; l < map.num_owned_nodes; ++l) {
+    const PetscInt *indices = map.node_dofs[map.local_nodes[l]].data();
+    PetscCall(MatSetValues(jacobian_, 6, indices, 6, indices, zeros.data(), ADD_VALUES));
   }
   PetscCall(MatAssemblyBegin(jacobian_, MAT_FINAL_ASSEMBLY));
   PetscCall(MatAssemblyEnd(jacobian_, MAT_FINAL_ASSEMBLY));
@@ -215,17 +278,42 @@ PetscErrorCode Assembler::AddElementMatrix(size_t local_element, const PetscInt 
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
-PetscErrorCode Assembler::BeginStep(double t_start, double t_end)
+PetscErrorCode Assembler::BeginStep(double t_start, double t_end, const TimeScheme *scheme)
+{
+  PetscFunctionBeginUser;
+  mode_ = scheme ? Mode::Dynamic : Mode::Static;
+  if (scheme) scheme_ = *scheme;
+  // The mid-point family takes the mean of the loads at both ends of the step.
+  const bool midpoint = scheme && scheme->Midpoint();
+  load_weight_start_  = midpoint ? 0.5 : 0.0;
+  load_weight_end_    = midpoint ? 0.5 : 1.0;
+  PetscCall(ComputeLoads(t_start, t_end));
+  PetscCall(ApplyPrescribedValues(t_start, t_end));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode Assembler::BeginInitialAcceleration(double t)
+{
+  PetscFunctionBeginUser;
+  mode_              = Mode::InitialAcceleration;
+  load_weight_start_ = 0.0;
+  load_weight_end_   = 1.0;
+  PetscCall(ComputeLoads(t, t));
+  PetscCall(ApplyPrescribedValues(t, t));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode Assembler::ComputeLoads(double t_start, double t_end)
 {
   PetscFunctionBeginUser;
   const Model  &model = *model_;
   const DofMap &map   = *map_;
-  // Distributed loads on the local elements.
+  const double  w0 = load_weight_start_, w1 = load_weight_end_;
   std::fill(element_line_load_.begin(), element_line_load_.end(), Vec3::Zero());
   std::vector<int> element_to_local(model.elements.size(), -1);
   for (size_t k = 0; k < map.local_elements.size(); ++k) element_to_local[map.local_elements[k]] = (int)k;
   for (const DistributedLoad &load : model.distributed_loads) {
-    const double factor = FunctionValue(load.function, t_end);
+    const double factor = w0 * FunctionValue(load.function, t_start) + w1 * FunctionValue(load.function, t_end);
     for (int e : load.elements) {
       const int k = element_to_local[e];
       if (k < 0) continue;
@@ -233,30 +321,37 @@ PetscErrorCode Assembler::BeginStep(double t_start, double t_end)
       element_line_load_[k] += factor * scale * load.force_per_length;
     }
   }
-  // Concentrated loads on owned nodes.
+  for (LocalRigidBody &body : rigid_bodies_) {
+    body.gravity_force.setZero();
+    for (const DistributedLoad &load : model.distributed_loads)
+      if (load.gravity) body.gravity_force += (w0 * FunctionValue(load.function, t_start) + w1 * FunctionValue(load.function, t_end)) * body.mass * load.force_per_length;
+  }
   for (PetscInt l = 0; l < map.num_owned_nodes; ++l) {
-    dead_force_[l].setZero();
-    dead_moment_[l].setZero();
-    follower_force_[l].setZero();
-    follower_moment_[l].setZero();
+    dead_force_[l].setZero(), dead_moment_[l].setZero();
+    follower_force_start_[l].setZero(), follower_moment_start_[l].setZero(), follower_force_end_[l].setZero(), follower_moment_end_[l].setZero();
   }
   for (const NodalLoad &load : model.nodal_loads) {
-    const double factor = FunctionValue(load.function, t_end);
+    const double f0 = FunctionValue(load.function, t_start), f1 = FunctionValue(load.function, t_end);
     for (int node : load.nodes) {
       const int l = map.node_to_local[node];
       if (l < 0 || l >= map.num_owned_nodes) continue;
-      (load.follower ? follower_force_ : dead_force_)[l] += factor * load.force;
-      (load.follower ? follower_moment_ : dead_moment_)[l] += factor * load.moment;
+      if (load.follower) {
+        follower_force_start_[l] += f0 * load.force, follower_moment_start_[l] += f0 * load.moment;
+        follower_force_end_[l] += f1 * load.force, follower_moment_end_[l] += f1 * load.moment;
+      } else {
+        dead_force_[l] += (w0 * f0 + w1 * f1) * load.force;
+        dead_moment_[l] += (w0 * f0 + w1 * f1) * load.moment;
+      }
     }
   }
-  PetscCall(ApplyPrescribedIncrements(t_start, t_end));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
 // Fixed DOFs keep a zero increment. A prescribed displacement reaches its absolute target
 // X + value f(t_end); a prescribed rotation component turns by value (f(t_end) - f(t_start)) about
-// its global axis.
-PetscErrorCode Assembler::ApplyPrescribedIncrements(double t_start, double t_end)
+// its global axis. In the initial-acceleration problem the unknowns are accelerations, so a
+// prescribed DOF gets value f''(t).
+PetscErrorCode Assembler::ApplyPrescribedValues(double t_start, double t_end)
 {
   PetscFunctionBeginUser;
   const DofMap &map = *map_;
@@ -266,16 +361,50 @@ PetscErrorCode Assembler::ApplyPrescribedIncrements(double t_start, double t_end
     for (int d = 0; d < 6; ++d) {
       const DofConstraint &c = map.constraints[node][d];
       if (c.kind == Support::Kind::Free) continue;
-      double increment = 0.0;
+      double value = 0.0;
       if (c.kind == Support::Kind::Prescribed) {
-        if (d < 3) increment = model_->nodes[node].position(d) + c.value * FunctionValue(c.function, t_end) - s.position_start(d);
-        else increment = c.value * (FunctionValue(c.function, t_end) - FunctionValue(c.function, t_start));
+        if (mode_ == Mode::InitialAcceleration) value = c.value * FunctionDerivative(c.function, t_end, 2);
+        else if (d < 3) value = model_->nodes[node].position(d) + c.value * FunctionValue(c.function, t_end) - s.position_start(d);
+        else value = c.value * (FunctionValue(c.function, t_end) - FunctionValue(c.function, t_start));
       }
-      if (d < 3) s.displacement_increment(d) = increment;
-      else s.rotation_increment(d - 3) = increment;
+      if (d < 3) s.displacement_increment(d) = value;
+      else s.rotation_increment(d - 3) = value;
     }
-    NodeStateUpdateCurrent(&s);
+    UpdateDerivedState(&s);
   }
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+// The configuration and, in dynamics, the end-of-step translational motion and the tangent-scaled
+// rotation increment implied by the increments. In the initial-acceleration problem the
+// "increments" are accelerations and the configuration stays at the start of the step.
+void Assembler::UpdateDerivedState(NodeState *s) const
+{
+  if (mode_ == Mode::InitialAcceleration) return;
+  NodeStateUpdateCurrent(s);
+  if (mode_ != Mode::Dynamic) return;
+  s->translation_update = AdvanceMotion(scheme_, s->translation_motion, s->displacement_increment);
+  TangentScaledIncrement(s->rotation_increment, &s->tangent_scaled_increment, &s->tangent_scaled_derivative);
+}
+
+PetscErrorCode Assembler::PredictIncrements(Vec increments)
+{
+  PetscFunctionBeginUser;
+  PetscCall(VecZeroEntries(increments));
+  if (mode_ != Mode::Dynamic) PetscFunctionReturn(PETSC_SUCCESS);
+  const DofMap &map = *map_;
+  for (PetscInt l = 0; l < map.num_owned_nodes; ++l) {
+    const NodeState &s = nodes_[l];
+    Vec6             guess;
+    guess.head<3>() = scheme_.dt * s.translation_motion.velocity;
+    guess.tail<3>() = scheme_.dt * (QuaternionToMatrix(s.rotation_start) * s.rotation_motion.velocity);
+    for (int d = 0; d < 6; ++d) {
+      const PetscInt row = map.node_dofs[map.local_nodes[l]][d];
+      if (row >= 0) PetscCall(VecSetValue(increments, row, guess(d), INSERT_VALUES));
+    }
+  }
+  PetscCall(VecAssemblyBegin(increments));
+  PetscCall(VecAssemblyEnd(increments));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
@@ -294,10 +423,99 @@ PetscErrorCode Assembler::SetIncrements(Vec increments)
       if (d < 3) s.displacement_increment(d) = PetscRealPart(values[slot]);
       else s.rotation_increment(d - 3) = PetscRealPart(values[slot]);
     }
-    NodeStateUpdateCurrent(&s);
+    UpdateDerivedState(&s);
   }
   PetscCall(VecRestoreArrayRead(ghosted_increments_, &values));
   PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+// The element's residual: internal forces (at t_{n+1}, or the mid-point forces of mc/em) plus the
+// consistent translational inertia minus the distributed loads. For em also the correction
+// vector and the element's share of beta's numerator and denominator.
+PetscErrorCode Assembler::ElementForces(size_t k, double *force, double *correction, double *work_mismatch, double *correction_work, PetscBool *ok)
+{
+  const BeamElement          &element = model_->elements[map_->local_elements[k]];
+  const BeamElementReference &ref     = element_references_[k];
+  const int                   n       = element.order + 1;
+  Vec3                        positions[kBeamMaxNodes];
+  Mat3                        triads[kBeamMaxNodes];
+  PetscFunctionBeginUser;
+  *ok = PETSC_TRUE;
+  ElementConfiguration(element, positions, triads, nullptr);
+  const NodeState *node[kBeamMaxNodes];
+  for (int a = 0; a < n; ++a) node[a] = &nodes_[map_->node_to_local[element.nodes[a]]];
+  *work_mismatch = *correction_work = 0.0;
+  if (mode_ == Mode::Dynamic && scheme_.Midpoint()) {
+    Vec3   positions_start[kBeamMaxNodes];
+    Mat3   triads_start[kBeamMaxNodes];
+    double energy_start, energy_end;
+    ElementStartConfiguration(element, positions_start, triads_start);
+    if (BeamMidpointInternalForces(ref, section_stiffness_[element.section], positions_start, triads_start, positions, triads, force, correction, &energy_start,
+                                   &energy_end) != BeamKernelStatus::Ok) {
+      *ok = PETSC_FALSE;
+      PetscFunctionReturn(PETSC_SUCCESS);
+    }
+    double work = 0.0;
+    for (int a = 0; a < n; ++a) {
+      const Vec3 &u = node[a]->displacement_increment, &alpha = node[a]->tangent_scaled_increment;
+      work += u.dot(Vec3(&force[6 * a])) + alpha.dot(Vec3(&force[6 * a + 3]));
+      *correction_work += u.dot(Vec3(&correction[6 * a])) + alpha.dot(Vec3(&correction[6 * a + 3]));
+    }
+    *work_mismatch = (energy_end - energy_start) - work;
+  } else if (mode_ == Mode::InitialAcceleration) {
+    // The internal forces at the start state balance inertia and loads.
+    if (BeamInternalForces(ref, section_stiffness_[element.section], positions, triads, force, nullptr, nullptr, nullptr) != BeamKernelStatus::Ok) *ok = PETSC_FALSE;
+  } else {
+    if (BeamInternalForces(ref, section_stiffness_[element.section], positions, triads, force, nullptr, nullptr, nullptr) != BeamKernelStatus::Ok) *ok = PETSC_FALSE;
+  }
+  if (!*ok) PetscFunctionReturn(PETSC_SUCCESS);
+  // Consistent translational inertia: f_a += rhoA sum_b (integral of I_a I_b ds) xddot_b.
+  const double rhoA = model_->sections[element.section].rhoA;
+  if (mode_ != Mode::Static && rhoA > 0.0) {
+    for (int a = 0; a < n; ++a)
+      for (int b = 0; b < n; ++b) {
+        const Vec3 &acceleration = mode_ == Mode::InitialAcceleration ? node[b]->displacement_increment : node[b]->translation_update.acceleration;
+        const Vec3  f            = rhoA * ref.mass_shape[a][b] * acceleration;
+        for (int i = 0; i < 3; ++i) force[6 * a + i] += f(i);
+      }
+  }
+  // Consistent dead line load: f_a = integral of I_a q ds.
+  for (int a = 0; a < n; ++a)
+    for (int i = 0; i < 3; ++i) force[6 * a + i] -= ref.nodal_length[a] * element_line_load_[k](i);
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+// Loads and rotary inertia on an owned node: residual (6) and its derivative with respect to
+// the node's unknowns (6x6, already with respect to omega, not spins).
+void Assembler::NodalForces(PetscInt l, double *force, Mat6 *tangent)
+{
+  const NodeState &s       = nodes_[l];
+  const Mat3       R_start = QuaternionToMatrix(s.rotation_start);
+  const Vec3       f_end = s.rotation * follower_force_end_[l], m_end = s.rotation * follower_moment_end_[l];
+  Vec6             r;
+  r.head<3>() = -(dead_force_[l] + load_weight_start_ * (R_start * follower_force_start_[l]) + load_weight_end_ * f_end);
+  r.tail<3>() = -(dead_moment_[l] + load_weight_start_ * (R_start * follower_moment_start_[l]) + load_weight_end_ * m_end);
+  if (tangent) tangent->setZero();
+  // Follower loads: d(-Lambda f0) = hat(f) d theta = hat(f) H(omega) d omega.
+  if (tangent && mode_ != Mode::InitialAcceleration) {
+    tangent->block<3, 3>(0, 3) += load_weight_end_ * Skew(f_end) * s.rotation_tangent;
+    tangent->block<3, 3>(3, 3) += load_weight_end_ * Skew(m_end) * s.rotation_tangent;
+  }
+  const Mat3 &J = node_inertia_[l];
+  if (mode_ == Mode::Dynamic && !J.isZero(0.0)) {
+    Vec3         moment;
+    Mat3         moment_tangent;
+    MotionUpdate update;
+    RotationalInertia(scheme_, J, R_start, s.rotation_increment, s.rotation_motion, &moment, tangent ? &moment_tangent : nullptr, &update);
+    r.tail<3>() += moment;
+    if (tangent) tangent->block<3, 3>(3, 3) += moment_tangent;
+  } else if (mode_ == Mode::InitialAcceleration) {
+    // R (J Wdot + W x J W) with Wdot = R^T wdot, wdot the unknown spatial angular acceleration.
+    const Vec3 &W = s.rotation_motion.velocity;
+    r.tail<3>() += R_start * (J * (R_start.transpose() * s.rotation_increment) + W.cross(J * W));
+    if (tangent) tangent->block<3, 3>(3, 3) += R_start * J * R_start.transpose();
+  }
+  for (int i = 0; i < 6; ++i) force[i] = r(i);
 }
 
 PetscErrorCode Assembler::AssembleResidual(Vec residual, PetscBool *geometry_ok)
@@ -311,41 +529,89 @@ PetscErrorCode Assembler::AssembleResidual(Vec residual, PetscBool *geometry_ok)
   PetscCall(VecSetOption(residual, VEC_IGNORE_NEGATIVE_INDICES, PETSC_TRUE));
   PetscCall(VecZeroEntries(residual));
   local_force_squares_ = 0.0;
+  // Pass 1: element vectors (and, for em, the pieces of beta).
+  double sums[2] = {0.0, 0.0}; // work mismatch, correction work
   for (size_t k = 0; k < map.local_elements.size(); ++k) {
-    const BeamElement &element = model.elements[map.local_elements[k]];
-    const int          n       = element.order + 1;
-    Vec3               positions[kBeamMaxNodes];
-    Mat3               triads[kBeamMaxNodes];
-    ElementConfiguration(element, positions, triads, nullptr);
-    double                 r[kBeamMaxDofs];
-    PetscInt               indices[kBeamMaxDofs];
-    const BeamKernelStatus status = BeamInternalForces(element_references_[k], section_stiffness_[element.section], positions, triads, r, nullptr, nullptr, nullptr);
-    if (status != BeamKernelStatus::Ok) {
-      *geometry_ok = PETSC_FALSE;
-      continue;
-    }
-    // Consistent dead line load: f_a = integral of I_a q ds.
-    for (int a = 0; a < n; ++a)
-      for (int i = 0; i < 3; ++i) r[6 * a + i] -= element_references_[k].nodal_length[a] * element_line_load_[k](i);
-    const int num_dofs = ElementIndices(element, map, indices);
-    for (int i = 0; i < num_dofs; ++i) local_force_squares_ += r[i] * r[i];
-    PetscCall(VecSetValues(residual, num_dofs, indices, r, ADD_VALUES));
+    double    mismatch, correction_work;
+    PetscBool ok;
+    PetscCall(ElementForces(k, &element_force_scratch_[kBeamMaxDofs * k], &element_correction_scratch_[kBeamMaxDofs * k], &mismatch, &correction_work, &ok));
+    if (!ok) *geometry_ok = PETSC_FALSE;
+    sums[0] += mismatch;
+    sums[1] += correction_work;
+  }
+  // em (eq. 20): beta makes the work of the internal forces equal the change of strain energy.
+  // When the correction does no work (no change of axial and shear force) beta is left at zero.
+  energy_correction_ = 0.0;
+  if (mode_ == Mode::Dynamic && scheme_.kind == TimeSchemeKind::EnergyMomentum) {
+    double global[2];
+    PetscCall(MPIU_Allreduce(sums, global, 2, MPI_DOUBLE, MPI_SUM, comm_));
+    if (std::abs(global[1]) > 1e-14 * std::abs(global[0]) && global[1] != 0.0) energy_correction_ = global[0] / global[1];
+  }
+  // Pass 2: assemble.
+  for (size_t k = 0; k < map.local_elements.size(); ++k) {
+    PetscInt  indices[kBeamMaxDofs];
+    const int num_dofs = ElementIndices(model.elements[map.local_elements[k]], map, indices);
+    double   *f        = &element_force_scratch_[kBeamMaxDofs * k];
+    if (energy_correction_ != 0.0)
+      for (int i = 0; i < num_dofs; ++i) f[i] += energy_correction_ * element_correction_scratch_[kBeamMaxDofs * k + i];
+    for (int i = 0; i < num_dofs; ++i) local_force_squares_ += f[i] * f[i];
+    PetscCall(VecSetValues(residual, num_dofs, indices, f, ADD_VALUES));
   }
   for (PetscInt l = 0; l < map.num_owned_nodes; ++l) {
-    const NodeState &s = nodes_[l];
-    const Vec3       f = dead_force_[l] + s.rotation * follower_force_[l];
-    const Vec3       m = dead_moment_[l] + s.rotation * follower_moment_[l];
-    double           r[6];
-    for (int i = 0; i < 3; ++i) {
-      r[i]     = -f(i);
-      r[i + 3] = -m(i);
-    }
+    double r[6];
+    NodalForces(l, r, nullptr);
     for (int i = 0; i < 6; ++i) local_force_squares_ += r[i] * r[i];
     PetscCall(VecSetValues(residual, 6, map.node_dofs[map.local_nodes[l]].data(), r, ADD_VALUES));
+  }
+  for (LocalRigidBody &body : rigid_bodies_) {
+    Vec6 r;
+    PetscCall(RigidBodyForces(&body, &r, nullptr));
+    for (int i = 0; i < 6; ++i) local_force_squares_ += r(i) * r(i);
+    PetscCall(VecSetValues(residual, 6, map.node_dofs[map.local_nodes[body.local_node]].data(), r.data(), ADD_VALUES));
   }
   PetscCall(VecAssemblyBegin(residual));
   PetscCall(VecAssemblyEnd(residual));
   PetscCall(PetscLogEventEnd(event_residual, 0, 0, 0, 0));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+// Translational inertia of a rigid body's centre of mass and its weight, mapped to the node. The
+// weight acts at the centre of mass with the lever arm of the scheme's virtual work: r_{n+1}
+// (statics, Newmark family), (r_n + r_{n+1})/2 (mid-point), r_n (initial accelerations).
+PetscErrorCode Assembler::RigidBodyForces(LocalRigidBody *body, Vec6 *force, Mat6 *tangent)
+{
+  const NodeState &s       = nodes_[body->local_node];
+  const Mat3       R_start = QuaternionToMatrix(s.rotation_start);
+  const Vec3       r_start = R_start * body->offset, r_end = s.rotation * body->offset;
+  PetscFunctionBeginUser;
+  force->setZero();
+  if (tangent) tangent->setZero();
+  if (mode_ == Mode::Dynamic) {
+    OffsetPointMassInertia(scheme_, body->mass, body->offset, R_start, s.displacement_increment, s.rotation_increment, body->centre_of_mass, force, tangent,
+                           &body->centre_of_mass_update);
+  } else if (mode_ == Mode::InitialAcceleration) {
+    // a_c = a + wdot x r + w x (w x r): force m a_c, moment r x m a_c.
+    const Vec3 w = R_start * s.rotation_motion.velocity;
+    const Vec3 F = body->mass * (s.displacement_increment + s.rotation_increment.cross(r_start) + w.cross(w.cross(r_start)));
+    force->head<3>() = F;
+    force->tail<3>() = r_start.cross(F);
+    if (tangent) {
+      const Mat3 hr              = Skew(r_start);
+      tangent->block<3, 3>(0, 0) = body->mass * Mat3::Identity();
+      tangent->block<3, 3>(0, 3) = -body->mass * hr;
+      tangent->block<3, 3>(3, 0) = body->mass * hr;
+      tangent->block<3, 3>(3, 3) = -body->mass * hr * hr;
+    }
+  }
+  if (!body->gravity_force.isZero(0.0)) {
+    const bool   midpoint   = mode_ == Mode::Dynamic && scheme_.Midpoint();
+    const double arm_weight = mode_ == Mode::InitialAcceleration ? 0.0 : (midpoint ? 0.5 : 1.0); // d arm / d r_{n+1}
+    const Vec3   arm        = mode_ == Mode::InitialAcceleration ? r_start : (midpoint ? Vec3(0.5 * (r_start + r_end)) : r_end);
+    force->head<3>() -= body->gravity_force;
+    force->tail<3>() -= arm.cross(body->gravity_force);
+    // d(-arm x F) = hat(F) d arm,  d r_{n+1} = -hat(r_{n+1}) H(omega) d omega
+    if (tangent && arm_weight != 0.0) tangent->block<3, 3>(3, 3) -= arm_weight * Skew(body->gravity_force) * Skew(r_end) * s.rotation_tangent;
+  }
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
@@ -357,6 +623,16 @@ PetscErrorCode Assembler::AssembleJacobian(Mat jacobian, PetscBool *geometry_ok)
   const Model  &model = *model_;
   const DofMap &map   = *map_;
   *geometry_ok        = PETSC_TRUE;
+  // Stiffness weight: 1 at t_{n+1}; the mid-point forces move half as fast as the end state; none
+  // in the initial-acceleration problem. Mass weight: d(acceleration)/d(unknown).
+  double stiffness_weight = 1.0, mass_weight = 0.0;
+  if (mode_ == Mode::Dynamic) {
+    stiffness_weight = scheme_.Midpoint() ? 0.5 : 1.0;
+    mass_weight      = scheme_.InertiaCoefficient();
+  } else if (mode_ == Mode::InitialAcceleration) {
+    stiffness_weight = 0.0;
+    mass_weight      = 1.0;
+  }
   PetscCall(MatZeroEntries(jacobian));
   PetscScalar *diagonal_values = nullptr, *off_diagonal_values = nullptr;
   if (!csr_destinations_.empty()) {
@@ -367,26 +643,35 @@ PetscErrorCode Assembler::AssembleJacobian(Mat jacobian, PetscBool *geometry_ok)
     const BeamElement &element = model.elements[map.local_elements[k]];
     const int          n       = element.order + 1;
     const int          nd      = 6 * n;
-    Vec3               positions[kBeamMaxNodes];
-    Mat3               triads[kBeamMaxNodes];
-    const Mat3        *tangents[kBeamMaxNodes];
-    ElementConfiguration(element, positions, triads, tangents);
-    double                 r[kBeamMaxDofs], K[kBeamMaxDofs * kBeamMaxDofs];
-    PetscInt               indices[kBeamMaxDofs];
-    const BeamKernelStatus status = BeamInternalForces(element_references_[k], section_stiffness_[element.section], positions, triads, r, K, nullptr, nullptr);
-    if (status != BeamKernelStatus::Ok) {
-      *geometry_ok = PETSC_FALSE;
-      continue;
-    }
-    // Column scaling from spins to incremental rotation vectors: d theta_b = H(omega_b) d omega_b.
-    for (int b = 0; b < n; ++b) {
-      const Mat3 &H = *tangents[b];
-      for (int i = 0; i < nd; ++i) {
-        double *row = &K[i * nd + 6 * b + 3];
-        const double k0 = row[0], k1 = row[1], k2 = row[2];
-        for (int j = 0; j < 3; ++j) row[j] = k0 * H(0, j) + k1 * H(1, j) + k2 * H(2, j);
+    double             r[kBeamMaxDofs], K[kBeamMaxDofs * kBeamMaxDofs];
+    PetscInt           indices[kBeamMaxDofs];
+    std::fill(K, K + nd * nd, 0.0);
+    if (stiffness_weight != 0.0) {
+      Vec3        positions[kBeamMaxNodes];
+      Mat3        triads[kBeamMaxNodes];
+      const Mat3 *tangents[kBeamMaxNodes];
+      ElementConfiguration(element, positions, triads, tangents);
+      if (BeamInternalForces(element_references_[k], section_stiffness_[element.section], positions, triads, r, K, nullptr, nullptr) != BeamKernelStatus::Ok) {
+        *geometry_ok = PETSC_FALSE;
+        continue;
+      }
+      // Column scaling from spins to incremental rotation vectors: d theta_b = H(omega_b) d omega_b.
+      for (int b = 0; b < n; ++b) {
+        const Mat3 &H = *tangents[b];
+        for (int i = 0; i < nd; ++i) {
+          double      *row = &K[i * nd + 6 * b + 3];
+          const double k0 = row[0], k1 = row[1], k2 = row[2];
+          for (int j = 0; j < 3; ++j) row[j] = stiffness_weight * (k0 * H(0, j) + k1 * H(1, j) + k2 * H(2, j));
+        }
+        for (int i = 0; i < nd; ++i)
+          for (int j = 0; j < 3; ++j) K[i * nd + 6 * b + j] *= stiffness_weight;
       }
     }
+    const double rhoA = model.sections[element.section].rhoA;
+    if (mass_weight != 0.0 && rhoA > 0.0)
+      for (int a = 0; a < n; ++a)
+        for (int b = 0; b < n; ++b)
+          for (int i = 0; i < 3; ++i) K[(6 * a + i) * nd + 6 * b + i] += mass_weight * rhoA * element_references_[k].mass_shape[a][b];
     ElementIndices(element, map, indices);
     PetscCall(AddElementMatrix(k, indices, nd, K, diagonal_values, off_diagonal_values));
   }
@@ -394,14 +679,18 @@ PetscErrorCode Assembler::AssembleJacobian(Mat jacobian, PetscBool *geometry_ok)
     PetscCall(MatSeqAIJRestoreArray(diagonal_block_, &diagonal_values));
     if (off_diagonal_block_) PetscCall(MatSeqAIJRestoreArray(off_diagonal_block_, &off_diagonal_values));
   }
-  // Follower loads: d(-Lambda f0) = hat(f) d theta.
   for (PetscInt l = 0; l < map.num_owned_nodes; ++l) {
-    if (follower_force_[l].isZero(0.0) && follower_moment_[l].isZero(0.0)) continue;
-    const NodeState &s = nodes_[l];
-    Eigen::Matrix<double, 6, 6, Eigen::RowMajor> block = Eigen::Matrix<double, 6, 6, Eigen::RowMajor>::Zero();
-    block.block<3, 3>(0, 3) = Skew(s.rotation * follower_force_[l]) * s.rotation_tangent;
-    block.block<3, 3>(3, 3) = Skew(s.rotation * follower_moment_[l]) * s.rotation_tangent;
-    const PetscInt *indices = map.node_dofs[map.local_nodes[l]].data();
+    double r[6];
+    Mat6   block;
+    NodalForces(l, r, &block);
+    if (block.isZero(0.0)) continue;
+    PetscCall(MatSetValues(jacobian, 6, map.node_dofs[map.local_nodes[l]].data(), 6, map.node_dofs[map.local_nodes[l]].data(), block.data(), ADD_VALUES));
+  }
+  for (LocalRigidBody &body : rigid_bodies_) {
+    Vec6 r;
+    Mat6 block;
+    PetscCall(RigidBodyForces(&body, &r, &block));
+    const PetscInt *indices = map.node_dofs[map.local_nodes[body.local_node]].data();
     PetscCall(MatSetValues(jacobian, 6, indices, 6, indices, block.data(), ADD_VALUES));
   }
   PetscCall(MatAssemblyBegin(jacobian, MAT_FINAL_ASSEMBLY));
@@ -413,7 +702,46 @@ PetscErrorCode Assembler::AssembleJacobian(Mat jacobian, PetscBool *geometry_ok)
 PetscErrorCode Assembler::CommitStep()
 {
   PetscFunctionBeginUser;
+  if (mode_ == Mode::Dynamic) {
+    for (LocalRigidBody &body : rigid_bodies_) {
+      const NodeState &s       = nodes_[body.local_node];
+      const Mat3       R_start = QuaternionToMatrix(s.rotation_start);
+      const Vec3       u_c     = s.displacement_increment + (s.rotation - R_start) * body.offset;
+      const MotionUpdate next  = AdvanceMotion(scheme_, body.centre_of_mass, u_c);
+      body.centre_of_mass      = {next.velocity, next.acceleration, next.pseudo_acceleration};
+    }
+    for (NodeState &s : nodes_) {
+      const Mat3 R_start = QuaternionToMatrix(s.rotation_start);
+      // Material increment: Theta = R_n^T omega (Newmark family), theta = R_n^T alpha (mid-point).
+      const Vec3 increment = R_start.transpose() * (scheme_.Midpoint() ? s.tangent_scaled_increment : s.rotation_increment);
+      const MotionUpdate rotation = AdvanceMotion(scheme_, s.rotation_motion, increment);
+      s.translation_motion = {s.translation_update.velocity, s.translation_update.acceleration, s.translation_update.pseudo_acceleration};
+      s.rotation_motion    = {rotation.velocity, rotation.acceleration, rotation.pseudo_acceleration};
+    }
+  }
   for (NodeState &s : nodes_) NodeStateCommit(&s);
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode Assembler::CommitInitialAcceleration()
+{
+  PetscFunctionBeginUser;
+  PetscCheck(mode_ == Mode::InitialAcceleration, PETSC_COMM_SELF, PETSC_ERR_ORDER, "no initial-acceleration problem was set up");
+  for (LocalRigidBody &body : rigid_bodies_) {
+    const NodeState &s = nodes_[body.local_node];
+    const Mat3       R = QuaternionToMatrix(s.rotation_start);
+    const Vec3       r = R * body.offset, w = R * s.rotation_motion.velocity;
+    const Vec3       a = s.displacement_increment + s.rotation_increment.cross(r) + w.cross(w.cross(r));
+    body.centre_of_mass.acceleration = body.centre_of_mass.pseudo_acceleration = a;
+  }
+  for (NodeState &s : nodes_) {
+    const Mat3 R = QuaternionToMatrix(s.rotation_start);
+    s.translation_motion.acceleration = s.translation_motion.pseudo_acceleration = s.displacement_increment;
+    s.rotation_motion.acceleration = s.rotation_motion.pseudo_acceleration = R.transpose() * s.rotation_increment;
+    s.displacement_increment.setZero();
+    s.rotation_increment.setZero();
+  }
+  mode_ = Mode::Static;
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
@@ -423,7 +751,41 @@ PetscErrorCode Assembler::DiscardStep()
   for (NodeState &s : nodes_) {
     s.displacement_increment.setZero();
     s.rotation_increment.setZero();
-    NodeStateUpdateCurrent(&s);
+    UpdateDerivedState(&s);
+  }
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode Assembler::SetInitialVelocities(double t)
+{
+  PetscFunctionBeginUser;
+  const Model  &model = *model_;
+  const DofMap &map   = *map_;
+  std::vector<const InitialCondition *> condition(model.nodes.size(), nullptr);
+  for (const InitialCondition &ic : model.initial_conditions)
+    for (int node : ic.nodes) condition[node] = &ic;
+  for (size_t l = 0; l < nodes_.size(); ++l) {
+    const int  node = map.local_nodes[l];
+    NodeState &s    = nodes_[l];
+    Vec3       v = Vec3::Zero(), w = Vec3::Zero();
+    if (const InitialCondition *ic = condition[node]) {
+      w = ic->angular_velocity;
+      v = ic->velocity + (ic->rigid_body_field ? Vec3(ic->angular_velocity.cross(model.nodes[node].position - ic->center)) : Vec3::Zero());
+    }
+    for (int d = 0; d < 6; ++d) {
+      const DofConstraint &c = map.constraints[node][d];
+      if (c.kind == Support::Kind::Free) continue;
+      const double rate = c.kind == Support::Kind::Prescribed ? c.value * FunctionDerivative(c.function, t, 1) : 0.0;
+      if (d < 3) v(d) = rate;
+      else w(d - 3) = rate;
+    }
+    s.translation_motion.velocity = v;
+    s.rotation_motion.velocity    = QuaternionToMatrix(s.rotation_start).transpose() * w;
+  }
+  for (LocalRigidBody &body : rigid_bodies_) {
+    const NodeState &s = nodes_[body.local_node];
+    const Mat3       R = QuaternionToMatrix(s.rotation_start);
+    body.centre_of_mass.velocity = s.translation_motion.velocity + (R * s.rotation_motion.velocity).cross(R * body.offset);
   }
   PetscFunctionReturn(PETSC_SUCCESS);
 }
@@ -449,8 +811,8 @@ PetscErrorCode Assembler::MaxRotationIncrement(double *max_rotation)
 PetscErrorCode Assembler::EvaluateResults(std::vector<ElementResults> *results, double *strain_energy)
 {
   PetscFunctionBeginUser;
-  const Model  &model = *model_;
-  const DofMap &map   = *map_;
+  const Model  &model        = *model_;
+  const DofMap &map          = *map_;
   double        local_energy = 0.0;
   results->resize(map.local_elements.size());
   for (size_t k = 0; k < map.local_elements.size(); ++k) {
@@ -458,14 +820,14 @@ PetscErrorCode Assembler::EvaluateResults(std::vector<ElementResults> *results, 
     Vec3               positions[kBeamMaxNodes];
     Mat3               triads[kBeamMaxNodes];
     ElementConfiguration(element, positions, triads, nullptr);
-    double           r[kBeamMaxDofs], energy = 0.0;
-    BeamGaussResults gauss;
+    double                 r[kBeamMaxDofs], energy = 0.0;
+    BeamGaussResults       gauss;
     const BeamKernelStatus status = BeamInternalForces(element_references_[k], section_stiffness_[element.section], positions, triads, r, nullptr, &energy, &gauss);
     PetscCheck(status == BeamKernelStatus::Ok, PETSC_COMM_SELF, PETSC_ERR_PLIB, "element %d cannot be evaluated in a converged state", map.local_elements[k]);
     local_energy += energy;
     ElementResults &out = (*results)[k];
     out                 = {Vec3::Zero(), Vec3::Zero(), Vec3::Zero(), Vec3::Zero()};
-    const int    ng     = element_references_[k].num_gauss;
+    const int ng        = element_references_[k].num_gauss;
     for (int g = 0; g < ng; ++g) {
       out.strain += gauss.strain[g] / ng;
       out.curvature += gauss.curvature[g] / ng;
@@ -474,6 +836,75 @@ PetscErrorCode Assembler::EvaluateResults(std::vector<ElementResults> *results, 
     }
   }
   PetscCall(MPIU_Allreduce(&local_energy, strain_energy, 1, MPI_DOUBLE, MPI_SUM, comm_));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode Assembler::EvaluateDynamics(DynamicsDiagnostics *diagnostics)
+{
+  PetscFunctionBeginUser;
+  const Model  &model = *model_;
+  const DofMap &map   = *map_;
+  double        local[7] = {0, 0, 0, 0, 0, 0, 0}; // T, p (3), L (3)
+  auto          add      = [&local](double T, const Vec3 &p, const Vec3 &L) {
+    local[0] += T;
+    for (int i = 0; i < 3; ++i) local[1 + i] += p(i), local[4 + i] += L(i);
+  };
+  for (size_t k = 0; k < map.local_elements.size(); ++k) {
+    const BeamElement &element = model.elements[map.local_elements[k]];
+    const double       rhoA    = model.sections[element.section].rhoA;
+    for (int a = 0; a <= element.order; ++a) {
+      const NodeState &sa = nodes_[map.node_to_local[element.nodes[a]]];
+      for (int b = 0; b <= element.order; ++b) {
+        const NodeState &sb = nodes_[map.node_to_local[element.nodes[b]]];
+        const Vec3       p  = rhoA * element_references_[k].mass_shape[a][b] * sb.translation_motion.velocity;
+        add(0.5 * sa.translation_motion.velocity.dot(p), p, sa.position_start.cross(p));
+      }
+    }
+  }
+  for (PetscInt l = 0; l < map.num_owned_nodes; ++l) {
+    const NodeState &s  = nodes_[l];
+    const Vec3       JW = node_inertia_[l] * s.rotation_motion.velocity;
+    add(0.5 * s.rotation_motion.velocity.dot(JW), Vec3::Zero(), QuaternionToMatrix(s.rotation_start) * JW);
+  }
+  for (const LocalRigidBody &body : rigid_bodies_) {
+    const NodeState &s  = nodes_[body.local_node];
+    const Vec3       xc = s.position_start + QuaternionToMatrix(s.rotation_start) * body.offset;
+    const Vec3       p  = body.mass * body.centre_of_mass.velocity;
+    add(0.5 * body.centre_of_mass.velocity.dot(p), p, xc.cross(p));
+  }
+  double global[7];
+  PetscCall(MPIU_Allreduce(local, global, 7, MPI_DOUBLE, MPI_SUM, comm_));
+  diagnostics->kinetic_energy   = global[0];
+  diagnostics->linear_momentum  = Vec3(global[1], global[2], global[3]);
+  diagnostics->angular_momentum = Vec3(global[4], global[5], global[6]);
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode Assembler::StepExternalWork(double *work)
+{
+  PetscFunctionBeginUser;
+  const Model  &model = *model_;
+  const DofMap &map   = *map_;
+  double        local = 0.0;
+  for (size_t k = 0; k < map.local_elements.size(); ++k) {
+    const BeamElement &element = model.elements[map.local_elements[k]];
+    for (int a = 0; a <= element.order; ++a)
+      local += element_references_[k].nodal_length[a] * element_line_load_[k].dot(nodes_[map.node_to_local[element.nodes[a]]].displacement_increment);
+  }
+  for (PetscInt l = 0; l < map.num_owned_nodes; ++l) {
+    const NodeState &s       = nodes_[l];
+    const Mat3       R_start = QuaternionToMatrix(s.rotation_start);
+    const Vec3 F = dead_force_[l] + load_weight_start_ * (R_start * follower_force_start_[l]) + load_weight_end_ * (s.rotation * follower_force_end_[l]);
+    const Vec3 M = dead_moment_[l] + load_weight_start_ * (R_start * follower_moment_start_[l]) + load_weight_end_ * (s.rotation * follower_moment_end_[l]);
+    Vec3       alpha;
+    TangentScaledIncrement(s.rotation_increment, &alpha, nullptr);
+    local += F.dot(s.displacement_increment) + M.dot(alpha);
+  }
+  for (const LocalRigidBody &body : rigid_bodies_) {
+    const NodeState &s = nodes_[body.local_node];
+    local += body.gravity_force.dot(s.displacement_increment + (s.rotation - QuaternionToMatrix(s.rotation_start)) * body.offset);
+  }
+  PetscCall(MPIU_Allreduce(&local, work, 1, MPI_DOUBLE, MPI_SUM, comm_));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 

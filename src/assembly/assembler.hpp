@@ -1,11 +1,18 @@
-// Assembly of the global residual and tangent from the element and load kernels into PETSc
-// objects (MPIAIJ with exact preallocation). The residual is in spin form (rows: virtual
-// displacements and spins); the tangent is with respect to the Newton unknowns
-// (u, omega): K_spin * blockdiag(I, H(omega)) per node (DESIGN.md §3).
+// Assembly of the global residual and tangent from the element, inertia and load kernels into
+// PETSc objects (MPIAIJ with exact preallocation). The residual is in spin form (rows: virtual
+// displacements and spins; for the mid-point schemes, the tangent-scaled increments); the
+// tangent is with respect to the Newton unknowns (u, omega): stiffness blocks are
+// K_spin * blockdiag(I, H(omega)) per node (DESIGN.md §3), inertia blocks are differentiated with
+// respect to (u, omega) directly.
+//
+// Three modes: statics (no scheme), dynamics (a TimeScheme per step), and the initial-acceleration
+// problem of the Newmark family (unknowns: accelerations at t, residual: equations of motion at t).
 #pragma once
 
 #include "dofs/dof_map.hpp"
 #include "elements/beam.hpp"
+#include "elements/inertia.hpp"
+#include "integrators/time_scheme.hpp"
 #include "model/model.hpp"
 #include "state/state.hpp"
 
@@ -21,6 +28,13 @@ struct ElementResults {
   Vec3 strain, curvature, force, moment;
 };
 
+// Kinetic energy, linear momentum and angular momentum about the origin of the whole model.
+struct DynamicsDiagnostics {
+  double kinetic_energy   = 0.0;
+  Vec3   linear_momentum  = Vec3::Zero();
+  Vec3   angular_momentum = Vec3::Zero();
+};
+
 class Assembler {
 public:
   Assembler() = default;
@@ -28,30 +42,47 @@ public:
   Assembler &operator=(const Assembler &) = delete;
   ~Assembler();
 
-  // Element reference data, preallocated matrix, vectors and the ghost scatter. Collective.
+  // Element reference data, inertia, preallocated matrix, vectors and the ghost scatter. Collective.
   PetscErrorCode Setup(MPI_Comm comm, const Model &model, const DofMap &map);
 
-  // Prepares the step t_start -> t_end: load factors at t_end and prescribed increments.
-  PetscErrorCode BeginStep(double t_start, double t_end);
-  // Sets the increments of every local node from the global unknown vector (scatter to ghosts).
+  // Prepares the step t_start -> t_end: loads and prescribed increments. `scheme` is null in
+  // statics; in dynamics its dt must be t_end - t_start.
+  PetscErrorCode BeginStep(double t_start, double t_end, const TimeScheme *scheme);
+  // Prepares the initial-acceleration problem at time t (Newmark family).
+  PetscErrorCode BeginInitialAcceleration(double t);
+  // Initial guess of the step's unknowns: zero in statics, constant velocity in dynamics
+  // (u = dt v_n, omega = dt Lambda_n W_n).
+  PetscErrorCode PredictIncrements(Vec increments);
+  // Sets the unknowns of every local node from the global vector (scatter to ghosts).
   PetscErrorCode SetIncrements(Vec increments);
-  // Residual = internal forces - external loads at the current increments. Returns
-  // *geometry_ok = false when an element cannot be evaluated (relative rotation too large).
+  // Residual at the current unknowns. *geometry_ok = false when an element cannot be evaluated.
   PetscErrorCode AssembleResidual(Vec residual, PetscBool *geometry_ok);
+  // Exact tangent in statics, the Newmark family and the initial-acceleration problem; for the
+  // mid-point family the stiffness part is approximated by K(q_{n+1})/2 (a preconditioner for
+  // the matrix-free operator, see integrators/newton.hpp).
   PetscErrorCode AssembleJacobian(Mat jacobian, PetscBool *geometry_ok);
-  // Accepts the current increments as the new start of step.
+  // Accepts the current increments as the new start of step (with velocities and accelerations).
   PetscErrorCode CommitStep();
+  // Stores the solved initial accelerations as the start-of-step accelerations.
+  PetscErrorCode CommitInitialAcceleration();
   // Forgets the increments (a rejected step).
   PetscErrorCode DiscardStep();
+  // Initial velocities from the model's initial conditions and prescribed motions at time t.
+  PetscErrorCode SetInitialVelocities(double t);
 
-  // Magnitude of the forces in the last residual: the norm of all element and load contributions
-  // before assembly (the level against which round-off in the residual is measured). Collective.
+  // Magnitude of the forces in the last residual (see newton.hpp). Collective.
   PetscErrorCode ForceScale(double *scale);
   // Largest |omega| over the nodes of the whole model (collective).
   PetscErrorCode MaxRotationIncrement(double *max_rotation);
   // Element results for the local elements (indexed like DofMap::local_elements) and the total
   // strain energy (collective).
   PetscErrorCode EvaluateResults(std::vector<ElementResults> *results, double *strain_energy);
+  // Kinetic energy and momenta of the start-of-step state (collective).
+  PetscErrorCode EvaluateDynamics(DynamicsDiagnostics *diagnostics);
+  // Work of the external loads over the current increments: sum of u.F + alpha.M (collective).
+  PetscErrorCode StepExternalWork(double *work);
+  // The energy-momentum scheme's beta of the last residual (0 otherwise).
+  double EnergyCorrectionFactor() const { return energy_correction_; }
 
   Mat                           Jacobian() const { return jacobian_; }
   Vec                           SolutionTemplate() const { return solution_template_; }
@@ -59,31 +90,59 @@ public:
   const DofMap                 &Map() const { return *map_; }
 
 private:
-  PetscErrorCode ApplyPrescribedIncrements(double t_start, double t_end);
+  enum class Mode { Static, Dynamic, InitialAcceleration };
+  struct LocalRigidBody {
+    int          local_node = -1;
+    double       mass       = 0.0;
+    Vec3         offset     = Vec3::Zero(); // centre of mass, node body frame
+    MotionState  centre_of_mass;            // motion of the centre of mass, global axes
+    MotionUpdate centre_of_mass_update;
+    Vec3         gravity_force = Vec3::Zero(); // m g at the centre of mass, weighted in time for the step
+  };
+
+  PetscErrorCode ApplyPrescribedValues(double t_start, double t_end);
+  PetscErrorCode ComputeLoads(double t_start, double t_end);
   PetscErrorCode CreateCsrDestinations();
   PetscErrorCode AddElementMatrix(size_t local_element, const PetscInt *indices, int num_dofs, const double *values, PetscScalar *diagonal_values,
                                   PetscScalar *off_diagonal_values);
+  PetscErrorCode ElementForces(size_t k, double *force, double *correction, double *work_mismatch, double *correction_work, PetscBool *ok);
+  void           NodalForces(PetscInt l, double *force, Mat6 *tangent);
+  PetscErrorCode RigidBodyForces(LocalRigidBody *body, Vec6 *force, Mat6 *tangent);
+  void           UpdateDerivedState(NodeState *state) const;
   double         FunctionValue(int function, double t) const;
+  double         FunctionDerivative(int function, double t, int order) const;
   // Current nodal positions and section triads of an element (and the nodes' H(omega) if asked).
   void ElementConfiguration(const BeamElement &element, Vec3 *positions, Mat3 *triads, const Mat3 **rotation_tangents) const;
+  void ElementStartConfiguration(const BeamElement &element, Vec3 *positions, Mat3 *triads) const;
 
   MPI_Comm                          comm_  = MPI_COMM_NULL;
   const Model                      *model_ = nullptr;
   const DofMap                     *map_   = nullptr;
+  Mode                              mode_  = Mode::Static;
+  TimeScheme                        scheme_;
   std::vector<BeamElementReference> element_references_; // per local element
   std::vector<BeamSectionStiffness> section_stiffness_;  // per section
   std::vector<NodeState>            nodes_;              // per local node
-  // External loads at the end of the step: per local element the distributed load per length,
-  // per owned node the dead and follower (body-frame) force and moment.
-  std::vector<Vec3> element_line_load_;
-  std::vector<Vec3> dead_force_, dead_moment_, follower_force_, follower_moment_;
-  double            local_force_squares_ = 0.0; // sum of squared contributions in the last residual
+  std::vector<Mat3>                 node_inertia_;       // per owned node: body-frame rotary inertia (beams lumped + rigid bodies)
+  std::vector<LocalRigidBody>       rigid_bodies_;       // rigid bodies on owned nodes
 
-  Mat        jacobian_          = nullptr;
-  Vec        solution_template_ = nullptr;
-  Vec        ghosted_increments_ = nullptr; // sequential: the free DOFs of the local nodes
-  VecScatter to_ghosted_        = nullptr;
-  std::vector<PetscInt> ghosted_slot_;      // per local node and DOF: index in ghosted_increments_, -1 if constrained
+  // External loads of the step: per local element the distributed load per length, per owned
+  // node the dead force and moment (already weighted in time) and the follower loads in the body
+  // frame at the start and end of the step with their weights (statics and the Newmark family:
+  // end values only; mid-point family: the mean of both ends).
+  double            load_weight_start_ = 0.0, load_weight_end_ = 1.0;
+  std::vector<Vec3> element_line_load_;
+  std::vector<Vec3> dead_force_, dead_moment_;
+  std::vector<Vec3> follower_force_start_, follower_moment_start_, follower_force_end_, follower_moment_end_;
+  double            local_force_squares_ = 0.0; // sum of squared contributions in the last residual
+  double            energy_correction_   = 0.0; // em's beta in the last residual
+  std::vector<double> element_force_scratch_, element_correction_scratch_; // per local element, kBeamMaxDofs each
+
+  Mat                   jacobian_           = nullptr;
+  Vec                   solution_template_  = nullptr;
+  Vec                   ghosted_increments_ = nullptr; // sequential: the free DOFs of the local nodes
+  VecScatter            to_ghosted_         = nullptr;
+  std::vector<PetscInt> ghosted_slot_;                 // per local node and DOF: index in ghosted_increments_, -1 if constrained
 
   // Direct assembly into the CSR value arrays of the owned rows (the pattern is fixed by exact
   // preallocation, so the position of every element-matrix entry is computed once). Per local
@@ -91,7 +150,7 @@ private:
   // owned by another rank: goes through MatSetValues), an index >= 0 into the diagonal block's
   // values, or kCsrOffDiagonal - index for the off-diagonal block. Empty when the matrix type
   // is not AIJ: then everything goes through MatSetValues.
-  static constexpr PetscInt kCsrSkip = -1, kCsrOtherRank = -2, kCsrOffDiagonal = -3;
+  static constexpr PetscInt          kCsrSkip = -1, kCsrOtherRank = -2, kCsrOffDiagonal = -3;
   std::vector<std::vector<PetscInt>> csr_destinations_;
   Mat                                diagonal_block_ = nullptr, off_diagonal_block_ = nullptr; // borrowed from jacobian_
 };

@@ -204,7 +204,93 @@ BeamKernelStatus InternalForces(const BeamElementReference &ref, const BeamSecti
   return BeamKernelStatus::Ok;
 }
 
+// Strains (Gamma - Gamma_0, K - K_0) at a Gauss point from the local coordinates.
+void GaussStrains(const BeamElementReference &ref, int gp, const Vec3 *rho, const Vec3 *psi, Vec3 *strain, Vec3 *curvature)
+{
+  Vec3 Psi = Vec3::Zero(), dPsi = Vec3::Zero(), drho = Vec3::Zero();
+  for (int a = 0; a < ref.num_nodes; ++a) {
+    Psi += ref.shape[gp][a] * psi[a];
+    dPsi += ref.shape_derivative[gp][a] * psi[a];
+    drho += ref.shape_derivative[gp][a] * rho[a];
+  }
+  const RotationSeries series = EvaluateRotationSeries(Psi.squaredNorm());
+  *strain                     = RodriguesMatrix(ExpForm(series), Psi).transpose() * drho - ref.strain0[gp];
+  *curvature                  = RodriguesMatrix(TangentForm(series), Psi).transpose() * dPsi - ref.curvature0[gp];
+}
+
 } // namespace
+
+BeamKernelStatus BeamMidpointInternalForces(const BeamElementReference &ref, const BeamSectionStiffness &section, const Vec3 *positions_start,
+                                            const Mat3 *triads_start, const Vec3 *positions, const Mat3 *triads, double *force_mc, double *force_correction,
+                                            double *strain_energy_start, double *strain_energy_end)
+{
+  const int nn = ref.num_nodes, c = ref.reference_node;
+  Vec3      rho_n[kBeamMaxNodes], psi_n[kBeamMaxNodes], rho_1[kBeamMaxNodes], psi_1[kBeamMaxNodes], rho_m[kBeamMaxNodes], psi_m[kBeamMaxNodes];
+  if (!LocalCoordinates(nn, c, positions_start, triads_start, rho_n, psi_n)) return BeamKernelStatus::RotationTooLarge;
+  if (!LocalCoordinates(nn, c, positions, triads, rho_1, psi_1)) return BeamKernelStatus::RotationTooLarge;
+  for (int a = 0; a < nn; ++a) {
+    rho_m[a] = 0.5 * (rho_n[a] + rho_1[a]);
+    psi_m[a] = 0.5 * (psi_n[a] + psi_1[a]);
+  }
+  const Vec3 &CN = section.axial_shear, &CM = section.torsion_bending;
+  Vec3        h_rho[kBeamMaxNodes], h_psi[kBeamMaxNodes], k_rho[kBeamMaxNodes], k_psi[kBeamMaxNodes];
+  for (int a = 0; a < nn; ++a) h_rho[a].setZero(), h_psi[a].setZero(), k_rho[a].setZero(), k_psi[a].setZero();
+  double energy_n = 0.0, energy_1 = 0.0;
+  for (int gp = 0; gp < ref.num_gauss; ++gp) {
+    Vec3 eps_n, kap_n, eps_1, kap_1;
+    GaussStrains(ref, gp, rho_n, psi_n, &eps_n, &kap_n);
+    GaussStrains(ref, gp, rho_1, psi_1, &eps_1, &kap_1);
+    const Vec3   N_n = CN.cwiseProduct(eps_n), M_n = CM.cwiseProduct(kap_n), N_1 = CN.cwiseProduct(eps_1), M_1 = CM.cwiseProduct(kap_1);
+    const double wJ  = ref.weight_jacobian[gp];
+    energy_n += 0.5 * wJ * (eps_n.dot(N_n) + kap_n.dot(M_n));
+    energy_1 += 0.5 * wJ * (eps_1.dot(N_1) + kap_1.dot(M_1));
+    const Vec3 N_mid = 0.5 * (N_n + N_1), M_mid = 0.5 * (M_n + M_1), N_d = N_1 - N_n, M_d = M_1 - M_n;
+    // D(q_mid): dGamma = A dPsi + E^T drho',  dK = B dPsi + H^T dPsi'
+    const double *I = ref.shape[gp], *dI = ref.shape_derivative[gp];
+    Vec3          Psi = Vec3::Zero(), dPsi = Vec3::Zero(), drho = Vec3::Zero();
+    for (int a = 0; a < nn; ++a) {
+      Psi += I[a] * psi_m[a];
+      dPsi += dI[a] * psi_m[a];
+      drho += dI[a] * rho_m[a];
+    }
+    const RotationSeries series = EvaluateRotationSeries(Psi.squaredNorm());
+    const RodriguesForm  Fe = ExpForm(series), Fh = TangentForm(series);
+    const Mat3           E = RodriguesMatrix(Fe, Psi), H = RodriguesMatrix(Fh, Psi);
+    const Mat3           A = RodriguesTransposeApplyJacobian(Fe, Psi, drho), B = RodriguesTransposeApplyJacobian(Fh, Psi, dPsi);
+    const Vec3           EN = E * N_mid, AN_BM = A.transpose() * N_mid + B.transpose() * M_mid, HM = H * M_mid;
+    const Vec3           ENd = E * N_d, ANd = A.transpose() * N_d + B.transpose() * M_d, HMd = H * M_d;
+    for (int a = 0; a < nn; ++a) {
+      if (a == c) continue;
+      h_rho[a] += wJ * dI[a] * EN;
+      h_psi[a] += wJ * (I[a] * AN_BM + dI[a] * HM);
+      k_rho[a] += wJ * dI[a] * ENd;
+      k_psi[a] += wJ * (I[a] * ANd + dI[a] * HMd);
+    }
+  }
+  if (strain_energy_start) *strain_energy_start = energy_n;
+  if (strain_energy_end) *strain_energy_end = energy_1;
+
+  const Mat3 L = 0.5 * (triads_start[c] + triads[c]);
+  for (int i = 0; i < 6 * nn; ++i) force_mc[i] = force_correction[i] = 0.0;
+  for (int a = 0; a < nn; ++a) {
+    if (a == c) continue;
+    const Vec3 d_mid = 0.5 * ((positions_start[a] - positions_start[c]) + (positions[a] - positions[c]));
+    const Mat3 PT    = L * TangentHInverse(psi_m[a]).transpose(); // (H^{-1}(psi_mid) L^T)^T
+    const Mat3 MT    = -Skew(d_mid) * L;                          // (L^T hat(d_mid))^T
+    for (int which = 0; which < 2; ++which) {
+      double     *out = which == 0 ? force_mc : force_correction;
+      const Vec3 &hr = which == 0 ? h_rho[a] : k_rho[a], &hp = which == 0 ? h_psi[a] : k_psi[a];
+      const Vec3  f = L * hr, m = PT * hp, mc = MT * hr - m;
+      for (int i = 0; i < 3; ++i) {
+        out[6 * a + i] += f(i);
+        out[6 * a + 3 + i] += m(i);
+        out[6 * c + i] -= f(i);
+        out[6 * c + 3 + i] += mc(i);
+      }
+    }
+  }
+  return BeamKernelStatus::Ok;
+}
 
 BeamKernelStatus BeamElementSetup(int num_nodes, const Vec3 *reference_positions, const Mat3 *reference_triads, BeamElementReference *ref)
 {
@@ -244,10 +330,14 @@ BeamKernelStatus BeamElementSetup(int num_nodes, const Vec3 *reference_positions
     ref->curvature0[gp] = TangentH(Psi).transpose() * dPsi;
   }
 
-  // Length and consistent nodal lengths with 3-point Gauss (exact for straight elements).
+  // Length, consistent nodal lengths and mass integrals with 3-point Gauss (exact for straight
+  // elements: I_a I_b is at most quartic).
   const double xi3[3] = {-std::sqrt(0.6), 0.0, std::sqrt(0.6)}, w3[3] = {5.0 / 9.0, 8.0 / 9.0, 5.0 / 9.0};
   ref->length         = 0.0;
-  for (int a = 0; a < kBeamMaxNodes; ++a) ref->nodal_length[a] = 0.0;
+  for (int a = 0; a < kBeamMaxNodes; ++a) {
+    ref->nodal_length[a] = 0.0;
+    for (int b = 0; b < kBeamMaxNodes; ++b) ref->mass_shape[a][b] = 0.0;
+  }
   for (int q = 0; q < 3; ++q) {
     double I[kBeamMaxNodes], dI_dxi[kBeamMaxNodes];
     LagrangeShape(num_nodes, xi3[q], I, dI_dxi);
@@ -255,7 +345,10 @@ BeamKernelStatus BeamElementSetup(int num_nodes, const Vec3 *reference_positions
     for (int a = 0; a < num_nodes; ++a) dX_dxi += dI_dxi[a] * reference_positions[a];
     const double ds = w3[q] * dX_dxi.norm();
     ref->length += ds;
-    for (int a = 0; a < num_nodes; ++a) ref->nodal_length[a] += I[a] * ds;
+    for (int a = 0; a < num_nodes; ++a) {
+      ref->nodal_length[a] += I[a] * ds;
+      for (int b = 0; b < num_nodes; ++b) ref->mass_shape[a][b] += I[a] * I[b] * ds;
+    }
   }
   return BeamKernelStatus::Ok;
 }

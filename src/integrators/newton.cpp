@@ -92,7 +92,7 @@ PetscErrorCode ForceScaledConvergenceTest(SNES snes, PetscInt iteration, PetscRe
 
 } // namespace
 
-PetscErrorCode NewtonSolverCreate(MPI_Comm comm, const AnalysisSettings &analysis, NewtonContext *context, SNES *snes)
+PetscErrorCode NewtonSolverCreate(MPI_Comm comm, const AnalysisSettings &analysis, bool matrix_free_operator, NewtonContext *context, SNES *snes)
 {
   KSP            ksp;
   PC             pc;
@@ -116,7 +116,13 @@ PetscErrorCode NewtonSolverCreate(MPI_Comm comm, const AnalysisSettings &analysi
   PetscCall(SNESLineSearchSetType(linesearch, SNESLINESEARCHSHELL));
   PetscCall(SNESLineSearchShellSetUserFunc(linesearch, SafeguardedNewtonStep, context));
   PetscCall(SNESGetKSP(*snes, &ksp));
-  PetscCall(KSPSetType(ksp, KSPPREONLY));
+  if (matrix_free_operator) {
+    PetscCall(SNESSetUseMatrixFree(*snes, PETSC_TRUE, PETSC_FALSE));
+    PetscCall(KSPSetType(ksp, KSPGMRES));
+    PetscCall(KSPSetTolerances(ksp, 1e-8, PETSC_DEFAULT, PETSC_DEFAULT, 50));
+  } else {
+    PetscCall(KSPSetType(ksp, KSPPREONLY));
+  }
   PetscCall(KSPGetPC(ksp, &pc));
   PetscCall(PCSetType(pc, PCLU));
   PetscCall(PCFactorSetMatSolverType(pc, MATSOLVERMUMPS));

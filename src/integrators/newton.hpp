@@ -12,6 +12,10 @@
 //    relative test of PETSc measured against the force level as well, so a small load increment
 //    on a heavily loaded structure does not ask for a residual below round-off.
 //  - MUMPS LU; the symbolic factorisation is reused while the matrix pattern is unchanged.
+//  - For the mid-point schemes (mc, em) the operator is matrix-free (PETSc -snes_mf_operator:
+//    directional differences of the exact residual, so em's global beta coupling is linearised
+//    exactly) and GMRES is preconditioned by the LU of the assembled approximation (the end-point
+//    stiffness halved plus the exact inertia); see assembly/assembler.hpp.
 #pragma once
 
 #include "assembly/assembler.hpp"
@@ -26,6 +30,6 @@ struct NewtonContext {
   MPI_Comm   comm      = MPI_COMM_NULL;
 };
 
-PetscErrorCode NewtonSolverCreate(MPI_Comm comm, const AnalysisSettings &analysis, NewtonContext *context, SNES *snes);
+PetscErrorCode NewtonSolverCreate(MPI_Comm comm, const AnalysisSettings &analysis, bool matrix_free_operator, NewtonContext *context, SNES *snes);
 
 } // namespace msflex

@@ -1,6 +1,8 @@
-// Static mechanism check: every connected group of beams must be held by its supports against
-// the six linearised rigid-body motions, or the static tangent stiffness is singular from the
-// first step. Caught here, the user gets a message naming the beams instead of a failed solve.
+// Static mechanism check: every connected group of beams, and every rigid body on a node outside
+// all beams, must be held by its supports against the six linearised rigid-body motions, or the
+// static tangent stiffness is singular from the first step. Caught here, the user gets a message
+// naming the beams or the node instead of a failed solve. Dynamic analyses skip the check: there
+// the mass holds free motions.
 #include "io/input_reader_internal.hpp"
 
 #include <Eigen/Geometry>
@@ -109,6 +111,16 @@ void CheckStaticMechanisms(const Model &model)
     if (restrained < 6)
       FailAt(model.beams[beam].mark, "mechanism: beam(s) " + BeamList(model, beams) + " can move as a rigid body (" +
                                          std::to_string(restrained) + " of 6 rigid-body modes restrained); add supports");
+  }
+  // A node outside every beam (it carries a rigid body) has no stiffness at all: statics needs all
+  // six of its DOFs constrained.
+  for (const RigidBody &body : model.rigid_bodies) {
+    if (!beams_of_component[components.Root(body.node)].empty()) continue;
+    const int restrained = RestrainedRigidBodyModes(model, {body.node}, constrained);
+    if (restrained < 6)
+      FailAt(body.mark, "mechanism: the rigid body at node " + Quote(model.nodes[body.node].name) +
+                            " is not connected to any beam and can move freely (" + std::to_string(restrained) +
+                            " of 6 rigid-body modes restrained); in a static analysis add supports or use type: dynamic");
   }
 }
 

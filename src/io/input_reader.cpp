@@ -1,6 +1,7 @@
 // The YAML model reader: top-level structure, functions, sections, nodes, sets, supports, loads,
-// probes, analysis and output settings. Beams are expanded in input_beams.cpp and static
-// mechanisms are detected in input_mechanism_check.cpp. The schema is documented in docs/input.md.
+// probes, analysis and output settings. Beams are expanded in input_beams.cpp, rigid bodies and
+// initial conditions are read in input_dynamics.cpp and static mechanisms are detected in
+// input_mechanism_check.cpp. The schema is documented in docs/input.md.
 #include "io/input_reader.hpp"
 
 #include "io/input_reader_internal.hpp"
@@ -61,6 +62,9 @@ void RequireUniqueName(const std::vector<NamedType> &objects, const std::string 
 
 void ReaderContext::RegisterName(const std::string &name, NameKind kind, int index, const SourceMark &mark)
 {
+  if (name == kAllNodes)
+    FailAt(mark, std::string("a ") + KindName(kind) + " cannot be called " + Quote(kAllNodes) + ": in 'nodes' lists " +
+                     Quote(kAllNodes) + " means every node");
   const auto [existing, inserted] = names.emplace(name, NamedObject{kind, index, mark.line});
   if (!inserted)
     FailAt(mark, "name " + Quote(name) + " of this " + KindName(kind) + " is already used by the " + KindName(existing->second.kind) +
@@ -106,6 +110,10 @@ std::vector<int> ReaderContext::ResolveNodes(const YAML::Node &value, const std:
     already_listed[node] = true;
   };
   for (const NameReference &reference : ReadNameList(value, key)) {
+    if (reference.name == kAllNodes) {
+      for (size_t node = 0; node < model.nodes.size(); ++node) add(static_cast<int>(node));
+      continue;
+    }
     const auto found = names.find(reference.name);
     if (found == names.end()) FailAt(reference.mark, "unknown node, set or beam " + Quote(reference.name) + " in " + Quote(key));
     const NamedObject &object = found->second;
@@ -169,18 +177,35 @@ TimeFunction ReadFunction(const YAML::Node &item, const ReaderContext &context)
   return function;
 }
 
-Vec3 ReadNonNegativeVec3(const YAML::Node &value, const std::string &key)
+// Mass per length and rotational inertia per length: given directly (rhoA, rhoJ) or from the
+// density and the geometry of the section (density, area, I2, I3), never both.
+void ReadSectionInertia(const MappingReader &entry, Section &section)
 {
-  const Vec3 vector = ReadVec3(value, key);
-  for (int component = 0; component < 3; ++component)
-    if (vector(component) < 0.0)
-      FailAt(value[component].Mark(), "components of " + Quote(key) + " must not be negative, got " + value[component].Scalar());
-  return vector;
+  if (entry.Has("density")) {
+    for (const char *direct : {"rhoA", "rhoJ"})
+      if (const YAML::Node *value = entry.Find(direct))
+        FailAt(value->Mark(), "give either 'density' (with 'area', 'I2' and 'I3') or " + Quote(direct) + " in " + entry.Description() +
+                                  ", not both");
+    const double density = entry.PositiveNumber("density");
+    const double area    = entry.PositiveNumber("area");
+    const double I2      = entry.PositiveNumber("I2");
+    const double I3      = entry.PositiveNumber("I3");
+    section.rhoA         = density * area;
+    section.rhoJ         = density * Vec3(I2 + I3, I2, I3); // the polar moment about t1 is I2 + I3
+    return;
+  }
+  for (const char *geometric : {"area", "I2", "I3"})
+    if (const YAML::Node *value = entry.Find(geometric))
+      FailAt(value->Mark(), Quote(geometric) + " in " + entry.Description() +
+                                " needs 'density' (kg/m^3); to give the mass per length directly use 'rhoA' and 'rhoJ'");
+  section.rhoA = entry.NonNegativeNumber("rhoA", 0.0);
+  if (const YAML::Node *rhoJ = entry.Find("rhoJ")) section.rhoJ = ReadNonNegativeVec3(*rhoJ, "rhoJ");
 }
 
 Section ReadSection(const YAML::Node &item, const ReaderContext &context)
 {
-  const MappingReader entry(item, "section", {"name", "EA", "GA2", "GA3", "GJ", "EI2", "EI3", "rhoA", "rhoJ"});
+  const MappingReader entry(item, "section",
+                            {"name", "EA", "GA2", "GA3", "GJ", "EI2", "EI3", "rhoA", "rhoJ", "density", "area", "I2", "I3"});
   Section             section;
   section.name = entry.String("name");
   section.mark = context.MarkOf(entry.Mark());
@@ -191,8 +216,7 @@ Section ReadSection(const YAML::Node &item, const ReaderContext &context)
   section.GJ   = entry.PositiveNumber("GJ");
   section.EI2  = entry.PositiveNumber("EI2");
   section.EI3  = entry.PositiveNumber("EI3");
-  section.rhoA = entry.NonNegativeNumber("rhoA", 0.0);
-  if (const YAML::Node *rhoJ = entry.Find("rhoJ")) section.rhoJ = ReadNonNegativeVec3(*rhoJ, "rhoJ");
+  ReadSectionInertia(entry, section);
   return section;
 }
 
@@ -209,15 +233,18 @@ void ReadNodes(const YAML::Node &mapping, ReaderContext &context)
   }
 }
 
-// Every node named under `nodes:` must carry stiffness; a stray node would be singular.
+// Every node named under `nodes:` must belong to a beam or carry a rigid body; a stray node would
+// have neither stiffness nor mass.
 void CheckEveryNodeConnected(const Model &model, size_t user_node_count)
 {
   std::vector<bool> connected(model.nodes.size(), false);
   for (const BeamElement &element : model.elements)
     for (int node : element.nodes)
       if (node >= 0) connected[node] = true;
+  for (const RigidBody &body : model.rigid_bodies) connected[body.node] = true;
   for (size_t node = 0; node < user_node_count; ++node)
-    if (!connected[node]) FailAt(model.nodes[node].mark, "node " + Quote(model.nodes[node].name) + " is not connected to any beam");
+    if (!connected[node])
+      FailAt(model.nodes[node].mark, "node " + Quote(model.nodes[node].name) + " is not connected to any beam and carries no rigid body");
 }
 
 void ReadSets(const YAML::Node *mapping, ReaderContext &context)
@@ -391,13 +418,22 @@ void ReadAnalysis(const YAML::Node *mapping, const ReaderContext &context, Analy
 {
   if (mapping == nullptr || mapping->IsNull()) return;
   const MappingReader entry(*mapping, "'analysis'",
-                            {"type", "end_time", "initial_step", "min_step", "max_step", "growth_factor", "easy_iterations",
-                             "easy_steps_to_grow", "max_rotation_increment", "max_newton_iterations", "newton_rtol", "newton_atol",
-                             "output_times"});
+                            {"type", "integrator", "spectral_radius", "end_time", "initial_step", "min_step", "max_step", "growth_factor",
+                             "easy_iterations", "easy_steps_to_grow", "max_rotation_increment", "max_newton_iterations", "newton_rtol",
+                             "newton_atol", "output_times"});
   analysis.mark = context.MarkOf(entry.Mark());
   analysis.type = entry.String("type", analysis.type);
-  if (analysis.type != "static")
-    FailAt(entry.Required("type").Mark(), "unsupported analysis type " + Quote(analysis.type) + "; only 'static' is available");
+  if (analysis.type != "static" && analysis.type != "dynamic")
+    FailAt(entry.Required("type").Mark(), "unknown analysis type " + Quote(analysis.type) + "; expected static or dynamic");
+  // Accepted (and ignored) in static analyses too, so one file can switch by `type` alone.
+  analysis.integrator = entry.String("integrator", analysis.integrator);
+  if (analysis.integrator != "newmark" && analysis.integrator != "mc" && analysis.integrator != "em" && analysis.integrator != "genalpha")
+    FailAt(entry.Required("integrator").Mark(),
+           "unknown integrator " + Quote(analysis.integrator) + " in 'analysis'; expected one of newmark, mc, em, genalpha");
+  analysis.spectral_radius = entry.Number("spectral_radius", analysis.spectral_radius);
+  if (analysis.spectral_radius < 0.0 || analysis.spectral_radius > 1.0)
+    FailAt(entry.Required("spectral_radius").Mark(),
+           "'spectral_radius' must lie in [0, 1], got " + entry.Required("spectral_radius").Scalar());
   analysis.end_time     = entry.PositiveNumber("end_time", analysis.end_time);
   analysis.initial_step = entry.PositiveNumber("initial_step", analysis.initial_step);
   analysis.min_step     = entry.PositiveNumber("min_step", analysis.min_step);
@@ -457,26 +493,45 @@ YAML::Node LoadSingleDocument(const std::string &text)
   return documents.front();
 }
 
+// Where a top-level key is written, for messages about its (possibly empty) value.
+YAML::Mark KeyMark(const MappingReader &top, const std::string &key)
+{
+  for (const MappingReader::Entry &entry : top.Entries())
+    if (entry.key == key) return entry.key_node.Mark();
+  return top.Mark();
+}
+
 Model ParseModel(const std::string &text, const std::string &file_label)
 {
   ReaderContext context;
   context.model.input_file = file_label;
   context.model.input_text = text;
   const MappingReader top(LoadSingleDocument(text), "the top-level mapping",
-                          {"title", "functions", "sections", "nodes", "beams", "sets", "supports", "loads", "probes", "analysis", "output"});
+                          {"title", "functions", "sections", "nodes", "beams", "rigid_bodies", "sets", "supports", "loads",
+                           "initial_conditions", "probes", "analysis", "output"});
   // The model has no place for the title; it is validated here and kept in input_text.
   if (top.Has("title")) top.String("title");
   Model &model = context.model;
+  // A model needs something with stiffness or mass: beams, rigid bodies or both. Without beams
+  // nothing refers to a section, so `sections` is optional too.
+  const std::vector<YAML::Node> beam_items       = ReadOptionalList(top.Find("beams"), "beams");
+  const std::vector<YAML::Node> rigid_body_items = ReadOptionalList(top.Find("rigid_bodies"), "rigid_bodies");
+  if (beam_items.empty() && rigid_body_items.empty())
+    FailAt(KeyMark(top, "beams"), "the model has no beams and no rigid bodies; give 'beams', 'rigid_bodies' or both");
   for (const YAML::Node &item : ReadOptionalList(top.Find("functions"), "functions")) model.functions.push_back(ReadFunction(item, context));
-  for (const YAML::Node &item : ReadNonEmptyList(top.Required("sections"), "sections")) model.sections.push_back(ReadSection(item, context));
+  const std::vector<YAML::Node> section_items = beam_items.empty() ? ReadOptionalList(top.Find("sections"), "sections")
+                                                                   : ReadNonEmptyList(top.Required("sections"), "sections");
+  for (const YAML::Node &item : section_items) model.sections.push_back(ReadSection(item, context));
   ReadNodes(top.Required("nodes"), context);
   const size_t user_node_count = model.nodes.size();
-  ReadBeams(top.Required("beams"), context);
+  if (!beam_items.empty()) ReadBeams(top.Required("beams"), context);
+  ReadRigidBodies(rigid_body_items, context);
   CheckEveryNodeConnected(model, user_node_count);
   ReadSets(top.Find("sets"), context);
   for (const YAML::Node &item : ReadOptionalList(top.Find("supports"), "supports")) model.supports.push_back(ReadSupport(item, context));
   CheckSupportConflicts(model);
   for (const YAML::Node &item : ReadOptionalList(top.Find("loads"), "loads")) ReadLoad(item, context);
+  ReadInitialConditions(top.Find("initial_conditions"), context);
   for (const YAML::Node &item : ReadOptionalList(top.Find("probes"), "probes")) model.probes.push_back(ReadProbe(item, context));
   ReadAnalysis(top.Find("analysis"), context, model.analysis);
   ReadOutput(top.Find("output"), context, model.output);

@@ -14,6 +14,10 @@ namespace msflex::input_detail {
 // ambiguous.
 enum class NameKind { Node, Beam, Set };
 
+// In a list of node, set or beam names (`nodes` of supports, loads and initial conditions) this
+// word selects every node, so it cannot name a node, beam or set.
+inline constexpr const char *kAllNodes = "all";
+
 struct NamedObject {
   NameKind kind  = NameKind::Node;
   int      index = -1; // into Model::nodes, Model::beams or Model::node_sets
@@ -25,22 +29,32 @@ struct ReaderContext {
   std::unordered_map<std::string, NamedObject> names;
 
   SourceMark MarkOf(const YAML::Mark &mark) const;
-  // Adds a node, beam or set name; a name used twice is an error at `mark`.
+  // Adds a node, beam or set name; a name used twice, or the reserved word `all`, is an error at `mark`.
   void RegisterName(const std::string &name, NameKind kind, int index, const SourceMark &mark);
   // Index of the node / section / function named by `key` of `entry`; an unknown name is an error.
   int NodeIndex(const MappingReader &entry, const std::string &key) const;
   int SectionIndex(const MappingReader &entry, const std::string &key) const;
   // -1 (the default ramp f(t) = t) when `key` is absent.
   int OptionalFunctionIndex(const MappingReader &entry, const std::string &key) const;
-  // The nodes of a node, set or beam name or of a list of such names: deduplicated, first seen first.
+  // The nodes of a node, set or beam name or of a list of such names (`all`: every node, in index
+  // order): deduplicated, first seen first.
   std::vector<int> ResolveNodes(const YAML::Node &value, const std::string &key) const;
 };
 
 // Reads `beams` and expands every beam (line or arc) into nodes and elements (input_beams.cpp).
 void ReadBeams(const YAML::Node &beams, ReaderContext &context);
 
-// Fails when a connected group of beams is not held against all six rigid-body motions by its
-// supports, which would make the static stiffness matrix singular (input_mechanism_check.cpp).
+// Reads the items of `rigid_bodies` into Model::rigid_bodies (input_dynamics.cpp). Needs the nodes,
+// including those generated inside beams.
+void ReadRigidBodies(const std::vector<YAML::Node> &items, ReaderContext &context);
+
+// Reads `initial_conditions` into Model::initial_conditions; a node given an initial condition by
+// two entries is an error (input_dynamics.cpp). Needs the nodes, beams and sets.
+void ReadInitialConditions(const YAML::Node *list, ReaderContext &context);
+
+// Fails when a connected group of beams, or a rigid body on a node outside every beam, is not held
+// against all six rigid-body motions by its supports, which would make the static stiffness matrix
+// singular (input_mechanism_check.cpp). Called for static analyses only.
 void CheckStaticMechanisms(const Model &model);
 
 } // namespace msflex::input_detail

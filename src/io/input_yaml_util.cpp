@@ -107,6 +107,15 @@ Vec3 ReadVec3(const YAML::Node &value, const std::string &key)
   return Vec3(ReadNumber(value[0], key), ReadNumber(value[1], key), ReadNumber(value[2], key));
 }
 
+Vec3 ReadNonNegativeVec3(const YAML::Node &value, const std::string &key)
+{
+  const Vec3 vector = ReadVec3(value, key);
+  for (int component = 0; component < 3; ++component)
+    if (vector(component) < 0.0)
+      FailAt(value[component].Mark(), "components of " + Quote(key) + " must not be negative, got " + value[component].Scalar());
+  return vector;
+}
+
 int ReadDofName(const YAML::Node &value, const std::string &key)
 {
   const std::string name = ReadString(value, key);

@@ -38,6 +38,7 @@ int         ReadInteger(const YAML::Node &value, const std::string &key, int min
 bool        ReadBool(const YAML::Node &value, const std::string &key);
 std::string ReadString(const YAML::Node &value, const std::string &key); // non-empty scalar
 Vec3        ReadVec3(const YAML::Node &value, const std::string &key);   // 3 finite numbers
+Vec3        ReadNonNegativeVec3(const YAML::Node &value, const std::string &key); // 3 finite numbers >= 0
 int         ReadDofName(const YAML::Node &value, const std::string &key); // ux..rz -> DOF_UX..DOF_RZ
 const char *DofName(int dof);
 

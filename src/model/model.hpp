@@ -113,6 +113,29 @@ struct DistributedLoad {
   SourceMark       mark;
 };
 
+// A rigid body attached to a node: mass, inertia tensor about its centre of mass and the offset of
+// the centre of mass from the node, both given in global axes for the reference configuration
+// (the node's rotation is the identity there, so they are also the node's body-frame values).
+struct RigidBody {
+  int        node   = -1;
+  double     mass   = 0.0;             // kg
+  Mat3       inertia = Mat3::Zero();   // kg m^2, about the centre of mass, symmetric positive semi-definite
+  Vec3       offset = Vec3::Zero();    // m, centre of mass minus node position
+  SourceMark mark;
+};
+
+// Initial velocities of a set of nodes: uniform (v = velocity) or a rigid-body field
+// v = velocity + angular_velocity x (X - center) when `rigid_body_field`; every node of the set
+// gets the angular velocity `angular_velocity` (global axes).
+struct InitialCondition {
+  std::vector<int> nodes;
+  Vec3             velocity         = Vec3::Zero(); // m/s
+  Vec3             angular_velocity = Vec3::Zero(); // rad/s
+  bool             rigid_body_field = false;
+  Vec3             center           = Vec3::Zero(); // m
+  SourceMark       mark;
+};
+
 struct Probe {
   std::string name;
   int         node = -1;
@@ -121,8 +144,11 @@ struct Probe {
 
 // Static analysis: the loads are multiplied by their functions of the pseudo-time t in
 // [0, end_time]; the default function is the ramp f(t) = t, so t is the load factor.
+// Dynamic analysis: t is time, the steps are time steps, and `integrator` selects the scheme.
 struct AnalysisSettings {
-  std::string         type                   = "static";
+  std::string         type                   = "static";     // static | dynamic
+  std::string         integrator             = "em";         // newmark | mc | em | genalpha (dynamic only)
+  double              spectral_radius        = 0.9;          // rho_infinity of genalpha, in [0, 1]
   double              end_time               = 1.0;
   double              initial_step           = 0.1;
   double              min_step               = 1e-6;
@@ -157,6 +183,8 @@ struct Model {
   std::vector<NodalLoad>       nodal_loads;
   std::vector<DistributedLoad> distributed_loads;
   std::vector<Probe>           probes;
+  std::vector<RigidBody>       rigid_bodies;
+  std::vector<InitialCondition> initial_conditions;
   AnalysisSettings             analysis;
   OutputSettings               output;
 };

@@ -4,6 +4,7 @@
 // travels between ranks mid-step.
 #pragma once
 
+#include "integrators/time_scheme.hpp"
 #include "math/rotation.hpp"
 
 #include <vector>
@@ -21,6 +22,14 @@ struct NodeState {
   Vec3 position      = Vec3::Zero();
   Mat3 rotation      = Mat3::Identity();
   Mat3 rotation_tangent = Mat3::Identity(); // H(omega): d theta = H(omega) d omega
+
+  // Dynamics at the start of the step: translation in global axes, rotation in the node's body
+  // frame (W, Wdot and the Newmark family's pseudo-acceleration).
+  MotionState translation_motion, rotation_motion;
+  // Dynamics at the end of the step, derived from the increments by the time scheme.
+  MotionUpdate translation_update;
+  Vec3         tangent_scaled_increment = Vec3::Zero(); // alpha = 2 tan(|omega|/2) omega/|omega|
+  Mat3         tangent_scaled_derivative = Mat3::Identity(); // d alpha / d omega
 };
 
 // Recomputes position, rotation and rotation_tangent from the start state and the increments.

@@ -54,7 +54,7 @@ PetscErrorCode Build(AssembledSystem *system)
   PetscCall(PartitionNodes(PETSC_COMM_WORLD, system->model, PartitionerType::Simple, &node_rank));
   PetscCall(DofMapCreate(PETSC_COMM_WORLD, system->model, node_rank, &system->map));
   PetscCall(system->assembler.Setup(PETSC_COMM_WORLD, system->model, system->map));
-  PetscCall(system->assembler.BeginStep(0.0, 0.8));
+  PetscCall(system->assembler.BeginStep(0.0, 0.8, nullptr));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 

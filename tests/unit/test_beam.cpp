@@ -185,3 +185,76 @@ TEST_P(BeamKernel, ResidualIsTheGradientOfTheStrainEnergy)
 }
 
 INSTANTIATE_TEST_SUITE_P(TwoAndThreeNodes, BeamKernel, ::testing::Values(2, 3));
+
+// Mid-point (mc/em) internal forces: no net force and no net moment about the mid-point
+// configuration (momentum conservation), equal to the static residual when the step is empty,
+// symmetric in the two ends (the correction antisymmetric), and a work that approximates the
+// change of strain energy to third order in the step (so em's beta stays small).
+TEST_P(BeamKernel, MidpointForcesConserveMomentumAndApproximateTheEnergyChange)
+{
+  const int            nn = GetParam();
+  const ElementCase    ec = CurvedTwistedReference(nn, 0.6);
+  BeamElementReference ref;
+  ASSERT_EQ(BeamElementSetup(nn, ec.positions.data(), ec.triads.data(), &ref), BeamKernelStatus::Ok);
+  const ElementCase start = Deform(ec, 21, 0.2);
+  auto              step  = [&](double scale, std::vector<Vec3> *u, std::vector<Vec3> *omega) {
+    ElementCase                            end = start;
+    std::mt19937                           gen(5);
+    std::uniform_real_distribution<double> d(-1.0, 1.0);
+    u->assign(nn, Vec3::Zero());
+    omega->assign(nn, Vec3::Zero());
+    for (int a = 0; a < nn; ++a) {
+      (*u)[a]          = scale * Vec3(d(gen), d(gen), d(gen));
+      (*omega)[a]      = scale * Vec3(d(gen), d(gen), d(gen));
+      end.positions[a] = start.positions[a] + (*u)[a];
+      end.triads[a]    = ExpSO3((*omega)[a]) * start.triads[a];
+    }
+    return end;
+  };
+  std::vector<double> f_mc(6 * nn), f_corr(6 * nn), back_mc(6 * nn), back_corr(6 * nn), r(6 * nn);
+  double              energy_n, energy_1;
+  std::vector<Vec3>   u, omega;
+  const ElementCase   end = step(0.05, &u, &omega);
+  ASSERT_EQ(BeamMidpointInternalForces(ref, kSection, start.positions.data(), start.triads.data(), end.positions.data(), end.triads.data(), f_mc.data(),
+                                       f_corr.data(), &energy_n, &energy_1),
+            BeamKernelStatus::Ok);
+  for (const std::vector<double> *f : {&f_mc, &f_corr}) {
+    Vec3   force = Vec3::Zero(), moment = Vec3::Zero();
+    double scale = 0;
+    for (int a = 0; a < nn; ++a) {
+      const Vec3 fa(&(*f)[6 * a]), ma(&(*f)[6 * a + 3]);
+      const Vec3 x_mid = 0.5 * (start.positions[a] + end.positions[a]);
+      force += fa;
+      moment += x_mid.cross(fa) + ma;
+      scale = std::max({scale, fa.norm() * (1 + x_mid.norm()), ma.norm()});
+    }
+    EXPECT_LT(force.norm(), 1e-12 * scale);
+    EXPECT_LT(moment.norm(), 1e-12 * scale);
+  }
+  // Time reversal: the same forces for the reversed step, the correction with opposite sign.
+  ASSERT_EQ(BeamMidpointInternalForces(ref, kSection, end.positions.data(), end.triads.data(), start.positions.data(), start.triads.data(), back_mc.data(),
+                                       back_corr.data(), nullptr, nullptr),
+            BeamKernelStatus::Ok);
+  for (int i = 0; i < 6 * nn; ++i) {
+    EXPECT_NEAR(back_mc[i], f_mc[i], 1e-10 * (1 + std::abs(f_mc[i])));
+    EXPECT_NEAR(back_corr[i], -f_corr[i], 1e-10 * (1 + std::abs(f_corr[i])));
+  }
+  // An empty step gives the static residual.
+  ASSERT_EQ(BeamMidpointInternalForces(ref, kSection, start.positions.data(), start.triads.data(), start.positions.data(), start.triads.data(), f_mc.data(),
+                                       f_corr.data(), nullptr, nullptr),
+            BeamKernelStatus::Ok);
+  ASSERT_EQ(BeamInternalForces(ref, kSection, start.positions.data(), start.triads.data(), r.data(), nullptr, nullptr, nullptr), BeamKernelStatus::Ok);
+  for (int i = 0; i < 6 * nn; ++i) EXPECT_NEAR(f_mc[i], r[i], 1e-11 * (1 + std::abs(r[i])));
+  // Work (u, alpha) . F_mc versus the change of strain energy: error O(step^3).
+  double mismatch[2];
+  for (int k = 0; k < 2; ++k) {
+    const ElementCase e = step(0.02 / (1 << k), &u, &omega);
+    BeamMidpointInternalForces(ref, kSection, start.positions.data(), start.triads.data(), e.positions.data(), e.triads.data(), f_mc.data(), f_corr.data(),
+                               &energy_n, &energy_1);
+    double work = 0;
+    for (int a = 0; a < nn; ++a) work += u[a].dot(Vec3(&f_mc[6 * a])) + TangentScaledFromRotationVector(omega[a]).dot(Vec3(&f_mc[6 * a + 3]));
+    mismatch[k] = std::abs(work - (energy_1 - energy_n));
+  }
+  std::printf("mid-point work vs strain energy change, %d nodes: %.3e, %.3e (ratio %.2f)\n", nn, mismatch[0], mismatch[1], mismatch[0] / mismatch[1]);
+  EXPECT_GT(mismatch[0] / mismatch[1], 6.0);
+}

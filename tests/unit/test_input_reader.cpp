@@ -315,7 +315,13 @@ loads:
   EXPECT_EQ(model.output.file, "roll.h5");
   EXPECT_EQ(model.output.every, 1);
   EXPECT_EQ(model.analysis.type, "static");
+  EXPECT_EQ(model.analysis.integrator, "em");
+  EXPECT_DOUBLE_EQ(model.analysis.spectral_radius, 0.9);
   EXPECT_DOUBLE_EQ(model.analysis.initial_step, 0.1);
+  EXPECT_TRUE(model.rigid_bodies.empty());
+  EXPECT_TRUE(model.initial_conditions.empty());
+  EXPECT_DOUBLE_EQ(model.sections[0].rhoA, 0.0);
+  EXPECT_EQ(model.sections[0].rhoJ, Vec3::Zero());
   EXPECT_TRUE(model.functions.empty());
   EXPECT_TRUE(model.nodal_loads.empty());
   EXPECT_EQ(model.elements[0].order, 1);
@@ -336,6 +342,204 @@ beams:
   EXPECT_NE(error.message.find("mechanism: beam(s) 'ab', 'bc' can move as a rigid body (5 of 6"), std::string::npos) << error.message;
   EXPECT_EQ(error.line, 4);
   ReadValid(head + "supports: [{nodes: [a, b, c], fix: [ux, uy, uz]}]\n");
+}
+
+// A free-flying dynamic model: no supports (no mechanism check outside statics), a section
+// given by density and geometry, rigid bodies with diagonal and full inertia, and initial
+// conditions of both kinds.
+const char *const kDynamicModel = R"(sections:
+  - {name: al, EA: 1.0e7, GA2: 4.0e6, GA3: 4.0e6, GJ: 8.0e5, EI2: 8.0e5, EI3: 8.0e5,
+     density: 2700, area: 1.0e-3, I2: 2.0e-7, I3: 5.0e-7}
+nodes:
+  root: [0, 0, 0]
+  tip: [2, 0, 0]
+  pod: [1, 1, 0]
+beams:
+  - {name: arm, section: al, from: root, to: tip, elements: 4}
+rigid_bodies:
+  - node: tip
+    mass: 40
+    inertia: [0.2, 0.225, 0.225]
+  - node: arm.2
+    mass: 3
+    inertia:
+      - [0.5, 0.1, 0]
+      - [0.1, 0.4, 0]
+      - [0, 0, 0.3]
+    offset: [0, 0.1, -0.05]
+  - {node: pod, mass: 1.5, inertia: [[0, 0, 0], [0, 0, 0], [0, 0, 0]]}
+initial_conditions:
+  - nodes: root
+    velocity: [1, 0, 0]
+  - nodes: [arm.1, arm.2, arm.3, tip]
+    velocity: [0, 0, 1]
+    angular_velocity: [0, 0, 2]
+    rigid_body_center: [0.5, 0, 0]
+  - {nodes: pod, angular_velocity: [3, 0, 0]}
+analysis:
+  type: dynamic
+  integrator: genalpha
+  spectral_radius: 0.6
+  end_time: 0.5
+  initial_step: 1.0e-3
+  max_step: 0.01
+)";
+
+TEST(InputReader, DynamicModelWithRigidBodiesAndInitialConditions)
+{
+  const Model model = ReadValid(kDynamicModel);
+  EXPECT_EQ(model.analysis.type, "dynamic");
+  EXPECT_EQ(model.analysis.integrator, "genalpha");
+  EXPECT_DOUBLE_EQ(model.analysis.spectral_radius, 0.6);
+  EXPECT_DOUBLE_EQ(model.analysis.end_time, 0.5);
+  EXPECT_DOUBLE_EQ(model.analysis.initial_step, 1.0e-3);
+  EXPECT_DOUBLE_EQ(model.analysis.max_step, 0.01);
+  EXPECT_TRUE(model.supports.empty());
+
+  // rhoA = density * area, rhoJ = density * (I2 + I3, I2, I3).
+  ASSERT_EQ(model.sections.size(), 1u);
+  EXPECT_NEAR(model.sections[0].rhoA, 2.7, 1e-12);
+  EXPECT_NEAR(model.sections[0].rhoJ(0), 1.89e-3, 1e-15);
+  EXPECT_NEAR(model.sections[0].rhoJ(1), 5.4e-4, 1e-15);
+  EXPECT_NEAR(model.sections[0].rhoJ(2), 1.35e-3, 1e-15);
+
+  ASSERT_EQ(model.rigid_bodies.size(), 3u);
+  const RigidBody &tip = model.rigid_bodies[0];
+  EXPECT_EQ(tip.node, NodeIndex(model, "tip"));
+  EXPECT_DOUBLE_EQ(tip.mass, 40.0);
+  EXPECT_EQ(tip.inertia, Vec3(0.2, 0.225, 0.225).asDiagonal().toDenseMatrix());
+  EXPECT_EQ(tip.offset, Vec3::Zero());
+  EXPECT_EQ(tip.mark.line, 11);
+  const RigidBody &middle = model.rigid_bodies[1];
+  EXPECT_EQ(middle.node, NodeIndex(model, "arm.2"));
+  EXPECT_DOUBLE_EQ(middle.mass, 3.0);
+  Mat3 full;
+  full << 0.5, 0.1, 0, 0.1, 0.4, 0, 0, 0, 0.3;
+  EXPECT_EQ(middle.inertia, full);
+  EXPECT_EQ(middle.offset, Vec3(0, 0.1, -0.05));
+  EXPECT_EQ(middle.mark.line, 14);
+  // A point mass (zero inertia) is positive semi-definite; `pod` belongs to no beam.
+  EXPECT_EQ(model.rigid_bodies[2].node, NodeIndex(model, "pod"));
+  EXPECT_EQ(model.rigid_bodies[2].inertia, Mat3::Zero());
+
+  ASSERT_EQ(model.initial_conditions.size(), 3u);
+  const InitialCondition &uniform = model.initial_conditions[0];
+  EXPECT_EQ(uniform.nodes, (std::vector<int>{NodeIndex(model, "root")}));
+  EXPECT_EQ(uniform.velocity, Vec3(1, 0, 0));
+  EXPECT_EQ(uniform.angular_velocity, Vec3::Zero());
+  EXPECT_FALSE(uniform.rigid_body_field);
+  EXPECT_EQ(uniform.mark.line, 23);
+  const InitialCondition &field = model.initial_conditions[1];
+  EXPECT_EQ(field.nodes, (std::vector<int>{NodeIndex(model, "arm.1"), NodeIndex(model, "arm.2"), NodeIndex(model, "arm.3"),
+                                           NodeIndex(model, "tip")}));
+  EXPECT_EQ(field.velocity, Vec3(0, 0, 1));
+  EXPECT_EQ(field.angular_velocity, Vec3(0, 0, 2));
+  EXPECT_TRUE(field.rigid_body_field);
+  EXPECT_EQ(field.center, Vec3(0.5, 0, 0));
+  EXPECT_EQ(field.mark.line, 25);
+  const InitialCondition &spin = model.initial_conditions[2];
+  EXPECT_EQ(spin.nodes, (std::vector<int>{NodeIndex(model, "pod")}));
+  EXPECT_EQ(spin.velocity, Vec3::Zero());
+  EXPECT_EQ(spin.angular_velocity, Vec3(3, 0, 0));
+  EXPECT_FALSE(spin.rigid_body_field);
+}
+
+TEST(InputReader, StaticModelNeedsSupportsForBeamlessRigidBodies)
+{
+  // The same model as a static one: the beam is held by its supports, but the rigid body on
+  // `pod`, which belongs to no beam, has no stiffness and must be fixed on its own.
+  std::string text = kDynamicModel;
+  text.replace(text.find("type: dynamic"), 13, "type: static");
+  const InputError error = ReadInvalid(text + "supports: [{nodes: root, fix: all}]\n");
+  EXPECT_NE(error.message.find("mechanism: the rigid body at node 'pod' is not connected to any beam and can move freely (0 of 6"),
+            std::string::npos)
+      << error.message;
+  EXPECT_EQ(error.line, 21);
+  const Model model = ReadValid(text + "supports: [{nodes: [root, pod], fix: all}]\n");
+  // Integrator settings and initial conditions are accepted, and ignored, by static analyses.
+  EXPECT_EQ(model.analysis.integrator, "genalpha");
+  EXPECT_EQ(model.initial_conditions.size(), 3u);
+}
+
+TEST(InputReader, RigidBodyOnlyModelNeedsNoBeamsOrSections)
+{
+  const std::string text = R"(nodes:
+  hub: [1, 2, 3]
+rigid_bodies:
+  - {node: hub, mass: 2, inertia: [1, 2, 3], offset: [0.1, 0, 0]}
+initial_conditions:
+  - {nodes: all, velocity: [0, 1, 0], angular_velocity: [0, 0, 5], rigid_body_center: [1, 2, 0]}
+analysis: {type: dynamic}
+)";
+  const Model model = ReadValid(text);
+  EXPECT_TRUE(model.sections.empty());
+  EXPECT_TRUE(model.beams.empty());
+  EXPECT_TRUE(model.elements.empty());
+  ASSERT_EQ(model.nodes.size(), 1u);
+  ASSERT_EQ(model.rigid_bodies.size(), 1u);
+  EXPECT_EQ(model.rigid_bodies[0].node, 0);
+  EXPECT_EQ(model.rigid_bodies[0].inertia, Vec3(1, 2, 3).asDiagonal().toDenseMatrix());
+  EXPECT_EQ(model.rigid_bodies[0].offset, Vec3(0.1, 0, 0));
+  EXPECT_EQ(model.analysis.integrator, "em");
+  EXPECT_DOUBLE_EQ(model.analysis.spectral_radius, 0.9);
+  ASSERT_EQ(model.initial_conditions.size(), 1u);
+  EXPECT_EQ(model.initial_conditions[0].nodes, (std::vector<int>{0}));
+  EXPECT_TRUE(model.initial_conditions[0].rigid_body_field);
+  EXPECT_EQ(model.initial_conditions[0].center, Vec3(1, 2, 0));
+
+  // Static: accepted once all six DOFs of the node are held; `sections:` left empty means none.
+  const Model fixed = ReadValid("sections:\n" + text.substr(0, text.find("analysis")) + "supports: [{nodes: hub, fix: all}]\n");
+  EXPECT_EQ(fixed.analysis.type, "static");
+  EXPECT_TRUE(fixed.sections.empty());
+}
+
+TEST(InputReader, AllSelectsEveryNode)
+{
+  const std::string text = R"(sections: [{name: s, EA: 1, GA2: 1, GA3: 1, GJ: 1, EI2: 1, EI3: 1}]
+nodes: {a: [0, 0, 0], b: [1, 0, 0]}
+beams: [{name: ab, section: s, from: a, to: b, elements: 3}]
+supports: [{nodes: all, fix: [uz, rx, ry]}, {nodes: a, fix: [ux, uy, rz]}]
+loads: [{nodes: [b, all], force: [1, 0, 0]}]
+initial_conditions:
+  - {nodes: all, velocity: [0, 2, 0]}
+)";
+  const Model model = ReadValid(text);
+  // Named nodes first, then the generated ones; `all` lists them in index order.
+  const std::vector<int> every{0, 1, 2, 3};
+  ASSERT_EQ(model.nodes.size(), 4u);
+  EXPECT_EQ(model.supports[0].nodes, every);
+  EXPECT_EQ(model.nodal_loads[0].nodes, (std::vector<int>{1, 0, 2, 3}));
+  EXPECT_EQ(model.initial_conditions[0].nodes, every);
+  EXPECT_FALSE(model.initial_conditions[0].rigid_body_field);
+
+  // Every node gets at most one initial condition, `all` included.
+  const InputError error = ReadInvalid(text + "  - {nodes: ab.2, velocity: [1, 0, 0]}\n");
+  EXPECT_NE(error.message.find("node 'ab.2' already has an initial condition from the entry at line 7"), std::string::npos)
+      << error.message;
+  EXPECT_EQ(error.line, 8);
+}
+
+TEST(InputReader, SectionMassFromDensityOrGivenDirectly)
+{
+  // Every allowed value of integrator, and density-based sections side by side with direct ones.
+  const std::string head = R"(sections:
+  - {name: rod, EA: 1, GA2: 1, GA3: 1, GJ: 1, EI2: 1, EI3: 1, density: 7850, area: 3.0e-4, I2: 1.5e-8, I3: 2.5e-8}
+  - {name: direct, EA: 1, GA2: 1, GA3: 1, GJ: 1, EI2: 1, EI3: 1, rhoA: 2.355, rhoJ: [3.14e-4, 1.1775e-4, 1.9625e-4]}
+nodes: {a: [0, 0, 0], b: [1, 0, 0], c: [2, 0, 0]}
+beams:
+  - {name: one, section: rod, from: a, to: b, elements: 1}
+  - {name: two, section: direct, from: b, to: c, elements: 1}
+analysis:
+  type: dynamic
+)";
+  for (const char *integrator : {"newmark", "mc", "em", "genalpha"}) {
+    const Model model = ReadValid(head + "  integrator: " + integrator + "\n  spectral_radius: 0\n");
+    EXPECT_EQ(model.analysis.integrator, integrator);
+    EXPECT_DOUBLE_EQ(model.analysis.spectral_radius, 0.0);
+    ASSERT_EQ(model.sections.size(), 2u);
+    EXPECT_NEAR(model.sections[0].rhoA, model.sections[1].rhoA, 1e-12);
+    EXPECT_LT((model.sections[0].rhoJ - model.sections[1].rhoJ).norm(), 1e-15);
+  }
 }
 
 TEST(InputReader, FormatAndUnreadableFile)

@@ -1,0 +1,93 @@
+#include "integrators/time_scheme.hpp"
+
+#include <cmath>
+
+namespace msflex {
+
+bool TimeSchemeKindFromName(const std::string &name, TimeSchemeKind *kind)
+{
+  if (name == "newmark") *kind = TimeSchemeKind::Newmark;
+  else if (name == "genalpha") *kind = TimeSchemeKind::GeneralizedAlpha;
+  else if (name == "mc") *kind = TimeSchemeKind::MomentumConserving;
+  else if (name == "em") *kind = TimeSchemeKind::EnergyMomentum;
+  else return false;
+  return true;
+}
+
+const char *TimeSchemeName(TimeSchemeKind kind)
+{
+  switch (kind) {
+  case TimeSchemeKind::Newmark:
+    return "newmark";
+  case TimeSchemeKind::GeneralizedAlpha:
+    return "genalpha";
+  case TimeSchemeKind::MomentumConserving:
+    return "mc";
+  case TimeSchemeKind::EnergyMomentum:
+    return "em";
+  }
+  return "?";
+}
+
+TimeScheme MakeTimeScheme(TimeSchemeKind kind, double spectral_radius, double dt)
+{
+  TimeScheme s;
+  s.kind = kind;
+  s.dt   = dt;
+  if (kind == TimeSchemeKind::GeneralizedAlpha) {
+    const double rho = spectral_radius;
+    s.alpha_m        = (2.0 * rho - 1.0) / (rho + 1.0);
+    s.alpha_f        = rho / (rho + 1.0);
+    s.gamma          = 0.5 + s.alpha_f - s.alpha_m;
+    s.beta           = 0.25 * (s.gamma + 0.5) * (s.gamma + 0.5);
+  }
+  return s;
+}
+
+double TimeScheme::InertiaCoefficient() const
+{
+  if (Midpoint()) return 2.0 / (dt * dt);
+  return (1.0 - alpha_m) / ((1.0 - alpha_f) * beta * dt * dt);
+}
+
+double TimeScheme::VelocityCoefficient() const
+{
+  if (Midpoint()) return 2.0 / dt;
+  return gamma / (beta * dt);
+}
+
+MotionUpdate AdvanceMotion(const TimeScheme &s, const MotionState &start, const Vec3 &increment)
+{
+  MotionUpdate next;
+  const double dt = s.dt;
+  if (s.Midpoint()) {
+    next.velocity            = 2.0 * increment / dt - start.velocity;
+    next.acceleration        = (next.velocity - start.velocity) / dt;
+    next.pseudo_acceleration = next.acceleration;
+    return next;
+  }
+  next.pseudo_acceleration = (increment - dt * start.velocity - dt * dt * (0.5 - s.beta) * start.pseudo_acceleration) / (s.beta * dt * dt);
+  next.velocity            = start.velocity + dt * ((1.0 - s.gamma) * start.pseudo_acceleration + s.gamma * next.pseudo_acceleration);
+  next.acceleration = ((1.0 - s.alpha_m) * next.pseudo_acceleration + s.alpha_m * start.pseudo_acceleration - s.alpha_f * start.acceleration) / (1.0 - s.alpha_f);
+  return next;
+}
+
+void TangentScaledIncrement(const Vec3 &omega, Vec3 *alpha, Mat3 *dalpha_domega)
+{
+  // f(t) = 2 tan(t/2)/t, alpha = f omega, d alpha = f I + (f'(t)/t) omega omega^T.
+  const double t = omega.norm();
+  double       f, fprime_over_t;
+  if (t < 1e-3) {
+    const double x = t * t;
+    f              = 1.0 + x / 12.0 + x * x / 120.0 + x * x * x * 17.0 / 20160.0;
+    fprime_over_t  = 1.0 / 6.0 + x / 30.0 + x * x * 17.0 / 3360.0;
+  } else {
+    const double half = 0.5 * t, tan_half = std::tan(half), sec2 = 1.0 + tan_half * tan_half;
+    f             = 2.0 * tan_half / t;
+    fprime_over_t = (sec2 / t - 2.0 * tan_half / (t * t)) / t;
+  }
+  *alpha = f * omega;
+  if (dalpha_domega) *dalpha_domega = f * Mat3::Identity() + fprime_over_t * omega * omega.transpose();
+}
+
+} // namespace msflex
