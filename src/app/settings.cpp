@@ -1,5 +1,6 @@
 #include "app/settings.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <vector>
 
@@ -56,9 +57,11 @@ PetscErrorCode SettingsFromOptions(MPI_Comm comm, Model *model, RunOptions *opti
   PetscCheck(a.growth_factor >= 1.0, comm, PETSC_ERR_USER_INPUT, "option -analysis_growth_factor must be >= 1, got %g", a.growth_factor);
   PetscCheck(a.min_step <= a.initial_step, comm, PETSC_ERR_USER_INPUT, "min_step %g is larger than initial_step %g", a.min_step, a.initial_step);
   PetscCheck(a.max_rotation_increment < M_PI, comm, PETSC_ERR_USER_INPUT, "max_rotation_increment must be below pi, got %g", a.max_rotation_increment);
+  // A run shortened with -analysis_end_time keeps the output times it still reaches.
+  a.output_times.erase(std::remove_if(a.output_times.begin(), a.output_times.end(), [&a](double t) { return t > a.end_time; }), a.output_times.end());
   for (size_t i = 0; i < a.output_times.size(); ++i)
-    PetscCheck(a.output_times[i] > 0 && a.output_times[i] <= a.end_time && (i == 0 || a.output_times[i] > a.output_times[i - 1]), comm, PETSC_ERR_USER_INPUT,
-               "output time %g must lie in (0, end_time = %g] and exceed the one before it", a.output_times[i], a.end_time);
+    PetscCheck(a.output_times[i] > 0 && (i == 0 || a.output_times[i] > a.output_times[i - 1]), comm, PETSC_ERR_USER_INPUT,
+               "output time %g must be positive and exceed the one before it", a.output_times[i]);
 
   char     file[PETSC_MAX_PATH_LEN];
   PetscInt every = model->output.every; // default: the input's output.every

@@ -117,6 +117,23 @@ PetscErrorCode Assembler::Setup(MPI_Comm comm, const Model &model, const DofMap 
       node_inertia_[l] += LumpedRotaryInertia(ref, element, model.sections[element.section], a);
     }
   }
+  has_translational_mass_.assign(nodes_.size(), 0);
+  has_rotary_inertia_.assign(nodes_.size(), 0);
+  for (const BeamElement &element : model.elements) {
+    const Section &section = model.sections[element.section];
+    for (int a = 0; a <= element.order; ++a) {
+      const int l = map.node_to_local[element.nodes[a]];
+      if (l < 0) continue;
+      if (section.rhoA > 0.0) has_translational_mass_[l] = 1;
+      if (!section.rhoJ.isZero(0.0)) has_rotary_inertia_[l] = 1;
+    }
+  }
+  for (const RigidBody &body : model.rigid_bodies) {
+    const int l = map.node_to_local[body.node];
+    if (l < 0) continue;
+    if (body.mass > 0.0) has_translational_mass_[l] = has_rotary_inertia_[l] = 1; // with an offset, the mass also resists rotation
+    if (!body.inertia.isZero(0.0)) has_rotary_inertia_[l] = 1;
+  }
   rigid_bodies_.clear();
   for (const RigidBody &body : model.rigid_bodies) {
     const int l = map.node_to_local[body.node];
@@ -482,6 +499,15 @@ PetscErrorCode Assembler::ElementForces(size_t k, double *force, double *correct
   // Consistent dead line load: f_a = integral of I_a q ds.
   for (int a = 0; a < n; ++a)
     for (int i = 0; i < 3; ++i) force[6 * a + i] -= ref.nodal_length[a] * element_line_load_[k](i);
+  // Initial accelerations: massless DOF groups take the equation "acceleration = 0" (NodalForces).
+  if (mode_ == Mode::InitialAcceleration)
+    for (int a = 0; a < n; ++a) {
+      const int l = map_->node_to_local[element.nodes[a]];
+      for (int i = 0; i < 3; ++i) {
+        if (!has_translational_mass_[l]) force[6 * a + i] = 0.0;
+        if (!has_rotary_inertia_[l]) force[6 * a + 3 + i] = 0.0;
+      }
+    }
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
@@ -514,6 +540,15 @@ void Assembler::NodalForces(PetscInt l, double *force, Mat6 *tangent)
     const Vec3 &W = s.rotation_motion.velocity;
     r.tail<3>() += R_start * (J * (R_start.transpose() * s.rotation_increment) + W.cross(J * W));
     if (tangent) tangent->block<3, 3>(3, 3) += R_start * J * R_start.transpose();
+    // Massless groups: the equation is "acceleration = 0".
+    if (!has_translational_mass_[l]) {
+      r.head<3>() = s.displacement_increment;
+      if (tangent) tangent->block<3, 3>(0, 0) = Mat3::Identity(), tangent->block<3, 3>(0, 3).setZero();
+    }
+    if (!has_rotary_inertia_[l]) {
+      r.tail<3>() = s.rotation_increment;
+      if (tangent) tangent->block<3, 3>(3, 3) = Mat3::Identity(), tangent->block<3, 3>(3, 0).setZero();
+    }
   }
   for (int i = 0; i < 6; ++i) force[i] = r(i);
 }

@@ -125,6 +125,9 @@ private:
   std::vector<NodeState>            nodes_;              // per local node
   std::vector<Mat3>                 node_inertia_;       // per owned node: body-frame rotary inertia (beams lumped + rigid bodies)
   std::vector<LocalRigidBody>       rigid_bodies_;       // rigid bodies on owned nodes
+  // Per local node: whether its translations / rotations carry mass. In the initial-acceleration
+  // problem a massless group gets zero acceleration instead of a singular equation.
+  std::vector<char> has_translational_mass_, has_rotary_inertia_;
 
   // External loads of the step: per local element the distributed load per length, per owned
   // node the dead force and moment (already weighted in time) and the follower loads in the body

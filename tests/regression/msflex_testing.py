@@ -18,6 +18,7 @@ def parse_arguments(description):
     parser.add_argument("--mpiexec", default="mpiexec", help="MPI launcher")
     parser.add_argument("--np", type=int, default=1, help="MPI ranks for the main run")
     parser.add_argument("--input", help="input file relative to the source directory, for tests that take one")
+    parser.add_argument("--options", default="", help="extra msflex options for every run, space separated")
     args = parser.parse_args()
     os.makedirs(args.work_dir, exist_ok=True)
     return args
@@ -31,7 +32,7 @@ def run_msflex(args, input_file, output_file, extra=(), np_ranks=None, expect_su
         command += [args.mpiexec, "-n", str(np_ranks)]
         if np_ranks > (os.cpu_count() or 1):
             command.append("--oversubscribe")
-    command += [args.msflex, input_file, "-output_file", output_file, "-output_overwrite"] + list(extra)
+    command += [args.msflex, input_file, "-output_file", output_file, "-output_overwrite"] + args.options.split() + list(extra)
     result = subprocess.run(command, capture_output=True, text=True, timeout=600)
     if expect_success and result.returncode != 0:
         sys.stderr.write(result.stdout + result.stderr)
