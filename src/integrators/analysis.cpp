@@ -128,7 +128,7 @@ PetscErrorCode WriteFrame(Analysis &a, int step, double time, double *strain_ene
   OutputFrame                 frame;
   PetscFunctionBeginUser;
   PetscCall(a.assembler.EvaluateResults(&results, strain_energy));
-  PetscCall(GatherFrame(a.comm, a.model, a.assembler, results, step, time, &frame));
+  PetscCall(GatherFrame(a.comm, a.model, a.assembler, results, step, time, a.dynamic, &frame));
   PetscCall(a.output.WriteFrame(frame));
   PetscFunctionReturn(PETSC_SUCCESS);
 }

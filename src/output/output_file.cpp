@@ -121,6 +121,7 @@ struct OutputFile::Impl {
   struct FrameEntry {
     int    step;
     double time;
+    bool   has_velocities;
   };
 
   explicit Impl(const std::string &h5_path)
@@ -357,8 +358,15 @@ PetscErrorCode OutputFile::Impl::WriteFrame(const OutputFrame &frame)
   PetscCall(WriteDoubles(group, "element_strains", {n_elements, 6}, frame.element_strains));
   PetscCall(WriteDoubles(group, "segment_force", {n_segments, 3}, segment_force));
   PetscCall(WriteDoubles(group, "segment_moment", {n_segments, 3}, segment_moment));
+  const bool has_velocities = !frame.velocity.empty();
+  if (has_velocities) {
+    PetscCheck(frame.velocity.size() == 3 * n_nodes && frame.angular_velocity.size() == 3 * n_nodes, PETSC_COMM_SELF, PETSC_ERR_ARG_SIZ,
+               "output file '%s': step %d: velocity arrays do not match %llu nodes", path.c_str(), frame.step, (unsigned long long)n_nodes);
+    PetscCall(WriteDoubles(group, "velocity", {n_nodes, 3}, frame.velocity));
+    PetscCall(WriteDoubles(group, "angular_velocity", {n_nodes, 3}, frame.angular_velocity));
+  }
   PetscCallHDF5(H5Fflush(file, H5F_SCOPE_LOCAL));
-  frames.push_back({frame.step, frame.time});
+  frames.push_back({frame.step, frame.time, has_velocities});
   PetscCall(WriteXdmf());
   PetscFunctionReturn(PETSC_SUCCESS);
 }
@@ -435,6 +443,10 @@ PetscErrorCode OutputFile::Impl::WriteXdmf() const
         << "        </Geometry>\n";
     attribute("displacement", "Vector", "Node", data_item("Float", 8, n_nodes, 3, group + "/displacement"));
     attribute("rotation", "Matrix", "Node", data_item("Float", 8, n_nodes, 4, group + "/rotation"));
+    if (frame.has_velocities) {
+      attribute("velocity", "Vector", "Node", data_item("Float", 8, n_nodes, 3, group + "/velocity"));
+      attribute("angular_velocity", "Vector", "Node", data_item("Float", 8, n_nodes, 3, group + "/angular_velocity"));
+    }
     attribute("force", "Vector", "Cell", data_item("Float", 8, n_segments, 3, group + "/segment_force"));
     attribute("moment", "Vector", "Cell", data_item("Float", 8, n_segments, 3, group + "/segment_moment"));
     xml << "      </Grid>\n";

@@ -30,6 +30,8 @@ struct OutputFrame {
   std::vector<double> rotation;           // n_nodes * 4, quaternion (w, x, y, z) from the reference configuration
   std::vector<double> element_resultants; // n_elements * 6: N1 N2 N3 M1 M2 M3, section frame, mean over Gauss points
   std::vector<double> element_strains;    // n_elements * 6: Gamma - Gamma0 (3), K - K0 (3), mean over Gauss points
+  std::vector<double> velocity;           // dynamics only (else empty): n_nodes * 3
+  std::vector<double> angular_velocity;   // dynamics only (else empty): n_nodes * 3, spatial (global axes)
 };
 
 struct ProbeSample {

@@ -22,8 +22,9 @@ void BuildOutputMesh(const Model &model, OutputMesh *mesh)
   for (const Beam &beam : model.beams) mesh->beam_names.push_back(beam.name);
 }
 
-// Position (3), displacement (3), quaternion (4) and tracked rotation angle (1) of a node.
-constexpr int kNodeRecordSize = 11;
+// Position (3), displacement (3), quaternion (4), tracked rotation angle (1), velocity (3) and
+// spatial angular velocity (3) of a node.
+constexpr int kNodeRecordSize = 17;
 static void PackNodeRecord(const Model &model, int node, const NodeState &state, double *out)
 {
   const Quaternion q = NodeStateCurrentQuaternion(state);
@@ -32,13 +33,18 @@ static void PackNodeRecord(const Model &model, int node, const NodeState &state,
     out[3 + i] = state.position(i) - model.nodes[node].position(i);
   }
   out[6] = q.w, out[7] = q.x, out[8] = q.y, out[9] = q.z;
-  out[10] = QuaternionTrackedAngle(q);
+  out[10]       = QuaternionTrackedAngle(q);
+  const Vec3 w  = QuaternionToMatrix(state.rotation_start) * state.rotation_motion.velocity;
+  for (int i = 0; i < 3; ++i) {
+    out[11 + i] = state.translation_motion.velocity(i);
+    out[14 + i] = w(i);
+  }
 }
 
 // Each rank fills the entries it owns in zeroed global arrays; a sum on rank 0 assembles them.
 // O(model size) per rank: adequate until the distributed output of large networks.
 PetscErrorCode GatherFrame(MPI_Comm comm, const Model &model, const Assembler &assembler, const std::vector<ElementResults> &element_results, int step,
-                           double time, OutputFrame *frame)
+                           double time, bool with_velocities, OutputFrame *frame)
 {
   PetscMPIInt rank;
   PetscFunctionBeginUser;
@@ -73,6 +79,10 @@ PetscErrorCode GatherFrame(MPI_Comm comm, const Model &model, const Assembler &a
     frame->position.insert(frame->position.end(), in, in + 3);
     frame->displacement.insert(frame->displacement.end(), in + 3, in + 6);
     frame->rotation.insert(frame->rotation.end(), in + 6, in + 10);
+    if (with_velocities) {
+      frame->velocity.insert(frame->velocity.end(), in + 11, in + 14);
+      frame->angular_velocity.insert(frame->angular_velocity.end(), in + 14, in + 17);
+    }
   }
   for (size_t e = 0; e < num_elements; ++e) {
     const double *in = &element_sum[12 * e];
