@@ -170,9 +170,19 @@ TimeFunction ReadFunction(const YAML::Node &item, const ReaderContext &context)
     function.frequency = entry.Number("frequency");
     function.phase     = entry.Number("phase", 0.0);
     function.offset    = entry.Number("offset", 0.0);
+  } else if (type == "cosine_ramp") {
+    entry.RequireOnlyKeys({"name", "type", "duration", "amplitude"});
+    function.kind      = TimeFunction::Kind::CosineRamp;
+    function.duration  = entry.PositiveNumber("duration");
+    function.amplitude = entry.Number("amplitude", 1.0);
+  } else if (type == "polynomial") {
+    entry.RequireOnlyKeys({"name", "type", "coefficients"});
+    function.kind = TimeFunction::Kind::Polynomial;
+    for (const YAML::Node &coefficient : ReadNonEmptyList(entry.Required("coefficients"), "coefficients"))
+      function.values.push_back(ReadNumber(coefficient, "coefficients"));
   } else {
-    FailAt(entry.Required("type").Mark(),
-           "unknown function type " + Quote(type) + " in " + entry.Description() + "; expected constant, linear, table or harmonic");
+    FailAt(entry.Required("type").Mark(), "unknown function type " + Quote(type) + " in " + entry.Description() +
+                                              "; expected constant, linear, table, harmonic, cosine_ramp or polynomial");
   }
   return function;
 }

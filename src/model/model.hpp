@@ -21,13 +21,16 @@ struct SourceMark {
 
 // A scalar function of (pseudo-)time that multiplies a load or a prescribed motion.
 struct TimeFunction {
-  enum class Kind { Constant, Linear, Table, Harmonic };
+  enum class Kind { Constant, Linear, Table, Harmonic, CosineRamp, Polynomial };
   std::string name;
   Kind        kind = Kind::Linear;
   // Constant: value = offset. Linear: value = offset + slope * t.
   // Harmonic: value = offset + amplitude * sin(2 pi frequency t + phase).
   // Table: piecewise linear through (times[i], values[i]), constant beyond the ends.
-  double              offset = 0.0, slope = 1.0, amplitude = 0.0, frequency = 0.0, phase = 0.0;
+  // CosineRamp: amplitude (1 - cos(pi t / duration)) / 2 for 0 <= t < duration, amplitude after,
+  //   0 before: a ramp with zero rate at both ends.
+  // Polynomial: sum_k values[k] t^k.
+  double              offset = 0.0, slope = 1.0, amplitude = 0.0, frequency = 0.0, phase = 0.0, duration = 1.0;
   std::vector<double> times, values;
   SourceMark          mark;
   double              Evaluate(double t) const;

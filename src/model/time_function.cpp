@@ -14,6 +14,15 @@ double TimeFunction::Evaluate(double t) const
     return offset + slope * t;
   case Kind::Harmonic:
     return offset + amplitude * std::sin(2.0 * M_PI * frequency * t + phase);
+  case Kind::CosineRamp:
+    if (t <= 0.0) return 0.0;
+    if (t >= duration) return amplitude;
+    return 0.5 * amplitude * (1.0 - std::cos(M_PI * t / duration));
+  case Kind::Polynomial: {
+    double value = 0.0;
+    for (size_t k = values.size(); k-- > 0;) value = value * t + values[k]; // Horner
+    return value;
+  }
   case Kind::Table: {
     if (times.empty()) return 0.0;
     if (t <= times.front()) return values.front();
