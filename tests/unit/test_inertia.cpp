@@ -144,3 +144,22 @@ TEST(Inertia, MidpointSchemesChangeKineticEnergyByExactlyTheWork)
     EXPECT_NEAR(dT_point, residual.head<3>().dot(u) + residual.tail<3>().dot(alpha), 1e-12 * (1 + std::abs(dT_point)));
   }
 }
+
+// The beams' consistent translational inertia is sum_b M_ab xddot_b with xddot from AdvanceMotion;
+// its tangent is M_ab * InertiaCoefficient(). Check that coefficient (and the velocity one) by
+// finite differences for every scheme.
+TEST(Inertia, TranslationalInertiaCoefficientsMatchFiniteDifferences)
+{
+  for (TimeSchemeKind kind : kAllSchemes) {
+    const TimeScheme  scheme = MakeTimeScheme(kind, 0.7, 0.05);
+    const MotionState start  = RandomMotion();
+    const Vec3        u      = RandomVector(0.1);
+    for (int k = 0; k < 3; ++k) {
+      const MotionUpdate plus = AdvanceMotion(scheme, start, u + 1e-6 * Vec3::Unit(k)), minus = AdvanceMotion(scheme, start, u - 1e-6 * Vec3::Unit(k));
+      const Vec3         dacc = (plus.acceleration - minus.acceleration) / 2e-6, dvel = (plus.velocity - minus.velocity) / 2e-6;
+      EXPECT_NEAR(dacc(k), scheme.InertiaCoefficient(), 1e-6 * scheme.InertiaCoefficient()) << TimeSchemeName(kind);
+      EXPECT_NEAR(dvel(k), scheme.VelocityCoefficient(), 1e-6 * scheme.VelocityCoefficient()) << TimeSchemeName(kind);
+      EXPECT_NEAR(dacc.norm(), std::abs(dacc(k)), 1e-6 * scheme.InertiaCoefficient()); // diagonal
+    }
+  }
+}
