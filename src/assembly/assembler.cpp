@@ -5,6 +5,7 @@
 #include <Eigen/Dense>
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 namespace msflex {
 
@@ -34,6 +35,7 @@ Assembler::~Assembler()
   MatDestroy(&jacobian_);
   VecDestroy(&solution_template_);
   VecDestroy(&ghosted_increments_);
+  VecDestroy(&scratch_residual_);
   VecScatterDestroy(&to_ghosted_);
 }
 
@@ -146,6 +148,16 @@ PetscErrorCode Assembler::Setup(MPI_Comm comm, const Model &model, const DofMap 
     rigid_bodies_.push_back(local);
   }
 
+  double stiffness_squares = 0.0;
+  for (size_t k = 0; k < map.local_elements.size(); ++k) {
+    const BeamSectionStiffness &c = section_stiffness_[model.elements[map.local_elements[k]].section];
+    const double                L = element_references_[k].length;
+    stiffness_squares += c.axial_shear.squaredNorm() + c.torsion_bending.squaredNorm() / (L * L);
+  }
+  double global_stiffness_squares;
+  PetscCall(MPIU_Allreduce(&stiffness_squares, &global_stiffness_squares, 1, MPI_DOUBLE, MPI_SUM, comm));
+  roundoff_force_level_ = 100.0 * std::numeric_limits<double>::epsilon() * std::sqrt(global_stiffness_squares);
+
   element_line_load_.assign(map.local_elements.size(), Vec3::Zero());
   dead_force_.assign(map.num_owned_nodes, Vec3::Zero());
   dead_moment_ = follower_force_start_ = follower_moment_start_ = follower_force_end_ = follower_moment_end_ = dead_force_;
@@ -164,6 +176,7 @@ PetscErrorCode Assembler::Setup(MPI_Comm comm, const Model &model, const DofMap 
   PetscCall(MatMPIAIJSetPreallocation(jacobian_, 0, diagonal_nonzeros.data(), 0, off_diagonal_nonzeros.data()));
   PetscCall(MatSetOption(jacobian_, MAT_NEW_NONZERO_ALLOCATION_ERR, PETSC_TRUE));
   PetscCall(MatCreateVecs(jacobian_, &solution_template_, nullptr));
+  PetscCall(VecDuplicate(solution_template_, &scratch_residual_));
   PetscCall(CreateCsrDestinations());
 
   // Scatter from the distributed unknowns to the free DOFs of every local node (owned and ghost).
@@ -449,7 +462,8 @@ PetscErrorCode Assembler::SetIncrements(Vec increments)
 // The element's residual: internal forces (at t_{n+1}, or the mid-point forces of mc/em) plus the
 // consistent translational inertia minus the distributed loads. For em also the correction
 // vector and the element's share of beta's numerator and denominator.
-PetscErrorCode Assembler::ElementForces(size_t k, double *force, double *correction, double *work_mismatch, double *correction_work, PetscBool *ok)
+PetscErrorCode Assembler::ElementForces(size_t k, double *force, double *correction, double *work_mismatch, double *correction_work, double *work_scale,
+                                        PetscBool *ok)
 {
   const BeamElement          &element = model_->elements[map_->local_elements[k]];
   const BeamElementReference &ref     = element_references_[k];
@@ -461,7 +475,7 @@ PetscErrorCode Assembler::ElementForces(size_t k, double *force, double *correct
   ElementConfiguration(element, positions, triads, nullptr);
   const NodeState *node[kBeamMaxNodes];
   for (int a = 0; a < n; ++a) node[a] = &nodes_[map_->node_to_local[element.nodes[a]]];
-  *work_mismatch = *correction_work = 0.0;
+  *work_mismatch = *correction_work = *work_scale = 0.0;
   if (mode_ == Mode::Dynamic && scheme_.Midpoint()) {
     Vec3   positions_start[kBeamMaxNodes];
     Mat3   triads_start[kBeamMaxNodes];
@@ -475,7 +489,9 @@ PetscErrorCode Assembler::ElementForces(size_t k, double *force, double *correct
     double work = 0.0;
     for (int a = 0; a < n; ++a) {
       const Vec3 &u = node[a]->displacement_increment, &alpha = node[a]->tangent_scaled_increment;
-      work += u.dot(Vec3(&force[6 * a])) + alpha.dot(Vec3(&force[6 * a + 3]));
+      const double node_work = u.dot(Vec3(&force[6 * a])) + alpha.dot(Vec3(&force[6 * a + 3]));
+      work += node_work;
+      *work_scale += std::abs(node_work);
       *correction_work += u.dot(Vec3(&correction[6 * a])) + alpha.dot(Vec3(&correction[6 * a + 3]));
     }
     *work_mismatch = (energy_end - energy_start) - work;
@@ -565,44 +581,57 @@ PetscErrorCode Assembler::AssembleResidual(Vec residual, PetscBool *geometry_ok)
   PetscCall(VecZeroEntries(residual));
   local_force_squares_ = 0.0;
   // Pass 1: element vectors (and, for em, the pieces of beta).
-  double sums[2] = {0.0, 0.0}; // work mismatch, correction work
+  double sums[3] = {0.0, 0.0, 0.0}; // work mismatch, correction work, scale of the internal work
   for (size_t k = 0; k < map.local_elements.size(); ++k) {
-    double    mismatch, correction_work;
+    double    mismatch, correction_work, work_scale;
     PetscBool ok;
-    PetscCall(ElementForces(k, &element_force_scratch_[kBeamMaxDofs * k], &element_correction_scratch_[kBeamMaxDofs * k], &mismatch, &correction_work, &ok));
+    PetscCall(ElementForces(k, &element_force_scratch_[kBeamMaxDofs * k], &element_correction_scratch_[kBeamMaxDofs * k], &mismatch, &correction_work,
+                            &work_scale, &ok));
     if (!ok) *geometry_ok = PETSC_FALSE;
     sums[0] += mismatch;
     sums[1] += correction_work;
+    sums[2] += work_scale;
   }
   // em (eq. 20): beta makes the work of the internal forces equal the change of strain energy.
-  // When the correction does no work (no change of axial and shear force) beta is left at zero.
+  // A mismatch within round-off of the internal work (1e-13 of the sum of |u.f|) is not
+  // corrected: near steady motion the correction does almost no work and beta would be a ratio of
+  // round-off, which stalls Newton.
   energy_correction_ = 0.0;
   if (mode_ == Mode::Dynamic && scheme_.kind == TimeSchemeKind::EnergyMomentum) {
-    double global[2];
-    PetscCall(MPIU_Allreduce(sums, global, 2, MPI_DOUBLE, MPI_SUM, comm_));
-    if (std::abs(global[1]) > 1e-14 * std::abs(global[0]) && global[1] != 0.0) energy_correction_ = global[0] / global[1];
+    double global[3];
+    PetscCall(MPIU_Allreduce(sums, global, 3, MPI_DOUBLE, MPI_SUM, comm_));
+    if (std::abs(global[0]) > 1e-13 * global[2] && global[1] != 0.0) energy_correction_ = global[0] / global[1];
   }
-  // Pass 2: assemble.
+  // Pass 2: assemble. The residual left on prescribed DOFs is the reaction that drives them; its
+  // work over the increments counts as external work.
+  prescribed_work_ = 0.0;
+  auto add_node_vector = [&](int node, const double *r) -> PetscErrorCode {
+    PetscFunctionBeginUser;
+    const NodeState &s = nodes_[map.node_to_local[node]];
+    for (int d = 0; d < 6; ++d) {
+      local_force_squares_ += r[d] * r[d];
+      if (map.constraints[node][d].kind == Support::Kind::Prescribed)
+        prescribed_work_ += r[d] * (d < 3 ? s.displacement_increment(d) : s.tangent_scaled_increment(d - 3));
+    }
+    PetscCall(VecSetValues(residual, 6, map.node_dofs[node].data(), r, ADD_VALUES));
+    PetscFunctionReturn(PETSC_SUCCESS);
+  };
   for (size_t k = 0; k < map.local_elements.size(); ++k) {
-    PetscInt  indices[kBeamMaxDofs];
-    const int num_dofs = ElementIndices(model.elements[map.local_elements[k]], map, indices);
-    double   *f        = &element_force_scratch_[kBeamMaxDofs * k];
+    const BeamElement &element = model.elements[map.local_elements[k]];
+    double            *f       = &element_force_scratch_[kBeamMaxDofs * k];
     if (energy_correction_ != 0.0)
-      for (int i = 0; i < num_dofs; ++i) f[i] += energy_correction_ * element_correction_scratch_[kBeamMaxDofs * k + i];
-    for (int i = 0; i < num_dofs; ++i) local_force_squares_ += f[i] * f[i];
-    PetscCall(VecSetValues(residual, num_dofs, indices, f, ADD_VALUES));
+      for (int i = 0; i < 6 * (element.order + 1); ++i) f[i] += energy_correction_ * element_correction_scratch_[kBeamMaxDofs * k + i];
+    for (int a = 0; a <= element.order; ++a) PetscCall(add_node_vector(element.nodes[a], &f[6 * a]));
   }
   for (PetscInt l = 0; l < map.num_owned_nodes; ++l) {
     double r[6];
     NodalForces(l, r, nullptr);
-    for (int i = 0; i < 6; ++i) local_force_squares_ += r[i] * r[i];
-    PetscCall(VecSetValues(residual, 6, map.node_dofs[map.local_nodes[l]].data(), r, ADD_VALUES));
+    PetscCall(add_node_vector(map.local_nodes[l], r));
   }
   for (LocalRigidBody &body : rigid_bodies_) {
     Vec6 r;
     PetscCall(RigidBodyForces(&body, &r, nullptr));
-    for (int i = 0; i < 6; ++i) local_force_squares_ += r(i) * r(i);
-    PetscCall(VecSetValues(residual, 6, map.node_dofs[map.local_nodes[body.local_node]].data(), r.data(), ADD_VALUES));
+    PetscCall(add_node_vector(map.local_nodes[body.local_node], r.data()));
   }
   PetscCall(VecAssemblyBegin(residual));
   PetscCall(VecAssemblyEnd(residual));
@@ -917,7 +946,10 @@ PetscErrorCode Assembler::EvaluateDynamics(DynamicsDiagnostics *diagnostics)
 
 PetscErrorCode Assembler::StepExternalWork(double *work)
 {
+  PetscBool evaluable;
   PetscFunctionBeginUser;
+  // The reactions on prescribed DOFs at exactly these increments.
+  PetscCall(AssembleResidual(scratch_residual_, &evaluable));
   const Model  &model = *model_;
   const DofMap &map   = *map_;
   double        local = 0.0;
@@ -939,6 +971,7 @@ PetscErrorCode Assembler::StepExternalWork(double *work)
     const NodeState &s = nodes_[body.local_node];
     local += body.gravity_force.dot(s.displacement_increment + (s.rotation - QuaternionToMatrix(s.rotation_start)) * body.offset);
   }
+  local += prescribed_work_;
   PetscCall(MPIU_Allreduce(&local, work, 1, MPI_DOUBLE, MPI_SUM, comm_));
   PetscFunctionReturn(PETSC_SUCCESS);
 }

@@ -72,6 +72,9 @@ public:
 
   // Magnitude of the forces in the last residual (see newton.hpp). Collective.
   PetscErrorCode ForceScale(double *scale);
+  // Residual level at which the internal forces are lost in round-off: 100 eps times the norm of
+  // the sections' stiffness (EA, GA, GJ/L, EI/L per element). Fixed after Setup.
+  double RoundoffForceLevel() const { return roundoff_force_level_; }
   // Largest |omega| over the nodes of the whole model (collective).
   PetscErrorCode MaxRotationIncrement(double *max_rotation);
   // Element results for the local elements (indexed like DofMap::local_elements) and the total
@@ -79,7 +82,8 @@ public:
   PetscErrorCode EvaluateResults(std::vector<ElementResults> *results, double *strain_energy);
   // Kinetic energy and momenta of the start-of-step state (collective).
   PetscErrorCode EvaluateDynamics(DynamicsDiagnostics *diagnostics);
-  // Work of the external loads over the current increments: sum of u.F + alpha.M (collective).
+  // Work of the external loads over the current increments: sum of u.F + alpha.M, including the
+  // reactions that drive prescribed DOFs (collective).
   PetscErrorCode StepExternalWork(double *work);
   // The energy-momentum scheme's beta of the last residual (0 otherwise).
   double EnergyCorrectionFactor() const { return energy_correction_; }
@@ -105,7 +109,7 @@ private:
   PetscErrorCode CreateCsrDestinations();
   PetscErrorCode AddElementMatrix(size_t local_element, const PetscInt *indices, int num_dofs, const double *values, PetscScalar *diagonal_values,
                                   PetscScalar *off_diagonal_values);
-  PetscErrorCode ElementForces(size_t k, double *force, double *correction, double *work_mismatch, double *correction_work, PetscBool *ok);
+  PetscErrorCode ElementForces(size_t k, double *force, double *correction, double *work_mismatch, double *correction_work, double *work_scale, PetscBool *ok);
   void           NodalForces(PetscInt l, double *force, Mat6 *tangent);
   PetscErrorCode RigidBodyForces(LocalRigidBody *body, Vec6 *force, Mat6 *tangent);
   void           UpdateDerivedState(NodeState *state) const;
@@ -139,11 +143,14 @@ private:
   std::vector<Vec3> follower_force_start_, follower_moment_start_, follower_force_end_, follower_moment_end_;
   double            local_force_squares_ = 0.0; // sum of squared contributions in the last residual
   double            energy_correction_   = 0.0; // em's beta in the last residual
+  double            roundoff_force_level_ = 0.0;
+  double            prescribed_work_      = 0.0; // work of the reactions on prescribed DOFs in the last residual (local)
   std::vector<double> element_force_scratch_, element_correction_scratch_; // per local element, kBeamMaxDofs each
 
   Mat                   jacobian_           = nullptr;
   Vec                   solution_template_  = nullptr;
   Vec                   ghosted_increments_ = nullptr; // sequential: the free DOFs of the local nodes
+  Vec                   scratch_residual_   = nullptr; // for residual evaluations outside Newton
   VecScatter            to_ghosted_         = nullptr;
   std::vector<PetscInt> ghosted_slot_;                 // per local node and DOF: index in ghosted_increments_, -1 if constrained
 

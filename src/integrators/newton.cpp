@@ -86,7 +86,7 @@ PetscErrorCode ForceScaledConvergenceTest(SNES snes, PetscInt iteration, PetscRe
   double    force_scale;
   PetscCall(SNESGetTolerances(snes, &atol, &rtol, &stol, &max_iterations, &max_evaluations));
   PetscCall(context->assembler->ForceScale(&force_scale));
-  if (fnorm <= rtol * force_scale) *reason = SNES_CONVERGED_FNORM_RELATIVE;
+  if (fnorm <= rtol * force_scale || fnorm <= context->assembler->RoundoffForceLevel()) *reason = SNES_CONVERGED_FNORM_RELATIVE;
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 

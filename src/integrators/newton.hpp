@@ -10,7 +10,9 @@
 //  - convergence when |R| <= rtol * max(|R_0|, |f|), with |f| the magnitude of the internal and
 //    external forces (the norm of all element and load contributions before they cancel): the
 //    relative test of PETSc measured against the force level as well, so a small load increment
-//    on a heavily loaded structure does not ask for a residual below round-off.
+//    on a heavily loaded structure does not ask for a residual below round-off; and when |R| is
+//    below the round-off level of the internal forces, 100 eps |stiffness| (a structure at rest
+//    driven by a prescribed motion has almost no force level to measure against).
 //  - MUMPS LU; the symbolic factorisation is reused while the matrix pattern is unchanged.
 //  - For the mid-point schemes (mc, em) the operator is matrix-free (PETSc -snes_mf_operator:
 //    directional differences of the exact residual, so em's global beta coupling is linearised
