@@ -45,6 +45,21 @@ bool LocalCoordinates(int num_nodes, int c, const Vec3 *positions, const Mat3 *t
   return true;
 }
 
+// Interpolated local rotation Psi, its arc-length derivative Psi' and rho' at Gauss point gp.
+struct GaussInterpolation {
+  Vec3 Psi, dPsi, drho;
+};
+GaussInterpolation InterpolateAtGauss(const BeamElementReference &ref, int gp, const Vec3 *rho, const Vec3 *psi)
+{
+  GaussInterpolation g{Vec3::Zero(), Vec3::Zero(), Vec3::Zero()};
+  for (int a = 0; a < ref.num_nodes; ++a) {
+    g.Psi += ref.shape[gp][a] * psi[a];
+    g.dPsi += ref.shape_derivative[gp][a] * psi[a];
+    g.drho += ref.shape_derivative[gp][a] * rho[a];
+  }
+  return g;
+}
+
 template <int NN>
 using NodalMatrix = Eigen::Matrix<double, 6 * NN, 6 * NN, Eigen::RowMajor>;
 
@@ -84,13 +99,8 @@ BeamKernelStatus InternalForces(const BeamElementReference &ref, const BeamSecti
     const double *dI = ref.shape_derivative[gp];
     GaussProducts &G = gauss[gp];
     G.wJ             = ref.weight_jacobian[gp];
-    Vec3 Psi = Vec3::Zero(), dPsi = Vec3::Zero(), drho = Vec3::Zero();
-    for (int a = 0; a < NN; ++a) {
-      Psi += I[a] * psi[a];
-      dPsi += dI[a] * psi[a];
-      drho += dI[a] * rho[a];
-    }
-    const RotationSeries series = EvaluateRotationSeries(Psi.squaredNorm());
+    const auto [Psi, dPsi, drho] = InterpolateAtGauss(ref, gp, rho, psi);
+    const RotationSeries series  = EvaluateRotationSeries(Psi.squaredNorm());
     const RodriguesForm  Fe     = ExpForm(series);
     const RodriguesForm  Fh     = TangentForm(series);
     const Mat3           E      = RodriguesMatrix(Fe, Psi);
@@ -207,13 +217,8 @@ BeamKernelStatus InternalForces(const BeamElementReference &ref, const BeamSecti
 // Strains (Gamma - Gamma_0, K - K_0) at a Gauss point from the local coordinates.
 void GaussStrains(const BeamElementReference &ref, int gp, const Vec3 *rho, const Vec3 *psi, Vec3 *strain, Vec3 *curvature)
 {
-  Vec3 Psi = Vec3::Zero(), dPsi = Vec3::Zero(), drho = Vec3::Zero();
-  for (int a = 0; a < ref.num_nodes; ++a) {
-    Psi += ref.shape[gp][a] * psi[a];
-    dPsi += ref.shape_derivative[gp][a] * psi[a];
-    drho += ref.shape_derivative[gp][a] * rho[a];
-  }
-  const RotationSeries series = EvaluateRotationSeries(Psi.squaredNorm());
+  const auto [Psi, dPsi, drho] = InterpolateAtGauss(ref, gp, rho, psi);
+  const RotationSeries series  = EvaluateRotationSeries(Psi.squaredNorm());
   *strain                     = RodriguesMatrix(ExpForm(series), Psi).transpose() * drho - ref.strain0[gp];
   *curvature                  = RodriguesMatrix(TangentForm(series), Psi).transpose() * dPsi - ref.curvature0[gp];
 }
@@ -247,13 +252,8 @@ BeamKernelStatus BeamMidpointInternalForces(const BeamElementReference &ref, con
     const Vec3 N_mid = 0.5 * (N_n + N_1), M_mid = 0.5 * (M_n + M_1), N_d = N_1 - N_n, M_d = M_1 - M_n;
     // D(q_mid): dGamma = A dPsi + E^T drho',  dK = B dPsi + H^T dPsi'
     const double *I = ref.shape[gp], *dI = ref.shape_derivative[gp];
-    Vec3          Psi = Vec3::Zero(), dPsi = Vec3::Zero(), drho = Vec3::Zero();
-    for (int a = 0; a < nn; ++a) {
-      Psi += I[a] * psi_m[a];
-      dPsi += dI[a] * psi_m[a];
-      drho += dI[a] * rho_m[a];
-    }
-    const RotationSeries series = EvaluateRotationSeries(Psi.squaredNorm());
+    const auto [Psi, dPsi, drho] = InterpolateAtGauss(ref, gp, rho_m, psi_m);
+    const RotationSeries series  = EvaluateRotationSeries(Psi.squaredNorm());
     const RodriguesForm  Fe = ExpForm(series), Fh = TangentForm(series);
     const Mat3           E = RodriguesMatrix(Fe, Psi), H = RodriguesMatrix(Fh, Psi);
     const Mat3           A = RodriguesTransposeApplyJacobian(Fe, Psi, drho), B = RodriguesTransposeApplyJacobian(Fh, Psi, dPsi);
