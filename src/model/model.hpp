@@ -139,6 +139,32 @@ struct InitialCondition {
   SourceMark       mark;
 };
 
+// A master–slave joint (docs/joints.md). The slave node's motion follows from the master's and
+// the released coordinates; the joint axes a1, a2, a3 are given in global axes at the reference
+// configuration. master = -1 means the ground (a fixed frame).
+struct Joint {
+  enum class Rotation { None, OneAxis, TwoAxes, Free };
+  enum class Dependence { None, Linear, EccentricCam, Table };
+  std::string name;
+  std::string type;                  // as written in the input (revolute, screw, ...)
+  int         master = -1, slave = -1;
+  Mat3        axes = Mat3::Identity(); // columns a1, a2, a3: orthonormal, right-handed
+  int         num_translations = 0;  // released translations along axes translation_axis[0..n)
+  std::array<int, 3> translation_axis{{0, 1, 2}};
+  Rotation           rotation = Rotation::None;
+  std::array<int, 2> rotation_axis{{0, 1}}; // OneAxis: [0]; TwoAxes: [0] then [1] (rotation about a_[0], then about the carried a_[1])
+  Dependence         dependence     = Dependence::None;  // translation along a_dependent_axis = f(phi) - f(0)
+  int                dependent_axis = 0;
+  double             coefficient    = 0.0;               // Linear: f = c phi (pitch, pinion radius); EccentricCam: f = R cos(phi)
+  double              profile_period = 0.0;              // Table: periodic cubic spline through (knots, values)
+  std::vector<double> profile_knots, profile_values, profile_second;
+  // A driven released coordinate: q_k(t) = drive_value * function(t) (k indexes translations, then rotations).
+  int        driven_coordinate = -1;
+  double     drive_value       = 0.0;
+  int        drive_function    = -1; // -1: ramp f(t) = t
+  SourceMark mark;
+};
+
 struct Probe {
   std::string name;
   int         node = -1;
@@ -188,6 +214,7 @@ struct Model {
   std::vector<Probe>           probes;
   std::vector<RigidBody>       rigid_bodies;
   std::vector<InitialCondition> initial_conditions;
+  std::vector<Joint>           joints;
   AnalysisSettings             analysis;
   OutputSettings               output;
 };

@@ -1,0 +1,90 @@
+// Master–slave kinematics of a joint (Muñoz, Jelenić & Crisfield 2003, §2–3). Pure functions: no
+// PETSc, no MPI, no allocation.
+//
+// A joint relates a slave node to a master node through released coordinates q (translations
+// along joint axes, rotation angles about joint axes, or a free rotation), all in the master's
+// body frame, which is the global frame at the reference configuration:
+//   x_s = x_m + Lambda_m b(q),   b(q) = d0 + A t(q)                                  (eq. 1)
+//   Lambda_s = Lambda_m C(q)
+// d0 is the reference offset of the slave from the master, A = [a1 a2 a3] the joint axes, t(q)
+// the released translation in joint axes (with a dependent part f(phi) - f(0) along one axis for
+// screw, rack-and-pinion and cam joints, eq. 9), and C(q) the released rotation:
+//   one axis:   C = exp(phi hat(a_i))
+//   two axes:   C = exp(phi1 hat(a_i)) exp(phi2 hat(a_j))        (a Cardan joint)
+//   free:       C = exp(hat(omega_R)) C_n                        (q = incremental rotation vector)
+// Spin variations (delta Lambda = hat(delta theta) Lambda) give eq. (6)/(11):
+//   delta x_s     = delta x_m - hat(Lambda_m b) delta theta_m + Lambda_m B delta q,   B = db/dq
+//   delta theta_s = delta theta_m + Lambda_m Omega delta q,  hat(Omega dq) = dC C^T
+//   N = [[I, -hat(Lambda_m b), Lambda_m B], [0, I, Lambda_m Omega]]          (6 x (6 + k))
+// and the geometric term of the condensed tangent, at fixed slave residual g = (g_f, g_m):
+//   d(N^T g) / d(theta_m, q), nonzero in the (theta_m, q) rows and columns.
+#pragma once
+
+#include "math/rotation.hpp"
+
+#include <Eigen/Core>
+
+namespace msflex {
+
+constexpr int kJointMaxReleased = 6;
+
+enum class JointRotation { None, OneAxis, TwoAxes, Free };
+enum class JointDependence { None, Linear, EccentricCam, Table };
+
+// A periodic C^2 cubic spline f(phi) of period `period` through samples (knots[i], values[i]),
+// knots increasing in [knots[0], knots[0] + period) (the profile of a general cam; the second
+// derivatives come from PeriodicSplineSecondDerivatives). The arrays are owned elsewhere.
+struct PeriodicSpline {
+  double        period = 2.0 * 3.14159265358979323846;
+  int           count  = 0;
+  const double *knots  = nullptr;
+  const double *values = nullptr;
+  const double *second = nullptr;
+};
+// f, f', f'' of the spline at phi (any real phi: the spline repeats with its period).
+void PeriodicSplineEvaluate(const PeriodicSpline &spline, double phi, double *f, double *df, double *ddf);
+// Second derivatives that make the periodic spline through (knots, values) C^2. Returns false when
+// the knots are not strictly increasing within one period or there are fewer than 3.
+bool PeriodicSplineSecondDerivatives(double period, int count, const double *knots, const double *values, double *second);
+
+struct JointGeometry {
+  Mat3 axes   = Mat3::Identity(); // columns a1, a2, a3 (master body frame)
+  Vec3 offset = Vec3::Zero();     // d0: slave minus master position at the reference configuration
+  // Released translations: along axes translation_axis[0..n_translations).
+  int num_translations   = 0;
+  int translation_axis[3] = {0, 1, 2};
+  JointRotation rotation = JointRotation::None;
+  int           rotation_axis[2] = {0, 1}; // OneAxis: [0]; TwoAxes: [0] then [1]
+  // Dependent translation along axis `dependent_axis`: f(phi) - f(0), phi the (single) rotation.
+  JointDependence dependence     = JointDependence::None;
+  int             dependent_axis = 0;
+  double          coefficient    = 0.0; // Linear: f = c phi (screw pitch, pinion radius); EccentricCam: f = R cos(phi)
+  PeriodicSpline  profile;              // Table
+};
+
+// Number of released coordinates: translations, then rotation coordinates (1, 2 or 3).
+int JointNumCoordinates(const JointGeometry &joint);
+
+// The dependent function and its first two derivatives at phi.
+void JointDependentTranslation(const JointGeometry &joint, double phi, double *f, double *df, double *ddf);
+
+struct JointCoordinates {
+  double q[kJointMaxReleased] = {0, 0, 0, 0, 0, 0}; // translations, then angles (or omega_R for a free rotation)
+  Mat3   free_rotation_start = Mat3::Identity();     // C_n of a free rotation
+};
+
+using JointMatrix  = Eigen::Matrix<double, 6, 6 + kJointMaxReleased, Eigen::RowMajor>;
+using JointSquare  = Eigen::Matrix<double, 6 + kJointMaxReleased, 6 + kJointMaxReleased, Eigen::RowMajor>;
+
+// Slave position and rotation from the master's and the released coordinates.
+void JointSlaveConfiguration(const JointGeometry &joint, const JointCoordinates &q, const Vec3 &master_position, const Mat3 &master_rotation,
+                             Vec3 *slave_position, Mat3 *slave_rotation);
+
+// N (first 6 + k columns used): slave spin variations from (delta x_m, delta theta_m, delta q).
+void JointMap(const JointGeometry &joint, const JointCoordinates &q, const Mat3 &master_rotation, JointMatrix *N);
+
+// d(N^T g)/d(x_m, theta_m, q) at fixed g (first 6 + k rows and columns used).
+void JointGeometricStiffness(const JointGeometry &joint, const JointCoordinates &q, const Mat3 &master_rotation, const Eigen::Matrix<double, 6, 1> &g,
+                             JointSquare *G);
+
+} // namespace msflex
