@@ -150,8 +150,9 @@ TEST(JointKinematics, DependentTranslationFollowsTheRotationExactly)
       JointDependentTranslation(c.joint, phi, &f, &df, &ddf);
       JointDependentTranslation(c.joint, 0.0, &f0, &df0, &ddf0);
       EXPECT_NEAR(t(c.joint.dependent_axis), f - f0, 1e-12) << c.name;
-      for (int i = 0; i < 3; ++i)
-        if (i != c.joint.dependent_axis) EXPECT_NEAR(t(i), 0.0, 1e-12) << c.name;
+      for (int i = 0; i < 3; ++i) {
+        if (i != c.joint.dependent_axis) { EXPECT_NEAR(t(i), 0.0, 1e-12) << c.name; }
+      }
       // and the released rotation is exactly phi about the axis
       const Mat3 C = R_m.transpose() * R_s;
       EXPECT_LT((C - ExpSO3(phi * c.joint.axes.col(c.joint.rotation_axis[0]))).cwiseAbs().maxCoeff(), 1e-12) << c.name;
