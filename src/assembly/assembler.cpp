@@ -1,6 +1,7 @@
 #include "assembly/assembler.hpp"
 
 #include "core/errors.hpp"
+#include "joints/joint_model.hpp"
 
 #include <Eigen/Dense>
 #include <algorithm>
@@ -179,7 +180,8 @@ PetscErrorCode Assembler::Setup(MPI_Comm comm, const Model &model, const DofMap 
   PetscCall(VecDuplicate(solution_template_, &scratch_residual_));
   PetscCall(CreateCsrDestinations());
 
-  // Scatter from the distributed unknowns to the free DOFs of every local node (owned and ghost).
+  // Scatter from the distributed unknowns to the free DOFs of every local node (owned and ghost)
+  // and the free coordinates of every local joint.
   std::vector<PetscInt> from;
   ghosted_slot_.assign(6 * nodes_.size(), -1);
   for (size_t l = 0; l < nodes_.size(); ++l)
@@ -189,6 +191,32 @@ PetscErrorCode Assembler::Setup(MPI_Comm comm, const Model &model, const DofMap 
       ghosted_slot_[6 * l + d] = (PetscInt)from.size();
       from.push_back(global);
     }
+  joints_.clear();
+  node_local_joint_.assign(nodes_.size(), -1);
+  expansion_rows_.assign(nodes_.size(), {});
+  expansion_columns_.assign(nodes_.size(), {});
+  slave_residual_.assign(nodes_.size(), Vec6::Zero());
+  size_t max_unknowns = 6;
+  for (int j : map.local_joints) {
+    const Joint &joint = model.joints[j];
+    LocalJoint   J;
+    J.joint        = j;
+    J.local_slave  = map.node_to_local[joint.slave];
+    J.local_master = joint.master >= 0 ? map.node_to_local[joint.master] : -1;
+    J.geometry     = JointGeometryOf(joint, JointReferenceOffset(model, joint));
+    for (int c = 0; c < JointNumCoordinates(J.geometry); ++c) {
+      if (map.joint_dofs[j][c] < 0) continue;
+      J.slot[c] = (PetscInt)from.size();
+      from.push_back(map.joint_dofs[j][c]);
+    }
+    node_local_joint_[J.local_slave] = (int)joints_.size();
+    const size_t m                   = map.node_unknowns[joint.slave].size();
+    expansion_rows_[J.local_slave].assign(6 * m, 0.0);
+    expansion_columns_[J.local_slave].assign(6 * m, 0.0);
+    max_unknowns = std::max(max_unknowns, m);
+    joints_.push_back(J);
+  }
+  expansion_scratch_.assign(max_unknowns * max_unknowns, 0.0);
   IS from_is;
   PetscCall(ISCreateGeneral(PETSC_COMM_SELF, (PetscInt)from.size(), from.data(), PETSC_COPY_VALUES, &from_is));
   PetscCall(VecCreateSeq(PETSC_COMM_SELF, (PetscInt)from.size(), &ghosted_increments_));
@@ -210,10 +238,20 @@ PetscErrorCode Assembler::CreateCsrDestinations()
     const int nd = ElementIndices(model_->elements[e], map, indices);
     PetscCall(MatSetValues(jacobian_, nd, indices, nd, indices, zeros.data(), ADD_VALUES));
   }
-  // Nodal blocks (inertia, follower loads, rigid bodies), also of nodes that carry no element.
-  for (PetscInt l = 0; l < map.num_owned_nodes; ++l) {
-    const PetscInt *indices = map.node_dofs[map.local_nodes[l]].data();
-    PetscCall(MatSetValues(jacobian_, 6, indices, 6, indices, zeros.data(), ADD_VALUES));
+  // Nodal blocks (inertia, follower loads, rigid bodies, joints' geometric stiffness), also of
+  // nodes that carry no element, and the couplings that slave nodes create.
+  std::vector<double> more_zeros;
+  for (size_t l = 0; l < map.local_nodes.size(); ++l) {
+    const std::vector<PetscInt> &unknowns = map.node_unknowns[map.local_nodes[l]];
+    more_zeros.assign(unknowns.size() * unknowns.size(), 0.0);
+    PetscCall(MatSetValues(jacobian_, (PetscInt)unknowns.size(), unknowns.data(), (PetscInt)unknowns.size(), unknowns.data(), more_zeros.data(), ADD_VALUES));
+  }
+  for (int e : map.local_elements) {
+    std::vector<PetscInt> coupled;
+    for (int a = 0; a <= model_->elements[e].order; ++a)
+      coupled.insert(coupled.end(), map.node_unknowns[model_->elements[e].nodes[a]].begin(), map.node_unknowns[model_->elements[e].nodes[a]].end());
+    more_zeros.assign(coupled.size() * coupled.size(), 0.0);
+    PetscCall(MatSetValues(jacobian_, (PetscInt)coupled.size(), coupled.data(), (PetscInt)coupled.size(), coupled.data(), more_zeros.data(), ADD_VALUES));
   }
   PetscCall(MatAssemblyBegin(jacobian_, MAT_FINAL_ASSEMBLY));
   PetscCall(MatAssemblyEnd(jacobian_, MAT_FINAL_ASSEMBLY));
@@ -402,6 +440,17 @@ PetscErrorCode Assembler::ApplyPrescribedValues(double t_start, double t_end)
     }
     UpdateDerivedState(&s);
   }
+  // A driven released coordinate reaches value f(t_end) (its second derivative in the
+  // initial-acceleration problem).
+  for (LocalJoint &J : joints_) {
+    const Joint &joint = model_->joints[J.joint];
+    for (int c = 0; c < kJointMaxReleased; ++c) J.increment[c] = 0.0;
+    if (joint.driven_coordinate < 0) continue;
+    const int c  = joint.driven_coordinate;
+    J.increment[c] = mode_ == Mode::InitialAcceleration ? joint.drive_value * FunctionDerivative(joint.drive_function, t_end, 2)
+                                                        : joint.drive_value * FunctionValue(joint.drive_function, t_end) - J.start.q[c];
+  }
+  UpdateSlaves();
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
@@ -455,7 +504,11 @@ PetscErrorCode Assembler::SetIncrements(Vec increments)
     }
     UpdateDerivedState(&s);
   }
+  for (LocalJoint &J : joints_)
+    for (int c = 0; c < kJointMaxReleased; ++c)
+      if (J.slot[c] >= 0) J.increment[c] = PetscRealPart(values[J.slot[c]]);
   PetscCall(VecRestoreArrayRead(ghosted_increments_, &values));
+  UpdateSlaves();
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
@@ -613,7 +666,7 @@ PetscErrorCode Assembler::AssembleResidual(Vec residual, PetscBool *geometry_ok)
       if (map.constraints[node][d].kind == Support::Kind::Prescribed)
         prescribed_work_ += r[d] * (d < 3 ? s.displacement_increment(d) : s.tangent_scaled_increment(d - 3));
     }
-    PetscCall(VecSetValues(residual, 6, map.node_dofs[node].data(), r, ADD_VALUES));
+    PetscCall(AddNodeVector(residual, map.node_to_local[node], r));
     PetscFunctionReturn(PETSC_SUCCESS);
   };
   for (size_t k = 0; k < map.local_elements.size(); ++k) {
@@ -703,12 +756,20 @@ PetscErrorCode Assembler::AssembleJacobian(Mat jacobian, PetscBool *geometry_ok)
     PetscCall(MatSeqAIJGetArray(diagonal_block_, &diagonal_values));
     if (off_diagonal_block_) PetscCall(MatSeqAIJGetArray(off_diagonal_block_, &off_diagonal_values));
   }
+  for (Vec6 &g : slave_residual_) g.setZero();
+  std::vector<size_t> elements_with_slaves;
   for (size_t k = 0; k < map.local_elements.size(); ++k) {
     const BeamElement &element = model.elements[map.local_elements[k]];
     const int          n       = element.order + 1;
     const int          nd      = 6 * n;
     double             r[kBeamMaxDofs], K[kBeamMaxDofs * kBeamMaxDofs];
     PetscInt           indices[kBeamMaxDofs];
+    bool               touches_slave = false;
+    for (int a = 0; a < n; ++a) touches_slave |= node_local_joint_[map.node_to_local[element.nodes[a]]] >= 0;
+    if (touches_slave) { // through the nodes' expansions, after the direct CSR updates
+      elements_with_slaves.push_back(k);
+      continue;
+    }
     std::fill(K, K + nd * nd, 0.0);
     if (stiffness_weight != 0.0) {
       Vec3        positions[kBeamMaxNodes];
@@ -743,20 +804,53 @@ PetscErrorCode Assembler::AssembleJacobian(Mat jacobian, PetscBool *geometry_ok)
     PetscCall(MatSeqAIJRestoreArray(diagonal_block_, &diagonal_values));
     if (off_diagonal_block_) PetscCall(MatSeqAIJRestoreArray(off_diagonal_block_, &off_diagonal_values));
   }
+  // Elements touching slave nodes: spin-form tangent through the expansions, and their residual
+  // gathered on the slaves for the joints' geometric stiffness.
+  for (size_t k : elements_with_slaves) {
+    const BeamElement &element = model.elements[map.local_elements[k]];
+    const int          n       = element.order + 1;
+    const int          nd      = 6 * n;
+    double             r[kBeamMaxDofs], K[kBeamMaxDofs * kBeamMaxDofs], g[kBeamMaxDofs], correction[kBeamMaxDofs], unused[3];
+    PetscBool          ok = PETSC_TRUE;
+    std::fill(K, K + nd * nd, 0.0);
+    if (stiffness_weight != 0.0) {
+      Vec3 positions[kBeamMaxNodes];
+      Mat3 triads[kBeamMaxNodes];
+      ElementConfiguration(element, positions, triads, nullptr);
+      if (BeamInternalForces(element_references_[k], section_stiffness_[element.section], positions, triads, r, K, nullptr, nullptr) != BeamKernelStatus::Ok) ok = PETSC_FALSE;
+      for (int i = 0; i < nd * nd; ++i) K[i] *= stiffness_weight;
+    }
+    if (ok) PetscCall(ElementForces(k, g, correction, &unused[0], &unused[1], &unused[2], &ok));
+    if (!ok) {
+      *geometry_ok = PETSC_FALSE;
+      continue;
+    }
+    const double rhoA = model.sections[element.section].rhoA;
+    if (mass_weight != 0.0 && rhoA > 0.0)
+      for (int a = 0; a < n; ++a)
+        for (int b = 0; b < n; ++b)
+          for (int i = 0; i < 3; ++i) K[(6 * a + i) * nd + 6 * b + i] += mass_weight * rhoA * element_references_[k].mass_shape[a][b];
+    for (int a = 0; a < n; ++a) {
+      const int l = map.node_to_local[element.nodes[a]];
+      if (node_local_joint_[l] >= 0) slave_residual_[l] += Eigen::Map<const Vec6>(&g[6 * a]);
+    }
+    PetscCall(AddExpandedElementMatrix(jacobian, element, K));
+  }
   for (PetscInt l = 0; l < map.num_owned_nodes; ++l) {
     double r[6];
     Mat6   block;
     NodalForces(l, r, &block);
-    if (block.isZero(0.0)) continue;
-    PetscCall(MatSetValues(jacobian, 6, map.node_dofs[map.local_nodes[l]].data(), 6, map.node_dofs[map.local_nodes[l]].data(), block.data(), ADD_VALUES));
+    if (node_local_joint_[l] >= 0) slave_residual_[l] += Eigen::Map<const Vec6>(r);
+    if (!block.isZero(0.0)) PetscCall(AddNodeBlock(jacobian, (int)l, block));
   }
   for (LocalRigidBody &body : rigid_bodies_) {
     Vec6 r;
     Mat6 block;
     PetscCall(RigidBodyForces(&body, &r, &block));
-    const PetscInt *indices = map.node_dofs[map.local_nodes[body.local_node]].data();
-    PetscCall(MatSetValues(jacobian, 6, indices, 6, indices, block.data(), ADD_VALUES));
+    if (node_local_joint_[body.local_node] >= 0) slave_residual_[body.local_node] += r;
+    PetscCall(AddNodeBlock(jacobian, body.local_node, block));
   }
+  if (mode_ != Mode::InitialAcceleration) PetscCall(AddJointGeometricStiffness(jacobian));
   PetscCall(MatAssemblyBegin(jacobian, MAT_FINAL_ASSEMBLY));
   PetscCall(MatAssemblyEnd(jacobian, MAT_FINAL_ASSEMBLY));
   PetscCall(PetscLogEventEnd(event_jacobian, 0, 0, 0, 0));
@@ -784,6 +878,18 @@ PetscErrorCode Assembler::CommitStep()
     }
   }
   for (NodeState &s : nodes_) NodeStateCommit(&s);
+  for (LocalJoint &J : joints_) {
+    const int nt = J.geometry.num_translations;
+    if (J.geometry.rotation == JointRotation::Free) {
+      J.start.free_rotation_start = ExpSO3(Vec3(J.increment[nt], J.increment[nt + 1], J.increment[nt + 2])) * J.start.free_rotation_start;
+      for (int c = 0; c < kJointMaxReleased; ++c)
+        if (c < nt) J.start.q[c] += J.increment[c];
+    } else {
+      for (int c = 0; c < kJointMaxReleased; ++c) J.start.q[c] += J.increment[c];
+    }
+    for (double &increment : J.increment) increment = 0.0;
+  }
+  UpdateSlaves();
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
@@ -805,6 +911,8 @@ PetscErrorCode Assembler::CommitInitialAcceleration()
     s.displacement_increment.setZero();
     s.rotation_increment.setZero();
   }
+  for (LocalJoint &J : joints_)
+    for (double &increment : J.increment) increment = 0.0;
   mode_ = Mode::Static;
   PetscFunctionReturn(PETSC_SUCCESS);
 }
@@ -817,6 +925,9 @@ PetscErrorCode Assembler::DiscardStep()
     s.rotation_increment.setZero();
     UpdateDerivedState(&s);
   }
+  for (LocalJoint &J : joints_)
+    for (double &increment : J.increment) increment = 0.0;
+  UpdateSlaves();
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
@@ -845,6 +956,20 @@ PetscErrorCode Assembler::SetInitialVelocities(double t)
     }
     s.translation_motion.velocity = v;
     s.rotation_motion.velocity    = QuaternionToMatrix(s.rotation_start).transpose() * w;
+  }
+  // A slave without an initial condition moves rigidly with its master (released rates zero).
+  for (const LocalJoint &J : joints_) {
+    const Joint &joint = model.joints[J.joint];
+    if (condition[joint.slave]) continue;
+    NodeState &slave = nodes_[J.local_slave];
+    Vec3       v = Vec3::Zero(), w = Vec3::Zero();
+    if (J.local_master >= 0) {
+      const NodeState &master = nodes_[J.local_master];
+      w                       = QuaternionToMatrix(master.rotation_start) * master.rotation_motion.velocity;
+      v                       = master.translation_motion.velocity + w.cross(slave.position_start - master.position_start);
+    }
+    slave.translation_motion.velocity = v;
+    slave.rotation_motion.velocity    = QuaternionToMatrix(slave.rotation_start).transpose() * w;
   }
   for (LocalRigidBody &body : rigid_bodies_) {
     const NodeState &s = nodes_[body.local_node];

@@ -13,6 +13,7 @@
 #include "elements/beam.hpp"
 #include "elements/inertia.hpp"
 #include "integrators/time_scheme.hpp"
+#include "joints/joint_kinematics.hpp"
 #include "model/model.hpp"
 #include "state/state.hpp"
 
@@ -104,7 +105,33 @@ private:
     Vec3         gravity_force = Vec3::Zero(); // m g at the centre of mass, weighted in time for the step
   };
 
+  // A joint whose slave node is local: its geometry and released coordinates.
+  struct LocalJoint {
+    int              joint        = -1; // index into Model::joints
+    int              local_slave  = -1;
+    int              local_master = -1; // -1: the ground
+    JointGeometry    geometry;
+    JointCoordinates start;              // at the start of the step (a free rotation keeps C_n, q = 0)
+    double           increment[kJointMaxReleased] = {0, 0, 0, 0, 0, 0};
+    PetscInt         slot[kJointMaxReleased]      = {-1, -1, -1, -1, -1, -1}; // in ghosted_increments_, -1 when driven
+  };
+
   PetscErrorCode ApplyPrescribedValues(double t_start, double t_end);
+  // Slave configurations from their masters and joints (masters first), and their expansions.
+  void UpdateSlaves();
+  // The expansion of an independent node: its spin variation in its free unknowns (6 x m).
+  void IndependentExpansion(int local_node, double *rows, double *columns) const;
+  // Expansion of any local node into rows/columns (6 x m, m = DofMap::node_unknowns size).
+  void NodeExpansion(int local_node, const double **rows, const double **columns, double *scratch_rows, double *scratch_columns) const;
+  // Adds a node's spin residual g (6) through its expansion: R[unknowns] += rows^T g.
+  PetscErrorCode AddNodeVector(Vec residual, int local_node, const double *g);
+  // Adds a node's 6x6 block (d residual / d(u, omega) of that node) through its expansion.
+  PetscErrorCode AddNodeBlock(Mat jacobian, int local_node, const Mat6 &block);
+  // Adds an element matrix (spin form, already H-scaled for independent nodes' own columns) of an
+  // element touching slave nodes, through the nodes' expansions.
+  PetscErrorCode AddExpandedElementMatrix(Mat jacobian, const BeamElement &element, const double *K_spin);
+  // Geometric stiffness of every local joint for the slave residuals gathered in slave_residual_.
+  PetscErrorCode AddJointGeometricStiffness(Mat jacobian);
   PetscErrorCode ComputeLoads(double t_start, double t_end);
   PetscErrorCode CreateCsrDestinations();
   PetscErrorCode AddElementMatrix(size_t local_element, const PetscInt *indices, int num_dofs, const double *values, PetscScalar *diagonal_values,
@@ -129,6 +156,13 @@ private:
   std::vector<NodeState>            nodes_;              // per local node
   std::vector<Mat3>                 node_inertia_;       // per owned node: body-frame rotary inertia (beams lumped + rigid bodies)
   std::vector<LocalRigidBody>       rigid_bodies_;       // rigid bodies on owned nodes
+  std::vector<LocalJoint>           joints_;             // like DofMap::local_joints
+  std::vector<int>                  node_local_joint_;   // per local node: index into joints_ if it is a slave, else -1
+  // Per local slave node: rows and columns of its expansion (6 x m, row-major), m = number of
+  // unknowns it depends on: R[unknowns] += rows^T g_spin, d(spin)/dX = columns.
+  std::vector<std::vector<double>>  expansion_rows_, expansion_columns_;
+  std::vector<Vec6>                 slave_residual_;     // per local node: spin residual gathered on slaves (Jacobian pass)
+  std::vector<double>               expansion_scratch_;  // work space for expanded blocks
   // Per local node: whether its translations / rotations carry mass. In the initial-acceleration
   // problem a massless group gets zero acceleration instead of a singular equation.
   std::vector<char> has_translational_mass_, has_rotary_inertia_;

@@ -1,7 +1,10 @@
-// The map from nodes to global unknowns (DESIGN.md §3): 6 per node (displacement increment,
-// incremental rotation vector), minus the DOFs that supports fix or prescribe. Owned unknowns of
-// a rank are contiguous in the global numbering (PETSc's layout). Ghost nodes are the non-owned
-// nodes of the rank's elements.
+// The map from nodes and joints to global unknowns (DESIGN.md §3–4): 6 per independent node
+// (displacement increment, incremental rotation vector) minus the DOFs that supports fix or
+// prescribe, plus the released coordinates of every joint that are not driven. A slave node has
+// no unknowns of its own: its configuration follows from its master and its joint (chains
+// compose). Owned unknowns of a rank are contiguous in the global numbering (PETSc's layout); a
+// joint belongs to the rank of its slave node. Ghost nodes are the non-owned nodes of the rank's
+// elements and, recursively, the masters of local slave nodes.
 #pragma once
 
 #include "model/model.hpp"
@@ -34,13 +37,23 @@ struct DofMap {
   PetscInt         num_owned_nodes = 0;
   std::vector<int> node_to_local;   // every node: index into local_nodes, or -1
   std::vector<int> local_elements;  // elements assembled here: those whose first node is owned
+
+  std::vector<int> node_joint;  // every node: the joint whose slave it is, or -1
+  std::vector<int> joint_rank;  // every joint: owning rank (that of its slave node)
+  std::vector<std::array<PetscInt, 6>> joint_dofs; // every joint: global index of each released coordinate, -1 when driven
+  // Every node: the global unknowns its configuration depends on — its own free DOFs, or for a
+  // slave those of its master followed by its joint's free coordinates.
+  std::vector<std::vector<PetscInt>> node_unknowns;
+  std::vector<int> local_joints;    // joints whose slave node is local, each after the joint of its master
+  std::vector<int> joint_to_local;  // every joint: index into local_joints, or -1
 };
 
 // Builds the map; a DOF constrained twice by different supports is an input error naming both.
 PetscErrorCode DofMapCreate(MPI_Comm comm, const Model &model, const std::vector<int> &node_rank, DofMap *map);
 
 // Exact nonzeros per owned row of the assembled matrix, split into the diagonal (owned columns)
-// and off-diagonal blocks, from the node adjacency of the elements.
+// and off-diagonal blocks: every element couples the unknowns of all its nodes, every node those
+// it depends on (nodal inertia, loads and the joints' geometric stiffness).
 PetscErrorCode DofMapPreallocation(const DofMap &map, const Model &model, std::vector<PetscInt> *diagonal_nonzeros, std::vector<PetscInt> *off_diagonal_nonzeros);
 
 } // namespace msflex

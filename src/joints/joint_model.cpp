@@ -1,0 +1,29 @@
+#include "joints/joint_model.hpp"
+
+namespace msflex {
+
+JointGeometry JointGeometryOf(const Joint &joint, const Vec3 &offset)
+{
+  JointGeometry g;
+  g.axes             = joint.axes;
+  g.offset           = offset;
+  g.num_translations = joint.num_translations;
+  for (int i = 0; i < 3; ++i) g.translation_axis[i] = joint.translation_axis[i];
+  g.rotation         = (JointRotation)joint.rotation;
+  g.rotation_axis[0] = joint.rotation_axis[0];
+  g.rotation_axis[1] = joint.rotation_axis[1];
+  g.dependence       = (JointDependence)joint.dependence;
+  g.dependent_axis   = joint.dependent_axis;
+  g.coefficient      = joint.coefficient;
+  if (joint.dependence == Joint::Dependence::Table)
+    g.profile = {joint.profile_period, (int)joint.profile_knots.size(), joint.profile_knots.data(), joint.profile_values.data(), joint.profile_second.data()};
+  return g;
+}
+
+Vec3 JointReferenceOffset(const Model &model, const Joint &joint)
+{
+  if (joint.master < 0) return Vec3::Zero();
+  return model.nodes[joint.slave].position - model.nodes[joint.master].position;
+}
+
+} // namespace msflex
