@@ -46,11 +46,6 @@ struct BeamLayout {
   double twist    = 0.0; // rad, extra rotation about t1 reached at `to`, linear in arc length
 };
 
-std::string FormatVec3(const Vec3 &vector)
-{
-  return "[" + FormatNumber(vector(0)) + ", " + FormatNumber(vector(1)) + ", " + FormatNumber(vector(2)) + "]";
-}
-
 // Columns t1, t2 and t3 = t1 x t2 for orthonormal t1, t2.
 Mat3 TriadFromAxes(const Vec3 &t1, const Vec3 &t2)
 {

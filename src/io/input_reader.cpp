@@ -1,12 +1,13 @@
 // The YAML model reader: top-level structure, functions, sections, nodes, sets, supports, loads,
 // probes, analysis and output settings. Beams are expanded in input_beams.cpp, rigid bodies and
-// initial conditions are read in input_dynamics.cpp and static mechanisms are detected in
-// input_mechanism_check.cpp. The schema is documented in docs/input.md.
+// initial conditions are read in input_dynamics.cpp, joints in input_joints.cpp and static
+// mechanisms are detected in input_mechanism_check.cpp. The schema is documented in docs/input.md.
 #include "io/input_reader.hpp"
 
 #include "io/input_reader_internal.hpp"
 #include "io/input_yaml_util.hpp"
 
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <exception>
@@ -243,8 +244,8 @@ void ReadNodes(const YAML::Node &mapping, ReaderContext &context)
   }
 }
 
-// Every node named under `nodes:` must belong to a beam or carry a rigid body; a stray node would
-// have neither stiffness nor mass.
+// Every node named under `nodes:` must belong to a beam or a joint or carry a rigid body; a stray
+// node would have neither stiffness nor mass and be attached to nothing.
 void CheckEveryNodeConnected(const Model &model, size_t user_node_count)
 {
   std::vector<bool> connected(model.nodes.size(), false);
@@ -252,9 +253,14 @@ void CheckEveryNodeConnected(const Model &model, size_t user_node_count)
     for (int node : element.nodes)
       if (node >= 0) connected[node] = true;
   for (const RigidBody &body : model.rigid_bodies) connected[body.node] = true;
+  for (const Joint &joint : model.joints) {
+    if (joint.master >= 0) connected[joint.master] = true;
+    connected[joint.slave] = true;
+  }
   for (size_t node = 0; node < user_node_count; ++node)
     if (!connected[node])
-      FailAt(model.nodes[node].mark, "node " + Quote(model.nodes[node].name) + " is not connected to any beam and carries no rigid body");
+      FailAt(model.nodes[node].mark,
+             "node " + Quote(model.nodes[node].name) + " is not connected to any beam or joint and carries no rigid body");
 }
 
 void ReadSets(const YAML::Node *mapping, ReaderContext &context)
@@ -298,12 +304,36 @@ void ReadPrescribedDofs(const YAML::Node &prescribe, Support &support)
   }
 }
 
+// The slave of a joint moves with its master and the joint's coordinates, so no support may fix or
+// prescribe its DOFs; the error points at the name in `nodes` that brings in the slave.
+void CheckNoJointSlaves(const YAML::Node &nodes_value, const std::vector<int> &nodes, const ReaderContext &context)
+{
+  for (int node : nodes) {
+    const int joint = context.JointOfSlave(node);
+    if (joint < 0) continue;
+    YAML::Mark mark = nodes_value.Mark();
+    if (nodes_value.IsSequence())
+      for (const YAML::Node &item : nodes_value) {
+        const std::vector<int> listed = context.ResolveNodes(item, "nodes");
+        if (std::find(listed.begin(), listed.end(), node) != listed.end()) {
+          mark = item.Mark();
+          break;
+        }
+      }
+    const Joint &slave_joint = context.model.joints[joint];
+    FailAt(mark, "node " + Quote(context.model.nodes[node].name) + " is the slave of joint " + Quote(slave_joint.name) + " (line " +
+                     std::to_string(slave_joint.mark.line) +
+                     ") and cannot carry a support; support its master or prescribe the joint's motion with 'drive'");
+  }
+}
+
 Support ReadSupport(const YAML::Node &item, const ReaderContext &context)
 {
   const MappingReader entry(item, "support", {"nodes", "fix", "prescribe", "function"});
   Support             support;
   support.mark  = context.MarkOf(entry.Mark());
   support.nodes = context.ResolveNodes(entry.Required("nodes"), "nodes");
+  CheckNoJointSlaves(entry.Required("nodes"), support.nodes, context);
   if (const YAML::Node *fix = entry.Find("fix")) ReadFixedDofs(*fix, support);
   if (const YAML::Node *prescribe = entry.Find("prescribe")) ReadPrescribedDofs(*prescribe, support);
   support.function = context.OptionalFunctionIndex(entry, "function");
@@ -518,7 +548,7 @@ Model ParseModel(const std::string &text, const std::string &file_label)
   context.model.input_text = text;
   const MappingReader top(LoadSingleDocument(text), "the top-level mapping",
                           {"title", "functions", "sections", "nodes", "beams", "rigid_bodies", "sets", "supports", "loads",
-                           "initial_conditions", "probes", "analysis", "output"});
+                           "joints", "initial_conditions", "probes", "analysis", "output"});
   // The model has no place for the title; it is validated here and kept in input_text.
   if (top.Has("title")) top.String("title");
   Model &model = context.model;
@@ -536,8 +566,10 @@ Model ParseModel(const std::string &text, const std::string &file_label)
   const size_t user_node_count = model.nodes.size();
   if (!beam_items.empty()) ReadBeams(top.Required("beams"), context);
   ReadRigidBodies(rigid_body_items, context);
-  CheckEveryNodeConnected(model, user_node_count);
+  // Sets before joints, so no set can take the name `ground` from under a joint's master.
   ReadSets(top.Find("sets"), context);
+  ReadJoints(top.Find("joints"), context);
+  CheckEveryNodeConnected(model, user_node_count);
   for (const YAML::Node &item : ReadOptionalList(top.Find("supports"), "supports")) model.supports.push_back(ReadSupport(item, context));
   CheckSupportConflicts(model);
   for (const YAML::Node &item : ReadOptionalList(top.Find("loads"), "loads")) ReadLoad(item, context);

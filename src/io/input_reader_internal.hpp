@@ -18,6 +18,9 @@ enum class NameKind { Node, Beam, Set };
 // word selects every node, so it cannot name a node, beam or set.
 inline constexpr const char *kAllNodes = "all";
 
+// In `master` of a joint this word means the fixed ground instead of a node.
+inline constexpr const char *kGround = "ground";
+
 struct NamedObject {
   NameKind kind  = NameKind::Node;
   int      index = -1; // into Model::nodes, Model::beams or Model::node_sets
@@ -27,6 +30,13 @@ struct NamedObject {
 struct ReaderContext {
   Model                                        model;
   std::unordered_map<std::string, NamedObject> names;
+  // Per node: index into Model::joints of the joint whose slave it is, or -1 (filled by ReadJoints).
+  std::vector<int> joint_of_slave;
+
+  int JointOfSlave(int node) const
+  {
+    return node >= 0 && static_cast<size_t>(node) < joint_of_slave.size() ? joint_of_slave[node] : -1;
+  }
 
   SourceMark MarkOf(const YAML::Mark &mark) const;
   // Adds a node, beam or set name; a name used twice, or the reserved word `all`, is an error at `mark`.
@@ -52,9 +62,15 @@ void ReadRigidBodies(const std::vector<YAML::Node> &items, ReaderContext &contex
 // two entries is an error (input_dynamics.cpp). Needs the nodes, beams and sets.
 void ReadInitialConditions(const YAML::Node *list, ReaderContext &context);
 
-// Fails when a connected group of beams, or a rigid body on a node outside every beam, is not held
-// against all six rigid-body motions by its supports, which would make the static stiffness matrix
-// singular (input_mechanism_check.cpp). Called for static analyses only.
+// Reads `joints` into Model::joints and fills ReaderContext::joint_of_slave (input_joints.cpp).
+// Needs the nodes (including generated ones) and the functions; checks names, axes, releases,
+// drives, that every node is the slave of at most one joint and that the joints form no cycle.
+void ReadJoints(const YAML::Node *list, ReaderContext &context);
+
+// Fails when a connected group of beams, or of rigid bodies outside every beam, is not held against
+// all six rigid-body motions by its supports and its joints to the ground, which would make the
+// static stiffness matrix singular; elements and joints between nodes connect groups
+// (input_mechanism_check.cpp). Called for static analyses only.
 void CheckStaticMechanisms(const Model &model);
 
 } // namespace msflex::input_detail

@@ -10,7 +10,7 @@ namespace {
 
 const std::array<const char *, 6> kDofNames{{"ux", "uy", "uz", "rx", "ry", "rz"}};
 
-std::string JoinKeys(std::initializer_list<const char *> keys)
+std::string JoinKeys(const std::vector<const char *> &keys)
 {
   std::string joined;
   for (const char *key : keys) {
@@ -38,6 +38,11 @@ std::string FormatNumber(double number)
   std::ostringstream text;
   text << number;
   return text.str();
+}
+
+std::string FormatVec3(const Vec3 &vector)
+{
+  return "[" + FormatNumber(vector(0)) + ", " + FormatNumber(vector(1)) + ", " + FormatNumber(vector(2)) + "]";
 }
 
 std::string DescribeValue(const YAML::Node &value)
@@ -172,6 +177,11 @@ MappingReader::MappingReader(const YAML::Node &mapping, const std::string &kind,
 }
 
 void MappingReader::RequireOnlyKeys(std::initializer_list<const char *> allowed_keys) const
+{
+  RequireOnlyKeys(std::vector<const char *>(allowed_keys));
+}
+
+void MappingReader::RequireOnlyKeys(const std::vector<const char *> &allowed_keys) const
 {
   for (const Entry &entry : entries_) {
     bool allowed = false;

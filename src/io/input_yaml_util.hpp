@@ -27,6 +27,7 @@ struct InputFailure {
 
 std::string Quote(const std::string &text); // 'text'
 std::string FormatNumber(double number);     // shortest readable form, e.g. 0.5 or 1e-06
+std::string FormatVec3(const Vec3 &vector);   // [x, y, z] with FormatNumber
 // How a value reads in a message: 'abc', a list, a mapping or an empty value.
 std::string DescribeValue(const YAML::Node &value);
 
@@ -71,6 +72,7 @@ public:
   MappingReader(const YAML::Node &mapping, const std::string &kind, std::initializer_list<const char *> allowed_keys);
 
   void RequireOnlyKeys(std::initializer_list<const char *> allowed_keys) const;
+  void RequireOnlyKeys(const std::vector<const char *> &allowed_keys) const;
 
   const std::vector<Entry> &Entries() const { return entries_; }
   const std::string        &Description() const { return description_; }

@@ -1,6 +1,7 @@
 // Tests of the YAML model reader: expansion of valid models, and the bad-input corpus in
 // tests/bad_input/ (each file states the expected message and line in its first two lines).
 #include "io/input_reader.hpp"
+#include "joints/joint_kinematics.hpp"
 
 #include <gtest/gtest.h>
 
@@ -555,6 +556,316 @@ TEST(InputReader, FormatAndUnreadableFile)
 
   const InputError located{"a.yaml", 3, 7, "boom"};
   EXPECT_EQ(located.Format(), "a.yaml:3:7: error: boom");
+}
+
+// ---- Joints ------------------------------------------------------------------------------
+
+// One joint of every type between a hub and its own slave node (a dynamic model: the mechanism
+// check is for statics only).
+const char *const kJointModel = R"(functions:
+  - {name: spin, type: linear, slope: 2}
+nodes:
+  hub: [0, 0, 0]
+  s_rigid: [1, 0, 0]
+  s_spherical: [0, 1, 0]
+  s_revolute: [0, 0, 1]
+  s_universal: [1, 1, 0]
+  s_cylindrical: [1, 0, 1]
+  s_prismatic: [0, 1, 1]
+  s_planar: [1, 1, 1]
+  s_free: [2, 0, 0]
+  s_custom: [0, 2, 0]
+  s_screw: [0, 0, 2]
+  s_rack: [2, 2, 0]
+  s_cam: [2, 0, 2]
+  s_table: [0, 2, 2]
+rigid_bodies:
+  - {node: hub, mass: 1, inertia: [1, 1, 1]}
+joints:
+  - {name: j_rigid, type: rigid, master: hub, slave: s_rigid}
+  - {name: j_spherical, type: spherical, master: hub, slave: s_spherical, axis: [0, 0, 2]}
+  - name: j_revolute
+    type: revolute
+    master: ground
+    slave: s_revolute
+    axis: [1, 1, 0]
+    second_axis: [0, 0, 1]
+    drive: {coordinate: rotation, value: 0.5}
+  - {name: j_universal, type: universal, master: hub, slave: s_universal, axis: [0, 1, 0], second_axis: [1, 0, 1]}
+  - {name: j_cylindrical, type: cylindrical, master: hub, slave: s_cylindrical, drive: {coordinate: rx, value: 2}}
+  - {name: j_prismatic, type: prismatic, master: hub, slave: s_prismatic, drive: {coordinate: tx, value: 0.25, function: spin}}
+  - {name: j_planar, type: planar, master: hub, slave: s_planar, axis: [0, 0, 1], drive: {coordinate: tz, value: 0.1}}
+  - {name: j_free, type: free, master: hub, slave: s_free, drive: {coordinate: ty, value: 0.3}}
+  - {name: j_custom, type: custom, master: hub, slave: s_custom, release: [rz, tz, tx, ry], drive: {coordinate: ry, value: 0.4}}
+  - name: j_screw
+    type: screw
+    master: hub
+    slave: s_screw
+    axis: [0, 0, 1]
+    pitch: 2.2918
+    drive: {coordinate: translation, value: 1.0, function: spin}
+  - {name: j_rack, type: rack_pinion, master: hub, slave: s_rack, radius: -0.1, drive: {coordinate: translation, value: 0.2}}
+  - {name: j_cam, type: cam, master: hub, slave: s_cam, radius: 0.05}
+  - name: j_table
+    type: cam_table
+    master: hub
+    slave: s_table
+    profile:
+      points: [[0, 0], [1.5, 0.1], [3, 0.2], [4.5, 0.1]]
+analysis: {type: dynamic}
+)";
+
+const Joint &JointNamed(const Model &model, const std::string &name)
+{
+  for (const Joint &joint : model.joints)
+    if (joint.name == name) return joint;
+  ADD_FAILURE() << "no joint " << name;
+  return model.joints.front();
+}
+
+void ExpectRelease(const Joint &joint, std::vector<int> translations, Joint::Rotation rotation, std::vector<int> rotation_axes)
+{
+  SCOPED_TRACE(joint.name);
+  ASSERT_EQ(joint.num_translations, static_cast<int>(translations.size()));
+  for (size_t k = 0; k < translations.size(); ++k) EXPECT_EQ(joint.translation_axis[k], translations[k]);
+  EXPECT_EQ(joint.rotation, rotation);
+  for (size_t k = 0; k < rotation_axes.size(); ++k) EXPECT_EQ(joint.rotation_axis[k], rotation_axes[k]);
+}
+
+TEST(InputReader, JointsOfEveryType)
+{
+  const Model model = ReadValid(kJointModel);
+  ASSERT_EQ(model.joints.size(), 13u);
+  const int hub = NodeIndex(model, "hub");
+  for (const Joint &joint : model.joints) {
+    SCOPED_TRACE(joint.name);
+    ExpectOrthonormal(joint.axes); // orthonormal and right-handed (det = +1)
+    const std::string suffix = joint.name.substr(2);
+    EXPECT_EQ(joint.type, suffix == "rack" ? "rack_pinion" : suffix == "table" ? "cam_table" : suffix);
+    EXPECT_EQ(joint.master, joint.name == "j_revolute" ? -1 : hub);
+    EXPECT_EQ(joint.slave, NodeIndex(model, "s_" + joint.name.substr(2)));
+  }
+
+  // Types without a dependent translation.
+  const Joint &rigid = JointNamed(model, "j_rigid");
+  ExpectRelease(rigid, {}, Joint::Rotation::None, {});
+  EXPECT_EQ(rigid.axes, Mat3::Identity()); // default axis [1, 0, 0], a2 from the least aligned global axis y
+  EXPECT_EQ(rigid.dependence, Joint::Dependence::None);
+  EXPECT_EQ(rigid.driven_coordinate, -1);
+  EXPECT_EQ(rigid.mark.line, 21);
+
+  const Joint &spherical = JointNamed(model, "j_spherical");
+  ExpectRelease(spherical, {}, Joint::Rotation::Free, {});
+  Mat3 z_axes;
+  z_axes << 0, 1, 0, 0, 0, 1, 1, 0, 0; // columns a1 = z, a2 = x (first least aligned), a3 = y
+  EXPECT_LT((spherical.axes - z_axes).norm(), kTolerance);
+
+  const Joint &revolute = JointNamed(model, "j_revolute");
+  ExpectRelease(revolute, {}, Joint::Rotation::OneAxis, {0});
+  const double h = std::sqrt(0.5);
+  EXPECT_LT((revolute.axes.col(0) - Vec3(h, h, 0)).norm(), kTolerance);
+  EXPECT_LT((revolute.axes.col(1) - Vec3(0, 0, 1)).norm(), kTolerance);
+  EXPECT_LT((revolute.axes.col(2) - Vec3(h, -h, 0)).norm(), kTolerance);
+  EXPECT_EQ(revolute.driven_coordinate, 0);
+  EXPECT_DOUBLE_EQ(revolute.drive_value, 0.5);
+  EXPECT_EQ(revolute.drive_function, -1);
+
+  const Joint &universal = JointNamed(model, "j_universal");
+  ExpectRelease(universal, {}, Joint::Rotation::TwoAxes, {0, 1});
+  EXPECT_LT((universal.axes.col(0) - Vec3(0, 1, 0)).norm(), kTolerance);
+  EXPECT_LT((universal.axes.col(1) - Vec3(h, 0, h)).norm(), kTolerance); // [1, 0, 1] is already across y
+
+  const Joint &cylindrical = JointNamed(model, "j_cylindrical");
+  ExpectRelease(cylindrical, {0}, Joint::Rotation::OneAxis, {0});
+  EXPECT_EQ(cylindrical.driven_coordinate, 1); // after the translation
+  EXPECT_DOUBLE_EQ(cylindrical.drive_value, 2.0);
+
+  const Joint &prismatic = JointNamed(model, "j_prismatic");
+  ExpectRelease(prismatic, {0}, Joint::Rotation::None, {});
+  EXPECT_EQ(prismatic.driven_coordinate, 0);
+  EXPECT_DOUBLE_EQ(prismatic.drive_value, 0.25);
+  EXPECT_EQ(prismatic.drive_function, 0);
+
+  const Joint &planar = JointNamed(model, "j_planar");
+  ExpectRelease(planar, {1, 2}, Joint::Rotation::OneAxis, {0});
+  EXPECT_EQ(planar.driven_coordinate, 1); // tz is the second translation
+  EXPECT_LT((planar.axes - z_axes).norm(), kTolerance);
+
+  const Joint &free = JointNamed(model, "j_free");
+  ExpectRelease(free, {0, 1, 2}, Joint::Rotation::Free, {});
+  EXPECT_EQ(free.driven_coordinate, 1);
+
+  // Custom: translations in the order tx, ty, tz; rotations in the order listed.
+  const Joint &custom = JointNamed(model, "j_custom");
+  ExpectRelease(custom, {0, 2}, Joint::Rotation::TwoAxes, {2, 1});
+  EXPECT_EQ(custom.driven_coordinate, 3); // tx, tz, rz, ry
+  EXPECT_DOUBLE_EQ(custom.drive_value, 0.4);
+
+  // Dependent translations. A drive of a screw's translation drives its angle by value / pitch.
+  const Joint &screw = JointNamed(model, "j_screw");
+  ExpectRelease(screw, {}, Joint::Rotation::OneAxis, {0});
+  EXPECT_EQ(screw.dependence, Joint::Dependence::Linear);
+  EXPECT_EQ(screw.dependent_axis, 0);
+  EXPECT_DOUBLE_EQ(screw.coefficient, 2.2918);
+  EXPECT_EQ(screw.driven_coordinate, 0);
+  EXPECT_DOUBLE_EQ(screw.drive_value, 1.0 / 2.2918);
+  EXPECT_EQ(screw.drive_function, 0);
+
+  const Joint &rack = JointNamed(model, "j_rack");
+  ExpectRelease(rack, {}, Joint::Rotation::OneAxis, {0});
+  EXPECT_EQ(rack.dependence, Joint::Dependence::Linear);
+  EXPECT_EQ(rack.dependent_axis, 1);
+  EXPECT_DOUBLE_EQ(rack.coefficient, -0.1);
+  EXPECT_DOUBLE_EQ(rack.drive_value, 0.2 / -0.1);
+
+  const Joint &cam = JointNamed(model, "j_cam");
+  ExpectRelease(cam, {}, Joint::Rotation::OneAxis, {0});
+  EXPECT_EQ(cam.dependence, Joint::Dependence::EccentricCam);
+  EXPECT_EQ(cam.dependent_axis, 1);
+  EXPECT_DOUBLE_EQ(cam.coefficient, 0.05);
+
+  const Joint &table = JointNamed(model, "j_table");
+  ExpectRelease(table, {}, Joint::Rotation::OneAxis, {0});
+  EXPECT_EQ(table.dependence, Joint::Dependence::Table);
+  EXPECT_EQ(table.dependent_axis, 1);
+  EXPECT_DOUBLE_EQ(table.profile_period, 2.0 * M_PI);
+  EXPECT_EQ(table.profile_knots, (std::vector<double>{0, 1.5, 3, 4.5}));
+  EXPECT_EQ(table.profile_values, (std::vector<double>{0, 0.1, 0.2, 0.1}));
+  ASSERT_EQ(table.profile_second.size(), 4u);
+  std::vector<double> second(4);
+  ASSERT_TRUE(PeriodicSplineSecondDerivatives(2.0 * M_PI, 4, table.profile_knots.data(), table.profile_values.data(), second.data()));
+  for (int k = 0; k < 4; ++k) EXPECT_DOUBLE_EQ(table.profile_second[k], second[k]);
+  EXPECT_LT(table.profile_second[2], 0.0); // the peak at phi = 3 curves down
+  // The spline passes through the points and repeats with the period.
+  const PeriodicSpline spline{table.profile_period, 4, table.profile_knots.data(), table.profile_values.data(),
+                              table.profile_second.data()};
+  double f = 0, df = 0, ddf = 0;
+  PeriodicSplineEvaluate(spline, 1.5 + 2.0 * M_PI, &f, &df, &ddf);
+  EXPECT_NEAR(f, 0.1, 1e-12);
+}
+
+TEST(InputReader, JointProfilePeriodAndSecondAxisDefaults)
+{
+  const Model model = ReadValid(R"(nodes: {a: [0, 0, 0], b: [0, 0, 0]}
+rigid_bodies: [{node: a, mass: 1, inertia: [1, 1, 1]}]
+joints:
+  - name: lobe
+    type: cam_table
+    master: a
+    slave: b
+    axis: [1, 2, 3]
+    profile: {period: 4, points: [[-1, 0], [0, 1], [1, 0], [2, -1]]}
+analysis: {type: dynamic}
+)");
+  ASSERT_EQ(model.joints.size(), 1u);
+  const Joint &joint = model.joints[0];
+  ExpectOrthonormal(joint.axes);
+  EXPECT_LT((joint.axes.col(0) - Vec3(1, 2, 3).normalized()).norm(), kTolerance);
+  // Default a2: the global x axis (least aligned with a1) made perpendicular to a1.
+  const Vec3 a1 = Vec3(1, 2, 3).normalized();
+  EXPECT_LT((joint.axes.col(1) - (Vec3::UnitX() - a1.x() * a1).normalized()).norm(), kTolerance);
+  EXPECT_DOUBLE_EQ(joint.profile_period, 4.0);
+  // A sampled sine of period 4: by symmetry the second derivatives are 0, -c, 0, c.
+  ASSERT_EQ(joint.profile_second.size(), 4u);
+  EXPECT_NEAR(joint.profile_second[0], 0.0, 1e-12);
+  EXPECT_NEAR(joint.profile_second[2], 0.0, 1e-12);
+  EXPECT_LT(joint.profile_second[1], 0.0);
+  EXPECT_NEAR(joint.profile_second[1], -joint.profile_second[3], 1e-12);
+}
+
+// A universal joint to the ground and a screw at the same point: the screw's master is a node
+// that belongs to no beam and carries no rigid body, only joints.
+TEST(InputReader, JointChainAtOnePointAndStaticMechanismCheck)
+{
+  const std::string head = R"(sections: [{name: s, EA: 1, GA2: 1, GA3: 1, GJ: 1, EI2: 1, EI3: 1}]
+nodes: {cross: [0, 0, 0], nut: [0, 0, 0], tip: [0, 0, 2]}
+beams: [{name: rod, section: s, from: nut, to: tip, elements: 2}]
+joints:
+  - {name: cardan, type: universal, master: ground, slave: cross, axis: [1, 0, 0], second_axis: [0, 1, 0]}
+  - {name: thread, type: screw, master: cross, slave: nut, axis: [0, 0, 1], pitch: 0.01}
+)";
+  const Model model = ReadValid(head + "supports: [{nodes: tip, fix: all}]\n");
+  ASSERT_EQ(model.joints.size(), 2u);
+  const int cross = NodeIndex(model, "cross"), nut = NodeIndex(model, "nut");
+  EXPECT_EQ(model.joints[0].master, -1);
+  EXPECT_EQ(model.joints[0].slave, cross);
+  EXPECT_EQ(model.joints[1].master, cross);
+  EXPECT_EQ(model.joints[1].slave, nut);
+  EXPECT_EQ(model.joints[0].rotation, Joint::Rotation::TwoAxes);
+  EXPECT_EQ(model.joints[1].dependence, Joint::Dependence::Linear);
+  EXPECT_LT((model.joints[1].axes.col(0) - Vec3::UnitZ()).norm(), kTolerance);
+
+  // The universal joint to the ground holds three translations and the rotation about a3 = z;
+  // the screw between two nodes holds nothing against the ground.
+  InputError error = ReadInvalid(head);
+  EXPECT_NE(error.message.find("mechanism: beam(s) 'rod' can move as a rigid body (4 of 6"), std::string::npos) << error.message;
+  EXPECT_EQ(error.line, 3);
+
+  // A rigid joint to the ground holds everything; a prismatic one all but the slide along a1.
+  const std::string single = R"(sections: [{name: s, EA: 1, GA2: 1, GA3: 1, GJ: 1, EI2: 1, EI3: 1}]
+nodes: {a: [0, 0, 0], b: [1, 0, 0]}
+beams: [{name: ab, section: s, from: a, to: b, elements: 2}]
+joints: [{name: j, master: ground, slave: a, type: )";
+  ReadValid(single + "rigid}]\n");
+  error = ReadInvalid(single + "prismatic, axis: [1, 1, 0]}]\n");
+  EXPECT_NE(error.message.find("(5 of 6"), std::string::npos) << error.message;
+  // The slide is held by a support at b along it... but not by one across it.
+  ReadValid(single + "prismatic, axis: [1, 1, 0]}]\nsupports: [{nodes: b, fix: [ux]}]\n");
+  error = ReadInvalid(single + "prismatic, axis: [1, 0, 0]}]\nsupports: [{nodes: b, fix: [uy]}]\n");
+  EXPECT_NE(error.message.find("(5 of 6"), std::string::npos) << error.message;
+  // A spherical joint holds three translations; pins at b across the line a-b add two rotations,
+  // leaving the spin about the line free.
+  error = ReadInvalid(single + "spherical}]\nsupports: [{nodes: b, fix: [uy, uz]}]\n");
+  EXPECT_NE(error.message.find("(5 of 6"), std::string::npos) << error.message;
+  ReadValid(single + "spherical}]\nsupports: [{nodes: b, fix: [uy, uz, rx]}]\n");
+}
+
+TEST(InputReader, JointsConnectComponentsAndRigidBodies)
+{
+  // Two beams joined by a revolute joint form one component: the first beam's clamp holds both.
+  const std::string beams = R"(sections: [{name: s, EA: 1, GA2: 1, GA3: 1, GJ: 1, EI2: 1, EI3: 1}]
+nodes: {a: [0, 0, 0], b: [1, 0, 0], c: [1, 0, 0], d: [2, 0, 0]}
+beams:
+  - {name: ab, section: s, from: a, to: b, elements: 2}
+  - {name: cd, section: s, from: c, to: d, elements: 2}
+supports: [{nodes: a, fix: all}]
+)";
+  EXPECT_NE(ReadInvalid(beams).message.find("mechanism: beam(s) 'cd'"), std::string::npos);
+  const Model joined = ReadValid(beams + "joints: [{name: pin, type: revolute, master: b, slave: c, axis: [0, 0, 1]}]\n");
+  ASSERT_EQ(joined.joints.size(), 1u);
+
+  // A rigid body on a node outside every beam, welded to the ground, needs no support; with a
+  // revolute joint it is a mechanism (5 of 6), and a body hung from it by a second joint shares
+  // its group (reported once, at the first body).
+  const std::string bodies = R"(nodes: {p: [0, 0, 0], q: [0, 0, -1]}
+rigid_bodies:
+  - {node: p, mass: 1, inertia: [1, 1, 1]}
+  - {node: q, mass: 1, inertia: [1, 1, 1]}
+joints:
+  - {name: hang, type: rigid, master: p, slave: q}
+)";
+  ReadValid(bodies + "  - {name: weld, type: rigid, master: ground, slave: p}\n");
+  const InputError error = ReadInvalid(bodies + "  - {name: pivot, type: revolute, master: ground, slave: p}\n");
+  EXPECT_NE(error.message.find("mechanism: the rigid body at node 'p' is not connected to any beam and can move freely (5 of 6"),
+            std::string::npos)
+      << error.message;
+  EXPECT_EQ(error.line, 3);
+}
+
+TEST(InputReader, JointSlavesTakeInitialConditionsButNoSupports)
+{
+  const std::string head = R"(nodes: {hub: [0, 0, 0], wheel: [0, 0, 0]}
+rigid_bodies: [{node: hub, mass: 1, inertia: [1, 1, 1]}, {node: wheel, mass: 1, inertia: [1, 1, 1]}]
+joints: [{name: axle, type: revolute, master: hub, slave: wheel}]
+analysis: {type: dynamic}
+)";
+  const Model model = ReadValid(head + "initial_conditions: [{nodes: wheel, angular_velocity: [3, 0, 0]}]\n");
+  ASSERT_EQ(model.initial_conditions.size(), 1u);
+  const InputError error = ReadInvalid(head + "supports: [{nodes: [hub, wheel], fix: [ux]}]\n");
+  EXPECT_NE(error.message.find("node 'wheel' is the slave of joint 'axle' (line 3) and cannot carry a support"), std::string::npos)
+      << error.message;
+  EXPECT_EQ(error.line, 5);
+  EXPECT_EQ(error.column, 26);
 }
 
 // ---- The bad-input corpus ----------------------------------------------------------------
