@@ -137,6 +137,12 @@ PetscErrorCode Assembler::Setup(MPI_Comm comm, const Model &model, const DofMap 
     if (body.mass > 0.0) has_translational_mass_[l] = has_rotary_inertia_[l] = 1; // with an offset, the mass also resists rotation
     if (!body.inertia.isZero(0.0)) has_rotary_inertia_[l] = 1;
   }
+  // Joints carry inertia between their nodes: never replace the equations of a master or a slave.
+  for (const Joint &joint : model.joints)
+    for (int node : {joint.master, joint.slave}) {
+      const int l = node >= 0 ? map.node_to_local[node] : -1;
+      if (l >= 0) has_translational_mass_[l] = has_rotary_inertia_[l] = 1;
+    }
   rigid_bodies_.clear();
   for (const RigidBody &body : model.rigid_bodies) {
     const int l = map.node_to_local[body.node];

@@ -56,8 +56,10 @@ void Assembler::UpdateSlaves()
       x_m = nodes_[J.local_master].position;
       R_m = nodes_[J.local_master].rotation;
     }
+    // In the initial-acceleration problem the increments are accelerations: the map stays at the start.
     JointCoordinates q = J.start;
-    for (int c = 0; c < kJointMaxReleased; ++c) q.q[c] += J.increment[c];
+    if (mode_ != Mode::InitialAcceleration)
+      for (int c = 0; c < kJointMaxReleased; ++c) q.q[c] += J.increment[c];
     JointMatrix N;
     JointMap(J.geometry, q, R_m, &N);
     const int k = JointNumCoordinates(J.geometry);
@@ -134,9 +136,10 @@ PetscErrorCode Assembler::AddNodeBlock(Mat jacobian, int l, const Mat6 &block)
     PetscCall(MatSetValues(jacobian, 6, map_->node_dofs[node].data(), 6, map_->node_dofs[node].data(), block.data(), ADD_VALUES));
     PetscFunctionReturn(PETSC_SUCCESS);
   }
-  // The block is d/d(u_s, omega_s); spins: d omega_s = H(omega_s)^{-1} d theta_s.
-  Mat6 spin                 = block;
-  spin.block<6, 3>(0, 3)    = (block.block<6, 3>(0, 3) * TangentHInverse(nodes_[l].rotation_increment)).eval();
+  // The block is d/d(u_s, omega_s); spins: d omega_s = H(omega_s)^{-1} d theta_s (in the
+  // initial-acceleration problem the unknowns are the accelerations themselves).
+  Mat6 spin = block;
+  if (mode_ != Mode::InitialAcceleration) spin.block<6, 3>(0, 3) = (block.block<6, 3>(0, 3) * TangentHInverse(nodes_[l].rotation_increment)).eval();
   const std::vector<PetscInt> &unknowns = map_->node_unknowns[node];
   const int                    m        = (int)unknowns.size();
   const double                *rows = expansion_rows_[l].data(), *columns = expansion_columns_[l].data();
