@@ -672,9 +672,12 @@ PetscErrorCode Assembler::AssembleResidual(Vec residual, PetscBool *geometry_ok)
       if (map.constraints[node][d].kind == Support::Kind::Prescribed)
         prescribed_work_ += r[d] * (d < 3 ? s.displacement_increment(d) : s.tangent_scaled_increment(d - 3));
     }
-    PetscCall(AddNodeVector(residual, map.node_to_local[node], r));
+    const int l = map.node_to_local[node];
+    if (node_local_joint_[l] >= 0) slave_residual_[l] += Eigen::Map<const Vec6>(r);
+    PetscCall(AddNodeVector(residual, l, r));
     PetscFunctionReturn(PETSC_SUCCESS);
   };
+  for (Vec6 &g : slave_residual_) g.setZero();
   for (size_t k = 0; k < map.local_elements.size(); ++k) {
     const BeamElement &element = model.elements[map.local_elements[k]];
     double            *f       = &element_force_scratch_[kBeamMaxDofs * k];

@@ -86,6 +86,15 @@ public:
   // Work of the external loads over the current increments: sum of u.F + alpha.M, including the
   // reactions that drive prescribed DOFs (collective).
   PetscErrorCode StepExternalWork(double *work);
+  // Joint output, collective. EvaluateJointReactions, called at the converged increments (before
+  // CommitStep), keeps each joint's transmitted force and moment — the slave's residual: the
+  // force and moment (about the slave node, global axes) that the joint exerts on the slave — and
+  // the step's mean rates of the released coordinates. JointHistory then gives, per joint, the
+  // released coordinates (tx ty tz along, rx ry rz about the joint axes; a free rotation as the
+  // rotation vector of the relative rotation in joint axes; a dependent translation under its
+  // axis), their rates, force and moment, as history series "<joint>.<quantity>".
+  PetscErrorCode EvaluateJointReactions(double dt);
+  PetscErrorCode JointHistory(std::vector<std::string> *names, std::vector<double> *values);
   // The energy-momentum scheme's beta of the last residual (0 otherwise).
   double EnergyCorrectionFactor() const { return energy_correction_; }
 
@@ -161,7 +170,9 @@ private:
   // Per local slave node: rows and columns of its expansion (6 x m, row-major), m = number of
   // unknowns it depends on: R[unknowns] += rows^T g_spin, d(spin)/dX = columns.
   std::vector<std::vector<double>>  expansion_rows_, expansion_columns_;
-  std::vector<Vec6>                 slave_residual_;     // per local node: spin residual gathered on slaves (Jacobian pass)
+  std::vector<Vec6>                 slave_residual_;     // per local node: spin residual gathered on slaves
+  std::vector<Vec6>                 joint_reaction_;     // every joint: force and moment on the slave (after EvaluateJointReactions)
+  std::vector<std::array<double, kJointMaxReleased>> joint_rate_; // every joint: mean rates of the released coordinates over the last step
   std::vector<double>               expansion_scratch_;  // work space for expanded blocks
   // Per local node: whether its translations / rotations carry mass. In the initial-acceleration
   // problem a massless group gets zero acceleration instead of a singular equation.

@@ -8,6 +8,7 @@
 // where N_m (6x6) and N_q (6xk) are the master and released-coordinate parts of N, restricted to
 // the coordinates that are not driven.
 #include "assembly/assembler.hpp"
+#include "joints/joint_model.hpp"
 
 namespace msflex {
 
@@ -80,6 +81,21 @@ void Assembler::UpdateSlaves()
       slave.rotation_increment     = LogSO3(R_s * QuaternionToMatrix(slave.rotation_start).transpose());
       UpdateDerivedState(&slave);
     }
+    // Rows of the mid-point schemes: the conserving map of eq. (21–22), so that the slave's work
+    // and momenta carry over exactly; columns (the tangent, a preconditioner there): N.
+    JointMatrix N_rows = N;
+    if (mode_ == Mode::Dynamic && scheme_.Midpoint()) {
+      Vec3 x_m_start = model.nodes[joint.slave].position, alpha_m = Vec3::Zero();
+      Mat3 R_m_start = Mat3::Identity();
+      if (J.local_master >= 0) {
+        const NodeState &master = nodes_[J.local_master];
+        x_m_start               = master.position_start;
+        R_m_start               = QuaternionToMatrix(master.rotation_start);
+        alpha_m                 = master.tangent_scaled_increment;
+      }
+      double released_test[kJointMaxReleased];
+      JointConservingMap(J.geometry, J.start, J.increment, R_m_start, alpha_m, slave.position_start - x_m_start, slave.position - x_m, &N_rows, released_test);
+    }
     // Expansion: the master's (through N_m) followed by the free released coordinates (N_q).
     const int               m        = (int)map.node_unknowns[joint.slave].size();
     std::vector<double>    &rows     = expansion_rows_[J.local_slave];
@@ -94,7 +110,7 @@ void Assembler::UpdateSlaves()
       for (int i = 0; i < 6; ++i)
         for (int col = 0; col < m_master; ++col) {
           double r = 0.0, c = 0.0;
-          for (int j = 0; j < 6; ++j) r += N(i, j) * mr[j * m_master + col], c += N(i, j) * mc[j * m_master + col];
+          for (int j = 0; j < 6; ++j) r += N_rows(i, j) * mr[j * m_master + col], c += N(i, j) * mc[j * m_master + col];
           rows[i * m + col]    = r;
           columns[i * m + col] = c;
         }
@@ -102,7 +118,7 @@ void Assembler::UpdateSlaves()
     int column = m_master;
     for (int c = 0; c < k; ++c) {
       if (J.slot[c] < 0) continue;
-      for (int i = 0; i < 6; ++i) rows[i * m + column] = columns[i * m + column] = N(i, 6 + c);
+      for (int i = 0; i < 6; ++i) rows[i * m + column] = N_rows(i, 6 + c), columns[i * m + column] = N(i, 6 + c);
       ++column;
     }
   }
@@ -238,6 +254,86 @@ PetscErrorCode Assembler::AddJointGeometricStiffness(Mat jacobian)
     const Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> block = R.transpose() * G.topLeftCorner(6 + k, 6 + k) * C;
     PetscCall(MatSetValues(jacobian, m, unknowns.data(), m, unknowns.data(), block.data(), ADD_VALUES));
   }
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode Assembler::EvaluateJointReactions(double dt)
+{
+  const size_t num_joints = model_->joints.size();
+  PetscBool    evaluable;
+  PetscFunctionBeginUser;
+  PetscCall(AssembleResidual(scratch_residual_, &evaluable));
+  // Every rank adds the slave residual it assembled; the owner adds the rates.
+  std::vector<double> local(12 * num_joints, 0.0), global(12 * num_joints, 0.0);
+  PetscMPIInt         rank;
+  PetscCallMPI(MPI_Comm_rank(comm_, &rank));
+  for (const LocalJoint &J : joints_) {
+    for (int i = 0; i < 6; ++i) local[12 * J.joint + i] += slave_residual_[J.local_slave](i);
+    if (map_->joint_rank[J.joint] != rank) continue;
+    for (int c = 0; c < kJointMaxReleased; ++c) local[12 * J.joint + 6 + c] = dt > 0.0 ? J.increment[c] / dt : 0.0;
+  }
+  PetscCall(MPIU_Allreduce(local.data(), global.data(), (PetscMPIInt)global.size(), MPI_DOUBLE, MPI_SUM, comm_));
+  joint_reaction_.assign(num_joints, Vec6::Zero());
+  joint_rate_.assign(num_joints, {});
+  for (size_t j = 0; j < num_joints; ++j) {
+    for (int i = 0; i < 6; ++i) joint_reaction_[j](i) = global[12 * j + i];
+    for (int c = 0; c < kJointMaxReleased; ++c) joint_rate_[j][c] = global[12 * j + 6 + c];
+  }
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode Assembler::JointHistory(std::vector<std::string> *names, std::vector<double> *values)
+{
+  static const char *const translation_names[3] = {"tx", "ty", "tz"}, *rotation_names[3] = {"rx", "ry", "rz"};
+  const Model &model = *model_;
+  PetscMPIInt  rank;
+  PetscFunctionBeginUser;
+  PetscCallMPI(MPI_Comm_rank(comm_, &rank));
+  names->clear();
+  std::vector<double> local;
+  if (joint_reaction_.size() != model.joints.size()) joint_reaction_.assign(model.joints.size(), Vec6::Zero()), joint_rate_.assign(model.joints.size(), {});
+  for (size_t j = 0; j < model.joints.size(); ++j) {
+    const Joint        &joint    = model.joints[j];
+    const JointGeometry geometry = JointGeometryOf(joint);
+    const int           nt       = joint.num_translations;
+    const int           l        = map_->joint_to_local[j];
+    const bool          owner    = map_->joint_rank[j] == rank && l >= 0;
+    const JointCoordinates *q    = owner ? &joints_[l].start : nullptr;
+    auto add = [&](const std::string &name, double value) {
+      names->push_back(joint.name + "." + name);
+      local.push_back(owner ? value : 0.0);
+    };
+    for (int c = 0; c < nt; ++c) {
+      add(translation_names[joint.translation_axis[c]], q ? q->q[c] : 0.0);
+      add(std::string(translation_names[joint.translation_axis[c]]) + "_rate", joint_rate_[j][c]);
+    }
+    if (joint.rotation == Joint::Rotation::Free) {
+      const Vec3 rotation = q ? Vec3(joint.axes.transpose() * LogSO3(q->free_rotation_start)) : Vec3::Zero();
+      for (int i = 0; i < 3; ++i) add(rotation_names[i], rotation(i));
+    } else {
+      const int nr = joint.rotation == Joint::Rotation::OneAxis ? 1 : joint.rotation == Joint::Rotation::TwoAxes ? 2 : 0;
+      for (int c = 0; c < nr; ++c) {
+        add(rotation_names[joint.rotation_axis[c]], q ? q->q[nt + c] : 0.0);
+        add(std::string(rotation_names[joint.rotation_axis[c]]) + "_rate", joint_rate_[j][nt + c]);
+      }
+    }
+    if (joint.dependence != Joint::Dependence::None) {
+      double f = 0, df, ddf, f0, df0, ddf0;
+      if (q) {
+        JointDependentTranslation(geometry, q->q[nt], &f, &df, &ddf);
+        JointDependentTranslation(geometry, 0.0, &f0, &df0, &ddf0);
+        f -= f0;
+      }
+      add(translation_names[joint.dependent_axis], f);
+    }
+    static const char *const reaction_names[6] = {"force_x", "force_y", "force_z", "moment_x", "moment_y", "moment_z"};
+    for (int i = 0; i < 6; ++i) {
+      names->push_back(joint.name + "." + reaction_names[i]);
+      local.push_back(rank == 0 ? joint_reaction_[j](i) : 0.0); // already reduced: count once
+    }
+  }
+  values->assign(local.size(), 0.0);
+  PetscCall(MPIU_Allreduce(local.data(), values->data(), (PetscMPIInt)local.size(), MPI_DOUBLE, MPI_SUM, comm_));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 

@@ -118,6 +118,13 @@ PetscErrorCode WriteHistory(Analysis &a, const StepRecord &record, double strain
                                  d.linear_momentum(2), d.angular_momentum(0), d.angular_momentum(1), d.angular_momentum(2),
                                  record.step == 0 ? 0.0 : a.assembler.EnergyCorrectionFactor()});
   }
+  if (!a.model.joints.empty()) {
+    std::vector<std::string> joint_names;
+    std::vector<double>      joint_values;
+    PetscCall(a.assembler.JointHistory(&joint_names, &joint_values));
+    names.insert(names.end(), joint_names.begin(), joint_names.end());
+    values.insert(values.end(), joint_values.begin(), joint_values.end());
+  }
   PetscCall(a.output.AppendHistory(names, values, probes));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
@@ -212,6 +219,7 @@ PetscErrorCode RunAnalysis(MPI_Comm comm, const Model &model, const RunOptions &
           PetscCall(a.assembler.StepExternalWork(&work));
           a.external_work += work;
         }
+        if (!model.joints.empty()) PetscCall(a.assembler.EvaluateJointReactions(dt));
         PetscCall(a.assembler.CommitStep());
         t = (t + dt >= target * (1.0 - 1e-14)) ? target : t + dt;
         ++step;

@@ -199,4 +199,68 @@ void JointGeometricStiffness(const JointGeometry &joint, const JointCoordinates 
   }
 }
 
+void JointConservingMap(const JointGeometry &joint, const JointCoordinates &start, const double *increment, const Mat3 &R_n, const Vec3 &alpha_m,
+                        const Vec3 &r_n, const Vec3 &r_1, JointMatrix *Nt, double *p)
+{
+  const int nt = joint.num_translations;
+  const int k  = JointNumCoordinates(joint);
+  Nt->setZero();
+  for (int c = 0; c < k; ++c) p[c] = 0.0;
+  const Mat3 Ct = (Mat3::Identity() + 0.5 * Skew(alpha_m)) * R_n;
+  Nt->block<3, 3>(0, 0) = Mat3::Identity();
+  Nt->block<3, 3>(0, 3) = -0.5 * (Skew(r_n) + Skew(r_1));
+  Nt->block<3, 3>(3, 3) = Mat3::Identity();
+  // Translations: b_{n+1} - b_n = A e_axis dq.
+  for (int c = 0; c < nt; ++c) {
+    p[c]                      = increment[c];
+    Nt->block<3, 1>(0, 6 + c) = Ct * joint.axes.col(joint.translation_axis[c]);
+  }
+  // Released rotation: alpha_R = W p, and the dependent translation's secant.
+  Eigen::Matrix<double, 3, 3> W = Eigen::Matrix<double, 3, 3>::Zero();
+  int                         nr = 0;
+  switch (joint.rotation) {
+  case JointRotation::None:
+    break;
+  case JointRotation::OneAxis: {
+    nr     = 1;
+    p[nt]  = 2.0 * std::tan(0.5 * increment[nt]);
+    W.col(0) = joint.axes.col(joint.rotation_axis[0]);
+    break;
+  }
+  case JointRotation::TwoAxes: {
+    // C_{n+1} C_n^T = cay(tau2 b) cay(tau1 a_i), b = exp(phi1_{n+1} a_i) a_j (b . a_i = 0):
+    // alpha_R = tau1 (a_i + tau2 b x a_i / 2) + tau2 b.
+    nr             = 2;
+    const Vec3 ai  = joint.axes.col(joint.rotation_axis[0]), aj = joint.axes.col(joint.rotation_axis[1]);
+    const Vec3 b   = ExpSO3((start.q[nt] + increment[nt]) * ai) * aj;
+    p[nt]          = 2.0 * std::tan(0.5 * increment[nt]);
+    p[nt + 1]      = 2.0 * std::tan(0.5 * increment[nt + 1]);
+    W.col(0)       = ai + 0.5 * p[nt + 1] * b.cross(ai);
+    W.col(1)       = b;
+    break;
+  }
+  case JointRotation::Free: {
+    nr = 3;
+    const Vec3 alpha_R = TangentScaledFromRotationVector(Vec3(increment[nt], increment[nt + 1], increment[nt + 2]));
+    for (int i = 0; i < 3; ++i) p[nt + i] = alpha_R(i);
+    W = Mat3::Identity();
+    break;
+  }
+  }
+  if (nr == 0) return;
+  Eigen::Matrix<double, 3, 1> alpha_R = Eigen::Matrix<double, 3, 1>::Zero();
+  for (int c = 0; c < nr; ++c) alpha_R += W.col(c) * p[nt + c];
+  const Vec3 beta = R_n * alpha_R;
+  const Mat3 A    = (Mat3::Identity() + 0.5 * Skew(alpha_m) + 0.25 * alpha_m * alpha_m.transpose()) / (1.0 - 0.25 * alpha_m.dot(beta));
+  for (int c = 0; c < nr; ++c) Nt->block<3, 1>(3, 6 + nt + c) = A * (R_n * W.col(c));
+  if (joint.dependence != JointDependence::None) {
+    // u_R = G tau along a_dependent, G the secant of f over the step (f'(phi_n) for an empty step).
+    double f1, df1, ddf1, f0, df0, ddf0;
+    JointDependentTranslation(joint, start.q[nt] + increment[nt], &f1, &df1, &ddf1);
+    JointDependentTranslation(joint, start.q[nt], &f0, &df0, &ddf0);
+    const double G = std::abs(p[nt]) > 1e-12 ? (f1 - f0) / p[nt] : df0;
+    Nt->block<3, 1>(0, 6 + nt) += Ct * (G * joint.axes.col(joint.dependent_axis));
+  }
+}
+
 } // namespace msflex

@@ -87,4 +87,18 @@ void JointMap(const JointGeometry &joint, const JointCoordinates &q, const Mat3 
 void JointGeometricStiffness(const JointGeometry &joint, const JointCoordinates &q, const Mat3 &master_rotation, const Eigen::Matrix<double, 6, 1> &g,
                              JointSquare *G);
 
+// The conserving map of the mid-point schemes (eq. 21–22): with tangent-scaled increments
+// alpha (Lambda_{n+1} = cay(alpha) Lambda_n), the slave's step test vector follows exactly
+//   u_s     = u_m + C_t (b_{n+1} - b_n) + D alpha_m,   C_t = (I + hat(alpha_m)/2) Lambda_{m,n},
+//                                                       D = -(hat(r_n) + hat(r_{n+1}))/2, r = Lambda_m b
+//   alpha_s = alpha_m + A beta,   beta = Lambda_{m,n} alpha_R,  A = (I + hat(alpha_m)/2 + alpha_m alpha_m^T/4) / (1 - alpha_m.beta/4)
+// where alpha_R is the tangent-scaled released rotation (C_{n+1} C_n^T = cay(alpha_R)) and
+// b_{n+1} - b_n is linear in the released test quantities p: translations dq, and per rotation
+// coordinate tau = 2 tan(dphi/2) (dependent translation: the secant G = (f(phi_{n+1}) - f(phi_n))/tau),
+// or alpha_R itself for a free rotation. Ntilde (6 x (6 + k)) maps (u_m, alpha_m, p) to
+// (u_s, alpha_s); `released_test` returns p. Since the map is exact, the work and the momenta of
+// the slave's forces carry over to the master and the released coordinates.
+void JointConservingMap(const JointGeometry &joint, const JointCoordinates &start, const double *increment, const Mat3 &master_rotation_start,
+                        const Vec3 &master_alpha, const Vec3 &offset_start, const Vec3 &offset_end, JointMatrix *Ntilde, double *released_test);
+
 } // namespace msflex

@@ -198,3 +198,45 @@ TEST(PeriodicSpline, InterpolatesRepeatsAndIsTwiceContinuouslyDifferentiable)
   std::vector<double> bad = {0.0, 2.0, 1.0};
   EXPECT_FALSE(PeriodicSplineSecondDerivatives(2 * M_PI, 3, bad.data(), values.data(), second.data()));
 }
+
+// The conserving map of the mid-point schemes is exact for any step: the slave's displacement
+// increment and tangent-scaled rotation increment equal Ntilde (u_m, alpha_m, p).
+TEST(JointKinematics, ConservingMapIsExactForFiniteSteps)
+{
+  std::mt19937                           gen(11);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  for (const Case &c : Cases()) {
+    const int        k = JointNumCoordinates(c.joint);
+    JointCoordinates start;
+    double           increment[kJointMaxReleased] = {0, 0, 0, 0, 0, 0};
+    for (int i = 0; i < k; ++i) start.q[i] = 0.8 * u(gen), increment[i] = 0.4 * u(gen);
+    if (c.joint.rotation == JointRotation::Free) {
+      start.free_rotation_start = ExpSO3(Vec3(0.3, -0.2, 0.6));
+      for (int i = c.joint.num_translations; i < k; ++i) start.q[i] = 0.0; // a free rotation restarts from C_n
+    }
+    const Vec3 x_mn(0.2, 0.1, -0.3), u_m(0.05, -0.1, 0.08);
+    const Mat3 R_mn = ExpSO3(Vec3(0.4, -0.7, 0.2));
+    const Vec3 omega_m(0.3, 0.5, -0.2);
+    const Mat3 R_m1 = ExpSO3(omega_m) * R_mn;
+    JointCoordinates end = start;
+    for (int i = 0; i < k; ++i) end.q[i] += increment[i];
+    Vec3 x_sn, x_s1;
+    Mat3 R_sn, R_s1;
+    JointSlaveConfiguration(c.joint, start, x_mn, R_mn, &x_sn, &R_sn);
+    JointSlaveConfiguration(c.joint, end, x_mn + u_m, R_m1, &x_s1, &R_s1);
+    const Vec3  alpha_m = TangentScaledFromRotationVector(omega_m);
+    JointMatrix Nt;
+    double      p[kJointMaxReleased];
+    JointConservingMap(c.joint, start, increment, R_mn, alpha_m, x_sn - x_mn, x_s1 - x_mn - u_m, &Nt, p);
+    Eigen::Matrix<double, 6 + kJointMaxReleased, 1> test = Eigen::Matrix<double, 6 + kJointMaxReleased, 1>::Zero();
+    test.head<3>() = u_m;
+    test.segment<3>(3) = alpha_m;
+    for (int i = 0; i < k; ++i) test(6 + i) = p[i];
+    const Eigen::Matrix<double, 6, 1> slave = Nt * test;
+    const Vec3 alpha_s = TangentScaledFromRotationVector(LogSO3(R_s1 * R_sn.transpose()));
+    const double u_error = (slave.head<3>() - (x_s1 - x_sn)).norm(), alpha_error = (slave.tail<3>() - alpha_s).norm();
+    std::printf("joint %-14s conserving map: |u_s error| %.1e, |alpha_s error| %.1e\n", c.name.c_str(), u_error, alpha_error);
+    EXPECT_LT(u_error, 1e-13) << c.name;
+    EXPECT_LT(alpha_error, 1e-13) << c.name;
+  }
+}
