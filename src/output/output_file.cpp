@@ -322,6 +322,18 @@ PetscErrorCode OutputFile::Impl::WriteMesh(const OutputMesh &mesh)
   PetscCall(WriteStrings(group, "beam_names", {n_beams}, mesh.beam_names));
   PetscCall(WriteInts(group, "segments", {segment_element.size(), 2}, segments));
   PetscCall(WriteInts(group, "segment_element", {segment_element.size()}, segment_element));
+  const hsize_t n_joints = mesh.joint_names.size();
+  if (n_joints > 0) {
+    PetscCheck(mesh.joint_types.size() == n_joints && mesh.joint_master.size() == n_joints && mesh.joint_slave.size() == n_joints &&
+                 mesh.joint_axes.size() == 9 * n_joints && mesh.joint_offset.size() == 3 * n_joints,
+               PETSC_COMM_SELF, PETSC_ERR_ARG_SIZ, "output file '%s': joint arrays do not match %llu joints", path.c_str(), (unsigned long long)n_joints);
+    PetscCall(WriteStrings(group, "joint_names", {n_joints}, mesh.joint_names));
+    PetscCall(WriteStrings(group, "joint_types", {n_joints}, mesh.joint_types));
+    PetscCall(WriteInts(group, "joint_master", {n_joints}, mesh.joint_master));
+    PetscCall(WriteInts(group, "joint_slave", {n_joints}, mesh.joint_slave));
+    PetscCall(WriteDoubles(group, "joint_axes", {n_joints, 9}, mesh.joint_axes));
+    PetscCall(WriteDoubles(group, "joint_offset", {n_joints, 3}, mesh.joint_offset));
+  }
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 

@@ -20,6 +20,11 @@ struct OutputMesh {
   std::vector<int>         element_order;    // n_elements: 1 (2 nodes) or 2 (3 nodes, middle node second)
   std::vector<int>         element_beam;     // n_elements: index into beam_names
   std::vector<std::string> beam_names;
+  // Joints (empty when there are none): name, type, master (-1: ground) and slave node indices,
+  // axes (n_joints x 9: a1, a2, a3 one after the other) and the slave's reference offset (x 3).
+  std::vector<std::string> joint_names, joint_types;
+  std::vector<int>         joint_master, joint_slave;
+  std::vector<double>      joint_axes, joint_offset;
 };
 
 struct OutputFrame {

@@ -1,5 +1,7 @@
 #include "output/results.hpp"
 
+#include "joints/joint_model.hpp"
+
 namespace msflex {
 
 void BuildOutputMesh(const Model &model, OutputMesh *mesh)
@@ -20,6 +22,16 @@ void BuildOutputMesh(const Model &model, OutputMesh *mesh)
   }
   mesh->beam_names.clear();
   for (const Beam &beam : model.beams) mesh->beam_names.push_back(beam.name);
+  for (const Joint &joint : model.joints) {
+    mesh->joint_names.push_back(joint.name);
+    mesh->joint_types.push_back(joint.type);
+    mesh->joint_master.push_back(joint.master);
+    mesh->joint_slave.push_back(joint.slave);
+    for (int c = 0; c < 3; ++c)
+      for (int i = 0; i < 3; ++i) mesh->joint_axes.push_back(joint.axes(i, c));
+    const Vec3 offset = JointReferenceOffset(model, joint);
+    for (int i = 0; i < 3; ++i) mesh->joint_offset.push_back(offset(i));
+  }
 }
 
 // Position (3), displacement (3), quaternion (4), tracked rotation angle (1), velocity (3) and
