@@ -1106,6 +1106,12 @@ PetscErrorCode Assembler::StepExternalWork(double *work)
     local += body.gravity_force.dot(s.displacement_increment + (s.rotation - QuaternionToMatrix(s.rotation_start)) * body.offset);
   }
   local += prescribed_work_;
+  // Drives: the generalised reaction on a driven coordinate times its test increment.
+  PropagateSlaveResiduals();
+  for (const LocalJoint &J : joints_) {
+    const int c = model_->joints[J.joint].driven_coordinate;
+    if (c >= 0) local += J.rows_map.col(6 + c).dot(slave_residual_[J.local_slave]) * J.released_test[c];
+  }
   PetscCall(MPIU_Allreduce(&local, work, 1, MPI_DOUBLE, MPI_SUM, comm_));
   PetscFunctionReturn(PETSC_SUCCESS);
 }

@@ -123,7 +123,11 @@ private:
     JointCoordinates start;              // at the start of the step (a free rotation keeps C_n, q = 0)
     double           increment[kJointMaxReleased] = {0, 0, 0, 0, 0, 0};
     PetscInt         slot[kJointMaxReleased]      = {-1, -1, -1, -1, -1, -1}; // in ghosted_increments_, -1 when driven
+    JointMatrix      rows_map;                     // the map of the residual rows: N, or the conserving map (mid-point)
+    double           released_test[kJointMaxReleased] = {0, 0, 0, 0, 0, 0}; // the test quantities of the released coordinates
   };
+  // Slave residuals with what each slave passes on to its master along the chains (deepest first).
+  void PropagateSlaveResiduals();
 
   PetscErrorCode ApplyPrescribedValues(double t_start, double t_end);
   // Slave configurations from their masters and joints (masters first), and their expansions.

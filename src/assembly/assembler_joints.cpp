@@ -84,6 +84,7 @@ void Assembler::UpdateSlaves()
     // Rows of the mid-point schemes: the conserving map of eq. (21–22), so that the slave's work
     // and momenta carry over exactly; columns (the tangent, a preconditioner there): N.
     JointMatrix N_rows = N;
+    for (int c = 0; c < kJointMaxReleased; ++c) J.released_test[c] = J.increment[c];
     if (mode_ == Mode::Dynamic && scheme_.Midpoint()) {
       Vec3 x_m_start = model.nodes[joint.slave].position, alpha_m = Vec3::Zero();
       Mat3 R_m_start = Mat3::Identity();
@@ -93,9 +94,10 @@ void Assembler::UpdateSlaves()
         R_m_start               = QuaternionToMatrix(master.rotation_start);
         alpha_m                 = master.tangent_scaled_increment;
       }
-      double released_test[kJointMaxReleased];
-      JointConservingMap(J.geometry, J.start, J.increment, R_m_start, alpha_m, slave.position_start - x_m_start, slave.position - x_m, &N_rows, released_test);
+      JointConservingMap(J.geometry, J.start, J.increment, R_m_start, alpha_m, slave.position_start - x_m_start, slave.position - x_m, &N_rows,
+                         J.released_test);
     }
+    J.rows_map = N_rows;
     // Expansion: the master's (through N_m) followed by the free released coordinates (N_q).
     const int               m        = (int)map.node_unknowns[joint.slave].size();
     std::vector<double>    &rows     = expansion_rows_[J.local_slave];
@@ -257,12 +259,20 @@ PetscErrorCode Assembler::AddJointGeometricStiffness(Mat jacobian)
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
+void Assembler::PropagateSlaveResiduals()
+{
+  for (auto it = joints_.rbegin(); it != joints_.rend(); ++it)
+    if (it->local_master >= 0 && node_local_joint_[it->local_master] >= 0)
+      slave_residual_[it->local_master] += it->rows_map.leftCols<6>().transpose() * slave_residual_[it->local_slave];
+}
+
 PetscErrorCode Assembler::EvaluateJointReactions(double dt)
 {
   const size_t num_joints = model_->joints.size();
   PetscBool    evaluable;
   PetscFunctionBeginUser;
   PetscCall(AssembleResidual(scratch_residual_, &evaluable));
+  PropagateSlaveResiduals();
   // Every rank adds the slave residual it assembled; the owner adds the rates.
   std::vector<double> local(12 * num_joints, 0.0), global(12 * num_joints, 0.0);
   PetscMPIInt         rank;

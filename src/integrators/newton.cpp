@@ -119,7 +119,8 @@ PetscErrorCode NewtonSolverCreate(MPI_Comm comm, const AnalysisSettings &analysi
   if (matrix_free_operator) {
     PetscCall(SNESSetUseMatrixFree(*snes, PETSC_TRUE, PETSC_FALSE));
     PetscCall(KSPSetType(ksp, KSPGMRES));
-    PetscCall(KSPSetTolerances(ksp, 1e-10, PETSC_DEFAULT, PETSC_DEFAULT, 50));
+    PetscCall(KSPSetTolerances(ksp, 1e-10, PETSC_DEFAULT, PETSC_DEFAULT, 200));
+    PetscCall(KSPGMRESSetRestart(ksp, 100));
   } else {
     PetscCall(KSPSetType(ksp, KSPPREONLY));
   }
