@@ -132,50 +132,53 @@ void Rotation(const JointGeometry &joint, const JointCoordinates &q, Mat3 *C, Ei
   }
 }
 
+// b, B = db/dq, d^2 f/dphi^2 of a dependent translation, C and Omega at the coordinates q.
+struct JointTerms {
+  Vec3                                        b;
+  Mat3                                        C;
+  Eigen::Matrix<double, 3, kJointMaxReleased> B, Omega;
+  double                                      ddf;
+};
+JointTerms EvaluateTerms(const JointGeometry &joint, const JointCoordinates &q)
+{
+  JointTerms terms;
+  Offset(joint, q, &terms.b, &terms.B, &terms.ddf);
+  Rotation(joint, q, &terms.C, &terms.Omega);
+  return terms;
+}
+
 } // namespace
 
 void JointSlaveConfiguration(const JointGeometry &joint, const JointCoordinates &q, const Vec3 &master_position, const Mat3 &master_rotation,
                              Vec3 *slave_position, Mat3 *slave_rotation)
 {
-  Vec3                                       b;
-  Mat3                                       C;
-  Eigen::Matrix<double, 3, kJointMaxReleased> B, Omega;
-  double                                     ddf;
-  Offset(joint, q, &b, &B, &ddf);
-  Rotation(joint, q, &C, &Omega);
-  *slave_position = master_position + master_rotation * b;
-  *slave_rotation = master_rotation * C;
+  const JointTerms terms = EvaluateTerms(joint, q);
+  *slave_position        = master_position + master_rotation * terms.b;
+  *slave_rotation        = master_rotation * terms.C;
 }
 
 void JointMap(const JointGeometry &joint, const JointCoordinates &q, const Mat3 &R, JointMatrix *N)
 {
-  const int                                  k = JointNumCoordinates(joint);
-  Vec3                                       b;
-  Mat3                                       C;
-  Eigen::Matrix<double, 3, kJointMaxReleased> B, Omega;
-  double                                     ddf;
-  Offset(joint, q, &b, &B, &ddf);
-  Rotation(joint, q, &C, &Omega);
+  const int        k     = JointNumCoordinates(joint);
+  const JointTerms terms = EvaluateTerms(joint, q);
   N->setZero();
   N->block<3, 3>(0, 0) = Mat3::Identity();
-  N->block<3, 3>(0, 3) = -Skew(R * b);
+  N->block<3, 3>(0, 3) = -Skew(R * terms.b);
   N->block<3, 3>(3, 3) = Mat3::Identity();
   for (int c = 0; c < k; ++c) {
-    N->block<3, 1>(0, 6 + c) = R * B.col(c);
-    N->block<3, 1>(3, 6 + c) = R * Omega.col(c);
+    N->block<3, 1>(0, 6 + c) = R * terms.B.col(c);
+    N->block<3, 1>(3, 6 + c) = R * terms.Omega.col(c);
   }
 }
 
 void JointGeometricStiffness(const JointGeometry &joint, const JointCoordinates &q, const Mat3 &R, const Eigen::Matrix<double, 6, 1> &g, JointSquare *G)
 {
-  const int                                  k  = JointNumCoordinates(joint);
-  const int                                  nt = joint.num_translations;
-  Vec3                                       b;
-  Mat3                                       C;
-  Eigen::Matrix<double, 3, kJointMaxReleased> B, Omega;
-  double                                     ddf;
-  Offset(joint, q, &b, &B, &ddf);
-  Rotation(joint, q, &C, &Omega);
+  const int         k     = JointNumCoordinates(joint);
+  const int         nt    = joint.num_translations;
+  const JointTerms  terms = EvaluateTerms(joint, q);
+  const Vec3       &b = terms.b;
+  const auto       &B = terms.B, &Omega = terms.Omega;
+  const double      ddf = terms.ddf;
   const Vec3 gf = g.head<3>(), gm = g.tail<3>();
   const Vec3 vf = R.transpose() * gf, vm = R.transpose() * gm;
   const Mat3 hgf = Skew(gf), hgm = Skew(gm);

@@ -64,6 +64,27 @@ def final_frame(path):
         return data
 
 
+def skew(v):
+    return np.array([[0, -v[2], v[1]], [v[2], 0, -v[0]], [-v[1], v[0], 0]])
+
+
+def expm(v):
+    """exp of hat(v): the rotation by |v| about v."""
+    angle = np.linalg.norm(v)
+    if angle == 0.0:
+        return np.eye(3)
+    K = skew(v / angle)
+    return np.eye(3) + np.sin(angle) * K + (1 - np.cos(angle)) * K @ K
+
+
+def quaternion_matrix(q):
+    """Rotation matrix of a unit quaternion (w, x, y, z)."""
+    w, x, y, z = q
+    return np.array([[1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
+                     [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
+                     [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)]])
+
+
 def row_at_time(data, t, tolerance=1e-12):
     rows = np.nonzero(np.abs(data["time"] - t) <= tolerance * max(1.0, abs(t)))[0]
     if len(rows) != 1:

@@ -13,25 +13,6 @@ import numpy as np
 import msflex_testing as mt
 
 
-def skew(v):
-    return np.array([[0, -v[2], v[1]], [v[2], 0, -v[0]], [-v[1], v[0], 0]])
-
-
-def expm(v):
-    angle = np.linalg.norm(v)
-    if angle == 0.0:
-        return np.eye(3)
-    K = skew(v / angle)
-    return np.eye(3) + math.sin(angle) * K + (1 - math.cos(angle)) * K @ K
-
-
-def matrix(q):
-    w, x, y, z = q
-    return np.array([[1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
-                     [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
-                     [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)]])
-
-
 args = mt.parse_arguments(__doc__)
 output = f"{args.work_dir}/mechanism.h5"
 mt.run_msflex(args, f"{args.source_dir}/tests/regression/inputs/joint_mechanism.yaml", output, extra=["-quiet"])
@@ -57,18 +38,18 @@ for j, (name, kind) in enumerate(zip(names, types)):
     for row, (t, x, q) in enumerate(zip(times, positions, rotations)):
         assert abs(h["time"][row] - t) < 1e-12
         if masters[j] >= 0:
-            x_m, R_m = x[masters[j]], matrix(q[masters[j]])
+            x_m, R_m = x[masters[j]], mt.quaternion_matrix(q[masters[j]])
         else:  # the ground frame sits at the slave's reference position
             x_m, R_m = reference[slaves[j]], np.eye(3)
-        x_s, R_s = x[slaves[j]], matrix(q[slaves[j]])
+        x_s, R_s = x[slaves[j]], mt.quaternion_matrix(q[slaves[j]])
         t_joint = np.array([series("tx")[row], series("ty")[row], series("tz")[row]])
         rx, ry, rz = series("rx")[row], series("ry")[row], series("rz")[row]
         if kind == "universal":
-            C = expm(rx * A[:, 0]) @ expm(ry * A[:, 1])
+            C = mt.expm(rx * A[:, 0]) @ mt.expm(ry * A[:, 1])
         elif kind in ("spherical", "free"):
-            C = expm(A @ np.array([rx, ry, rz]))
+            C = mt.expm(A @ np.array([rx, ry, rz]))
         else:
-            C = expm(rx * A[:, 0] + ry * A[:, 1] + rz * A[:, 2])
+            C = mt.expm(rx * A[:, 0] + ry * A[:, 1] + rz * A[:, 2])
         worst_position = max(worst_position, np.abs(x_s - (x_m + R_m @ (offsets[j] + A @ t_joint))).max())
         worst_rotation = max(worst_rotation, np.abs(R_s - R_m @ C).max())
     print(f"{name} ({kind}): checked {len(frames)} steps")

@@ -11,27 +11,8 @@ import numpy as np
 import msflex_testing as mt
 
 
-def skew(v):
-    return np.array([[0, -v[2], v[1]], [v[2], 0, -v[0]], [-v[1], v[0], 0]])
-
-
-def expm(v):
-    angle = np.linalg.norm(v)
-    if angle == 0.0:
-        return np.eye(3)
-    K = skew(v / angle)
-    return np.eye(3) + np.sin(angle) * K + (1 - np.cos(angle)) * K @ K
-
-
-def matrix(q):
-    w, x, y, z = q
-    return np.array([[1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
-                     [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
-                     [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)]])
-
-
 def exact(t):
-    return expm(t * np.array([0.5, 0.5, 0.5])) @ expm(0.5 * t * np.array([0.0, 0.0, 1.0]))
+    return mt.expm(t * np.array([0.5, 0.5, 0.5])) @ mt.expm(0.5 * t * np.array([0.0, 0.0, 1.0]))
 
 
 args = mt.parse_arguments(__doc__)
@@ -45,7 +26,7 @@ def run(integrator, dt):
                                                "-analysis_end_time", "5", "-output_every", "100000", "-quiet"])
     probe, h = mt.probe_history(output, "top"), mt.history(output)
     row = mt.row_at_time(probe, 5.0)
-    return np.abs(matrix(probe["rotation"][row]) - exact(5.0)).max(), h
+    return np.abs(mt.quaternion_matrix(probe["rotation"][row]) - exact(5.0)).max(), h
 
 
 for integrator in ("newmark", "genalpha", "mc", "em"):
