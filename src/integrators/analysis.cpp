@@ -77,6 +77,7 @@ PetscErrorCode Setup(Analysis &a)
   PetscCall(VecDuplicate(a.assembler.SolutionTemplate(), &a.increments));
   OutputMesh mesh;
   BuildOutputMesh(a.model, &mesh);
+  mesh.node_rank = a.map.node_rank;
   PetscCall(a.output.Open(a.comm, a.options.output_file, a.options.output_overwrite, a.model.input_file, a.model.input_text, mesh));
   PetscCall(PetscLogStagePop());
   PetscFunctionReturn(PETSC_SUCCESS);

@@ -322,6 +322,11 @@ PetscErrorCode OutputFile::Impl::WriteMesh(const OutputMesh &mesh)
   PetscCall(WriteStrings(group, "beam_names", {n_beams}, mesh.beam_names));
   PetscCall(WriteInts(group, "segments", {segment_element.size(), 2}, segments));
   PetscCall(WriteInts(group, "segment_element", {segment_element.size()}, segment_element));
+  if (!mesh.node_rank.empty()) {
+    PetscCheck(mesh.node_rank.size() == n_nodes, PETSC_COMM_SELF, PETSC_ERR_ARG_SIZ, "output file '%s': the partition does not match %llu nodes", path.c_str(),
+               (unsigned long long)n_nodes);
+    PetscCall(WriteInts(group, "node_rank", {n_nodes}, mesh.node_rank));
+  }
   const hsize_t n_joints = mesh.joint_names.size();
   if (n_joints > 0) {
     PetscCheck(mesh.joint_types.size() == n_joints && mesh.joint_master.size() == n_joints && mesh.joint_slave.size() == n_joints &&

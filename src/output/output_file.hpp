@@ -25,6 +25,7 @@ struct OutputMesh {
   std::vector<std::string> joint_names, joint_types;
   std::vector<int>         joint_master, joint_slave;
   std::vector<double>      joint_axes, joint_offset;
+  std::vector<int>         node_rank; // n_nodes: the MPI rank owning each node (the partition)
 };
 
 struct OutputFrame {

@@ -1,12 +1,19 @@
 #include "parallel/partition.hpp"
 
+#include <metis.h>
+
+#include <algorithm>
+#include <numeric>
+
 namespace msflex {
 
 PetscErrorCode PartitionerTypeFromOptions(MPI_Comm comm, PartitionerType *type)
 {
-  const char *const names[] = {"simple", "PartitionerType", "PARTITIONER_", nullptr};
-  PetscEnum         choice  = (PetscEnum)PartitionerType::Simple; // default
+  const char *const names[] = {"simple", "metis", "PartitionerType", "PARTITIONER_", nullptr};
+  PetscMPIInt       size;
   PetscFunctionBeginUser;
+  PetscCallMPI(MPI_Comm_size(comm, &size));
+  PetscEnum choice = (PetscEnum)(size > 1 ? PartitionerType::Metis : PartitionerType::Simple); // default
   PetscOptionsBegin(comm, nullptr, "Partitioning", "msflex");
   PetscCall(PetscOptionsEnum("-partitioner", "How nodes are distributed over ranks", "PartitionNodes", names, choice, &choice, nullptr));
   PetscOptionsEnd();
@@ -32,17 +39,96 @@ static std::vector<int> ConnectivityOrder(const Model &model)
   return order;
 }
 
+// Union-find root of a node in the joint-chain contraction.
+static int Root(std::vector<int> &parent, int i)
+{
+  while (parent[i] != i) i = parent[i] = parent[parent[i]];
+  return i;
+}
+
+// Vertex of every node: nodes joined by joints (master-slave, not the ground) share one.
+static std::vector<int> ContractJointChains(const Model &model, int *num_vertices)
+{
+  const int        n = (int)model.nodes.size();
+  std::vector<int> parent(n);
+  std::iota(parent.begin(), parent.end(), 0);
+  for (const Joint &joint : model.joints)
+    if (joint.master >= 0) parent[Root(parent, joint.slave)] = Root(parent, joint.master);
+  std::vector<int> vertex(n, -1), root_vertex(n, -1);
+  *num_vertices = 0;
+  for (int i = 0; i < n; ++i) {
+    const int r = Root(parent, i);
+    if (root_vertex[r] < 0) root_vertex[r] = (*num_vertices)++;
+    vertex[i] = root_vertex[r];
+  }
+  return vertex;
+}
+
+// METIS k-way partition of the contracted node graph, on the calling rank.
+static PetscErrorCode MetisPartition(const Model &model, int parts, std::vector<int> *node_rank)
+{
+  PetscFunctionBeginUser;
+  int                            num_vertices;
+  const std::vector<int>         vertex = ContractJointChains(model, &num_vertices);
+  std::vector<std::vector<idx_t>> neighbours(num_vertices);
+  for (const BeamElement &element : model.elements)
+    for (int a = 0; a <= element.order; ++a)
+      for (int b = 0; b <= element.order; ++b) {
+        const int va = vertex[element.nodes[a]], vb = vertex[element.nodes[b]];
+        if (va != vb) neighbours[va].push_back(vb);
+      }
+  std::vector<idx_t> xadj(1, 0), adjncy, weight(num_vertices, 0), part(num_vertices, 0);
+  for (int v = 0; v < num_vertices; ++v) {
+    std::vector<idx_t> &list = neighbours[v];
+    std::sort(list.begin(), list.end());
+    list.erase(std::unique(list.begin(), list.end()), list.end());
+    adjncy.insert(adjncy.end(), list.begin(), list.end());
+    xadj.push_back((idx_t)adjncy.size());
+  }
+  for (size_t i = 0; i < model.nodes.size(); ++i) ++weight[vertex[i]];
+  if (parts > 1 && num_vertices > parts) {
+    idx_t nvtxs = num_vertices, ncon = 1, nparts = parts, edgecut = 0;
+    idx_t options[METIS_NOPTIONS];
+    METIS_SetDefaultOptions(options);
+    options[METIS_OPTION_SEED] = 1; // reproducible partitions
+    const int status = METIS_PartGraphKway(&nvtxs, &ncon, xadj.data(), adjncy.data(), weight.data(), nullptr, nullptr, &nparts, nullptr, nullptr, options,
+                                           &edgecut, part.data());
+    PetscCheck(status == METIS_OK, PETSC_COMM_SELF, PETSC_ERR_LIB, "METIS_PartGraphKway failed with status %d", status);
+  } else {
+    for (int v = 0; v < num_vertices; ++v) part[v] = (idx_t)(((size_t)v * (size_t)parts) / (size_t)std::max(1, num_vertices));
+  }
+  node_rank->assign(model.nodes.size(), 0);
+  for (size_t i = 0; i < model.nodes.size(); ++i) (*node_rank)[i] = (int)part[vertex[i]];
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
 PetscErrorCode PartitionNodes(MPI_Comm comm, const Model &model, PartitionerType type, std::vector<int> *node_rank)
 {
-  PetscMPIInt size;
+  PetscMPIInt size, rank;
   PetscFunctionBeginUser;
   PetscCallMPI(MPI_Comm_size(comm, &size));
-  const std::vector<int> order = ConnectivityOrder(model);
-  const size_t           n     = order.size();
+  PetscCallMPI(MPI_Comm_rank(comm, &rank));
+  const size_t n = model.nodes.size();
   node_rank->assign(n, 0);
   switch (type) {
-  case PartitionerType::Simple:
+  case PartitionerType::Simple: {
+    // Contiguous blocks in connectivity order, then every joint chain moved to the rank of its root.
+    const std::vector<int> order = ConnectivityOrder(model);
     for (size_t k = 0; k < n; ++k) (*node_rank)[order[k]] = (int)((k * (size_t)size) / n);
+    int                    num_vertices;
+    const std::vector<int> vertex = ContractJointChains(model, &num_vertices);
+    std::vector<int>       vertex_rank(num_vertices, -1);
+    for (size_t k = 0; k < n; ++k) {
+      int &r = vertex_rank[vertex[order[k]]];
+      if (r < 0) r = (*node_rank)[order[k]];
+      (*node_rank)[order[k]] = r;
+    }
+    break;
+  }
+  case PartitionerType::Metis:
+    // METIS runs on rank 0 only (the whole graph is needed there once); the answer is broadcast.
+    if (rank == 0) PetscCall(MetisPartition(model, size, node_rank));
+    PetscCallMPI(MPI_Bcast(node_rank->data(), (int)n, MPI_INT, 0, comm));
     break;
   }
   PetscFunctionReturn(PETSC_SUCCESS);
