@@ -184,6 +184,7 @@ PetscErrorCode Assembler::Setup(MPI_Comm comm, const Model &model, const DofMap 
   PetscCall(MatSetOption(jacobian_, MAT_NEW_NONZERO_ALLOCATION_ERR, PETSC_TRUE));
   PetscCall(MatCreateVecs(jacobian_, &solution_template_, nullptr));
   PetscCall(VecDuplicate(solution_template_, &scratch_residual_));
+  PetscCall(AttachRigidBodyModes());
   PetscCall(CreateCsrDestinations());
 
   // Scatter from the distributed unknowns to the free DOFs of every local node (owned and ghost)
@@ -228,6 +229,58 @@ PetscErrorCode Assembler::Setup(MPI_Comm comm, const Model &model, const DofMap 
   PetscCall(VecCreateSeq(PETSC_COMM_SELF, (PetscInt)from.size(), &ghosted_increments_));
   PetscCall(VecScatterCreate(solution_template_, from_is, ghosted_increments_, nullptr, &to_ghosted_));
   PetscCall(ISDestroy(&from_is));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode Assembler::AttachRigidBodyModes()
+{
+  const Model  &model = *model_;
+  const DofMap &map   = *map_;
+  Vec           modes[6];
+  MatNullSpace  near_null_space;
+  PetscFunctionBeginUser;
+  Vec3 centroid = Vec3::Zero();
+  for (const Node &node : model.nodes) centroid += node.position / (double)model.nodes.size();
+  for (int k = 0; k < 6; ++k) {
+    PetscCall(VecDuplicate(solution_template_, &modes[k]));
+    PetscCall(VecZeroEntries(modes[k]));
+  }
+  for (PetscInt l = 0; l < map.num_owned_nodes; ++l) {
+    const int                      node = map.local_nodes[l];
+    const std::array<PetscInt, 6> &dofs = map.node_dofs[node];
+    const Vec3                     r    = model.nodes[node].position - centroid;
+    for (int k = 0; k < 6; ++k) {
+      const Vec3 t = k < 3 ? Vec3(Vec3::Unit(k)) : Vec3::Zero(), w = k < 3 ? Vec3::Zero() : Vec3(Vec3::Unit(k - 3));
+      const Vec3 u = t + w.cross(r);
+      for (int d = 0; d < 6; ++d)
+        if (dofs[d] >= 0) PetscCall(VecSetValue(modes[k], dofs[d], d < 3 ? u(d) : w(d - 3), INSERT_VALUES));
+    }
+  }
+  for (int k = 0; k < 6; ++k) {
+    PetscCall(VecAssemblyBegin(modes[k]));
+    PetscCall(VecAssemblyEnd(modes[k]));
+  }
+  // Gram-Schmidt; a mode that vanishes (all its DOFs constrained) is dropped.
+  int kept = 0;
+  for (int k = 0; k < 6; ++k) {
+    PetscScalar dots[6];
+    PetscReal   norm;
+    if (kept > 0) {
+      PetscCall(VecMDot(modes[k], kept, modes, dots));
+      for (int i = 0; i < kept; ++i) dots[i] = -dots[i];
+      PetscCall(VecMAXPY(modes[k], kept, dots, modes));
+    }
+    PetscCall(VecNorm(modes[k], NORM_2, &norm));
+    if (norm > 1e-10) {
+      PetscCall(VecScale(modes[k], 1.0 / norm));
+      std::swap(modes[kept], modes[k]);
+      ++kept;
+    }
+  }
+  PetscCall(MatNullSpaceCreate(comm_, PETSC_FALSE, kept, modes, &near_null_space));
+  PetscCall(MatSetNearNullSpace(jacobian_, near_null_space));
+  PetscCall(MatNullSpaceDestroy(&near_null_space));
+  for (int k = 0; k < 6; ++k) PetscCall(VecDestroy(&modes[k]));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 

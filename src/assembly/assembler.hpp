@@ -147,6 +147,10 @@ private:
   PetscErrorCode AddJointGeometricStiffness(Mat jacobian);
   PetscErrorCode ComputeLoads(double t_start, double t_end);
   PetscErrorCode CreateCsrDestinations();
+  // The six rigid-body modes in the unknowns (u = t + w x (X - centroid), omega = w at every
+  // independent node, zero on joint coordinates), orthonormalised: the near-null space that
+  // algebraic multigrid (-pc_type gamg) needs for beams.
+  PetscErrorCode AttachRigidBodyModes();
   PetscErrorCode AddElementMatrix(size_t local_element, const PetscInt *indices, int num_dofs, const double *values, PetscScalar *diagonal_values,
                                   PetscScalar *off_diagonal_values);
   PetscErrorCode ElementForces(size_t k, double *force, double *correction, double *work_mismatch, double *correction_work, double *work_scale, PetscBool *ok);
