@@ -11,9 +11,6 @@ namespace msflex::input_detail {
 
 namespace {
 
-// Keeps node and element indices (int) far from overflow.
-constexpr int kMaxElementsPerBeam = 10000000;
-
 // The reference curve of a beam before roll and twist: position and triad (columns t1 = tangent,
 // t2, t3) as functions of the arc-length fraction s/L in [0, 1].
 struct ReferenceCurve {
@@ -39,13 +36,6 @@ struct ReferenceCurve {
   }
 };
 
-struct BeamLayout {
-  int    elements = 1;
-  int    order    = 1;
-  double roll     = 0.0; // rad, constant rotation of t2, t3 about t1
-  double twist    = 0.0; // rad, extra rotation about t1 reached at `to`, linear in arc length
-};
-
 // Columns t1, t2 and t3 = t1 x t2 for orthonormal t1, t2.
 Mat3 TriadFromAxes(const Vec3 &t1, const Vec3 &t2)
 {
@@ -56,25 +46,29 @@ Mat3 TriadFromAxes(const Vec3 &t1, const Vec3 &t2)
   return triad;
 }
 
-// Straight beam: t1 along the axis, t2 the part of the orientation vector across the axis.
-ReferenceCurve LineCurve(const MappingReader &beam, const Vec3 &start, const Vec3 &end)
+// Straight beam: t1 along the axis, t2 the part of `orientation` across the axis (checked by the
+// caller with OrientationAlongAxis).
+ReferenceCurve StraightCurve(const Vec3 &start, const Vec3 &end, const Vec3 &orientation)
 {
-  const Vec3 axis = (end - start).normalized();
-  // The default (0, 1, 0) is swapped for (-1, 0, 0) on nearly vertical (y) beams, where it would
-  // be almost parallel to the axis.
-  Vec3 orientation = std::abs(axis.dot(Vec3::UnitY())) > 0.99 ? Vec3(-1.0, 0.0, 0.0) : Vec3::UnitY();
-  if (const YAML::Node *value = beam.Find("orientation")) {
-    orientation = ReadVec3(*value, "orientation");
-    if (orientation.norm() == 0.0) FailAt(value->Mark(), "'orientation' of " + beam.Description() + " must not be the zero vector");
-    if (orientation.cross(axis).norm() < 1e-8 * orientation.norm())
-      FailAt(value->Mark(), "'orientation' " + FormatVec3(orientation) + " is parallel to the axis of " + beam.Description() +
-                                "; it must point across the beam");
-  }
+  const Vec3     axis = (end - start).normalized();
   ReferenceCurve curve;
   curve.start       = start;
   curve.end         = end;
   curve.start_triad = TriadFromAxes(axis, (orientation - orientation.dot(axis) * axis).normalized());
   return curve;
+}
+
+// `orientation` of a YAML line beam, or the default.
+Vec3 ReadLineOrientation(const MappingReader &beam, const Vec3 &start, const Vec3 &end)
+{
+  const YAML::Node *value = beam.Find("orientation");
+  if (value == nullptr) return DefaultBeamOrientation(start, end);
+  const Vec3 orientation = ReadVec3(*value, "orientation");
+  if (orientation.norm() == 0.0) FailAt(value->Mark(), "'orientation' of " + beam.Description() + " must not be the zero vector");
+  if (OrientationAlongAxis(orientation, start, end))
+    FailAt(value->Mark(), "'orientation' " + FormatVec3(orientation) + " is parallel to the axis of " + beam.Description() +
+                              "; it must point across the beam");
+  return orientation;
 }
 
 Vec3 ArcNormal(const MappingReader &arc, const Vec3 &start_radius, const Vec3 &end_radius)
@@ -190,26 +184,48 @@ void ReadBeam(const YAML::Node &item, ReaderContext &context)
            "'to' must differ from 'from' in " + entry.Description() + " (both are " + Quote(model.nodes[to].name) + ")");
   const Vec3 start = model.nodes[from].position;
   const Vec3 end   = model.nodes[to].position;
-  if ((end - start).norm() <= 1e-12 * (1.0 + start.norm()))
+  if (BeamHasZeroLength(start, end))
     FailAt(entry.Required("to").Mark(), entry.Description() + " has zero length: nodes " + Quote(model.nodes[from].name) + " and " +
                                             Quote(model.nodes[to].name) + " are at the same position");
   const BeamLayout layout = ReadLayout(entry);
   beam.order              = layout.order;
-  ReferenceCurve curve;
   if (const YAML::Node *arc = entry.Find("arc")) {
     // On an arc t2 is fixed by the geometry (towards the centre); `roll` rotates it instead.
     if (const YAML::Node *orientation = entry.Find("orientation"))
       FailAt(orientation->Mark(), "'orientation' cannot be combined with 'arc' in " + entry.Description() +
                                       " (on an arc t2 points to the centre; use 'roll' to turn the section)");
-    curve = ArcCurve(*arc, entry, start, end);
+    AppendNodesAndElements(ArcCurve(*arc, entry, start, end), layout, from, to, beam, context);
+    model.beams.push_back(std::move(beam));
   } else {
-    curve = LineCurve(entry, start, end);
+    AppendStraightBeam(std::move(beam), from, to, ReadLineOrientation(entry, start, end), layout, context);
   }
-  AppendNodesAndElements(curve, layout, from, to, beam, context);
-  model.beams.push_back(std::move(beam));
 }
 
 } // namespace
+
+bool BeamHasZeroLength(const Vec3 &start, const Vec3 &end) { return (end - start).norm() <= 1e-12 * (1.0 + start.norm()); }
+
+Vec3 DefaultBeamOrientation(const Vec3 &start, const Vec3 &end)
+{
+  // (0, 1, 0) is swapped for (-1, 0, 0) on nearly vertical (y) beams, where it would be almost
+  // parallel to the axis.
+  const Vec3 axis = (end - start).normalized();
+  return std::abs(axis.dot(Vec3::UnitY())) > 0.99 ? Vec3(-1.0, 0.0, 0.0) : Vec3::UnitY();
+}
+
+bool OrientationAlongAxis(const Vec3 &orientation, const Vec3 &start, const Vec3 &end)
+{
+  return orientation.cross((end - start).normalized()).norm() < 1e-8 * orientation.norm();
+}
+
+void AppendStraightBeam(Beam beam, int from, int to, const Vec3 &orientation, const BeamLayout &layout, ReaderContext &context)
+{
+  Model &model = context.model;
+  beam.order   = layout.order;
+  AppendNodesAndElements(StraightCurve(model.nodes[from].position, model.nodes[to].position, orientation), layout, from, to, beam,
+                         context);
+  model.beams.push_back(std::move(beam));
+}
 
 void ReadBeams(const YAML::Node &beams, ReaderContext &context)
 {

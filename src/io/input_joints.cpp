@@ -23,9 +23,6 @@ constexpr double kParallelTolerance = 1e-8;
 // The released coordinates by name: translations along, and rotations about, the joint axes a1 a2 a3.
 const std::array<const char *, 6> kCoordinateNames{{"tx", "ty", "tz", "rx", "ry", "rz"}};
 
-const char *const kJointTypes = "rigid, spherical, revolute, universal, cylindrical, prismatic, planar, free, custom, screw, "
-                                "rack_pinion, cam, cam_table";
-
 std::string JoinWords(const std::vector<std::string> &words)
 {
   std::string joined;
@@ -36,35 +33,19 @@ std::string JoinWords(const std::vector<std::string> &words)
 // Axes a1 (`axis`), a2 (from `second_axis`) and a3 = a1 x a2 as the columns of a rotation matrix.
 Mat3 ReadJointAxes(const MappingReader &entry)
 {
-  Vec3 a1 = Vec3::UnitX();
+  Vec3 axis = Vec3::UnitX();
   if (const YAML::Node *value = entry.Find("axis")) {
-    a1                  = ReadVec3(*value, "axis");
-    const double length = a1.stableNorm();
-    if (length == 0.0) FailAt(value->Mark(), "'axis' of " + entry.Description() + " must not be the zero vector");
-    a1 /= length;
+    axis = ReadVec3(*value, "axis");
+    if (const std::string problem = JointAxisProblem(axis); !problem.empty())
+      FailAt(value->Mark(), "'axis' of " + entry.Description() + " " + problem);
   }
-  Vec3 reference;
-  if (const YAML::Node *value = entry.Find("second_axis")) {
-    const Vec3   given  = ReadVec3(*value, "second_axis");
-    const double length = given.stableNorm();
-    if (length == 0.0) FailAt(value->Mark(), "'second_axis' of " + entry.Description() + " must not be the zero vector");
-    reference = given / length;
-    if (reference.cross(a1).norm() < kParallelTolerance)
-      FailAt(value->Mark(), "'second_axis' " + FormatVec3(given) + " of " + entry.Description() + " is parallel to its axis " +
-                                FormatVec3(a1) + "; it must point across it");
-  } else {
-    // The global axis least aligned with a1 (the first of equals).
-    int least = 0;
-    for (int axis = 1; axis < 3; ++axis)
-      if (std::abs(a1(axis)) < std::abs(a1(least))) least = axis;
-    reference = Vec3::Unit(least);
-  }
-  const Vec3 a2 = (reference - reference.dot(a1) * a1).normalized();
-  Mat3       axes;
-  axes.col(0) = a1;
-  axes.col(1) = a2;
-  axes.col(2) = a1.cross(a2);
-  return axes;
+  const YAML::Node *value = entry.Find("second_axis");
+  if (value == nullptr) return JointAxesFrom(axis, nullptr);
+  const Vec3 second_axis = ReadVec3(*value, "second_axis");
+  if (const std::string problem = JointSecondAxisProblem(axis, second_axis); !problem.empty())
+    FailAt(value->Mark(), "'second_axis' " + (second_axis.stableNorm() == 0.0 ? std::string() : FormatVec3(second_axis) + " ") + "of " +
+                              entry.Description() + " " + problem);
+  return JointAxesFrom(axis, &second_axis);
 }
 
 // Releases translations along the listed axes (in that order) and rotations about the listed axes:
@@ -144,65 +125,34 @@ void ReadProfile(const YAML::Node &value, const MappingReader &joint_entry, Join
 // Everything a joint type fixes: releases, dependent translation and the keys it allows.
 void ReadRelease(const std::string &type, const MappingReader &entry, Joint &joint)
 {
+  JointExtra extra = JointExtra::None;
+  if (!JointTypeExtra(type, &extra))
+    FailAt(entry.Required("type").Mark(), "unknown joint type " + Quote(type) + " in " + entry.Description() + "; expected one of " +
+                                              kJointTypeList);
   // The keys every joint may have, plus the one of its type; keys of other types are errors.
-  const auto allow_keys = [&entry](const char *type_key) {
-    std::vector<const char *> keys{"name", "type", "master", "slave", "axis", "second_axis", "drive"};
-    if (type_key != nullptr) keys.push_back(type_key);
-    entry.RequireOnlyKeys(keys);
-  };
-  if (type == "rigid") {
-    allow_keys(nullptr);
-  } else if (type == "spherical") {
-    allow_keys(nullptr);
-    SetRelease(joint, {}, {0, 1, 2});
-  } else if (type == "revolute") {
-    allow_keys(nullptr);
-    SetRelease(joint, {}, {0});
-  } else if (type == "universal") {
-    allow_keys(nullptr);
-    SetRelease(joint, {}, {0, 1});
-  } else if (type == "cylindrical") {
-    allow_keys(nullptr);
-    SetRelease(joint, {0}, {0});
-  } else if (type == "prismatic") {
-    allow_keys(nullptr);
-    SetRelease(joint, {0}, {});
-  } else if (type == "planar") {
-    allow_keys(nullptr);
-    SetRelease(joint, {1, 2}, {0});
-  } else if (type == "free") {
-    allow_keys(nullptr);
-    SetRelease(joint, {0, 1, 2}, {0, 1, 2});
-  } else if (type == "custom") {
-    allow_keys("release");
+  static const char *const kTypeKeys[] = {nullptr, "pitch", "radius", "release", "profile"};
+  std::vector<const char *> keys{"name", "type", "master", "slave", "axis", "second_axis", "drive"};
+  if (const char *type_key = kTypeKeys[static_cast<int>(extra)]) keys.push_back(type_key);
+  entry.RequireOnlyKeys(keys);
+  switch (extra) {
+  case JointExtra::None:
+    ApplyJointType(type, 0.0, joint);
+    break;
+  case JointExtra::Pitch:
+    ApplyJointType(type, ReadNonZeroNumber(entry, "pitch"), joint);
+    break;
+  case JointExtra::Radius:
+    ApplyJointType(type, type == "cam" ? entry.PositiveNumber("radius") : ReadNonZeroNumber(entry, "radius"), joint);
+    break;
+  case JointExtra::Release:
     ReadCustomRelease(entry.Required("release"), entry, joint);
-  } else if (type == "screw") {
-    allow_keys("pitch");
-    SetRelease(joint, {}, {0});
-    joint.dependence     = Joint::Dependence::Linear;
-    joint.dependent_axis = 0;
-    joint.coefficient    = ReadNonZeroNumber(entry, "pitch");
-  } else if (type == "rack_pinion") {
-    allow_keys("radius");
-    SetRelease(joint, {}, {0});
-    joint.dependence     = Joint::Dependence::Linear;
-    joint.dependent_axis = 1;
-    joint.coefficient    = ReadNonZeroNumber(entry, "radius");
-  } else if (type == "cam") {
-    allow_keys("radius");
-    SetRelease(joint, {}, {0});
-    joint.dependence     = Joint::Dependence::EccentricCam;
-    joint.dependent_axis = 1;
-    joint.coefficient    = entry.PositiveNumber("radius");
-  } else if (type == "cam_table") {
-    allow_keys("profile");
+    break;
+  case JointExtra::Profile:
     SetRelease(joint, {}, {0});
     joint.dependence     = Joint::Dependence::Table;
     joint.dependent_axis = 1;
     ReadProfile(entry.Required("profile"), entry, joint);
-  } else {
-    FailAt(entry.Required("type").Mark(), "unknown joint type " + Quote(type) + " in " + entry.Description() + "; expected one of " +
-                                              kJointTypes);
+    break;
   }
 }
 
@@ -274,15 +224,130 @@ int ReadJointNode(const MappingReader &entry, const std::string &key, const Read
   return -1;
 }
 
+Joint ReadJoint(const YAML::Node &item, const ReaderContext &context)
+{
+  const MappingReader entry(item, "joint");
+  Joint               joint;
+  joint.name = entry.String("name");
+  joint.mark = context.MarkOf(entry.Mark());
+  if (const auto other = context.joint_names.find(joint.name); other != context.joint_names.end())
+    FailAt(entry.Required("name").Mark(), "duplicate joint name " + Quote(joint.name) + " (first defined at line " +
+                                              std::to_string(context.model.joints[other->second].mark.line) + ")");
+  joint.type = entry.String("type");
+  ReadRelease(joint.type, entry, joint);
+  joint.master = ReadJointNode(entry, "master", context);
+  joint.slave  = ReadJointNode(entry, "slave", context);
+  if (joint.master == joint.slave)
+    FailAt(entry.Required("slave").Mark(), "the slave of " + entry.Description() + " is its master " +
+                                               Quote(context.model.nodes[joint.slave].name) + "; a joint needs two different nodes");
+  bool at_slave = false;
+  if (const std::string problem = JointTreeProblem(joint, context, &at_slave); !problem.empty())
+    FailAt(at_slave ? entry.Required("slave").Mark() : entry.Mark(), problem);
+  joint.axes = ReadJointAxes(entry);
+  if (const YAML::Node *drive = entry.Find("drive")) ReadDrive(*drive, entry, context, joint);
+  return joint;
+}
+
+} // namespace
+
+const char *const kJointTypeList = "rigid, spherical, revolute, universal, cylindrical, prismatic, planar, free, custom, screw, "
+                                   "rack_pinion, cam, cam_table";
+
+bool JointTypeExtra(const std::string &type, JointExtra *extra)
+{
+  static const std::pair<const char *, JointExtra> kTypes[] = {
+      {"rigid", JointExtra::None},     {"spherical", JointExtra::None},   {"revolute", JointExtra::None},
+      {"universal", JointExtra::None}, {"cylindrical", JointExtra::None}, {"prismatic", JointExtra::None},
+      {"planar", JointExtra::None},    {"free", JointExtra::None},        {"custom", JointExtra::Release},
+      {"screw", JointExtra::Pitch},    {"rack_pinion", JointExtra::Radius}, {"cam", JointExtra::Radius},
+      {"cam_table", JointExtra::Profile}};
+  for (const auto &[name, type_extra] : kTypes)
+    if (type == name) {
+      *extra = type_extra;
+      return true;
+    }
+  return false;
+}
+
+std::string JointParameterProblem(const std::string &type, double parameter)
+{
+  if (!std::isfinite(parameter)) return "must be a finite number";
+  if ((type == "screw" || type == "rack_pinion") && parameter == 0.0) return "must not be zero";
+  if (type == "cam" && !(parameter > 0.0)) return "must be positive";
+  return "";
+}
+
+void ApplyJointType(const std::string &type, double parameter, Joint &joint)
+{
+  joint.type = type;
+  if (type == "spherical") {
+    SetRelease(joint, {}, {0, 1, 2});
+  } else if (type == "revolute") {
+    SetRelease(joint, {}, {0});
+  } else if (type == "universal") {
+    SetRelease(joint, {}, {0, 1});
+  } else if (type == "cylindrical") {
+    SetRelease(joint, {0}, {0});
+  } else if (type == "prismatic") {
+    SetRelease(joint, {0}, {});
+  } else if (type == "planar") {
+    SetRelease(joint, {1, 2}, {0});
+  } else if (type == "free") {
+    SetRelease(joint, {0, 1, 2}, {0, 1, 2});
+  } else if (type == "screw" || type == "rack_pinion" || type == "cam") {
+    // Screw: translation pitch phi along a1; rack_pinion: radius phi along a2 (the rack);
+    // cam: radius (cos phi - 1) along a2.
+    SetRelease(joint, {}, {0});
+    joint.dependence     = type == "cam" ? Joint::Dependence::EccentricCam : Joint::Dependence::Linear;
+    joint.dependent_axis = type == "screw" ? 0 : 1;
+    joint.coefficient    = parameter;
+  }
+  // rigid: nothing released.
+}
+
+std::string JointAxisProblem(const Vec3 &axis) { return axis.stableNorm() == 0.0 ? "must not be the zero vector" : ""; }
+
+std::string JointSecondAxisProblem(const Vec3 &axis, const Vec3 &second_axis)
+{
+  const double length = second_axis.stableNorm();
+  if (length == 0.0) return "must not be the zero vector";
+  const Vec3 a1 = axis / axis.stableNorm();
+  if ((second_axis / length).cross(a1).norm() < kParallelTolerance)
+    return "is parallel to its axis " + FormatVec3(a1) + "; it must point across it";
+  return "";
+}
+
+Mat3 JointAxesFrom(const Vec3 &axis, const Vec3 *second_axis)
+{
+  const Vec3 a1 = axis / axis.stableNorm();
+  Vec3       reference;
+  if (second_axis != nullptr) {
+    reference = *second_axis / second_axis->stableNorm();
+  } else {
+    // The global axis least aligned with a1 (the first of equals).
+    int least = 0;
+    for (int index = 1; index < 3; ++index)
+      if (std::abs(a1(index)) < std::abs(a1(least))) least = index;
+    reference = Vec3::Unit(least);
+  }
+  const Vec3 a2 = (reference - reference.dot(a1) * a1).normalized();
+  Mat3       axes;
+  axes.col(0) = a1;
+  axes.col(1) = a2;
+  axes.col(2) = a1.cross(a2);
+  return axes;
+}
+
 // Every node is the slave of at most one joint, and following masters never leads back to the
 // slave: the joints form a forest whose roots are the ground and nodes that are no slave.
-void CheckJointTree(const MappingReader &entry, const Joint &joint, const ReaderContext &context)
+std::string JointTreeProblem(const Joint &joint, const ReaderContext &context, bool *at_slave)
 {
   const Model &model = context.model;
+  *at_slave          = true;
   if (const int first = context.JointOfSlave(joint.slave); first >= 0)
-    FailAt(entry.Required("slave").Mark(), "node " + Quote(model.nodes[joint.slave].name) + " is already the slave of joint " +
-                                               Quote(model.joints[first].name) + " at line " +
-                                               std::to_string(model.joints[first].mark.line) + "; a node can be the slave of only one joint");
+    return "node " + Quote(model.nodes[joint.slave].name) + " is already the slave of joint " + Quote(model.joints[first].name) +
+           " at line " + std::to_string(model.joints[first].mark.line) + "; a node can be the slave of only one joint";
+  *at_slave = false;
   std::vector<std::string> chain;
   for (int node = joint.master; node >= 0;) {
     const int parent = context.JointOfSlave(node);
@@ -291,46 +356,25 @@ void CheckJointTree(const MappingReader &entry, const Joint &joint, const Reader
     node = model.joints[parent].master;
     if (node == joint.slave) {
       chain.push_back(Quote(joint.name));
-      FailAt(entry.Mark(), "joint " + Quote(joint.name) + " closes a cycle of master-slave joints: " + JoinWords(chain) +
-                               " lead from node " + Quote(model.nodes[joint.slave].name) + " back to itself");
+      return "joint " + Quote(joint.name) + " closes a cycle of master-slave joints: " + JoinWords(chain) + " lead from node " +
+             Quote(model.nodes[joint.slave].name) + " back to itself";
     }
   }
+  return "";
 }
 
-Joint ReadJoint(const YAML::Node &item, const ReaderContext &context)
+void AppendJoint(Joint joint, ReaderContext &context)
 {
-  const MappingReader entry(item, "joint");
-  Joint               joint;
-  joint.name = entry.String("name");
-  joint.mark = context.MarkOf(entry.Mark());
-  for (const Joint &other : context.model.joints)
-    if (other.name == joint.name)
-      FailAt(entry.Required("name").Mark(),
-             "duplicate joint name " + Quote(joint.name) + " (first defined at line " + std::to_string(other.mark.line) + ")");
-  joint.type = entry.String("type");
-  ReadRelease(joint.type, entry, joint);
-  joint.master = ReadJointNode(entry, "master", context);
-  joint.slave  = ReadJointNode(entry, "slave", context);
-  if (joint.master == joint.slave)
-    FailAt(entry.Required("slave").Mark(), "the slave of " + entry.Description() + " is its master " +
-                                               Quote(context.model.nodes[joint.slave].name) + "; a joint needs two different nodes");
-  CheckJointTree(entry, joint, context);
-  joint.axes = ReadJointAxes(entry);
-  if (const YAML::Node *drive = entry.Find("drive")) ReadDrive(*drive, entry, context, joint);
-  return joint;
+  Model    &model = context.model;
+  const int index = static_cast<int>(model.joints.size());
+  context.joint_of_slave[joint.slave] = index;
+  context.joint_names.emplace(joint.name, index);
+  model.joints.push_back(std::move(joint));
 }
-
-} // namespace
 
 void ReadJoints(const YAML::Node *list, ReaderContext &context)
 {
-  Model &model = context.model;
-  context.joint_of_slave.assign(model.nodes.size(), -1);
-  for (const YAML::Node &item : ReadOptionalList(list, "joints")) {
-    Joint joint = ReadJoint(item, context);
-    context.joint_of_slave[joint.slave] = static_cast<int>(model.joints.size());
-    model.joints.push_back(std::move(joint));
-  }
+  for (const YAML::Node &item : ReadOptionalList(list, "joints")) AppendJoint(ReadJoint(item, context), context);
 }
 
 } // namespace msflex::input_detail

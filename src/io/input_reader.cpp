@@ -14,6 +14,7 @@
 #include <filesystem>
 #include <fstream>
 #include <iterator>
+#include <memory>
 #include <utility>
 
 namespace msflex {
@@ -67,9 +68,15 @@ void ReaderContext::RegisterName(const std::string &name, NameKind kind, int ind
     FailAt(mark, std::string("a ") + KindName(kind) + " cannot be called " + Quote(kAllNodes) + ": in 'nodes' lists " +
                      Quote(kAllNodes) + " means every node");
   const auto [existing, inserted] = names.emplace(name, NamedObject{kind, index, mark.line});
-  if (!inserted)
-    FailAt(mark, "name " + Quote(name) + " of this " + KindName(kind) + " is already used by the " + KindName(existing->second.kind) +
-                     " at line " + std::to_string(existing->second.line) + " (nodes, beams and sets share one namespace)");
+  if (!inserted) {
+    const std::string mesh_node = existing->second.kind == NameKind::Node ? MeshNodePrefix(*this, existing->second.index) : "";
+    const std::string user      = mesh_node.empty() ? "the " + std::string(KindName(existing->second.kind)) + " at line " +
+                                                     std::to_string(existing->second.line)
+                                                    : "node" + mesh_node.substr(mesh_node.find(" row ")).erase(mesh_node.size() - mesh_node.find(" row ") - 2) +
+                                                          " of the mesh file " + Quote(mesh_label);
+    FailAt(mark, "name " + Quote(name) + " of this " + KindName(kind) + " is already used by " + user +
+                     " (nodes, beams and sets share one namespace)");
+  }
 }
 
 int ReaderContext::NodeIndex(const MappingReader &entry, const std::string &key) const
@@ -246,8 +253,9 @@ void ReadNodes(const YAML::Node &mapping, ReaderContext &context)
 
 // Every node named under `nodes:` must belong to a beam or a joint or carry a rigid body; a stray
 // node would have neither stiffness nor mass and be attached to nothing.
-void CheckEveryNodeConnected(const Model &model, size_t user_node_count)
+void CheckEveryNodeConnected(const ReaderContext &context, size_t user_node_count)
 {
+  const Model &model = context.model;
   std::vector<bool> connected(model.nodes.size(), false);
   for (const BeamElement &element : model.elements)
     for (int node : element.nodes)
@@ -259,8 +267,8 @@ void CheckEveryNodeConnected(const Model &model, size_t user_node_count)
   }
   for (size_t node = 0; node < user_node_count; ++node)
     if (!connected[node])
-      FailAt(model.nodes[node].mark,
-             "node " + Quote(model.nodes[node].name) + " is not connected to any beam or joint and carries no rigid body");
+      FailAt(model.nodes[node].mark, MeshNodePrefix(context, static_cast<int>(node)) + "node " + Quote(model.nodes[node].name) +
+                                         " is not connected to any beam or joint and carries no rigid body");
 }
 
 void ReadSets(const YAML::Node *mapping, ReaderContext &context)
@@ -547,29 +555,42 @@ Model ParseModel(const std::string &text, const std::string &file_label)
   context.model.input_file = file_label;
   context.model.input_text = text;
   const MappingReader top(LoadSingleDocument(text), "the top-level mapping",
-                          {"title", "functions", "sections", "nodes", "beams", "rigid_bodies", "sets", "supports", "loads",
+                          {"title", "mesh", "functions", "sections", "nodes", "beams", "rigid_bodies", "sets", "supports", "loads",
                            "joints", "initial_conditions", "probes", "analysis", "output"});
   // The model has no place for the title; it is validated here and kept in input_text.
   if (top.Has("title")) top.String("title");
   Model &model = context.model;
+  // The bulk of a large model may come from an HDF5 mesh file: nodes, straight beams, joints.
+  std::unique_ptr<MeshData> mesh;
+  if (const YAML::Node *value = top.Find("mesh")) mesh = std::make_unique<MeshData>(ReadMeshFile(*value, KeyMark(top, "mesh"), context));
+  const bool mesh_beams = mesh != nullptr && !mesh->beam_nodes.empty();
   // A model needs something with stiffness or mass: beams, rigid bodies or both. Without beams
   // nothing refers to a section, so `sections` is optional too.
   const std::vector<YAML::Node> beam_items       = ReadOptionalList(top.Find("beams"), "beams");
   const std::vector<YAML::Node> rigid_body_items = ReadOptionalList(top.Find("rigid_bodies"), "rigid_bodies");
-  if (beam_items.empty() && rigid_body_items.empty())
-    FailAt(KeyMark(top, "beams"), "the model has no beams and no rigid bodies; give 'beams', 'rigid_bodies' or both");
+  if (beam_items.empty() && rigid_body_items.empty() && !mesh_beams)
+    FailAt(KeyMark(top, "beams"), mesh == nullptr ? "the model has no beams and no rigid bodies; give 'beams', 'rigid_bodies' or both"
+                                                  : "the model has no beams (neither in 'beams' nor in the mesh file " +
+                                                        Quote(mesh->label) + ") and no rigid bodies");
   for (const YAML::Node &item : ReadOptionalList(top.Find("functions"), "functions")) model.functions.push_back(ReadFunction(item, context));
-  const std::vector<YAML::Node> section_items = beam_items.empty() ? ReadOptionalList(top.Find("sections"), "sections")
-                                                                   : ReadNonEmptyList(top.Required("sections"), "sections");
+  const bool                    has_beams     = !beam_items.empty() || mesh_beams;
+  const std::vector<YAML::Node> section_items = has_beams ? ReadNonEmptyList(top.Required("sections"), "sections")
+                                                          : ReadOptionalList(top.Find("sections"), "sections");
   for (const YAML::Node &item : section_items) model.sections.push_back(ReadSection(item, context));
-  ReadNodes(top.Required("nodes"), context);
+  // Mesh nodes first, so that mesh node i is model node i when `nodes` is left out.
+  if (mesh != nullptr) AddMeshNodes(*mesh, context);
+  if (mesh == nullptr || top.Has("nodes")) ReadNodes(top.Required("nodes"), context);
   const size_t user_node_count = model.nodes.size();
+  if (mesh != nullptr) AddMeshBeams(*mesh, context);
   if (!beam_items.empty()) ReadBeams(top.Required("beams"), context);
   ReadRigidBodies(rigid_body_items, context);
   // Sets before joints, so no set can take the name `ground` from under a joint's master.
   ReadSets(top.Find("sets"), context);
+  context.joint_of_slave.assign(model.nodes.size(), -1);
+  if (mesh != nullptr) AddMeshJoints(*mesh, context);
   ReadJoints(top.Find("joints"), context);
-  CheckEveryNodeConnected(model, user_node_count);
+  mesh.reset();
+  CheckEveryNodeConnected(context, user_node_count);
   for (const YAML::Node &item : ReadOptionalList(top.Find("supports"), "supports")) model.supports.push_back(ReadSupport(item, context));
   CheckSupportConflicts(model);
   for (const YAML::Node &item : ReadOptionalList(top.Find("loads"), "loads")) ReadLoad(item, context);

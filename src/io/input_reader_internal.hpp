@@ -4,6 +4,7 @@
 #include "io/input_yaml_util.hpp"
 #include "model/model.hpp"
 
+#include <array>
 #include <string>
 #include <unordered_map>
 #include <vector>
@@ -32,6 +33,11 @@ struct ReaderContext {
   std::unordered_map<std::string, NamedObject> names;
   // Per node: index into Model::joints of the joint whose slave it is, or -1 (filled by ReadJoints).
   std::vector<int> joint_of_slave;
+  // Joint names, to index into Model::joints.
+  std::unordered_map<std::string, int> joint_names;
+  // Nodes read from the mesh file: indices [mesh_first_node, mesh_first_node + mesh_node_count).
+  std::string mesh_label;
+  int         mesh_first_node = 0, mesh_node_count = 0;
 
   int JointOfSlave(int node) const
   {
@@ -54,6 +60,30 @@ struct ReaderContext {
 // Reads `beams` and expands every beam (line or arc) into nodes and elements (input_beams.cpp).
 void ReadBeams(const YAML::Node &beams, ReaderContext &context);
 
+// --- Straight beams, shared by YAML `beams` and the beams of a mesh file (input_beams.cpp) ---
+
+// Keeps node and element indices (int) far from overflow.
+inline constexpr int kMaxElementsPerBeam = 10000000;
+
+struct BeamLayout {
+  int    elements = 1;
+  int    order    = 1;
+  double roll     = 0.0; // rad, constant rotation of t2, t3 about t1
+  double twist    = 0.0; // rad, extra rotation about t1 reached at `to`, linear in arc length
+};
+
+// The end positions are (numerically) the same.
+bool BeamHasZeroLength(const Vec3 &start, const Vec3 &end);
+// The default orientation vector of a straight beam: (0, 1, 0), or (-1, 0, 0) when the beam is
+// nearly along y.
+Vec3 DefaultBeamOrientation(const Vec3 &start, const Vec3 &end);
+// A non-zero orientation vector nearly parallel to the axis, which cannot fix t2.
+bool OrientationAlongAxis(const Vec3 &orientation, const Vec3 &start, const Vec3 &end);
+// Expands a straight beam from node `from` to node `to` (different nodes at different positions,
+// orientation checked) into generated nodes `<name>.<k>` and elements, and appends it to
+// Model::beams. `beam` carries name, section and mark; its name is already registered.
+void AppendStraightBeam(Beam beam, int from, int to, const Vec3 &orientation, const BeamLayout &layout, ReaderContext &context);
+
 // Reads the items of `rigid_bodies` into Model::rigid_bodies (input_dynamics.cpp). Needs the nodes,
 // including those generated inside beams.
 void ReadRigidBodies(const std::vector<YAML::Node> &items, ReaderContext &context);
@@ -63,9 +93,71 @@ void ReadRigidBodies(const std::vector<YAML::Node> &items, ReaderContext &contex
 void ReadInitialConditions(const YAML::Node *list, ReaderContext &context);
 
 // Reads `joints` into Model::joints and fills ReaderContext::joint_of_slave (input_joints.cpp).
-// Needs the nodes (including generated ones) and the functions; checks names, axes, releases,
-// drives, that every node is the slave of at most one joint and that the joints form no cycle.
+// Needs the nodes (including generated ones), the functions and joint_of_slave sized to the
+// nodes; checks names, axes, releases, drives, that every node is the slave of at most one joint
+// and that the joints form no cycle.
 void ReadJoints(const YAML::Node *list, ReaderContext &context);
+
+// --- Joints, shared by YAML `joints` and the joints of a mesh file (input_joints.cpp) ---
+
+// The joint types, for messages: "rigid, spherical, ..., cam_table".
+extern const char *const kJointTypeList;
+// What a joint type needs besides its axes; false for an unknown type.
+enum class JointExtra { None, Pitch, Radius, Release, Profile };
+bool JointTypeExtra(const std::string &type, JointExtra *extra);
+// "" when `parameter` suits `type` (pitch and rack_pinion radius: non-zero; cam radius: positive;
+// ignored otherwise), else what is wrong with it, e.g. "must not be zero".
+std::string JointParameterProblem(const std::string &type, double parameter);
+// Sets joint.type and the releases and dependence of a type whose extra is None, Pitch or Radius;
+// `parameter` (checked with JointParameterProblem) is the pitch or radius.
+void ApplyJointType(const std::string &type, double parameter, Joint &joint);
+// "" for a usable `axis` (non-zero), else the problem.
+std::string JointAxisProblem(const Vec3 &axis);
+// "" for a usable `second_axis` with the (non-zero) `axis`, else the problem.
+std::string JointSecondAxisProblem(const Vec3 &axis, const Vec3 &second_axis);
+// Axes a1 = axis / |axis|, a2 from `second_axis` (nullptr: the global axis least aligned with a1),
+// a3 = a1 x a2 as the columns of a rotation matrix. The vectors are checked already.
+Mat3 JointAxesFrom(const Vec3 &axis, const Vec3 *second_axis);
+// "" when the joint (master, slave set, master != slave) keeps every node the slave of at most
+// one joint and closes no cycle of joints, else the message. *at_slave tells whether the problem
+// is with the slave (already a slave) rather than the joint as a whole (a cycle).
+std::string JointTreeProblem(const Joint &joint, const ReaderContext &context, bool *at_slave);
+// Appends a checked joint to Model::joints and records its slave in joint_of_slave and its name.
+void AppendJoint(Joint joint, ReaderContext &context);
+
+// --- The HDF5 mesh file of the top-level key `mesh` (input_mesh.cpp, format in docs/input.md) ---
+
+// The datasets of a mesh file, checked for presence, type and shape; indices still unchecked.
+struct MeshData {
+  std::string label; // the file as written after `mesh:`, for messages
+  SourceMark  mark;  // the `mesh:` key
+  // nodes
+  std::vector<Vec3>        coordinates;
+  std::vector<std::string> node_names; // empty: default names n<i>
+  // beams
+  std::vector<std::array<long long, 2>> beam_nodes;
+  std::vector<long long>                beam_section, beam_elements, beam_order;
+  std::vector<Vec3>                     beam_orientation; // empty: default orientation for every beam
+  std::vector<std::string>              beam_names;       // empty: default names b<i>
+  // joints
+  std::vector<std::string> joint_type;
+  std::vector<long long>   joint_master, joint_slave;
+  std::vector<Vec3>        joint_axis, joint_second_axis; // second axis empty: default for every joint
+  std::vector<double>      joint_parameter;
+  std::vector<std::string> joint_names; // empty: default names j<i>
+};
+
+// Reads the mesh file named by the value of `mesh:` (relative to the directory of the input file);
+// `key_mark` is where the `mesh` key is written. Every rank reads the whole file.
+MeshData ReadMeshFile(const YAML::Node &value, const YAML::Mark &key_mark, const ReaderContext &context);
+// Appends the mesh's nodes to Model::nodes (first mesh node at index context.mesh_first_node).
+void AddMeshNodes(const MeshData &mesh, ReaderContext &context);
+// Expands the mesh's beams like YAML straight beams. Needs the sections and the mesh's nodes.
+void AddMeshBeams(const MeshData &mesh, ReaderContext &context);
+// Appends the mesh's joints. Needs joint_of_slave sized to the nodes.
+void AddMeshJoints(const MeshData &mesh, ReaderContext &context);
+// "lattice.h5: /nodes row 3: " for a node that came from the mesh file, else "".
+std::string MeshNodePrefix(const ReaderContext &context, int node);
 
 // Fails when a connected group of beams, or of rigid bodies outside every beam, is not held against
 // all six rigid-body motions by its supports and its joints to the ground, which would make the
