@@ -36,7 +36,9 @@ struct Analysis {
   Vec               increments = nullptr;
   OutputFile        output;
   double            external_work = 0.0; // accumulated work of the external loads (dynamics)
-  PetscLogStage     stage_setup, stage_solve, stage_output;
+  // -log_view stages: Setup, Partition, Assembly (pushed by the Newton callbacks), LinearSolve
+  // (the rest of each Newton solve: factorisation, triangular or Krylov solves), Output.
+  PetscLogStage stage_setup, stage_partition, stage_solve, stage_output;
 
   Analysis(MPI_Comm c, const Model &m, const RunOptions &o) : comm(c), model(m), options(o) {}
   ~Analysis()
@@ -60,15 +62,19 @@ PetscErrorCode Setup(Analysis &a)
   std::vector<int> node_rank;
   PetscFunctionBeginUser;
   PetscCall(PetscLogStageRegister("Setup", &a.stage_setup));
-  PetscCall(PetscLogStageRegister("Solve", &a.stage_solve));
+  PetscCall(PetscLogStageRegister("Partition", &a.stage_partition));
+  PetscCall(PetscLogStageRegister("LinearSolve", &a.stage_solve));
   PetscCall(PetscLogStageRegister("Output", &a.stage_output));
+  PetscCall(PetscLogStageRegister("Assembly", &a.newton_context.assembly_stage));
   PetscCall(PetscLogStagePush(a.stage_setup));
   a.dynamic = a.model.analysis.type == "dynamic";
   if (a.dynamic)
     PetscCheck(TimeSchemeKindFromName(a.model.analysis.integrator, &a.scheme_kind), a.comm, PETSC_ERR_USER_INPUT,
                "unknown integrator '%s'; use newmark, mc, em or genalpha", a.model.analysis.integrator.c_str());
+  PetscCall(PetscLogStagePush(a.stage_partition));
   PetscCall(PartitionerTypeFromOptions(a.comm, &partitioner));
   PetscCall(PartitionNodes(a.comm, a.model, partitioner, &node_rank));
+  PetscCall(PetscLogStagePop());
   PetscCall(DofMapCreate(a.comm, a.model, node_rank, &a.map));
   PetscCall(a.assembler.Setup(a.comm, a.model, a.map));
   a.newton_context.assembler = &a.assembler;

@@ -11,9 +11,11 @@ PetscErrorCode EvaluateResidual(NewtonContext *context, Vec increments, Vec resi
 {
   PetscBool geometry_ok;
   PetscFunctionBeginUser;
+  if (context->assembly_stage >= 0) PetscCall(PetscLogStagePush(context->assembly_stage));
   PetscCall(context->assembler->SetIncrements(increments));
   PetscCall(context->assembler->AssembleResidual(residual, &geometry_ok));
   PetscCall(MPIU_Allreduce(&geometry_ok, all_ok, 1, MPIU_BOOL, MPI_LAND, context->comm));
+  if (context->assembly_stage >= 0) PetscCall(PetscLogStagePop());
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
@@ -31,9 +33,11 @@ PetscErrorCode FormJacobian(SNES snes, Vec increments, Mat jacobian, Mat precond
   NewtonContext *context = static_cast<NewtonContext *>(ctx);
   PetscBool      geometry_ok, all_ok;
   PetscFunctionBeginUser;
+  if (context->assembly_stage >= 0) PetscCall(PetscLogStagePush(context->assembly_stage));
   PetscCall(context->assembler->SetIncrements(increments));
   PetscCall(context->assembler->AssembleJacobian(preconditioner, &geometry_ok));
   PetscCall(MPIU_Allreduce(&geometry_ok, &all_ok, 1, MPIU_BOOL, MPI_LAND, context->comm));
+  if (context->assembly_stage >= 0) PetscCall(PetscLogStagePop());
   if (!all_ok) PetscCall(SNESSetJacobianDomainError(snes));
   if (jacobian != preconditioner) {
     PetscCall(MatAssemblyBegin(jacobian, MAT_FINAL_ASSEMBLY));

@@ -28,8 +28,9 @@
 namespace msflex {
 
 struct NewtonContext {
-  Assembler *assembler = nullptr;
-  MPI_Comm   comm      = MPI_COMM_NULL;
+  Assembler    *assembler      = nullptr;
+  MPI_Comm      comm           = MPI_COMM_NULL;
+  PetscLogStage assembly_stage = -1; // pushed around residual and tangent assembly when registered
 };
 
 PetscErrorCode NewtonSolverCreate(MPI_Comm comm, const AnalysisSettings &analysis, bool matrix_free_operator, NewtonContext *context, SNES *snes);

@@ -239,8 +239,8 @@ void CheckNodeIndex(const MeshData &mesh, const std::string &dataset, long long 
 std::string UserOf(const ReaderContext &context, const std::string &name)
 {
   const NamedObject &object = context.names.at(name);
-  if (object.kind == NameKind::Node && !MeshNodePrefix(context, object.index).empty())
-    return "node" + Row(object.index - context.mesh_first_node) + " of /nodes";
+  if (const int row = object.kind == NameKind::Node ? MeshNodeRow(context, object.index) : -1; row >= 0)
+    return "node" + Row(row) + " of /nodes";
   return std::string(object.kind == NameKind::Node ? "the node" : object.kind == NameKind::Beam ? "the beam" : "the set") + " at line " +
          std::to_string(object.line);
 }
@@ -430,10 +430,16 @@ void AddMeshJoints(const MeshData &mesh, ReaderContext &context)
   }
 }
 
+int MeshNodeRow(const ReaderContext &context, int node)
+{
+  if (node < context.mesh_first_node || node >= context.mesh_first_node + context.mesh_node_count) return -1;
+  return node - context.mesh_first_node;
+}
+
 std::string MeshNodePrefix(const ReaderContext &context, int node)
 {
-  if (node < context.mesh_first_node || node >= context.mesh_first_node + context.mesh_node_count) return "";
-  return context.mesh_label + ": /nodes" + Row(node - context.mesh_first_node) + ": ";
+  const int row = MeshNodeRow(context, node);
+  return row < 0 ? "" : context.mesh_label + ": /nodes" + Row(row) + ": ";
 }
 
 } // namespace msflex::input_detail

@@ -69,11 +69,10 @@ void ReaderContext::RegisterName(const std::string &name, NameKind kind, int ind
                      Quote(kAllNodes) + " means every node");
   const auto [existing, inserted] = names.emplace(name, NamedObject{kind, index, mark.line});
   if (!inserted) {
-    const std::string mesh_node = existing->second.kind == NameKind::Node ? MeshNodePrefix(*this, existing->second.index) : "";
-    const std::string user      = mesh_node.empty() ? "the " + std::string(KindName(existing->second.kind)) + " at line " +
-                                                     std::to_string(existing->second.line)
-                                                    : "node" + mesh_node.substr(mesh_node.find(" row ")).erase(mesh_node.size() - mesh_node.find(" row ") - 2) +
-                                                          " of the mesh file " + Quote(mesh_label);
+    const int         mesh_row = existing->second.kind == NameKind::Node ? MeshNodeRow(*this, existing->second.index) : -1;
+    const std::string user     = mesh_row < 0 ? "the " + std::string(KindName(existing->second.kind)) + " at line " +
+                                                std::to_string(existing->second.line)
+                                              : "node row " + std::to_string(mesh_row) + " of the mesh file " + Quote(mesh_label);
     FailAt(mark, "name " + Quote(name) + " of this " + KindName(kind) + " is already used by " + user +
                      " (nodes, beams and sets share one namespace)");
   }

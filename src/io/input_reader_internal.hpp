@@ -156,6 +156,8 @@ void AddMeshNodes(const MeshData &mesh, ReaderContext &context);
 void AddMeshBeams(const MeshData &mesh, ReaderContext &context);
 // Appends the mesh's joints. Needs joint_of_slave sized to the nodes.
 void AddMeshJoints(const MeshData &mesh, ReaderContext &context);
+// The row in /nodes of a node that came from the mesh file, else -1.
+int MeshNodeRow(const ReaderContext &context, int node);
 // "lattice.h5: /nodes row 3: " for a node that came from the mesh file, else "".
 std::string MeshNodePrefix(const ReaderContext &context, int node);
 

@@ -1,9 +1,11 @@
-// Tests of the YAML model reader: expansion of valid models, and the bad-input corpus in
+// Tests of the YAML model reader: expansion of valid models, HDF5 mesh files, and the bad-input corpus in
 // tests/bad_input/ (each file states the expected message and line in its first two lines).
 #include "io/input_reader.hpp"
 #include "joints/joint_kinematics.hpp"
 
 #include <gtest/gtest.h>
+#include <hdf5.h>
+#include <unistd.h>
 
 #include <Eigen/Geometry>
 
@@ -12,6 +14,8 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <functional>
+#include <map>
 #include <string>
 #include <vector>
 
@@ -866,6 +870,357 @@ analysis: {type: dynamic}
       << error.message;
   EXPECT_EQ(error.line, 5);
   EXPECT_EQ(error.column, 26);
+}
+
+// ---- HDF5 mesh files (`mesh:`) -----------------------------------------------------------
+
+// One dataset of a mesh file to write: numbers, integers or strings (variable- or fixed-length).
+struct MeshDataset {
+  enum class Kind { Real, Integer, String, FixedString };
+  Kind                     kind = Kind::Real;
+  std::vector<hsize_t>     dims;
+  std::vector<double>      reals;
+  std::vector<long long>   integers;
+  std::vector<std::string> strings;
+};
+using MeshSpec = std::map<std::string, MeshDataset>;
+
+MeshDataset Reals(std::vector<hsize_t> dims, std::vector<double> values) { return {MeshDataset::Kind::Real, dims, values, {}, {}}; }
+MeshDataset Integers(std::vector<hsize_t> dims, std::vector<long long> values)
+{
+  return {MeshDataset::Kind::Integer, dims, {}, values, {}};
+}
+MeshDataset Strings(std::vector<std::string> values, bool fixed = false)
+{
+  return {fixed ? MeshDataset::Kind::FixedString : MeshDataset::Kind::String, {values.size()}, {}, {}, values};
+}
+
+// Writes `spec` with the HDF5 C API; groups are created as needed.
+void WriteMesh(const std::filesystem::path &path, const MeshSpec &spec)
+{
+  const hid_t file = H5Fcreate(path.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT);
+  ASSERT_GE(file, 0) << path;
+  const hid_t links = H5Pcreate(H5P_LINK_CREATE);
+  H5Pset_create_intermediate_group(links, 1);
+  for (const auto &[name, dataset] : spec) {
+    const hid_t space = H5Screate_simple(static_cast<int>(dataset.dims.size()), dataset.dims.data(), nullptr);
+    hid_t       type  = -1;
+    const void *data  = nullptr;
+    std::vector<const char *> pointers;
+    std::string               fixed;
+    switch (dataset.kind) {
+    case MeshDataset::Kind::Real:
+      type = H5Tcopy(H5T_NATIVE_DOUBLE);
+      data = dataset.reals.data();
+      break;
+    case MeshDataset::Kind::Integer:
+      type = H5Tcopy(H5T_NATIVE_LLONG);
+      data = dataset.integers.data();
+      break;
+    case MeshDataset::Kind::String:
+      type = H5Tcopy(H5T_C_S1);
+      H5Tset_size(type, H5T_VARIABLE);
+      H5Tset_cset(type, H5T_CSET_UTF8);
+      for (const std::string &text : dataset.strings) pointers.push_back(text.c_str());
+      data = pointers.data();
+      break;
+    case MeshDataset::Kind::FixedString: {
+      size_t width = 1;
+      for (const std::string &text : dataset.strings) width = std::max(width, text.size());
+      type = H5Tcopy(H5T_C_S1);
+      H5Tset_size(type, width);
+      for (const std::string &text : dataset.strings) fixed += text + std::string(width - text.size(), '\0');
+      data = fixed.data();
+      break;
+    }
+    }
+    const hid_t id = H5Dcreate2(file, name.c_str(), type, space, links, H5P_DEFAULT, H5P_DEFAULT);
+    EXPECT_GE(id, 0) << name;
+    EXPECT_GE(H5Dwrite(id, type, H5S_ALL, H5S_ALL, H5P_DEFAULT, data), 0) << name;
+    H5Dclose(id);
+    H5Tclose(type);
+    H5Sclose(space);
+  }
+  H5Pclose(links);
+  H5Fclose(file);
+}
+
+// A fresh directory per test for the mesh and the (virtual) YAML file next to it.
+std::filesystem::path MeshTestDirectory()
+{
+  const ::testing::TestInfo *info = ::testing::UnitTest::GetInstance()->current_test_info();
+  const std::filesystem::path directory =
+      std::filesystem::temp_directory_path() / ("msflex_mesh_" + std::to_string(::getpid()) + "_" + info->name());
+  std::filesystem::remove_all(directory);
+  std::filesystem::create_directories(directory);
+  return directory;
+}
+
+const char *const kMeshSections = R"(sections:
+  - {name: steel, EA: 1.0e7, GA2: 4.0e6, GA3: 4.0e6, GJ: 8.0e5, EI2: 8.0e5, EI3: 8.0e5, rhoA: 7.8, rhoJ: [0.1, 0.05, 0.05]}
+  - {name: alloy, EA: 2.0e7, GA2: 5.0e6, GA3: 5.0e6, GJ: 9.0e5, EI2: 9.0e5, EI3: 9.0e5, rhoA: 2.7, rhoJ: [0.1, 0.05, 0.05]}
+)";
+
+// The model of MeshSpecOfEquivalentYaml, written out in YAML.
+const std::string kEquivalentYaml = std::string(kMeshSections) + R"(nodes:
+  p0: [0, 0, 0]
+  p1: [2, 0, 0]
+  p2: [2, 1.5, 0.5]
+  p3: [2, 1.5, 0.5]
+  p4: [2, 3.5, 0.5]
+  p5: [2, 3.5, 0.5]
+  p6: [3, 3.5, 0.5]
+  p7: [3, 3.5, 0.5]
+beams:
+  - {name: first, section: steel, from: p0, to: p1, elements: 3}
+  - {name: second, section: alloy, from: p1, to: p2, elements: 2, order: 2, orientation: [0, 0, 1]}
+  - {name: third, section: steel, from: p3, to: p4, elements: 1}
+  - {name: fourth, section: alloy, from: p5, to: p6, elements: 2, orientation: [0, 1, 1]}
+joints:
+  - {name: base, type: rigid, master: ground, slave: p0, axis: [0, 0, 1]}
+  - {name: hinge, type: revolute, master: p2, slave: p3, axis: [0, 0, 1], second_axis: [1, 1, 0]}
+  - {name: lead, type: screw, master: p4, slave: p5, axis: [1, 0, 0], pitch: 0.01}
+  - {name: lobe, type: cam, master: p6, slave: p7, axis: [0, 1, 0], radius: 0.05}
+supports:
+  - {nodes: p1, fix: [ux]}
+probes:
+  - {name: tip, node: p6}
+analysis: {type: dynamic}
+)";
+
+MeshSpec MeshSpecOfEquivalentYaml()
+{
+  return {
+      {"/nodes/coordinates", Reals({8, 3}, {0, 0, 0, 2, 0, 0, 2, 1.5, 0.5, 2, 1.5, 0.5, 2, 3.5, 0.5, 2, 3.5, 0.5, 3, 3.5, 0.5, 3, 3.5, 0.5})},
+      {"/nodes/names", Strings({"p0", "p1", "p2", "p3", "p4", "p5", "p6", "p7"})},
+      {"/beams/nodes", Integers({4, 2}, {0, 1, 1, 2, 3, 4, 5, 6})},
+      {"/beams/section", Integers({4}, {0, 1, 0, 1})},
+      {"/beams/elements", Integers({4}, {3, 2, 1, 2})},
+      {"/beams/order", Integers({4}, {1, 2, 1, 1})},
+      {"/beams/orientation", Reals({4, 3}, {0, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 1})},
+      {"/beams/names", Strings({"first", "second", "third", "fourth"}, true)},
+      {"/joints/type", Strings({"rigid", "revolute", "screw", "cam"})},
+      {"/joints/master", Integers({4}, {-1, 2, 4, 6})},
+      {"/joints/slave", Integers({4}, {0, 3, 5, 7})},
+      {"/joints/axis", Reals({4, 3}, {0, 0, 1, 0, 0, 1, 1, 0, 0, 0, 1, 0})},
+      {"/joints/second_axis", Reals({4, 3}, {0, 0, 0, 1, 1, 0, 0, 0, 0, 0, 0, 0})},
+      {"/joints/parameter", Reals({4}, {0, 0, 0.01, 0.05})},
+      {"/joints/names", Strings({"base", "hinge", "lead", "lobe"})},
+  };
+}
+
+// The YAML file that refers to mesh.h5 (line 4: the `mesh:` key).
+const std::string kMeshYaml = std::string(kMeshSections) + R"(mesh: mesh.h5
+supports:
+  - {nodes: p1, fix: [ux]}
+probes:
+  - {name: tip, node: p6}
+analysis: {type: dynamic}
+)";
+constexpr int kMeshKeyLine = 4;
+
+bool ReadWithMesh(const MeshSpec &spec, const std::string &yaml, Model *model, InputError *error)
+{
+  const std::filesystem::path directory = MeshTestDirectory();
+  WriteMesh(directory / "mesh.h5", spec);
+  const bool ok = ReadModelString(yaml, (directory / "model.yaml").string(), model, error);
+  std::filesystem::remove_all(directory);
+  return ok;
+}
+
+TEST(InputMesh, SameModelAsEquivalentYaml)
+{
+  const Model expected = ReadValid(kEquivalentYaml);
+  Model       model;
+  InputError  error;
+  ASSERT_TRUE(ReadWithMesh(MeshSpecOfEquivalentYaml(), kMeshYaml, &model, &error)) << error.Format();
+
+  ASSERT_EQ(model.nodes.size(), expected.nodes.size());
+  for (size_t node = 0; node < model.nodes.size(); ++node) {
+    SCOPED_TRACE(expected.nodes[node].name);
+    EXPECT_EQ(model.nodes[node].name, expected.nodes[node].name);
+    EXPECT_EQ(model.nodes[node].position, expected.nodes[node].position); // bit for bit
+  }
+  ASSERT_EQ(model.beams.size(), expected.beams.size());
+  for (size_t beam = 0; beam < model.beams.size(); ++beam) {
+    EXPECT_EQ(model.beams[beam].name, expected.beams[beam].name);
+    EXPECT_EQ(model.beams[beam].section, expected.beams[beam].section);
+    EXPECT_EQ(model.beams[beam].order, expected.beams[beam].order);
+    EXPECT_EQ(model.beams[beam].nodes, expected.beams[beam].nodes);
+    EXPECT_EQ(model.beams[beam].elements, expected.beams[beam].elements);
+    EXPECT_EQ(model.beams[beam].mark.line, kMeshKeyLine);
+  }
+  ASSERT_EQ(model.elements.size(), expected.elements.size());
+  ASSERT_EQ(model.elements.size(), 3u + 2u + 1u + 2u);
+  for (size_t element = 0; element < model.elements.size(); ++element) {
+    SCOPED_TRACE(element);
+    const BeamElement &a = model.elements[element], &b = expected.elements[element];
+    EXPECT_EQ(a.nodes, b.nodes);
+    EXPECT_EQ(a.section, b.section);
+    EXPECT_EQ(a.order, b.order);
+    EXPECT_EQ(a.beam, b.beam);
+    for (int node = 0; node <= a.order; ++node) EXPECT_EQ(a.reference_triads[node], b.reference_triads[node]);
+  }
+  ASSERT_EQ(model.joints.size(), expected.joints.size());
+  for (size_t index = 0; index < model.joints.size(); ++index) {
+    const Joint &a = model.joints[index], &b = expected.joints[index];
+    SCOPED_TRACE(b.name);
+    EXPECT_EQ(a.name, b.name);
+    EXPECT_EQ(a.type, b.type);
+    EXPECT_EQ(a.master, b.master);
+    EXPECT_EQ(a.slave, b.slave);
+    EXPECT_EQ(a.axes, b.axes);
+    EXPECT_EQ(a.num_translations, b.num_translations);
+    EXPECT_EQ(a.translation_axis, b.translation_axis);
+    EXPECT_EQ(a.rotation, b.rotation);
+    EXPECT_EQ(a.rotation_axis, b.rotation_axis);
+    EXPECT_EQ(a.dependence, b.dependence);
+    EXPECT_EQ(a.dependent_axis, b.dependent_axis);
+    EXPECT_EQ(a.coefficient, b.coefficient);
+    EXPECT_EQ(a.driven_coordinate, -1);
+  }
+  EXPECT_EQ(model.joints[0].master, -1);
+  EXPECT_EQ(model.joints[2].dependence, Joint::Dependence::Linear);
+  EXPECT_EQ(model.joints[3].dependence, Joint::Dependence::EccentricCam);
+  // The YAML parts still refer to the mesh's nodes by name.
+  ASSERT_EQ(model.supports.size(), 1u);
+  EXPECT_EQ(model.supports[0].nodes, (std::vector<int>{1}));
+  ASSERT_EQ(model.probes.size(), 1u);
+  EXPECT_EQ(model.probes[0].node, 6);
+}
+
+TEST(InputMesh, DefaultNamesAndYamlNodesAndBeamsAlongside)
+{
+  MeshSpec spec = MeshSpecOfEquivalentYaml();
+  for (const char *optional : {"/nodes/names", "/beams/names", "/beams/orientation", "/joints/names", "/joints/second_axis"})
+    spec.erase(optional);
+  const std::string yaml = std::string(kMeshSections) + R"(mesh: mesh.h5
+nodes:
+  extra: [0, -1, 0]
+beams:
+  - {name: stub, section: steel, from: n0, to: extra, elements: 2}
+joints:
+  - {name: pin, type: spherical, master: b0.1, slave: n7}
+analysis: {type: dynamic}
+)";
+  // n7 is the slave of the mesh's cam joint j3 already.
+  Model      model;
+  InputError error;
+  EXPECT_FALSE(ReadWithMesh(spec, yaml, &model, &error));
+  EXPECT_NE(error.message.find("node 'n7' is already the slave of joint 'j3'"), std::string::npos) << error.Format();
+
+  std::string fixed = yaml;
+  fixed.replace(fixed.find("slave: n7"), 9, "slave: extra");
+  ASSERT_TRUE(ReadWithMesh(spec, fixed, &model, &error)) << error.Format();
+  // Mesh nodes first (n0 .. n7), then the YAML nodes, then the generated ones.
+  EXPECT_EQ(model.nodes[0].name, "n0");
+  EXPECT_EQ(model.nodes[7].name, "n7");
+  EXPECT_EQ(model.nodes[8].name, "extra");
+  EXPECT_EQ(model.nodes[9].name, "b0.1");
+  ASSERT_EQ(model.beams.size(), 5u);
+  EXPECT_EQ(model.beams[0].name, "b0");
+  EXPECT_EQ(model.beams[4].name, "stub");
+  ASSERT_EQ(model.joints.size(), 5u);
+  EXPECT_EQ(model.joints[3].name, "j3");
+  EXPECT_EQ(model.joints[4].name, "pin");
+  EXPECT_EQ(model.joints[4].master, NodeIndex(model, "b0.1"));
+  // Default orientation (0, 1, 0) on beam b3 from n5 to n6 along x: t2 = y.
+  const BeamElement &element = model.elements[model.beams[3].elements[0]];
+  EXPECT_LT((element.reference_triads[0].col(1) - Vec3::UnitY()).norm(), kTolerance);
+  // Default second axis of joint j1 (axis z): a2 = x.
+  EXPECT_LT((model.joints[1].axes.col(1) - Vec3::UnitX()).norm(), kTolerance);
+}
+
+struct BadMeshCase {
+  std::string                   label;
+  std::function<void(MeshSpec &)> change;
+  std::string                   expected_message;
+};
+
+TEST(InputMesh, BadMeshesNameFileDatasetAndRow)
+{
+  const std::vector<BadMeshCase> cases = {
+      {"missing dataset", [](MeshSpec &spec) { spec.erase("/beams/section"); }, "mesh.h5: /beams/section: missing dataset"},
+      {"missing nodes", [](MeshSpec &spec) { spec.erase("/nodes/coordinates"); }, "mesh.h5: /nodes/coordinates: missing dataset"},
+      {"wrong shape", [](MeshSpec &spec) { spec["/nodes/coordinates"] = Reals({12, 2}, std::vector<double>(24, 0.0)); },
+       "mesh.h5: /nodes/coordinates: wrong shape (12, 2), expected (n, 3)"},
+      {"wrong row count", [](MeshSpec &spec) { spec["/beams/order"] = Integers({3}, {1, 1, 1}); },
+       "mesh.h5: /beams/order: wrong shape (3,), expected (4,)"},
+      {"not integers", [](MeshSpec &spec) { spec["/beams/elements"] = Reals({4}, {3, 2, 1, 2}); },
+       "mesh.h5: /beams/elements: expected integers"},
+      {"node index out of range", [](MeshSpec &spec) { spec["/beams/nodes"].integers[5] = 999; },
+       "mesh.h5: /beams/nodes row 2: node index 999 out of range (n = 8)"},
+      {"master out of range", [](MeshSpec &spec) { spec["/joints/master"].integers[1] = -2; },
+       "mesh.h5: /joints/master row 1: node index -2 out of range (-1 = ground, n = 8)"},
+      {"unknown joint type", [](MeshSpec &spec) { spec["/joints/type"].strings[1] = "hinge"; },
+       "mesh.h5: /joints/type row 1: unknown joint type 'hinge'"},
+      {"custom joint", [](MeshSpec &spec) { spec["/joints/type"].strings[0] = "custom"; },
+       "mesh.h5: /joints/type row 0: a custom joint needs 'release'"},
+      {"bad section index", [](MeshSpec &spec) { spec["/beams/section"].integers[3] = 2; },
+       "mesh.h5: /beams/section row 3: section index 2 out of range ('sections' lists 2)"},
+      {"order three", [](MeshSpec &spec) { spec["/beams/order"].integers[0] = 3; }, "mesh.h5: /beams/order row 0: the order must be 1 or 2, got 3"},
+      {"zero elements", [](MeshSpec &spec) { spec["/beams/elements"].integers[1] = 0; },
+       "mesh.h5: /beams/elements row 1: the number of elements must be between 1 and 10000000, got 0"},
+      {"zero length", [](MeshSpec &spec) { spec["/beams/nodes"].integers[5] = 2; },
+       "mesh.h5: /beams/nodes row 2: zero length: nodes 'p3' and 'p2' are at the same position"},
+      {"both ends the same", [](MeshSpec &spec) { spec["/beams/nodes"].integers[1] = 0; },
+       "mesh.h5: /beams/nodes row 0: both ends are node 'p0'"},
+      {"orientation along the axis", [](MeshSpec &spec) { spec["/beams/orientation"].reals[0] = 5; },
+       "mesh.h5: /beams/orientation row 0: orientation [5, 0, 0] is parallel to the beam's axis"},
+      {"zero pitch", [](MeshSpec &spec) { spec["/joints/parameter"].reals[2] = 0; },
+       "mesh.h5: /joints/parameter row 2: the pitch of a screw joint must not be zero, got 0"},
+      {"zero axis", [](MeshSpec &spec) { std::fill_n(spec["/joints/axis"].reals.begin() + 3, 3, 0.0); },
+       "mesh.h5: /joints/axis row 1: the axis must not be the zero vector"},
+      {"slave twice", [](MeshSpec &spec) { spec["/joints/slave"].integers[3] = 5; },
+       "mesh.h5: /joints/slave row 3: node 'p5' is already the slave of joint 'lead'"},
+      {"not finite", [](MeshSpec &spec) { spec["/nodes/coordinates"].reals[7] = std::nan(""); },
+       "mesh.h5: /nodes/coordinates row 2: not a finite number"},
+      {"duplicate node name", [](MeshSpec &spec) { spec["/nodes/names"].strings[6] = "p1"; },
+       "mesh.h5: /nodes/names row 6: node name 'p1' is already used by node row 1 of /nodes"},
+      {"beam name taken by a node", [](MeshSpec &spec) { spec["/beams/names"].strings[2] = "p3"; },
+       "mesh.h5: /beams/names row 2: beam name 'p3' is already used by node row 3 of /nodes"},
+      {"generated name taken", [](MeshSpec &spec) { spec["/nodes/names"].strings[7] = "first.1"; },
+       "mesh.h5: /beams/nodes row 0: beam 'first' generates node 'first.1', but that name is already used"},
+      {"missing joint types", [](MeshSpec &spec) { spec.erase("/joints/type"); }, "mesh.h5: /joints/type: missing dataset"},
+      {"names not strings", [](MeshSpec &spec) { spec["/joints/names"] = Integers({4}, {1, 2, 3, 4}); },
+       "mesh.h5: /joints/names: expected strings"},
+      {"duplicate joint name", [](MeshSpec &spec) { spec["/joints/names"].strings[3] = "base"; },
+       "mesh.h5: /joints/names row 3: duplicate joint name 'base'"},
+      {"slave is master", [](MeshSpec &spec) { spec["/joints/slave"].integers[1] = 2; },
+       "mesh.h5: /joints/slave row 1: the slave is the master, node 'p2'"},
+  };
+  for (const BadMeshCase &bad : cases) {
+    SCOPED_TRACE(bad.label);
+    MeshSpec spec = MeshSpecOfEquivalentYaml();
+    bad.change(spec);
+    Model      model;
+    InputError error;
+    ASSERT_FALSE(ReadWithMesh(spec, kMeshYaml, &model, &error));
+    EXPECT_NE(error.message.find(bad.expected_message), std::string::npos) << error.Format();
+    EXPECT_EQ(error.line, kMeshKeyLine) << error.Format();
+    EXPECT_NE(error.file.find("model.yaml"), std::string::npos);
+  }
+}
+
+TEST(InputMesh, UnconnectedMeshNodeAndMissingOrBrokenFile)
+{
+  MeshSpec spec = MeshSpecOfEquivalentYaml();
+  for (const char *joints : {"/joints/type", "/joints/master", "/joints/slave", "/joints/axis", "/joints/second_axis", "/joints/parameter",
+                             "/joints/names"})
+    spec.erase(joints);
+  Model      model;
+  InputError error;
+  ASSERT_FALSE(ReadWithMesh(spec, kMeshYaml, &model, &error));
+  EXPECT_NE(error.message.find("mesh.h5: /nodes row 7: node 'p7' is not connected"), std::string::npos) << error.Format();
+
+  const std::filesystem::path directory = MeshTestDirectory();
+  ASSERT_FALSE(ReadModelString(kMeshYaml, (directory / "model.yaml").string(), &model, &error));
+  EXPECT_NE(error.message.find("cannot open mesh file 'mesh.h5'"), std::string::npos) << error.Format();
+  EXPECT_EQ(error.line, kMeshKeyLine);
+  std::ofstream(directory / "mesh.h5") << "nodes: not HDF5\n";
+  ASSERT_FALSE(ReadModelString(kMeshYaml, (directory / "model.yaml").string(), &model, &error));
+  EXPECT_NE(error.message.find("mesh file 'mesh.h5' is not an HDF5 file"), std::string::npos) << error.Format();
+  std::filesystem::remove_all(directory);
 }
 
 // ---- The bad-input corpus ----------------------------------------------------------------
