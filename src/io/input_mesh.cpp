@@ -78,6 +78,20 @@ std::string FormatShape(const Shape &shape)
   return shape.columns == 0 ? "(" + rows + ",)" : "(" + rows + ", " + std::to_string(shape.columns) + ")";
 }
 
+std::string TypeClassName(H5T_class_t type_class)
+{
+  switch (type_class) {
+  case H5T_INTEGER:
+    return "integers";
+  case H5T_FLOAT:
+    return "floating-point numbers";
+  case H5T_STRING:
+    return "strings";
+  default:
+    return "HDF5 type class " + std::to_string(static_cast<int>(type_class));
+  }
+}
+
 std::string Row(long long row) { return " row " + std::to_string(row); }
 
 // The open mesh file; every message starts with the file as written in the input.
@@ -188,7 +202,7 @@ private:
     const Handle      type(H5Dget_type(dataset.id.Get()), H5Tclose);
     const H5T_class_t found = H5Tget_class(type.Get());
     if (!(found == type_class || (type_class == H5T_FLOAT && found == H5T_INTEGER)))
-      Fail(path, std::string("expected ") + kind + ", found another type (HDF5 type class " + std::to_string(static_cast<int>(found)) + ")");
+      Fail(path, std::string("expected ") + kind + ", found " + TypeClassName(found));
     const Handle space(H5Dget_space(dataset.id.Get()), H5Sclose);
     const int    rank = H5Sget_simple_extent_ndims(space.Get());
     std::vector<hsize_t> dims(static_cast<size_t>(std::max(rank, 0)));
@@ -196,7 +210,8 @@ private:
     const int  expected_rank = shape.columns == 0 ? 1 : 2;
     const bool shape_ok      = rank == expected_rank && (shape.rows < 0 || dims[0] == static_cast<hsize_t>(shape.rows)) &&
                           (expected_rank == 1 || dims[1] == static_cast<hsize_t>(shape.columns));
-    if (!shape_ok) Fail(path, "wrong shape " + (rank <= 0 ? std::string("(scalar)") : FormatShape(dims)) + ", expected " + FormatShape(shape));
+    if (!shape_ok)
+      Fail(path, "wrong shape " + (rank <= 0 ? std::string("(scalar)") : FormatShape(dims)) + ", expected " + FormatShape(shape));
     if (dims[0] > static_cast<hsize_t>(kMaxRows))
       Fail(path, std::to_string(dims[0]) + " rows are too many (at most " + std::to_string(kMaxRows) + ")");
     *rows = static_cast<long long>(dims[0]);
@@ -232,7 +247,8 @@ void CheckNodeIndex(const MeshData &mesh, const std::string &dataset, long long 
   const long long n = static_cast<long long>(mesh.coordinates.size());
   if (index < minimum || index >= n)
     FailRow(mesh, dataset, row,
-            "node index " + std::to_string(index) + " out of range (" + (minimum < 0 ? "-1 = ground, " : "") + "n = " + std::to_string(n) + ")");
+            "node index " + std::to_string(index) + " out of range (" + (minimum < 0 ? "-1 = ground, " : "") + "n = " + std::to_string(n) +
+                ")");
 }
 
 // Who already uses `name`, for messages.
@@ -252,7 +268,8 @@ void RegisterMeshName(const MeshData &mesh, const std::string &dataset, long lon
   const char *what = kind == NameKind::Node ? "node" : "beam";
   if (name.empty()) FailRow(mesh, dataset, row, std::string("empty ") + what + " name");
   if (name == kAllNodes)
-    FailRow(mesh, dataset, row, std::string("a ") + what + " cannot be called " + Quote(kAllNodes) + ": in 'nodes' lists it means every node");
+    FailRow(mesh, dataset, row,
+            std::string("a ") + what + " cannot be called " + Quote(kAllNodes) + ": in 'nodes' lists it means every node");
   if (context.names.count(name) > 0)
     FailRow(mesh, dataset, row, std::string(what) + " name " + Quote(name) + " is already used by " + UserOf(context, name) +
                                     " (nodes, beams and sets share one namespace)");
@@ -358,7 +375,8 @@ void AddMeshBeams(const MeshData &mesh, ReaderContext &context)
     if (!mesh.beam_orientation.empty() && mesh.beam_orientation[index] != Vec3::Zero()) {
       orientation = mesh.beam_orientation[index];
       if (OrientationAlongAxis(orientation, start, end))
-        FailRow(mesh, "/beams/orientation", row, "orientation " + FormatVec3(orientation) + " is parallel to the beam's axis; it must point across the beam");
+        FailRow(mesh, "/beams/orientation", row,
+                "orientation " + FormatVec3(orientation) + " is parallel to the beam's axis; it must point across the beam");
     }
     Beam beam;
     beam.name    = named ? mesh.beam_names[index] : "b" + std::to_string(index);
@@ -389,8 +407,8 @@ void AddMeshJoints(const MeshData &mesh, ReaderContext &context)
     if (joint.name.empty()) FailRow(mesh, "/joints/names", row, "empty joint name");
     if (const auto other = context.joint_names.find(joint.name); other != context.joint_names.end())
       FailRow(mesh, mesh.joint_names.empty() ? "/joints/type" : "/joints/names", row,
-              "duplicate joint name " + Quote(joint.name) + " (first defined at line " + std::to_string(model.joints[other->second].mark.line) +
-                  ")");
+              "duplicate joint name " + Quote(joint.name) + " (first defined at line " +
+                  std::to_string(model.joints[other->second].mark.line) + ")");
     const std::string &type  = mesh.joint_type[index];
     JointExtra         extra = JointExtra::None;
     if (!JointTypeExtra(type, &extra))

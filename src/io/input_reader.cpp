@@ -578,7 +578,8 @@ Model ParseModel(const std::string &text, const std::string &file_label)
   for (const YAML::Node &item : section_items) model.sections.push_back(ReadSection(item, context));
   // Mesh nodes first, so that mesh node i is model node i when `nodes` is left out.
   if (mesh != nullptr) AddMeshNodes(*mesh, context);
-  if (mesh == nullptr || top.Has("nodes")) ReadNodes(top.Required("nodes"), context);
+  // With a mesh, `nodes` may be left out or left empty.
+  if (mesh == nullptr || (top.Has("nodes") && !top.Required("nodes").IsNull())) ReadNodes(top.Required("nodes"), context);
   const size_t user_node_count = model.nodes.size();
   if (mesh != nullptr) AddMeshBeams(*mesh, context);
   if (!beam_items.empty()) ReadBeams(top.Required("beams"), context);
