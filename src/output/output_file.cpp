@@ -2,6 +2,7 @@
 
 #include <hdf5.h>
 
+#include <algorithm>
 #include <charconv>
 #include <cstdio>
 #include <filesystem>
@@ -82,6 +83,64 @@ PetscErrorCode RunOnRoot(MPI_Comm comm, RootWork &&root_work)
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
+// Runs `work` on every rank and makes the outcome collective: when any rank fails, the lowest
+// failing rank broadcasts its error code and message and every rank raises that same error.
+template <class Work>
+PetscErrorCode RunCollective(MPI_Comm comm, Work &&work)
+{
+  PetscMPIInt    rank, size, first;
+  PetscErrorCode status        = PETSC_SUCCESS;
+  char           message[1024] = "";
+
+  PetscFunctionBeginUser;
+  PetscCallMPI(MPI_Comm_rank(comm, &rank));
+  PetscCallMPI(MPI_Comm_size(comm, &size));
+  PetscCall(PetscPushErrorHandler(PetscReturnErrorHandler, nullptr));
+  status = work();
+  PetscCall(PetscPopErrorHandler());
+  if (status != PETSC_SUCCESS) {
+    char *specific;
+    PetscCall(PetscErrorMessage(status, nullptr, &specific));
+    PetscCall(PetscStrncpy(message, specific, sizeof message));
+  }
+  const PetscMPIInt mine = status != PETSC_SUCCESS ? rank : size;
+  PetscCallMPI(MPI_Allreduce(&mine, &first, 1, MPI_INT, MPI_MIN, comm));
+  if (first < size) {
+    PetscCallMPI(MPI_Bcast(&status, 1, MPI_INT, first, comm));
+    PetscCallMPI(MPI_Bcast(message, sizeof message, MPI_CHAR, first, comm));
+    PetscCheck(false, comm, status, "%s", message);
+  }
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+// Broadcasts a list of strings from rank 0.
+PetscErrorCode BcastStrings(MPI_Comm comm, std::vector<std::string> *strings)
+{
+  PetscMPIInt rank;
+  std::string packed;
+  int         sizes[2] = {0, 0};
+
+  PetscFunctionBeginUser;
+  PetscCallMPI(MPI_Comm_rank(comm, &rank));
+  if (rank == 0) {
+    for (const std::string &s : *strings) packed += s + '\0';
+    sizes[0] = (int)strings->size();
+    sizes[1] = (int)packed.size();
+  }
+  PetscCallMPI(MPI_Bcast(sizes, 2, MPI_INT, 0, comm));
+  packed.resize(sizes[1]);
+  if (sizes[1] > 0) PetscCallMPI(MPI_Bcast(packed.data(), sizes[1], MPI_CHAR, 0, comm));
+  if (rank != 0) {
+    strings->clear();
+    for (size_t start = 0; strings->size() < (size_t)sizes[0];) {
+      const size_t end = packed.find('\0', start);
+      strings->push_back(packed.substr(start, end - start));
+      start = end + 1;
+    }
+  }
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
 // Escapes the characters that may not appear literally in XML text or attribute values.
 std::string XmlEscape(const std::string &text)
 {
@@ -114,9 +173,13 @@ std::string FrameGroupName(int step)
 
 } // namespace
 
-// Rank 0's side of the output file: the open HDF5 file and what the XDMF sidecar must list.
-// On the other ranks an Impl exists (so every rank agrees the file is open) but holds no file.
-// The members return PETSc error codes raised on PETSC_COMM_SELF; RunOnRoot shares them.
+// One rank's side of the output file: the open HDF5 file and what the XDMF sidecar must list.
+// Parallel HDF5: rank 0 creates the file and writes /input and /mesh (Create, then closes it);
+// every rank then holds the file open through MPI-IO (OpenParallel) and the frame, history and
+// close members run on every rank, with identical metadata calls. Serial HDF5: only rank 0 holds
+// a file; on the other ranks an Impl exists (so every rank agrees the file is open) but is idle.
+// The members return PETSc error codes raised on PETSC_COMM_SELF; RunOnRoot (rank-0 work) and
+// RunCollective (work on every rank) make them collective.
 struct OutputFile::Impl {
   struct FrameEntry {
     int    step;
@@ -134,7 +197,22 @@ struct OutputFile::Impl {
   PetscErrorCode WriteMesh(const OutputMesh &mesh);
   PetscErrorCode WriteFrame(const OutputFrame &frame);
   PetscErrorCode AppendHistory(const std::vector<std::string> &names, const std::vector<double> &values, const std::vector<ProbeSample> &probes);
+  PetscErrorCode CheckHistory(const std::vector<std::string> &names, const std::vector<double> &values, const std::vector<ProbeSample> &probes);
+  PetscErrorCode WriteHistory(const std::vector<std::string> &names, const std::vector<double> &values, const std::vector<std::string> &sample_names,
+                              const std::vector<ProbeSample> &probes);
   PetscErrorCode WriteXdmf() const;
+  // Parallel build: opens the file created by rank 0 on every rank through MPI-IO.
+  PetscErrorCode OpenParallel();
+  // Checks this rank's part of a frame (`node_rows`, `element_rows`: the rows it writes).
+  PetscErrorCode CheckFrame(const OutputFrame &frame, int step, bool has_velocities, const std::vector<int> &node_rows,
+                            const std::vector<int> &element_rows, hsize_t total_node_rows, hsize_t total_element_rows) const;
+  // Writes a frame collectively, each rank its rows.
+  PetscErrorCode WriteFrameRows(const OutputFrame &frame, int step, double time, bool has_velocities, const std::vector<int> &node_rows,
+                                const std::vector<int> &element_rows);
+  // Creates the float64 dataset `name` (n_rows x columns) collectively; each rank writes `data`
+  // (rows.size() x columns) to its `rows`.
+  PetscErrorCode WriteRows(hid_t parent, const char *name, hsize_t n_rows, hsize_t columns, const std::vector<int> &rows, const std::vector<double> &data);
+  PetscErrorCode CollectiveTransfer(H5Id *dxpl);
   PetscErrorCode Close();
 
   // Creates dataset `name` under `parent` with shape `dims` ({} = scalar) and writes `data`, laid
@@ -159,6 +237,10 @@ struct OutputFile::Impl {
   std::vector<FrameEntry>  frames;          // in the order written
   hsize_t                  rows_written = 0;
   std::vector<std::string> history_names, probe_names; // fixed by the first history row
+  bool                     parallel = false;            // the file is open on every rank (MPI-IO)
+  MPI_Comm                 comm     = MPI_COMM_NULL;
+  PetscMPIInt              rank     = 0;
+  std::vector<int>         segment_first; // n_elements + 1: the segments of element e are [first[e], first[e + 1])
 };
 
 PetscErrorCode OutputFile::Impl::CreateStringType(H5Id *type)
@@ -248,9 +330,15 @@ PetscErrorCode OutputFile::Impl::AppendRow(hid_t parent, const char *name, const
     PetscCallHDF5(H5Dset_extent(dataset, dims.data()));
     PetscCallHDF5(file_space = H5Dget_space(dataset));
   }
-  PetscCallHDF5(H5Sselect_hyperslab(file_space, H5S_SELECT_SET, row_start.data(), nullptr, row_count.data(), nullptr));
   PetscCallHDF5(memory_space = H5Screate_simple(rank, row_count.data(), nullptr));
-  PetscCallHDF5(H5Dwrite(dataset, H5T_NATIVE_DOUBLE, memory_space, file_space, H5P_DEFAULT, entry));
+  if (parallel && this->rank != 0) {
+    // Rank 0 writes the row; the others take part in the collective write with nothing.
+    PetscCallHDF5(H5Sselect_none(file_space));
+    PetscCallHDF5(H5Sselect_none(memory_space));
+  } else PetscCallHDF5(H5Sselect_hyperslab(file_space, H5S_SELECT_SET, row_start.data(), nullptr, row_count.data(), nullptr));
+  H5Id transfer;
+  PetscCall(CollectiveTransfer(&transfer));
+  PetscCallHDF5(H5Dwrite(dataset, H5T_NATIVE_DOUBLE, memory_space, file_space, transfer, entry));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
@@ -273,6 +361,8 @@ PetscErrorCode OutputFile::Impl::Create(bool overwrite, const std::string &input
   PetscCallHDF5(H5Fflush(file, H5F_SCOPE_LOCAL));
   // The sidecar is written now, empty, so that it never describes an earlier run's frames.
   PetscCall(WriteXdmf());
+  // Rank 0 wrote the replicated part; every rank reopens the file for the collective writes.
+  if (parallel) PetscCallHDF5(H5Fclose(file.Release()));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
@@ -392,7 +482,18 @@ PetscErrorCode OutputFile::Impl::AppendHistory(const std::vector<std::string> &n
                                                const std::vector<ProbeSample> &probes)
 {
   std::vector<std::string> sample_names;
-  H5Id                     history, probes_group;
+
+  PetscFunctionBeginUser;
+  for (const ProbeSample &probe : probes) sample_names.push_back(probe.name);
+  PetscCall(CheckHistory(names, values, probes));
+  PetscCall(WriteHistory(names, values, sample_names, probes));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode OutputFile::Impl::CheckHistory(const std::vector<std::string> &names, const std::vector<double> &values,
+                                              const std::vector<ProbeSample> &probes)
+{
+  std::vector<std::string> sample_names;
 
   PetscFunctionBeginUser;
   for (const ProbeSample &probe : probes) sample_names.push_back(probe.name);
@@ -406,14 +507,25 @@ PetscErrorCode OutputFile::Impl::AppendHistory(const std::vector<std::string> &n
   }
   PetscCheck(names == history_names && sample_names == probe_names, PETSC_COMM_SELF, PETSC_ERR_ARG_WRONG,
              "output file '%s': history and probe names must be the same in every row", path.c_str());
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
 
+// Rank 0's names and values are written; on other ranks (parallel) `values` and the probe values
+// are not read, but the names must be rank 0's.
+PetscErrorCode OutputFile::Impl::WriteHistory(const std::vector<std::string> &names, const std::vector<double> &values,
+                                              const std::vector<std::string> &sample_names, const std::vector<ProbeSample> &probes)
+{
+  H5Id history, probes_group;
+
+  PetscFunctionBeginUser;
   PetscCallHDF5(history = H5Gopen2(file, "/history", H5P_DEFAULT));
   for (size_t i = 0; i < names.size(); ++i) PetscCall(AppendRow(history, names[i].c_str(), {}, &values[i]));
   PetscCallHDF5(probes_group = H5Gopen2(file, "/probes", H5P_DEFAULT));
-  for (const ProbeSample &probe : probes) {
-    H5Id group;
-    if (rows_written == 0) PetscCallHDF5(group = H5Gcreate2(probes_group, probe.name.c_str(), H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT));
-    else PetscCallHDF5(group = H5Gopen2(probes_group, probe.name.c_str(), H5P_DEFAULT));
+  for (size_t p = 0; p < sample_names.size(); ++p) {
+    const ProbeSample &probe = probes[p];
+    H5Id               group;
+    if (rows_written == 0) PetscCallHDF5(group = H5Gcreate2(probes_group, sample_names[p].c_str(), H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT));
+    else PetscCallHDF5(group = H5Gopen2(probes_group, sample_names[p].c_str(), H5P_DEFAULT));
     PetscCall(AppendRow(group, "position", {3}, probe.position));
     PetscCall(AppendRow(group, "displacement", {3}, probe.displacement));
     PetscCall(AppendRow(group, "rotation", {4}, probe.rotation));
@@ -482,6 +594,127 @@ PetscErrorCode OutputFile::Impl::WriteXdmf() const
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
+PetscErrorCode OutputFile::Impl::CollectiveTransfer(H5Id *dxpl)
+{
+  PetscFunctionBeginUser;
+  PetscCallHDF5(*dxpl = H5Pcreate(H5P_DATASET_XFER));
+#ifdef H5_HAVE_PARALLEL
+  if (parallel) PetscCallHDF5(H5Pset_dxpl_mpio(*dxpl, H5FD_MPIO_COLLECTIVE));
+#endif
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode OutputFile::Impl::OpenParallel()
+{
+  PetscFunctionBeginUser;
+#ifdef H5_HAVE_PARALLEL
+  H5Id access;
+  PetscCallHDF5(access = H5Pcreate(H5P_FILE_ACCESS));
+  PetscCallHDF5(H5Pset_fapl_mpio(access, comm, MPI_INFO_NULL));
+  PetscCallHDF5(file = H5Fopen(path.c_str(), H5F_ACC_RDWR, access));
+#else
+  SETERRQ(PETSC_COMM_SELF, PETSC_ERR_SUP, "output file '%s': HDF5 is not built for MPI-IO", path.c_str());
+#endif
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode OutputFile::Impl::WriteRows(hid_t parent, const char *name, hsize_t n_rows, hsize_t columns, const std::vector<int> &rows,
+                                           const std::vector<double> &data)
+{
+  const hsize_t        dims[2] = {n_rows, columns};
+  const hsize_t        count   = rows.size();
+  std::vector<size_t>  order(count);
+  std::vector<double>  sorted(count * columns);
+  H5Id                 space, dataset, memory_space, transfer;
+  double               dummy = 0;
+
+  PetscFunctionBeginUser;
+  PetscCallHDF5(space = H5Screate_simple(2, dims, nullptr));
+  PetscCallHDF5(dataset = H5Dcreate2(parent, name, H5T_IEEE_F64LE, space, H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT));
+  if (n_rows * columns == 0) PetscFunctionReturn(PETSC_SUCCESS); // the same on every rank
+  // The rows in file order, as runs of consecutive rows (one hyperslab block each).
+  for (size_t k = 0; k < count; ++k) order[k] = k;
+  std::sort(order.begin(), order.end(), [&](size_t a, size_t b) { return rows[a] < rows[b]; });
+  for (size_t k = 0; k < count; ++k) std::copy_n(&data[order[k] * columns], columns, &sorted[k * columns]);
+  if (count == 0) PetscCallHDF5(H5Sselect_none(space));
+  for (size_t k = 0; k < count;) {
+    size_t end = k + 1;
+    while (end < count && rows[order[end]] == rows[order[end - 1]] + 1) ++end;
+    const hsize_t start[2] = {(hsize_t)rows[order[k]], 0}, block[2] = {end - k, columns};
+    PetscCallHDF5(H5Sselect_hyperslab(space, k == 0 ? H5S_SELECT_SET : H5S_SELECT_OR, start, nullptr, block, nullptr));
+    k = end;
+  }
+  const hsize_t memory_size = count > 0 ? count * columns : 1;
+  PetscCallHDF5(memory_space = H5Screate_simple(1, &memory_size, nullptr));
+  if (count == 0) PetscCallHDF5(H5Sselect_none(memory_space));
+  PetscCall(CollectiveTransfer(&transfer));
+  PetscCallHDF5(H5Dwrite(dataset, H5T_NATIVE_DOUBLE, memory_space, space, transfer, count > 0 ? sorted.data() : &dummy));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode OutputFile::Impl::CheckFrame(const OutputFrame &frame, int step, bool has_velocities, const std::vector<int> &node_rows,
+                                            const std::vector<int> &element_rows, hsize_t total_node_rows, hsize_t total_element_rows) const
+{
+  const size_t nr = node_rows.size(), er = element_rows.size();
+
+  PetscFunctionBeginUser;
+  PetscCheck(step >= 0, PETSC_COMM_SELF, PETSC_ERR_ARG_OUTOFRANGE, "output file '%s': negative step %d", path.c_str(), step);
+  for (const FrameEntry &written : frames)
+    PetscCheck(written.step != step, PETSC_COMM_SELF, PETSC_ERR_ARG_WRONG, "output file '%s': frame of step %d already written", path.c_str(), step);
+  PetscCheck(total_node_rows == n_nodes && total_element_rows == n_elements, PETSC_COMM_SELF, PETSC_ERR_ARG_SIZ,
+             "output file '%s': step %d: the ranks hold %llu node and %llu element rows, not %llu and %llu", path.c_str(), step,
+             (unsigned long long)total_node_rows, (unsigned long long)total_element_rows, (unsigned long long)n_nodes, (unsigned long long)n_elements);
+  if (nr == 0 && er == 0) PetscFunctionReturn(PETSC_SUCCESS); // nothing of this rank's arrays is read
+  PetscCheck(frame.position.size() == 3 * nr && frame.displacement.size() == 3 * nr && frame.rotation.size() == 4 * nr, PETSC_COMM_SELF,
+             PETSC_ERR_ARG_SIZ, "output file '%s': step %d: nodal arrays do not match %llu nodes", path.c_str(), step, (unsigned long long)nr);
+  PetscCheck(frame.element_resultants.size() == 6 * er && frame.element_strains.size() == 6 * er, PETSC_COMM_SELF, PETSC_ERR_ARG_SIZ,
+             "output file '%s': step %d: element arrays do not match %llu elements", path.c_str(), step, (unsigned long long)er);
+  if (has_velocities)
+    PetscCheck(frame.velocity.size() == 3 * nr && frame.angular_velocity.size() == 3 * nr, PETSC_COMM_SELF, PETSC_ERR_ARG_SIZ,
+               "output file '%s': step %d: velocity arrays do not match %llu nodes", path.c_str(), step, (unsigned long long)nr);
+  for (const int row : node_rows)
+    PetscCheck(row >= 0 && (hsize_t)row < n_nodes, PETSC_COMM_SELF, PETSC_ERR_ARG_OUTOFRANGE, "output file '%s': step %d: node row %d of %llu",
+               path.c_str(), step, row, (unsigned long long)n_nodes);
+  for (const int row : element_rows)
+    PetscCheck(row >= 0 && (hsize_t)row < n_elements, PETSC_COMM_SELF, PETSC_ERR_ARG_OUTOFRANGE, "output file '%s': step %d: element row %d of %llu",
+               path.c_str(), step, row, (unsigned long long)n_elements);
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode OutputFile::Impl::WriteFrameRows(const OutputFrame &frame, int step, double time, bool has_velocities, const std::vector<int> &node_rows,
+                                                const std::vector<int> &element_rows)
+{
+  const hsize_t       n_segments = segment_element.size();
+  const std::string   group_name = FrameGroupName(step);
+  std::vector<int>    segment_rows;
+  std::vector<double> segment_force, segment_moment;
+  H5Id                group;
+
+  PetscFunctionBeginUser;
+  for (size_t k = 0; k < element_rows.size(); ++k)
+    for (int s = segment_first[element_rows[k]]; s < segment_first[element_rows[k] + 1]; ++s) {
+      segment_rows.push_back(s);
+      segment_force.insert(segment_force.end(), &frame.element_resultants[6 * k], &frame.element_resultants[6 * k + 3]);
+      segment_moment.insert(segment_moment.end(), &frame.element_resultants[6 * k + 3], &frame.element_resultants[6 * k + 6]);
+    }
+  PetscCallHDF5(group = H5Gcreate2(file, group_name.c_str(), H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT));
+  PetscCall(WriteAttribute(group, ".", "step", H5T_STD_I32LE, H5T_NATIVE_INT, &step));
+  PetscCall(WriteAttribute(group, ".", "time", H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, &time));
+  PetscCall(WriteRows(group, "position", n_nodes, 3, node_rows, frame.position));
+  PetscCall(WriteRows(group, "displacement", n_nodes, 3, node_rows, frame.displacement));
+  PetscCall(WriteRows(group, "rotation", n_nodes, 4, node_rows, frame.rotation));
+  PetscCall(WriteRows(group, "element_resultants", n_elements, 6, element_rows, frame.element_resultants));
+  PetscCall(WriteRows(group, "element_strains", n_elements, 6, element_rows, frame.element_strains));
+  PetscCall(WriteRows(group, "segment_force", n_segments, 3, segment_rows, segment_force));
+  PetscCall(WriteRows(group, "segment_moment", n_segments, 3, segment_rows, segment_moment));
+  if (has_velocities) {
+    PetscCall(WriteRows(group, "velocity", n_nodes, 3, node_rows, frame.velocity));
+    PetscCall(WriteRows(group, "angular_velocity", n_nodes, 3, node_rows, frame.angular_velocity));
+  }
+  PetscCallHDF5(H5Fflush(file, H5F_SCOPE_LOCAL));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
 PetscErrorCode OutputFile::Impl::Close()
 {
   PetscFunctionBeginUser;
@@ -491,9 +724,16 @@ PetscErrorCode OutputFile::Impl::Close()
 
 OutputFile::~OutputFile()
 {
-  // Not collective: only rank 0 holds a file, which the Impl's H5Id closes.
+  // Serial HDF5: not collective, only rank 0 holds a file, which the Impl's H5Id closes. Parallel
+  // HDF5: closing is collective, so every rank must destroy an open OutputFile (Close is better).
   delete impl_;
 }
+
+#ifdef H5_HAVE_PARALLEL
+static constexpr bool kParallelHDF5 = true;
+#else
+static constexpr bool kParallelHDF5 = false;
+#endif
 
 PetscErrorCode OutputFile::Open(MPI_Comm comm, const std::string &path, bool overwrite, const std::string &input_file, const std::string &input_text,
                                 const OutputMesh &mesh)
@@ -503,7 +743,24 @@ PetscErrorCode OutputFile::Open(MPI_Comm comm, const std::string &path, bool ove
   comm_ = comm;
   path_ = path;
   impl_ = new Impl(path);
-  const PetscErrorCode status = RunOnRoot(comm_, [&] { return impl_->Create(overwrite, input_file, input_text, mesh); });
+  impl_->comm     = comm;
+  impl_->parallel = kParallelHDF5;
+  PetscCallMPI(MPI_Comm_rank(comm, &impl_->rank));
+  // Rank 0 creates the file and writes /input and /mesh (replicated, small, partly variable-length
+  // strings, which MPI-IO cannot write); then every rank opens it for the collective writes.
+  PetscErrorCode status = RunOnRoot(comm_, [&] { return impl_->Create(overwrite, input_file, input_text, mesh); });
+  if (status == PETSC_SUCCESS && impl_->parallel) {
+    unsigned long long sizes[3] = {impl_->n_nodes, impl_->n_elements, impl_->segment_element.size()};
+    PetscCallMPI(MPI_Bcast(sizes, 3, MPI_UNSIGNED_LONG_LONG, 0, comm));
+    impl_->n_nodes    = sizes[0];
+    impl_->n_elements = sizes[1];
+    impl_->segment_element.resize(sizes[2]);
+    if (sizes[2] > 0) PetscCallMPI(MPI_Bcast(impl_->segment_element.data(), (int)sizes[2], MPI_INT, 0, comm));
+    impl_->segment_first.assign(impl_->n_elements + 1, 0);
+    for (const int e : impl_->segment_element) ++impl_->segment_first[e + 1];
+    for (hsize_t e = 0; e < impl_->n_elements; ++e) impl_->segment_first[e + 1] += impl_->segment_first[e];
+    status = RunCollective(comm_, [&] { return impl_->OpenParallel(); });
+  }
   if (status != PETSC_SUCCESS) {
     // A failed Open leaves nothing open, so the object can be opened again.
     delete impl_;
@@ -517,7 +774,37 @@ PetscErrorCode OutputFile::WriteFrame(const OutputFrame &frame)
 {
   PetscFunctionBeginUser;
   PetscCheck(impl_, PETSC_COMM_SELF, PETSC_ERR_ARG_WRONGSTATE, "WriteFrame: no output file is open");
-  PetscCall(RunOnRoot(comm_, [&] { return impl_->WriteFrame(frame); }));
+  if (!impl_->parallel) {
+    PetscCheck(!frame.distributed, PETSC_COMM_SELF, PETSC_ERR_SUP, "output file '%s': distributed frames need a parallel HDF5 build", path_.c_str());
+    PetscCall(RunOnRoot(comm_, [&] { return impl_->WriteFrame(frame); }));
+    PetscFunctionReturn(PETSC_SUCCESS);
+  }
+  // Rank 0's step, time and kind of frame; the velocities are present if any rank has them.
+  int    flags[2] = {frame.distributed ? 1 : 0, frame.velocity.empty() ? 0 : 1};
+  int    step     = frame.step;
+  double time     = frame.time;
+  PetscCallMPI(MPI_Bcast(flags, 2, MPI_INT, 0, comm_));
+  PetscCallMPI(MPI_Bcast(&step, 1, MPI_INT, 0, comm_));
+  PetscCallMPI(MPI_Bcast(&time, 1, MPI_DOUBLE, 0, comm_));
+  const bool       distributed    = flags[0] != 0;
+  int              has_velocities = flags[1];
+  std::vector<int> node_rows, element_rows;
+  if (distributed) {
+    const int mine = frame.velocity.empty() ? 0 : 1;
+    PetscCallMPI(MPI_Allreduce(&mine, &has_velocities, 1, MPI_INT, MPI_LOR, comm_));
+    node_rows    = frame.node_rows;
+    element_rows = frame.element_rows;
+  } else if (impl_->rank == 0) {
+    // Rank 0 holds the whole frame (CheckFrame reports arrays of other sizes).
+    for (hsize_t i = 0; i < impl_->n_nodes; ++i) node_rows.push_back((int)i);
+    for (hsize_t e = 0; e < impl_->n_elements; ++e) element_rows.push_back((int)e);
+  }
+  unsigned long long local[2] = {node_rows.size(), element_rows.size()}, total[2];
+  PetscCallMPI(MPI_Allreduce(local, total, 2, MPI_UNSIGNED_LONG_LONG, MPI_SUM, comm_));
+  PetscCall(RunCollective(comm_, [&] { return impl_->CheckFrame(frame, step, has_velocities, node_rows, element_rows, total[0], total[1]); }));
+  PetscCall(RunCollective(comm_, [&] { return impl_->WriteFrameRows(frame, step, time, has_velocities, node_rows, element_rows); }));
+  impl_->frames.push_back({step, time, has_velocities != 0});
+  PetscCall(RunOnRoot(comm_, [&] { return impl_->WriteXdmf(); }));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
@@ -525,7 +812,24 @@ PetscErrorCode OutputFile::AppendHistory(const std::vector<std::string> &names, 
 {
   PetscFunctionBeginUser;
   PetscCheck(impl_, PETSC_COMM_SELF, PETSC_ERR_ARG_WRONGSTATE, "AppendHistory: no output file is open");
-  PetscCall(RunOnRoot(comm_, [&] { return impl_->AppendHistory(names, values, probes); }));
+  if (!impl_->parallel) {
+    PetscCall(RunOnRoot(comm_, [&] { return impl_->AppendHistory(names, values, probes); }));
+    PetscFunctionReturn(PETSC_SUCCESS);
+  }
+  // Rank 0 checks its row; every rank then creates and extends the datasets under rank 0's names,
+  // and rank 0 alone selects the values in the collective writes.
+  PetscCall(RunOnRoot(comm_, [&] { return impl_->CheckHistory(names, values, probes); }));
+  std::vector<std::string> row_names = names, sample_names;
+  for (const ProbeSample &probe : probes) sample_names.push_back(probe.name);
+  PetscCall(BcastStrings(comm_, &row_names));
+  PetscCall(BcastStrings(comm_, &sample_names));
+  if (impl_->rank == 0) {
+    PetscCall(RunCollective(comm_, [&] { return impl_->WriteHistory(row_names, values, sample_names, probes); }));
+  } else {
+    const std::vector<double>      no_values(row_names.size(), 0.0);
+    const std::vector<ProbeSample> no_probes(sample_names.size());
+    PetscCall(RunCollective(comm_, [&] { return impl_->WriteHistory(row_names, no_values, sample_names, no_probes); }));
+  }
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
@@ -533,7 +837,7 @@ PetscErrorCode OutputFile::Close()
 {
   PetscFunctionBeginUser;
   if (!impl_) PetscFunctionReturn(PETSC_SUCCESS); // closing twice is harmless, as for files
-  const PetscErrorCode status = RunOnRoot(comm_, [&] { return impl_->Close(); });
+  const PetscErrorCode status = impl_->parallel ? RunCollective(comm_, [&] { return impl_->Close(); }) : RunOnRoot(comm_, [&] { return impl_->Close(); });
   delete impl_;
   impl_ = nullptr;
   PetscCall(status);

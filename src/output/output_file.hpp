@@ -1,9 +1,13 @@
 // The msflex HDF5 result file and its XDMF sidecar (layout: docs/output.md).
 //
-// All calls are collective over the communicator given to Open. In this version the solver
-// gathers global arrays to rank 0 and only rank 0 touches the file; the arrays passed on other
-// ranks are ignored (they may be empty). The file is flushed after every frame and history row,
-// so a killed run leaves a readable file holding every completed step.
+// All calls are collective over the communicator given to Open. With a parallel HDF5 build the
+// file is open on every rank (MPI-IO) and frames are written collectively: each rank writes the
+// node and element rows it holds (OutputFrame::distributed) or, for a frame that is not
+// distributed, rank 0 writes every row and the arrays passed on other ranks are ignored. The mesh,
+// /input, history and probes are taken from rank 0 (other ranks may pass empty arrays). With a
+// serial HDF5 build only rank 0 touches the file and frames must not be distributed. The file is
+// flushed after every frame and history row, so a killed run leaves a readable file holding every
+// completed step.
 #pragma once
 
 #include <petscsys.h>
@@ -38,6 +42,11 @@ struct OutputFrame {
   std::vector<double> element_strains;    // n_elements * 6: Gamma - Gamma0 (3), K - K0 (3), mean over Gauss points
   std::vector<double> velocity;           // dynamics only (else empty): n_nodes * 3
   std::vector<double> angular_velocity;   // dynamics only (else empty): n_nodes * 3, spatial (global axes)
+  // Distributed frame: the arrays above hold only this rank's rows, node_rows.size() node rows
+  // and element_rows.size() element rows, whose global indices (file rows) these are. Every row
+  // must be held by exactly one rank. The velocities are present when any rank has them.
+  bool                distributed = false;
+  std::vector<int>    node_rows, element_rows;
 };
 
 struct ProbeSample {

@@ -2,6 +2,8 @@
 
 #include "joints/joint_model.hpp"
 
+#include <H5pubconf.h>
+
 namespace msflex {
 
 void BuildOutputMesh(const Model &model, OutputMesh *mesh)
@@ -53,8 +55,50 @@ static void PackNodeRecord(const Model &model, int node, const NodeState &state,
   }
 }
 
-// Each rank fills the entries it owns in zeroed global arrays; a sum on rank 0 assembles them.
-// O(model size) per rank: adequate until the distributed output of large networks.
+// Appends one node record to the frame's per-node arrays (velocities only when requested).
+static void AppendNodeRecord(const double *in, bool with_velocities, OutputFrame *frame)
+{
+  frame->position.insert(frame->position.end(), in, in + 3);
+  frame->displacement.insert(frame->displacement.end(), in + 3, in + 6);
+  frame->rotation.insert(frame->rotation.end(), in + 6, in + 10);
+  if (with_velocities) {
+    frame->velocity.insert(frame->velocity.end(), in + 11, in + 14);
+    frame->angular_velocity.insert(frame->angular_velocity.end(), in + 14, in + 17);
+  }
+}
+
+#ifdef H5_HAVE_PARALLEL
+// Parallel HDF5: a distributed frame, each rank holding the rows of the nodes and elements it owns
+// (DofMap), which the output file writes collectively. No communication here.
+PetscErrorCode GatherFrame(MPI_Comm, const Model &model, const Assembler &assembler, const std::vector<ElementResults> &element_results, int step,
+                           double time, bool with_velocities, OutputFrame *frame)
+{
+  PetscFunctionBeginUser;
+  const DofMap                 &map   = assembler.Map();
+  const std::vector<NodeState> &nodes = assembler.LocalNodes();
+  *frame             = OutputFrame{};
+  frame->step        = step;
+  frame->time        = time;
+  frame->distributed = true;
+  for (PetscInt l = 0; l < map.num_owned_nodes; ++l) {
+    double in[kNodeRecordSize];
+    PackNodeRecord(model, map.local_nodes[l], nodes[l], in);
+    frame->node_rows.push_back(map.local_nodes[l]);
+    AppendNodeRecord(in, with_velocities, frame);
+  }
+  for (size_t k = 0; k < map.local_elements.size(); ++k) {
+    const ElementResults &r = element_results[k];
+    frame->element_rows.push_back(map.local_elements[k]);
+    for (int i = 0; i < 3; ++i) frame->element_strains.push_back(r.strain(i));
+    for (int i = 0; i < 3; ++i) frame->element_strains.push_back(r.curvature(i));
+    for (int i = 0; i < 3; ++i) frame->element_resultants.push_back(r.force(i));
+    for (int i = 0; i < 3; ++i) frame->element_resultants.push_back(r.moment(i));
+  }
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+#else
+// Serial HDF5: each rank fills the entries it owns in zeroed global arrays; a sum on rank 0
+// assembles them. O(model size) per rank.
 PetscErrorCode GatherFrame(MPI_Comm comm, const Model &model, const Assembler &assembler, const std::vector<ElementResults> &element_results, int step,
                            double time, bool with_velocities, OutputFrame *frame)
 {
@@ -88,13 +132,7 @@ PetscErrorCode GatherFrame(MPI_Comm comm, const Model &model, const Assembler &a
   if (rank != 0) PetscFunctionReturn(PETSC_SUCCESS);
   for (size_t i = 0; i < num_nodes; ++i) {
     const double *in = &node_sum[kNodeRecordSize * i];
-    frame->position.insert(frame->position.end(), in, in + 3);
-    frame->displacement.insert(frame->displacement.end(), in + 3, in + 6);
-    frame->rotation.insert(frame->rotation.end(), in + 6, in + 10);
-    if (with_velocities) {
-      frame->velocity.insert(frame->velocity.end(), in + 11, in + 14);
-      frame->angular_velocity.insert(frame->angular_velocity.end(), in + 14, in + 17);
-    }
+    AppendNodeRecord(in, with_velocities, frame);
   }
   for (size_t e = 0; e < num_elements; ++e) {
     const double *in = &element_sum[12 * e];
@@ -103,6 +141,7 @@ PetscErrorCode GatherFrame(MPI_Comm comm, const Model &model, const Assembler &a
   }
   PetscFunctionReturn(PETSC_SUCCESS);
 }
+#endif
 
 PetscErrorCode SampleProbes(MPI_Comm comm, const Model &model, const Assembler &assembler, std::vector<ProbeSample> *samples)
 {

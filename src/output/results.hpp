@@ -1,5 +1,5 @@
 // From the distributed solver state to the arrays the output file takes: the mesh, frames
-// gathered on rank 0, and probe samples.
+// (distributed, or gathered on rank 0 with serial HDF5), and probe samples.
 #pragma once
 
 #include "assembly/assembler.hpp"
@@ -9,8 +9,9 @@ namespace msflex {
 
 void BuildOutputMesh(const Model &model, OutputMesh *mesh);
 
-// Node and element results of the whole model on rank 0 (other ranks get empty arrays), with the
-// nodal velocities when asked (dynamics). Collective.
+// Node and element results with the nodal velocities when asked (dynamics). Parallel HDF5: a
+// distributed frame, each rank holding its owned nodes and elements. Serial HDF5: the whole model
+// on rank 0 (other ranks get empty arrays). Collective.
 PetscErrorCode GatherFrame(MPI_Comm comm, const Model &model, const Assembler &assembler, const std::vector<ElementResults> &element_results, int step,
                            double time, bool with_velocities, OutputFrame *frame);
 
