@@ -15,8 +15,6 @@ static const char help[] = "msflex: flexible mechanisms of geometrically exact b
 
 #include <petscsys.h>
 
-#include <cstring>
-
 using namespace msflex;
 
 // Reads the model on every rank (the model is replicated until distributed input arrives) and

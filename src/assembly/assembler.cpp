@@ -110,14 +110,17 @@ PetscErrorCode Assembler::Setup(MPI_Comm comm, const Model &model, const DofMap 
   for (size_t e = 0; e < model.elements.size(); ++e) {
     const BeamElement &element = model.elements[e];
     if (model.sections[element.section].rhoJ.isZero(0.0)) continue;
-    BeamElementReference ref;
-    bool                 setup_done = false;
+    // A local element's reference data is already there; others are set up on first use.
+    BeamElementReference        other_ref;
+    const BeamElementReference *ref = map.element_to_local[e] >= 0 ? &element_references_[map.element_to_local[e]] : nullptr;
     for (int a = 0; a <= element.order; ++a) {
       const int l = map.node_to_local[element.nodes[a]];
       if (l < 0 || l >= map.num_owned_nodes) continue;
-      if (!setup_done) PetscCall(setup_element((int)e, &ref));
-      setup_done = true;
-      node_inertia_[l] += LumpedRotaryInertia(ref, element, model.sections[element.section], a);
+      if (!ref) {
+        PetscCall(setup_element((int)e, &other_ref));
+        ref = &other_ref;
+      }
+      node_inertia_[l] += LumpedRotaryInertia(*ref, element, model.sections[element.section], a);
     }
   }
   has_translational_mass_.assign(nodes_.size(), 0);
@@ -291,12 +294,6 @@ PetscErrorCode Assembler::CreateCsrDestinations()
   const DofMap &map = *map_;
   PetscBool     is_seq, is_mpi;
   PetscFunctionBeginUser;
-  const std::vector<double> zeros(kBeamMaxDofs * kBeamMaxDofs, 0.0);
-  for (int e : map.local_elements) {
-    PetscInt  indices[kBeamMaxDofs];
-    const int nd = ElementIndices(model_->elements[e], map, indices);
-    PetscCall(MatSetValues(jacobian_, nd, indices, nd, indices, zeros.data(), ADD_VALUES));
-  }
   // Nodal blocks (inertia, follower loads, rigid bodies, joints' geometric stiffness), also of
   // nodes that carry no element, and the couplings that slave nodes create.
   std::vector<double> more_zeros;
@@ -305,8 +302,10 @@ PetscErrorCode Assembler::CreateCsrDestinations()
     more_zeros.assign(unknowns.size() * unknowns.size(), 0.0);
     PetscCall(MatSetValues(jacobian_, (PetscInt)unknowns.size(), unknowns.data(), (PetscInt)unknowns.size(), unknowns.data(), more_zeros.data(), ADD_VALUES));
   }
+  // Every element couples the unknowns of all its nodes (for independent nodes, its own DOFs).
+  std::vector<PetscInt> coupled;
   for (int e : map.local_elements) {
-    std::vector<PetscInt> coupled;
+    coupled.clear();
     for (int a = 0; a <= model_->elements[e].order; ++a)
       coupled.insert(coupled.end(), map.node_unknowns[model_->elements[e].nodes[a]].begin(), map.node_unknowns[model_->elements[e].nodes[a]].end());
     more_zeros.assign(coupled.size() * coupled.size(), 0.0);
@@ -437,12 +436,10 @@ PetscErrorCode Assembler::ComputeLoads(double t_start, double t_end)
   const DofMap &map   = *map_;
   const double  w0 = load_weight_start_, w1 = load_weight_end_;
   std::fill(element_line_load_.begin(), element_line_load_.end(), Vec3::Zero());
-  std::vector<int> element_to_local(model.elements.size(), -1);
-  for (size_t k = 0; k < map.local_elements.size(); ++k) element_to_local[map.local_elements[k]] = (int)k;
   for (const DistributedLoad &load : model.distributed_loads) {
     const double factor = w0 * FunctionValue(load.function, t_start) + w1 * FunctionValue(load.function, t_end);
     for (int e : load.elements) {
-      const int k = element_to_local[e];
+      const int k = map.element_to_local[e];
       if (k < 0) continue;
       const double scale = load.gravity ? model.sections[model.elements[e].section].rhoA : 1.0;
       element_line_load_[k] += factor * scale * load.force_per_length;
@@ -607,10 +604,9 @@ PetscErrorCode Assembler::ElementForces(size_t k, double *force, double *correct
       *correction_work += u.dot(Vec3(&correction[6 * a])) + alpha.dot(Vec3(&correction[6 * a + 3]));
     }
     *work_mismatch = (energy_end - energy_start) - work;
-  } else if (mode_ == Mode::InitialAcceleration) {
-    // The internal forces at the start state balance inertia and loads.
-    if (BeamInternalForces(ref, section_stiffness_[element.section], positions, triads, force, nullptr, nullptr, nullptr) != BeamKernelStatus::Ok) *ok = PETSC_FALSE;
   } else {
+    // In the initial-acceleration problem the configuration is the start state, whose internal
+    // forces balance inertia and loads.
     if (BeamInternalForces(ref, section_stiffness_[element.section], positions, triads, force, nullptr, nullptr, nullptr) != BeamKernelStatus::Ok) *ok = PETSC_FALSE;
   }
   if (!*ok) PetscFunctionReturn(PETSC_SUCCESS);
@@ -719,13 +715,13 @@ PetscErrorCode Assembler::AssembleResidual(Vec residual, PetscBool *geometry_ok)
   prescribed_work_ = 0.0;
   auto add_node_vector = [&](int node, const double *r) -> PetscErrorCode {
     PetscFunctionBeginUser;
-    const NodeState &s = nodes_[map.node_to_local[node]];
+    const int        l = map.node_to_local[node];
+    const NodeState &s = nodes_[l];
     for (int d = 0; d < 6; ++d) {
       local_force_squares_ += r[d] * r[d];
       if (map.constraints[node][d].kind == Support::Kind::Prescribed)
         prescribed_work_ += r[d] * (d < 3 ? s.displacement_increment(d) : s.tangent_scaled_increment(d - 3));
     }
-    const int l = map.node_to_local[node];
     if (node_local_joint_[l] >= 0) slave_residual_[l] += Eigen::Map<const Vec6>(r);
     PetscCall(AddNodeVector(residual, l, r));
     PetscFunctionReturn(PETSC_SUCCESS);
@@ -818,6 +814,15 @@ PetscErrorCode Assembler::AssembleJacobian(Mat jacobian, PetscBool *geometry_ok)
     PetscCall(MatSeqAIJGetArray(diagonal_block_, &diagonal_values));
     if (off_diagonal_block_) PetscCall(MatSeqAIJGetArray(off_diagonal_block_, &off_diagonal_values));
   }
+  // Consistent translational mass of local element k into its (6n x 6n) matrix K.
+  auto add_consistent_mass = [&](size_t k, const BeamElement &element, double *K) {
+    const double rhoA = model.sections[element.section].rhoA;
+    if (mass_weight == 0.0 || !(rhoA > 0.0)) return;
+    const int n = element.order + 1, nd = 6 * n;
+    for (int a = 0; a < n; ++a)
+      for (int b = 0; b < n; ++b)
+        for (int i = 0; i < 3; ++i) K[(6 * a + i) * nd + 6 * b + i] += mass_weight * rhoA * element_references_[k].mass_shape[a][b];
+  };
   for (Vec6 &g : slave_residual_) g.setZero();
   std::vector<size_t> elements_with_slaves;
   for (size_t k = 0; k < map.local_elements.size(); ++k) {
@@ -854,11 +859,7 @@ PetscErrorCode Assembler::AssembleJacobian(Mat jacobian, PetscBool *geometry_ok)
           for (int j = 0; j < 3; ++j) K[i * nd + 6 * b + j] *= stiffness_weight;
       }
     }
-    const double rhoA = model.sections[element.section].rhoA;
-    if (mass_weight != 0.0 && rhoA > 0.0)
-      for (int a = 0; a < n; ++a)
-        for (int b = 0; b < n; ++b)
-          for (int i = 0; i < 3; ++i) K[(6 * a + i) * nd + 6 * b + i] += mass_weight * rhoA * element_references_[k].mass_shape[a][b];
+    add_consistent_mass(k, element, K);
     ElementIndices(element, map, indices);
     PetscCall(AddElementMatrix(k, indices, nd, K, diagonal_values, off_diagonal_values));
   }
@@ -887,11 +888,7 @@ PetscErrorCode Assembler::AssembleJacobian(Mat jacobian, PetscBool *geometry_ok)
       *geometry_ok = PETSC_FALSE;
       continue;
     }
-    const double rhoA = model.sections[element.section].rhoA;
-    if (mass_weight != 0.0 && rhoA > 0.0)
-      for (int a = 0; a < n; ++a)
-        for (int b = 0; b < n; ++b)
-          for (int i = 0; i < 3; ++i) K[(6 * a + i) * nd + 6 * b + i] += mass_weight * rhoA * element_references_[k].mass_shape[a][b];
+    add_consistent_mass(k, element, K);
     for (int a = 0; a < n; ++a) {
       const int l = map.node_to_local[element.nodes[a]];
       if (node_local_joint_[l] >= 0) slave_residual_[l] += Eigen::Map<const Vec6>(&g[6 * a]);
@@ -944,8 +941,7 @@ PetscErrorCode Assembler::CommitStep()
     const int nt = J.geometry.num_translations;
     if (J.geometry.rotation == JointRotation::Free) {
       J.start.free_rotation_start = ExpSO3(Vec3(J.increment[nt], J.increment[nt + 1], J.increment[nt + 2])) * J.start.free_rotation_start;
-      for (int c = 0; c < kJointMaxReleased; ++c)
-        if (c < nt) J.start.q[c] += J.increment[c];
+      for (int c = 0; c < nt; ++c) J.start.q[c] += J.increment[c];
     } else {
       for (int c = 0; c < kJointMaxReleased; ++c) J.start.q[c] += J.increment[c];
     }

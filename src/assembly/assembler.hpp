@@ -182,6 +182,7 @@ private:
   std::vector<Vec6>                 joint_reaction_;     // every joint: force and moment on the slave (after EvaluateJointReactions)
   std::vector<std::array<double, kJointMaxReleased>> joint_rate_; // every joint: mean rates of the released coordinates over the last step
   std::vector<double>               expansion_scratch_;  // work space for expanded blocks
+  std::vector<PetscInt>             expanded_indices_scratch_; // work space: an expanded element's unknowns
   // Per local node: whether its translations / rotations carry mass. In the initial-acceleration
   // problem a massless group gets zero acceleration instead of a singular equation.
   std::vector<char> has_translational_mass_, has_rotary_inertia_;

@@ -180,8 +180,9 @@ PetscErrorCode Assembler::AddExpandedElementMatrix(Mat jacobian, const BeamEleme
   double    scratch_rows[kBeamMaxNodes][36], scratch_columns[kBeamMaxNodes][36];
   const double *rows[kBeamMaxNodes], *columns[kBeamMaxNodes];
   int           offset[kBeamMaxNodes + 1] = {0};
-  std::vector<PetscInt> indices;
+  std::vector<PetscInt> &indices = expanded_indices_scratch_;
   PetscFunctionBeginUser;
+  indices.clear();
   for (int a = 0; a < n; ++a) {
     const int l = map_->node_to_local[element.nodes[a]];
     NodeExpansion(l, &rows[a], &columns[a], scratch_rows[a], scratch_columns[a]);

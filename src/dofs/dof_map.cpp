@@ -115,9 +115,11 @@ PetscErrorCode DofMapCreate(MPI_Comm comm, const Model &model, const std::vector
     if (node_rank[i] == rank) add_local((int)i);
   map->num_owned_nodes = (PetscInt)map->local_nodes.size();
   map->local_elements.clear();
+  map->element_to_local.assign(model.elements.size(), -1);
   for (size_t e = 0; e < model.elements.size(); ++e) {
     const BeamElement &element = model.elements[e];
     if (node_rank[element.nodes[0]] != rank) continue;
+    map->element_to_local[e] = (int)map->local_elements.size();
     map->local_elements.push_back((int)e);
     for (int a = 0; a < element.order + 1; ++a) add_local(element.nodes[a]);
   }

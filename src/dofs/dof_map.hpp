@@ -37,6 +37,7 @@ struct DofMap {
   PetscInt         num_owned_nodes = 0;
   std::vector<int> node_to_local;   // every node: index into local_nodes, or -1
   std::vector<int> local_elements;  // elements assembled here: those whose first node is owned
+  std::vector<int> element_to_local; // every element: index into local_elements, or -1
 
   std::vector<int> node_joint;  // every node: the joint whose slave it is, or -1
   std::vector<int> joint_rank;  // every joint: owning rank (that of its slave node)

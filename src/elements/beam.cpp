@@ -68,12 +68,14 @@ using NodalMatrix = Eigen::Matrix<double, 6 * NN, 6 * NN, Eigen::RowMajor>;
 //   local gradient   g_rho_a = wJ I'_a E N,   g_psi_a = wJ [I_a (A^T N + B^T M) + I'_a H M]
 //   material blocks  d(Gamma, K)/d(rho_a, psi_a) = [[I'_a E^T, I_a A], [0, I_a B + I'_a H^T]]
 //   geometric blocks (rho_a, psi_b): I'_a I_b P;  (psi_a, psi_b): I_a I_b (Sg + Sk) + I'_a I_b Q + I_a I'_b Q^T
+// with P = d(E N)/dPsi, Q = d(H M)/dPsi. The sums shared by every (a, b) pair are formed once per point.
 struct GaussProducts {
   double wJ;
   Vec3   EN, AN_BM, HM;                // E N, A^T N + B^T M, H M
-  Mat3   ECE, ECA, ACA;                // E C_N E^T, E C_N A, A^T C_N A
-  Mat3   BCB, BCH, HCH;                // B^T C_M B, B^T C_M H^T, H C_M H^T
-  Mat3   P, Q, S;                      // d(E N)/dPsi, d(H M)/dPsi, Sg + Sk
+  Mat3   ECE, HCH;                     // E C_N E^T, H C_M H^T
+  Mat3   ECA_P;                        // E C_N A + P
+  Mat3   ACA_BCB_S;                    // A^T C_N A + B^T C_M B + Sg + Sk
+  Mat3   BCH_QT;                       // B^T C_M H^T + Q^T
 };
 
 template <int NN>
@@ -129,15 +131,14 @@ BeamKernelStatus InternalForces(const BeamElementReference &ref, const BeamSecti
     if (!want_tangent) continue;
     const Mat3 ECN = E * CN.asDiagonal(), ACN = A.transpose() * CN.asDiagonal();
     const Mat3 BCM = B.transpose() * CM.asDiagonal(), HCM = H * CM.asDiagonal();
-    G.ECE = ECN * E.transpose();
-    G.ECA = ECN * A;
-    G.ACA = ACN * A;
-    G.BCB = BCM * B;
-    G.BCH = BCM * H.transpose();
-    G.HCH = HCM * H.transpose();
-    G.P   = RodriguesApplyJacobian(Fe, Psi, N);
-    G.Q   = RodriguesApplyJacobian(Fh, Psi, M);
-    G.S   = RodriguesTransposeApplyHessian(Fe, Psi, drho, N) + RodriguesTransposeApplyHessian(Fh, Psi, dPsi, M);
+    const Mat3 ECA = ECN * A, ACA = ACN * A, BCB = BCM * B, BCH = BCM * H.transpose();
+    const Mat3 P = RodriguesApplyJacobian(Fe, Psi, N), Q = RodriguesApplyJacobian(Fh, Psi, M);
+    const Mat3 S = RodriguesTransposeApplyHessian(Fe, Psi, drho, N) + RodriguesTransposeApplyHessian(Fh, Psi, dPsi, M);
+    G.ECE       = ECN * E.transpose();
+    G.HCH       = HCM * H.transpose();
+    G.ECA_P     = ECA + P;
+    G.ACA_BCB_S = ACA + BCB + S;
+    G.BCH_QT    = BCH + Q.transpose();
   }
   if (energy_out) *energy_out = energy;
 
@@ -148,14 +149,15 @@ BeamKernelStatus InternalForces(const BeamElementReference &ref, const BeamSecti
   const Mat3     LT = L.transpose();
   Mat3           Pm[NN], Mm[NN];
   RodriguesForm  Finv[NN];
+  Vec3           fa[NN], ma[NN]; // nodal force L g_rho_a and moment P_a^T g_psi_a
   Eigen::Map<Eigen::Matrix<double, 6 * NN, 1>> residual(residual_out);
   residual.setZero();
   for (int a : others) {
     Finv[a]      = TangentInverseForm(EvaluateRotationSeries(psi[a].squaredNorm()));
     Pm[a]        = RodriguesMatrix(Finv[a], psi[a]) * LT;
     Mm[a]        = LT * Skew(positions[a] - positions[c]);
-    const Vec3 f = L * g_rho[a];
-    const Vec3 m = Pm[a].transpose() * g_psi[a];
+    const Vec3 &f = fa[a] = L * g_rho[a];
+    const Vec3 &m = ma[a] = Pm[a].transpose() * g_psi[a];
     residual.template segment<3>(6 * a) += f;
     residual.template segment<3>(6 * a + 3) += m;
     residual.template segment<3>(6 * c) -= f;
@@ -174,10 +176,9 @@ BeamKernelStatus InternalForces(const BeamElementReference &ref, const BeamSecti
         const double        *I  = ref.shape[gp];
         const double        *dI = ref.shape_derivative[gp];
         Krr += (G.wJ * dI[a] * dI[b]) * G.ECE;
-        Krp += (G.wJ * dI[a] * I[b]) * (G.ECA + G.P);
-        Kpr += (G.wJ * I[a] * dI[b]) * (G.ECA + G.P).transpose();
-        Kpp += G.wJ * (I[a] * I[b] * (G.ACA + G.BCB + G.S) + I[a] * dI[b] * (G.BCH + G.Q.transpose()) + dI[a] * I[b] * (G.BCH.transpose() + G.Q) +
-                       dI[a] * dI[b] * G.HCH);
+        Krp += (G.wJ * dI[a] * I[b]) * G.ECA_P;
+        Kpr += (G.wJ * I[a] * dI[b]) * G.ECA_P.transpose();
+        Kpp += G.wJ * (I[a] * I[b] * G.ACA_BCB_S + I[a] * dI[b] * G.BCH_QT + dI[a] * I[b] * G.BCH_QT.transpose() + dI[a] * dI[b] * G.HCH);
       }
       const Mat3 PaT = Pm[a].transpose();
       const Mat3 LKrr = L * Krr, LKrp = L * Krp, PKpr = PaT * Kpr, PKpp = PaT * Kpp;
@@ -197,8 +198,7 @@ BeamKernelStatus InternalForces(const BeamElementReference &ref, const BeamSecti
   // Terms from the configuration dependence of the map at fixed local gradient g:
   //   f_a = L g_rho_a, m_a = P_a^T g_psi_a, G_a = L d(Hinv^T g_psi)/dpsi P_a.
   for (int a : others) {
-    const Vec3 f  = L * g_rho[a];
-    const Vec3 m  = Pm[a].transpose() * g_psi[a];
+    const Vec3 &f = fa[a], &m = ma[a];
     const Mat3 Ga = L * RodriguesTransposeApplyJacobian(Finv[a], psi[a], g_psi[a]) * Pm[a];
     const Vec3 d  = positions[a] - positions[c];
     const Mat3 hf = Skew(f), hm = Skew(m);
@@ -318,14 +318,11 @@ BeamKernelStatus BeamElementSetup(int num_nodes, const Vec3 *reference_positions
     const double jacobian = dX_dxi.norm();
     if (jacobian < 1e-12 * extent) return BeamKernelStatus::DegenerateGeometry;
     ref->weight_jacobian[gp] = gauss_weight[num_nodes - 2][gp] * jacobian;
-    Vec3 Psi = Vec3::Zero(), dPsi = Vec3::Zero(), drho = Vec3::Zero();
     for (int a = 0; a < num_nodes; ++a) {
       ref->shape[gp][a]            = I[a];
       ref->shape_derivative[gp][a] = dI_dxi[a] / jacobian;
-      Psi += I[a] * psi[a];
-      dPsi += ref->shape_derivative[gp][a] * psi[a];
-      drho += ref->shape_derivative[gp][a] * rho[a];
     }
+    const auto [Psi, dPsi, drho] = InterpolateAtGauss(*ref, gp, rho, psi);
     ref->strain0[gp]    = ExpSO3(Psi).transpose() * drho;
     ref->curvature0[gp] = TangentH(Psi).transpose() * dPsi;
   }

@@ -78,8 +78,7 @@ PetscErrorCode Setup(Analysis &a)
   PetscCall(DofMapCreate(a.comm, a.model, node_rank, &a.map));
   PetscCall(a.assembler.Setup(a.comm, a.model, a.map));
   a.newton_context.assembler = &a.assembler;
-  const bool midpoint        = a.dynamic && (a.scheme_kind == TimeSchemeKind::MomentumConserving || a.scheme_kind == TimeSchemeKind::EnergyMomentum);
-  PetscCall(NewtonSolverCreate(a.comm, a.model.analysis, midpoint, &a.newton_context, &a.snes));
+  PetscCall(NewtonSolverCreate(a.comm, a.model.analysis, a.dynamic && IsMidpointScheme(a.scheme_kind), &a.newton_context, &a.snes));
   PetscCall(VecDuplicate(a.assembler.SolutionTemplate(), &a.increments));
   OutputMesh mesh;
   BuildOutputMesh(a.model, &mesh);
@@ -95,7 +94,7 @@ PetscErrorCode InitialiseMotion(Analysis &a)
 {
   PetscFunctionBeginUser;
   PetscCall(a.assembler.SetInitialVelocities(0.0));
-  if (a.scheme_kind == TimeSchemeKind::MomentumConserving || a.scheme_kind == TimeSchemeKind::EnergyMomentum) PetscFunctionReturn(PETSC_SUCCESS);
+  if (IsMidpointScheme(a.scheme_kind)) PetscFunctionReturn(PETSC_SUCCESS);
   SNESConvergedReason reason;
   PetscCall(a.assembler.BeginInitialAcceleration(0.0));
   PetscCall(VecZeroEntries(a.increments));
@@ -108,7 +107,8 @@ PetscErrorCode InitialiseMotion(Analysis &a)
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
-PetscErrorCode WriteHistory(Analysis &a, const StepRecord &record, double strain_energy)
+// *kinetic_energy: from the dynamics diagnostics of the row (0 in statics).
+PetscErrorCode WriteHistory(Analysis &a, const StepRecord &record, double strain_energy, double *kinetic_energy)
 {
   std::vector<ProbeSample> probes;
   PetscFunctionBeginUser;
@@ -118,6 +118,7 @@ PetscErrorCode WriteHistory(Analysis &a, const StepRecord &record, double strain
   if (a.dynamic) {
     DynamicsDiagnostics d;
     PetscCall(a.assembler.EvaluateDynamics(&d));
+    *kinetic_energy    = d.kinetic_energy;
     const double total = d.kinetic_energy + strain_energy;
     names.insert(names.end(), {"kinetic_energy", "total_energy", "external_work", "energy_balance", "linear_momentum_x", "linear_momentum_y", "linear_momentum_z",
                                "angular_momentum_x", "angular_momentum_y", "angular_momentum_z", "energy_correction"});
@@ -150,7 +151,7 @@ PetscErrorCode WriteFrame(Analysis &a, int step, double time, double *strain_ene
 // The state after a converged step: frame (when due), history row, progress line.
 PetscErrorCode RecordStep(Analysis &a, const StepRecord &record, bool write_frame)
 {
-  double strain_energy = 0.0;
+  double strain_energy = 0.0, kinetic_energy = 0.0;
   PetscFunctionBeginUser;
   PetscCall(PetscLogStagePush(a.stage_output));
   if (write_frame) PetscCall(WriteFrame(a, record.step, record.time, &strain_energy));
@@ -158,14 +159,12 @@ PetscErrorCode RecordStep(Analysis &a, const StepRecord &record, bool write_fram
     std::vector<ElementResults> unused;
     PetscCall(a.assembler.EvaluateResults(&unused, &strain_energy));
   }
-  PetscCall(WriteHistory(a, record, strain_energy));
+  PetscCall(WriteHistory(a, record, strain_energy, &kinetic_energy));
   PetscCall(PetscLogStagePop());
   if (!a.options.quiet && record.step > 0) {
     if (a.dynamic) {
-      DynamicsDiagnostics d;
-      PetscCall(a.assembler.EvaluateDynamics(&d));
       PetscCall(PetscPrintf(a.comm, "step %6d  t = %-11.6g dt = %-10.4g newton %2d  |R| = %.3e  energy = %.10e\n", record.step, record.time, record.step_size,
-                            record.newton_iterations, record.residual_norm, d.kinetic_energy + strain_energy));
+                            record.newton_iterations, record.residual_norm, kinetic_energy + strain_energy));
     } else {
       PetscCall(PetscPrintf(a.comm, "step %5d  t = %-12.6g dt = %-10.4g newton %2d  |R| = %.3e  strain energy = %.6e\n", record.step, record.time,
                             record.step_size, record.newton_iterations, record.residual_norm, strain_energy));

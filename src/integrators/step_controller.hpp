@@ -23,7 +23,6 @@ public:
   void Accept(double dt, int iterations);
   // A failed attempt of size dt: halves it. Returns false when the halved step is below min_step.
   bool Reject(double dt);
-  double NominalStep() const { return step_; }
 
 private:
   StepControllerSettings settings_;

@@ -27,12 +27,18 @@ namespace msflex {
 
 enum class TimeSchemeKind { Newmark, GeneralizedAlpha, MomentumConserving, EnergyMomentum };
 
+// mc and em: the mid-point family (see above).
+inline bool IsMidpointScheme(TimeSchemeKind kind)
+{
+  return kind == TimeSchemeKind::MomentumConserving || kind == TimeSchemeKind::EnergyMomentum;
+}
+
 struct TimeScheme {
   TimeSchemeKind kind = TimeSchemeKind::Newmark;
   double         dt   = 0.0;
   double         beta = 0.25, gamma = 0.5, alpha_m = 0.0, alpha_f = 0.0; // Newmark family only
 
-  bool Midpoint() const { return kind == TimeSchemeKind::MomentumConserving || kind == TimeSchemeKind::EnergyMomentum; }
+  bool Midpoint() const { return IsMidpointScheme(kind); }
   // d(inertial acceleration)/d(increment): vdot_{n+1} for the Newmark family, (v_{n+1} - v_n)/dt
   // for the mid-point family.
   double InertiaCoefficient() const;

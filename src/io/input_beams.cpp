@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <utility>
 
 namespace msflex::input_detail {
 
@@ -130,10 +131,12 @@ BeamLayout ReadLayout(const MappingReader &beam)
   return layout;
 }
 
-// Nodes equally spaced in arc length (the end nodes are the named ones), then the elements.
-void AppendNodesAndElements(const ReferenceCurve &curve, const BeamLayout &layout, int from, int to, Beam &beam, ReaderContext &context)
+// Nodes equally spaced in arc length (the end nodes are the named ones), then the elements; then
+// appends the beam to Model::beams.
+void AppendNodesAndElements(const ReferenceCurve &curve, const BeamLayout &layout, int from, int to, Beam beam, ReaderContext &context)
 {
   Model            &model      = context.model;
+  beam.order                   = layout.order;
   const int         beam_index = static_cast<int>(model.beams.size());
   const int         segments   = layout.elements * layout.order;
   std::vector<Mat3> triads;
@@ -166,6 +169,7 @@ void AppendNodesAndElements(const ReferenceCurve &curve, const BeamLayout &layou
     beam.elements.push_back(static_cast<int>(model.elements.size()));
     model.elements.push_back(element);
   }
+  model.beams.push_back(std::move(beam));
 }
 
 void ReadBeam(const YAML::Node &item, ReaderContext &context)
@@ -188,14 +192,12 @@ void ReadBeam(const YAML::Node &item, ReaderContext &context)
     FailAt(entry.Required("to").Mark(), entry.Description() + " has zero length: nodes " + Quote(model.nodes[from].name) + " and " +
                                             Quote(model.nodes[to].name) + " are at the same position");
   const BeamLayout layout = ReadLayout(entry);
-  beam.order              = layout.order;
   if (const YAML::Node *arc = entry.Find("arc")) {
     // On an arc t2 is fixed by the geometry (towards the centre); `roll` rotates it instead.
     if (const YAML::Node *orientation = entry.Find("orientation"))
       FailAt(orientation->Mark(), "'orientation' cannot be combined with 'arc' in " + entry.Description() +
                                       " (on an arc t2 points to the centre; use 'roll' to turn the section)");
-    AppendNodesAndElements(ArcCurve(*arc, entry, start, end), layout, from, to, beam, context);
-    model.beams.push_back(std::move(beam));
+    AppendNodesAndElements(ArcCurve(*arc, entry, start, end), layout, from, to, std::move(beam), context);
   } else {
     AppendStraightBeam(std::move(beam), from, to, ReadLineOrientation(entry, start, end), layout, context);
   }
@@ -220,11 +222,9 @@ bool OrientationAlongAxis(const Vec3 &orientation, const Vec3 &start, const Vec3
 
 void AppendStraightBeam(Beam beam, int from, int to, const Vec3 &orientation, const BeamLayout &layout, ReaderContext &context)
 {
-  Model &model = context.model;
-  beam.order   = layout.order;
-  AppendNodesAndElements(StraightCurve(model.nodes[from].position, model.nodes[to].position, orientation), layout, from, to, beam,
-                         context);
-  model.beams.push_back(std::move(beam));
+  const Model &model = context.model;
+  AppendNodesAndElements(StraightCurve(model.nodes[from].position, model.nodes[to].position, orientation), layout, from, to,
+                         std::move(beam), context);
 }
 
 void ReadBeams(const YAML::Node &beams, ReaderContext &context)

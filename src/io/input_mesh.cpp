@@ -158,8 +158,7 @@ public:
     if (H5Tis_variable_str(file_type.Get()) > 0) {
       H5Tset_size(memory_type.Get(), H5T_VARIABLE);
       std::vector<char *> pointers(strings.size(), nullptr);
-      if (H5Dread(dataset.id.Get(), memory_type.Get(), H5S_ALL, H5S_ALL, H5P_DEFAULT, pointers.data()) < 0)
-        Fail(path, "cannot read the dataset");
+      Read(dataset, path, memory_type.Get(), pointers.data(), pointers.size());
       for (size_t row = 0; row < strings.size(); ++row)
         if (pointers[row] != nullptr) strings[row] = pointers[row];
       const Handle space(H5Dget_space(dataset.id.Get()), H5Sclose);
@@ -173,8 +172,7 @@ public:
       H5Tset_size(memory_type.Get(), size);
       H5Tset_strpad(memory_type.Get(), H5T_STR_NULLPAD);
       std::vector<char> buffer(size * strings.size(), '\0');
-      if (H5Dread(dataset.id.Get(), memory_type.Get(), H5S_ALL, H5S_ALL, H5P_DEFAULT, buffer.data()) < 0)
-        Fail(path, "cannot read the dataset");
+      Read(dataset, path, memory_type.Get(), buffer.data(), strings.size());
       for (size_t row = 0; row < strings.size(); ++row) {
         const char *start = buffer.data() + row * size;
         size_t      length = 0;

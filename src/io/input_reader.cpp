@@ -6,6 +6,7 @@
 
 #include "io/input_reader_internal.hpp"
 #include "io/input_yaml_util.hpp"
+#include "integrators/time_scheme.hpp"
 
 #include <algorithm>
 #include <array>
@@ -474,7 +475,7 @@ void ReadAnalysis(const YAML::Node *mapping, const ReaderContext &context, Analy
     FailAt(entry.Required("type").Mark(), "unknown analysis type " + Quote(analysis.type) + "; expected static or dynamic");
   // Accepted (and ignored) in static analyses too, so one file can switch by `type` alone.
   analysis.integrator = entry.String("integrator", analysis.integrator);
-  if (analysis.integrator != "newmark" && analysis.integrator != "mc" && analysis.integrator != "em" && analysis.integrator != "genalpha")
+  if (TimeSchemeKind kind; !TimeSchemeKindFromName(analysis.integrator, &kind))
     FailAt(entry.Required("integrator").Mark(),
            "unknown integrator " + Quote(analysis.integrator) + " in 'analysis'; expected one of newmark, mc, em, genalpha");
   analysis.spectral_radius = entry.Number("spectral_radius", analysis.spectral_radius);

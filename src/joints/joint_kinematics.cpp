@@ -193,9 +193,9 @@ void JointGeometricStiffness(const JointGeometry &joint, const JointCoordinates 
   // Rows q, columns q: d(B^T v_f)/dq (the dependent translation) + d(Omega^T v_m)/dq.
   if (joint.dependence != JointDependence::None) (*G)(6 + nt, 6 + nt) += ddf * joint.axes.col(joint.dependent_axis).dot(vf);
   if (joint.rotation == JointRotation::TwoAxes) {
-    const Vec3 ai = joint.axes.col(joint.rotation_axis[0]), aj = joint.axes.col(joint.rotation_axis[1]);
+    const Vec3 ai = joint.axes.col(joint.rotation_axis[0]), Omega2 = Omega.col(nt + 1);
     // Omega_2 = exp(phi1 hat(a_i)) a_j:  d(Omega_2 . v)/dphi1 = (a_i x Omega_2) . v
-    (*G)(6 + nt + 1, 6 + nt) += ai.cross(ExpSO3(q.q[nt] * ai) * aj).dot(vm);
+    (*G)(6 + nt + 1, 6 + nt) += ai.cross(Omega2).dot(vm);
   } else if (joint.rotation == JointRotation::Free) {
     const Vec3 w(q.q[nt], q.q[nt + 1], q.q[nt + 2]);
     G->block<3, 3>(6 + nt, 6 + nt) += RodriguesTransposeApplyJacobian(TangentForm(EvaluateRotationSeries(w.squaredNorm())), w, vm);

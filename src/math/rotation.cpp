@@ -95,16 +95,13 @@ Mat3 RodriguesTransposeApplyJacobian(const RodriguesForm &f, const Vec3 &psi, co
   return J;
 }
 
-// F a = a + alpha psi x a + beta psi x (psi x a): the sign of the alpha terms flips.
+// F a = a + alpha psi x a + beta psi x (psi x a) is F^T a with the sign of alpha (and alpha_x) flipped.
 Mat3 RodriguesApplyJacobian(const RodriguesForm &f, const Vec3 &psi, const Vec3 &a)
 {
-  const Vec3   pxa  = psi.cross(a);
-  const Vec3   pxpa = psi.cross(pxa);
-  const double pa   = psi.dot(a);
-  Mat3         J    = -f.alpha * Skew(a) + 2.0 * f.alpha_x * pxa * psi.transpose();
-  J += f.beta * (pa * Mat3::Identity() + psi * a.transpose() - 2.0 * a * psi.transpose());
-  J += 2.0 * f.beta_x * pxpa * psi.transpose();
-  return J;
+  RodriguesForm flipped = f;
+  flipped.alpha         = -f.alpha;
+  flipped.alpha_x       = -f.alpha_x;
+  return RodriguesTransposeApplyJacobian(flipped, psi, a);
 }
 
 // f(psi) = m.F^T a = m.a - alpha(x) psi.c + beta(x) g(psi),  c = a x m,
@@ -248,8 +245,6 @@ Quaternion QuaternionNormalize(const Quaternion &q)
   const double n = std::sqrt(q.w * q.w + q.x * q.x + q.y * q.y + q.z * q.z);
   return {q.w / n, q.x / n, q.y / n, q.z / n};
 }
-
-Quaternion QuaternionConjugate(const Quaternion &q) { return {q.w, -q.x, -q.y, -q.z}; }
 
 double QuaternionTrackedAngle(const Quaternion &q) { return 2.0 * std::atan2(q.vec().norm(), q.w); }
 

@@ -85,7 +85,6 @@ Quaternion QuaternionFromRotationVector(const Vec3 &psi);
 Quaternion QuaternionFromMatrix(const Mat3 &R);
 Mat3       QuaternionToMatrix(const Quaternion &q);
 Quaternion QuaternionNormalize(const Quaternion &q);
-Quaternion QuaternionConjugate(const Quaternion &q);
 // Rotation angle in [0, 2 pi] of a tracked quaternion: 2 atan2(|v|, w). q = -1 gives 2 pi.
 double QuaternionTrackedAngle(const Quaternion &q);
 

@@ -164,6 +164,14 @@ std::string ShortestDecimal(double value)
   return std::string(text, std::to_chars(text, text + sizeof text, value).ptr);
 }
 
+// The probe names of a history row, in order.
+std::vector<std::string> ProbeNames(const std::vector<ProbeSample> &probes)
+{
+  std::vector<std::string> names;
+  for (const ProbeSample &probe : probes) names.push_back(probe.name);
+  return names;
+}
+
 std::string FrameGroupName(int step)
 {
   char name[32];
@@ -201,6 +209,8 @@ struct OutputFile::Impl {
   PetscErrorCode WriteHistory(const std::vector<std::string> &names, const std::vector<double> &values, const std::vector<std::string> &sample_names,
                               const std::vector<ProbeSample> &probes);
   PetscErrorCode WriteXdmf() const;
+  // A frame's step must be non-negative and not written before.
+  PetscErrorCode CheckNewStep(int step) const;
   // Parallel build: opens the file created by rank 0 on every rank through MPI-IO.
   PetscErrorCode OpenParallel();
   // Checks this rank's part of a frame (`node_rows`, `element_rows`: the rows it writes).
@@ -432,6 +442,15 @@ PetscErrorCode OutputFile::Impl::WriteMesh(const OutputMesh &mesh)
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
+PetscErrorCode OutputFile::Impl::CheckNewStep(int step) const
+{
+  PetscFunctionBeginUser;
+  PetscCheck(step >= 0, PETSC_COMM_SELF, PETSC_ERR_ARG_OUTOFRANGE, "output file '%s': negative step %d", path.c_str(), step);
+  for (const FrameEntry &written : frames)
+    PetscCheck(written.step != step, PETSC_COMM_SELF, PETSC_ERR_ARG_WRONG, "output file '%s': frame of step %d already written", path.c_str(), step);
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
 PetscErrorCode OutputFile::Impl::WriteFrame(const OutputFrame &frame)
 {
   const hsize_t       n_segments = segment_element.size();
@@ -440,10 +459,7 @@ PetscErrorCode OutputFile::Impl::WriteFrame(const OutputFrame &frame)
   H5Id                group;
 
   PetscFunctionBeginUser;
-  PetscCheck(frame.step >= 0, PETSC_COMM_SELF, PETSC_ERR_ARG_OUTOFRANGE, "output file '%s': negative step %d", path.c_str(), frame.step);
-  for (const FrameEntry &written : frames)
-    PetscCheck(written.step != frame.step, PETSC_COMM_SELF, PETSC_ERR_ARG_WRONG, "output file '%s': frame of step %d already written", path.c_str(),
-               frame.step);
+  PetscCall(CheckNewStep(frame.step));
   PetscCheck(frame.position.size() == 3 * n_nodes && frame.displacement.size() == 3 * n_nodes && frame.rotation.size() == 4 * n_nodes,
              PETSC_COMM_SELF, PETSC_ERR_ARG_SIZ, "output file '%s': step %d: nodal arrays do not match %llu nodes", path.c_str(), frame.step,
              (unsigned long long)n_nodes);
@@ -481,22 +497,18 @@ PetscErrorCode OutputFile::Impl::WriteFrame(const OutputFrame &frame)
 PetscErrorCode OutputFile::Impl::AppendHistory(const std::vector<std::string> &names, const std::vector<double> &values,
                                                const std::vector<ProbeSample> &probes)
 {
-  std::vector<std::string> sample_names;
-
   PetscFunctionBeginUser;
-  for (const ProbeSample &probe : probes) sample_names.push_back(probe.name);
   PetscCall(CheckHistory(names, values, probes));
-  PetscCall(WriteHistory(names, values, sample_names, probes));
+  PetscCall(WriteHistory(names, values, probe_names, probes));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
 PetscErrorCode OutputFile::Impl::CheckHistory(const std::vector<std::string> &names, const std::vector<double> &values,
                                               const std::vector<ProbeSample> &probes)
 {
-  std::vector<std::string> sample_names;
+  const std::vector<std::string> sample_names = ProbeNames(probes);
 
   PetscFunctionBeginUser;
-  for (const ProbeSample &probe : probes) sample_names.push_back(probe.name);
   PetscCheck(names.size() == values.size(), PETSC_COMM_SELF, PETSC_ERR_ARG_SIZ, "output file '%s': %zu history names but %zu values", path.c_str(),
              names.size(), values.size());
   PetscCheck(!names.empty() && names.front() == "time", PETSC_COMM_SELF, PETSC_ERR_ARG_WRONG, "output file '%s': the first history series must be 'time'",
@@ -658,9 +670,7 @@ PetscErrorCode OutputFile::Impl::CheckFrame(const OutputFrame &frame, int step, 
   const size_t nr = node_rows.size(), er = element_rows.size();
 
   PetscFunctionBeginUser;
-  PetscCheck(step >= 0, PETSC_COMM_SELF, PETSC_ERR_ARG_OUTOFRANGE, "output file '%s': negative step %d", path.c_str(), step);
-  for (const FrameEntry &written : frames)
-    PetscCheck(written.step != step, PETSC_COMM_SELF, PETSC_ERR_ARG_WRONG, "output file '%s': frame of step %d already written", path.c_str(), step);
+  PetscCall(CheckNewStep(step));
   PetscCheck(total_node_rows == n_nodes && total_element_rows == n_elements, PETSC_COMM_SELF, PETSC_ERR_ARG_SIZ,
              "output file '%s': step %d: the ranks hold %llu node and %llu element rows, not %llu and %llu", path.c_str(), step,
              (unsigned long long)total_node_rows, (unsigned long long)total_element_rows, (unsigned long long)n_nodes, (unsigned long long)n_elements);
@@ -819,8 +829,7 @@ PetscErrorCode OutputFile::AppendHistory(const std::vector<std::string> &names, 
   // Rank 0 checks its row; every rank then creates and extends the datasets under rank 0's names,
   // and rank 0 alone selects the values in the collective writes.
   PetscCall(RunOnRoot(comm_, [&] { return impl_->CheckHistory(names, values, probes); }));
-  std::vector<std::string> row_names = names, sample_names;
-  for (const ProbeSample &probe : probes) sample_names.push_back(probe.name);
+  std::vector<std::string> row_names = names, sample_names = ProbeNames(probes);
   PetscCall(BcastStrings(comm_, &row_names));
   PetscCall(BcastStrings(comm_, &sample_names));
   if (impl_->rank == 0) {
