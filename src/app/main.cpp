@@ -76,7 +76,8 @@ static PetscErrorCode RunMsflex(int argc, char **argv, RunEnd *end)
     const bool ok = ReadModelString(run.input_text, run.input_file, &model, &error, comm);
     PetscCall(AgreeOnModel(comm, ok, error, " (the input stored in " + restart + ")"));
   } else {
-    PetscCheck(argc >= 2 && argv[1][0] != '-', comm, PETSC_ERR_USER_INPUT, "usage: msflex INPUT.yaml [options] or msflex --restart CHECKPOINT.h5 [options]; run 'msflex -help' for the options");
+    PetscCheck(argc >= 2 && argv[1][0] != '-', comm, PETSC_ERR_USER_INPUT,
+               "usage: msflex INPUT.yaml [options] or msflex --restart CHECKPOINT.h5 [options]; run 'msflex -help' for the options");
     InputError error;
     const bool ok = ReadModelFile(argv[1], &model, &error, comm);
     PetscCall(AgreeOnModel(comm, ok, error, ""));

@@ -10,7 +10,7 @@ namespace msflex {
 
 PetscErrorCode SettingsFromOptions(MPI_Comm comm, Model *model, RunOptions *options)
 {
-  AnalysisSettings &a = model->analysis;
+  AnalysisSettings &a               = model->analysis;
   PetscInt          easy_iterations = a.easy_iterations, easy_steps = a.easy_steps_to_grow, max_newton = a.max_newton_iterations;
   // -analysis_output_times replaces the input's list; room for as many entries as anyone types.
   std::vector<PetscReal> output_times(1024);
@@ -32,10 +32,12 @@ PetscErrorCode SettingsFromOptions(MPI_Comm comm, Model *model, RunOptions *opti
   PetscCall(PetscOptionsInt("-easy_iterations", "Newton iterations of an easy step", "", easy_iterations, &easy_iterations, nullptr));
   PetscCall(PetscOptionsInt("-easy_steps_to_grow", "Easy steps in a row before growing", "", easy_steps, &easy_steps, nullptr));
   PetscCall(PetscOptionsInt("-max_newton_iterations", "Newton iterations per step", "", max_newton, &max_newton, nullptr));
-  PetscCall(PetscOptionsReal("-max_rotation_increment", "Largest nodal rotation per step, rad", "", a.max_rotation_increment, &a.max_rotation_increment, nullptr));
+  PetscCall(
+      PetscOptionsReal("-max_rotation_increment", "Largest nodal rotation per step, rad", "", a.max_rotation_increment, &a.max_rotation_increment, nullptr));
   PetscCall(PetscOptionsReal("-newton_rtol", "Newton relative residual tolerance", "", a.newton_rtol, &a.newton_rtol, nullptr));
   PetscCall(PetscOptionsReal("-newton_atol", "Newton absolute residual tolerance", "", a.newton_atol, &a.newton_atol, nullptr));
-  PetscCall(PetscOptionsRealArray("-output_times", "Times the steps must land on (comma separated)", "", output_times.data(), &num_output_times, &output_times_set));
+  PetscCall(
+      PetscOptionsRealArray("-output_times", "Times the steps must land on (comma separated)", "", output_times.data(), &num_output_times, &output_times_set));
   PetscOptionsEnd();
   const bool made_static = a.type != "static" && std::string(type) == "static";
   a.type                 = type;
@@ -56,15 +58,22 @@ PetscErrorCode SettingsFromOptions(MPI_Comm comm, Model *model, RunOptions *opti
   const struct {
     const char *name;
     double      value;
-  } positive[] = {{"-analysis_end_time", a.end_time},         {"-analysis_initial_step", a.initial_step},     {"-analysis_min_step", a.min_step},
-                  {"-analysis_max_step", a.max_step},         {"-analysis_max_rotation_increment", a.max_rotation_increment},
-                  {"-analysis_newton_rtol", a.newton_rtol},   {"-analysis_easy_iterations", (double)a.easy_iterations},
-                  {"-analysis_easy_steps_to_grow", (double)a.easy_steps_to_grow}, {"-analysis_max_newton_iterations", (double)a.max_newton_iterations}};
-  for (const auto &p : positive) PetscCheck(std::isfinite(p.value) && p.value > 0, comm, PETSC_ERR_USER_INPUT, "option %s must be positive, got %g", p.name, p.value);
+  } positive[] = {{"-analysis_end_time", a.end_time},
+                  {"-analysis_initial_step", a.initial_step},
+                  {"-analysis_min_step", a.min_step},
+                  {"-analysis_max_step", a.max_step},
+                  {"-analysis_max_rotation_increment", a.max_rotation_increment},
+                  {"-analysis_newton_rtol", a.newton_rtol},
+                  {"-analysis_easy_iterations", (double)a.easy_iterations},
+                  {"-analysis_easy_steps_to_grow", (double)a.easy_steps_to_grow},
+                  {"-analysis_max_newton_iterations", (double)a.max_newton_iterations}};
+  for (const auto &p : positive)
+    PetscCheck(std::isfinite(p.value) && p.value > 0, comm, PETSC_ERR_USER_INPUT, "option %s must be positive, got %g", p.name, p.value);
   PetscCheck(a.growth_factor >= 1.0, comm, PETSC_ERR_USER_INPUT, "option -analysis_growth_factor must be >= 1, got %g", a.growth_factor);
   PetscCheck(a.min_step <= a.initial_step, comm, PETSC_ERR_USER_INPUT, "min_step %g is larger than initial_step %g", a.min_step, a.initial_step);
   PetscCheck(a.initial_step <= a.max_step, comm, PETSC_ERR_USER_INPUT, "initial_step %g is larger than max_step %g", a.initial_step, a.max_step);
-  PetscCheck(std::isfinite(a.newton_atol) && a.newton_atol >= 0, comm, PETSC_ERR_USER_INPUT, "option -analysis_newton_atol must be >= 0, got %g", a.newton_atol);
+  PetscCheck(std::isfinite(a.newton_atol) && a.newton_atol >= 0, comm, PETSC_ERR_USER_INPUT, "option -analysis_newton_atol must be >= 0, got %g",
+             a.newton_atol);
   PetscCheck(a.max_rotation_increment < M_PI, comm, PETSC_ERR_USER_INPUT, "max_rotation_increment must be below pi, got %g", a.max_rotation_increment);
   // A run shortened with -analysis_end_time keeps the output times it still reaches.
   a.output_times.erase(std::remove_if(a.output_times.begin(), a.output_times.end(), [&a](double t) { return t > a.end_time; }), a.output_times.end());
@@ -104,7 +113,8 @@ PetscErrorCode SettingsFromOptions(MPI_Comm comm, Model *model, RunOptions *opti
                              &options->checkpoint_wall_time, nullptr));
   PetscCall(PetscOptionsString("-file", "Checkpoint file", "", checkpoint_file, checkpoint_file, sizeof(checkpoint_file), nullptr));
   PetscOptionsEnd();
-  PetscCheck(options->checkpoint_every >= 0, comm, PETSC_ERR_USER_INPUT, "option -checkpoint_every must be >= 0, got %" PetscInt_FMT, options->checkpoint_every);
+  PetscCheck(options->checkpoint_every >= 0, comm, PETSC_ERR_USER_INPUT, "option -checkpoint_every must be >= 0, got %" PetscInt_FMT,
+             options->checkpoint_every);
   PetscCheck(std::isfinite(options->checkpoint_wall_time) && options->checkpoint_wall_time >= 0, comm, PETSC_ERR_USER_INPUT,
              "option -checkpoint_wall_time must be >= 0 seconds, got %g", (double)options->checkpoint_wall_time);
   options->checkpoint_file = checkpoint_file;

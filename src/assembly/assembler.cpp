@@ -66,7 +66,7 @@ double Assembler::FunctionValue(int function, double t) const { return function 
 // only piecewise smooth, so stay on the side of the coming motion).
 double Assembler::FunctionDerivative(int function, double t, int order) const
 {
-  const double h = 1e-4 * std::max(1.0, std::abs(t));
+  const double h  = 1e-4 * std::max(1.0, std::abs(t));
   const double f0 = FunctionValue(function, t), f1 = FunctionValue(function, t + h), f2 = FunctionValue(function, t + 2 * h);
   if (order == 1) return (-3.0 * f0 + 4.0 * f1 - f2) / (2.0 * h);
   const double f3 = FunctionValue(function, t + 3 * h);
@@ -157,9 +157,9 @@ PetscErrorCode Assembler::Setup(MPI_Comm comm, const Model &model, const DofMap 
     node_inertia_[l] += body.inertia;
     LocalRigidBody local;
     local.global_index = map.global_rigid_bodies[b];
-    local.local_node = l;
-    local.mass       = body.mass;
-    local.offset     = body.offset;
+    local.local_node   = l;
+    local.mass         = body.mass;
+    local.offset       = body.offset;
     rigid_bodies_.push_back(local);
   }
 
@@ -337,10 +337,10 @@ PetscErrorCode Assembler::CreateCsrDestinations()
   csr_destination_offsets_.clear();
   if (!is_seq && !is_mpi) PetscFunctionReturn(PETSC_SUCCESS);
 
-  const PetscInt *off_diagonal_columns = nullptr; // global column of each off-diagonal block column, ascending
+  const PetscInt *off_diagonal_columns     = nullptr; // global column of each off-diagonal block column, ascending
   PetscInt        num_off_diagonal_columns = 0;
-  diagonal_block_ = jacobian_;
-  off_diagonal_block_ = nullptr;
+  diagonal_block_                          = jacobian_;
+  off_diagonal_block_                      = nullptr;
   if (is_mpi) {
     PetscCall(MatMPIAIJGetSeqAIJ(jacobian_, &diagonal_block_, &off_diagonal_block_, &off_diagonal_columns));
     PetscCall(MatGetSize(off_diagonal_block_, nullptr, &num_off_diagonal_columns));
@@ -357,7 +357,7 @@ PetscErrorCode Assembler::CreateCsrDestinations()
   // Position of column `column` in CSR row `row`, or -1.
   auto find = [](const PetscInt *row_start, const PetscInt *columns, PetscInt row, PetscInt column) -> PetscInt {
     const PetscInt *begin = columns + row_start[row], *end = columns + row_start[row + 1];
-    const PetscInt *it    = std::lower_bound(begin, end, column);
+    const PetscInt *it = std::lower_bound(begin, end, column);
     return (it != end && *it == column) ? (PetscInt)(it - columns) : -1;
   };
   const PetscInt first = map.first_owned, last = map.first_owned + map.num_owned;
@@ -386,12 +386,13 @@ PetscErrorCode Assembler::CreateCsrDestinations()
         if (column >= first && column < last) {
           slot = find(ia, ja, row - first, column - first);
         } else {
-          const PetscInt *it = std::lower_bound(off_diagonal_columns, off_diagonal_columns + num_off_diagonal_columns, column);
+          const PetscInt *it           = std::lower_bound(off_diagonal_columns, off_diagonal_columns + num_off_diagonal_columns, column);
           const PetscInt  local_column = (PetscInt)(it - off_diagonal_columns);
           slot = (it != off_diagonal_columns + num_off_diagonal_columns && *it == column) ? find(ib, jb, row - first, local_column) : -1;
           if (slot >= 0) slot = kCsrOffDiagonal - slot;
         }
-        PetscCheck(slot != -1, PETSC_COMM_SELF, PETSC_ERR_PLIB, "entry (%" PetscInt_FMT ", %" PetscInt_FMT ") missing from the preallocated pattern", row, column);
+        PetscCheck(slot != -1, PETSC_COMM_SELF, PETSC_ERR_PLIB, "entry (%" PetscInt_FMT ", %" PetscInt_FMT ") missing from the preallocated pattern", row,
+                   column);
         destination[i * nd + j] = slot;
       }
     }
@@ -472,7 +473,8 @@ PetscErrorCode Assembler::ComputeLoads(double t_start, double t_end)
   for (LocalRigidBody &body : rigid_bodies_) {
     body.gravity_force.setZero();
     for (const DistributedLoad &load : model.distributed_loads)
-      if (load.gravity) body.gravity_force += (w0 * FunctionValue(load.function, t_start) + w1 * FunctionValue(load.function, t_end)) * body.mass * load.force_per_length;
+      if (load.gravity)
+        body.gravity_force += (w0 * FunctionValue(load.function, t_start) + w1 * FunctionValue(load.function, t_end)) * body.mass * load.force_per_length;
   }
   for (PetscInt l = 0; l < map.num_owned_nodes; ++l) {
     dead_force_[l].setZero(), dead_moment_[l].setZero();
@@ -526,7 +528,7 @@ PetscErrorCode Assembler::ApplyPrescribedValues(double t_start, double t_end)
     const Joint &joint = ModelJoint(J);
     for (int c = 0; c < kJointMaxReleased; ++c) J.increment[c] = 0.0;
     if (joint.driven_coordinate < 0) continue;
-    const int c  = joint.driven_coordinate;
+    const int c    = joint.driven_coordinate;
     J.increment[c] = mode_ == Mode::InitialAcceleration ? joint.drive_value * FunctionDerivative(joint.drive_function, t_end, 2)
                                                         : joint.drive_value * FunctionValue(joint.drive_function, t_end) - J.start.q[c];
   }
@@ -621,7 +623,7 @@ PetscErrorCode Assembler::ElementForces(size_t k, double *force, double *correct
     }
     double work = 0.0;
     for (int a = 0; a < n; ++a) {
-      const Vec3 &u = node[a]->displacement_increment, &alpha = node[a]->tangent_scaled_increment;
+      const Vec3  &u = node[a]->displacement_increment, &alpha = node[a]->tangent_scaled_increment;
       const double node_work = u.dot(Vec3(&force[6 * a])) + alpha.dot(Vec3(&force[6 * a + 3]));
       work += node_work;
       *work_scale += std::abs(node_work);
@@ -631,7 +633,8 @@ PetscErrorCode Assembler::ElementForces(size_t k, double *force, double *correct
   } else {
     // In the initial-acceleration problem the configuration is the start state, whose internal
     // forces balance inertia and loads.
-    if (BeamInternalForces(ref, section_stiffness_[element.section], positions, triads, force, nullptr, nullptr, nullptr) != BeamKernelStatus::Ok) *ok = PETSC_FALSE;
+    if (BeamInternalForces(ref, section_stiffness_[element.section], positions, triads, force, nullptr, nullptr, nullptr) != BeamKernelStatus::Ok)
+      *ok = PETSC_FALSE;
   }
   if (!*ok) PetscFunctionReturn(PETSC_SUCCESS);
   // Consistent translational inertia: f_a += rhoA sum_b (integral of I_a I_b ds) xddot_b.
@@ -736,7 +739,7 @@ PetscErrorCode Assembler::AssembleResidual(Vec residual, PetscBool *geometry_ok)
   }
   // Pass 2: assemble. The residual left on prescribed DOFs is the reaction that drives them; its
   // work over the increments counts as external work.
-  prescribed_work_ = 0.0;
+  prescribed_work_     = 0.0;
   auto add_node_vector = [&](int node, const double *r) -> PetscErrorCode {
     PetscFunctionBeginUser;
     const int        l = map.node_to_local[node];
@@ -790,8 +793,8 @@ PetscErrorCode Assembler::RigidBodyForces(LocalRigidBody *body, Vec6 *force, Mat
                            &body->centre_of_mass_update);
   } else if (mode_ == Mode::InitialAcceleration) {
     // a_c = a + wdot x r + w x (w x r): force m a_c, moment r x m a_c.
-    const Vec3 w = R_start * s.rotation_motion.velocity;
-    const Vec3 F = body->mass * (s.displacement_increment + s.rotation_increment.cross(r_start) + w.cross(w.cross(r_start)));
+    const Vec3 w     = R_start * s.rotation_motion.velocity;
+    const Vec3 F     = body->mass * (s.displacement_increment + s.rotation_increment.cross(r_start) + w.cross(w.cross(r_start)));
     force->head<3>() = F;
     force->tail<3>() = r_start.cross(F);
     if (tangent) {
@@ -904,7 +907,8 @@ PetscErrorCode Assembler::AssembleJacobian(Mat jacobian, PetscBool *geometry_ok)
       Vec3 positions[kBeamMaxNodes];
       Mat3 triads[kBeamMaxNodes];
       ElementConfiguration(element, positions, triads, nullptr);
-      if (BeamInternalForces(element_references_[k], section_stiffness_[element.section], positions, triads, r, K, nullptr, nullptr) != BeamKernelStatus::Ok) ok = PETSC_FALSE;
+      if (BeamInternalForces(element_references_[k], section_stiffness_[element.section], positions, triads, r, K, nullptr, nullptr) != BeamKernelStatus::Ok)
+        ok = PETSC_FALSE;
       for (int i = 0; i < nd * nd; ++i) K[i] *= stiffness_weight;
     }
     if (ok) PetscCall(ElementForces(k, g, correction, &unused[0], &unused[1], &unused[2], &ok));
@@ -945,19 +949,19 @@ PetscErrorCode Assembler::CommitStep()
   PetscFunctionBeginUser;
   if (mode_ == Mode::Dynamic) {
     for (LocalRigidBody &body : rigid_bodies_) {
-      const NodeState &s       = nodes_[body.local_node];
-      const Mat3       R_start = QuaternionToMatrix(s.rotation_start);
-      const Vec3       u_c     = s.displacement_increment + (s.rotation - R_start) * body.offset;
-      const MotionUpdate next  = AdvanceMotion(scheme_, body.centre_of_mass, u_c);
-      body.centre_of_mass      = {next.velocity, next.acceleration, next.pseudo_acceleration};
+      const NodeState   &s       = nodes_[body.local_node];
+      const Mat3         R_start = QuaternionToMatrix(s.rotation_start);
+      const Vec3         u_c     = s.displacement_increment + (s.rotation - R_start) * body.offset;
+      const MotionUpdate next    = AdvanceMotion(scheme_, body.centre_of_mass, u_c);
+      body.centre_of_mass        = {next.velocity, next.acceleration, next.pseudo_acceleration};
     }
     for (NodeState &s : nodes_) {
       const Mat3 R_start = QuaternionToMatrix(s.rotation_start);
       // Material increment: Theta = R_n^T omega (Newmark family), theta = R_n^T alpha (mid-point).
-      const Vec3 increment = R_start.transpose() * (scheme_.Midpoint() ? s.tangent_scaled_increment : s.rotation_increment);
-      const MotionUpdate rotation = AdvanceMotion(scheme_, s.rotation_motion, increment);
-      s.translation_motion = {s.translation_update.velocity, s.translation_update.acceleration, s.translation_update.pseudo_acceleration};
-      s.rotation_motion    = {rotation.velocity, rotation.acceleration, rotation.pseudo_acceleration};
+      const Vec3         increment = R_start.transpose() * (scheme_.Midpoint() ? s.tangent_scaled_increment : s.rotation_increment);
+      const MotionUpdate rotation  = AdvanceMotion(scheme_, s.rotation_motion, increment);
+      s.translation_motion         = {s.translation_update.velocity, s.translation_update.acceleration, s.translation_update.pseudo_acceleration};
+      s.rotation_motion            = {rotation.velocity, rotation.acceleration, rotation.pseudo_acceleration};
     }
   }
   for (NodeState &s : nodes_) NodeStateCommit(&s);
@@ -983,11 +987,11 @@ PetscErrorCode Assembler::CommitInitialAcceleration()
     const NodeState &s = nodes_[body.local_node];
     const Mat3       R = QuaternionToMatrix(s.rotation_start);
     const Vec3       r = R * body.offset, w = R * s.rotation_motion.velocity;
-    const Vec3       a = s.displacement_increment + s.rotation_increment.cross(r) + w.cross(w.cross(r));
+    const Vec3       a               = s.displacement_increment + s.rotation_increment.cross(r) + w.cross(w.cross(r));
     body.centre_of_mass.acceleration = body.centre_of_mass.pseudo_acceleration = a;
   }
   for (NodeState &s : nodes_) {
-    const Mat3 R = QuaternionToMatrix(s.rotation_start);
+    const Mat3 R                      = QuaternionToMatrix(s.rotation_start);
     s.translation_motion.acceleration = s.translation_motion.pseudo_acceleration = s.displacement_increment;
     s.rotation_motion.acceleration = s.rotation_motion.pseudo_acceleration = R.transpose() * s.rotation_increment;
     s.displacement_increment.setZero();
@@ -1016,8 +1020,8 @@ PetscErrorCode Assembler::DiscardStep()
 PetscErrorCode Assembler::SetInitialVelocities(double t)
 {
   PetscFunctionBeginUser;
-  const Model  &model = *model_;
-  const DofMap &map   = *map_;
+  const Model                          &model = *model_;
+  const DofMap                         &map   = *map_;
   std::vector<const InitialCondition *> condition(model.nodes.size(), nullptr);
   for (const InitialCondition &ic : model.initial_conditions)
     for (int node : ic.nodes) condition[node] = &ic;
@@ -1054,8 +1058,8 @@ PetscErrorCode Assembler::SetInitialVelocities(double t)
     slave.rotation_motion.velocity    = QuaternionToMatrix(slave.rotation_start).transpose() * w;
   }
   for (LocalRigidBody &body : rigid_bodies_) {
-    const NodeState &s = nodes_[body.local_node];
-    const Mat3       R = QuaternionToMatrix(s.rotation_start);
+    const NodeState &s           = nodes_[body.local_node];
+    const Mat3       R           = QuaternionToMatrix(s.rotation_start);
     body.centre_of_mass.velocity = s.translation_motion.velocity + (R * s.rotation_motion.velocity).cross(R * body.offset);
   }
   PetscFunctionReturn(PETSC_SUCCESS);
@@ -1093,7 +1097,8 @@ PetscErrorCode Assembler::EvaluateResults(std::vector<ElementResults> *results, 
     ElementConfiguration(element, positions, triads, nullptr);
     double                 r[kBeamMaxDofs], energy = 0.0;
     BeamGaussResults       gauss;
-    const BeamKernelStatus status = BeamInternalForces(element_references_[k], section_stiffness_[element.section], positions, triads, r, nullptr, &energy, &gauss);
+    const BeamKernelStatus status =
+        BeamInternalForces(element_references_[k], section_stiffness_[element.section], positions, triads, r, nullptr, &energy, &gauss);
     PetscCheck(status == BeamKernelStatus::Ok, PETSC_COMM_SELF, PETSC_ERR_PLIB, "element %d cannot be evaluated in a converged state", map.local_elements[k]);
     local_energy += energy;
     ElementResults &out = (*results)[k];
@@ -1113,8 +1118,8 @@ PetscErrorCode Assembler::EvaluateResults(std::vector<ElementResults> *results, 
 PetscErrorCode Assembler::EvaluateDynamics(DynamicsDiagnostics *diagnostics)
 {
   PetscFunctionBeginUser;
-  const Model  &model = *model_;
-  const DofMap &map   = *map_;
+  const Model  &model    = *model_;
+  const DofMap &map      = *map_;
   double        local[7] = {0, 0, 0, 0, 0, 0, 0}; // T, p (3), L (3)
   auto          add      = [&local](double T, const Vec3 &p, const Vec3 &L) {
     local[0] += T;
@@ -1168,7 +1173,7 @@ PetscErrorCode Assembler::StepExternalWork(double *work)
   for (PetscInt l = 0; l < map.num_owned_nodes; ++l) {
     const NodeState &s       = nodes_[l];
     const Mat3       R_start = QuaternionToMatrix(s.rotation_start);
-    const Vec3 F = dead_force_[l] + load_weight_start_ * (R_start * follower_force_start_[l]) + load_weight_end_ * (s.rotation * follower_force_end_[l]);
+    const Vec3       F = dead_force_[l] + load_weight_start_ * (R_start * follower_force_start_[l]) + load_weight_end_ * (s.rotation * follower_force_end_[l]);
     const Vec3 M = dead_moment_[l] + load_weight_start_ * (R_start * follower_moment_start_[l]) + load_weight_end_ * (s.rotation * follower_moment_end_[l]);
     Vec3       alpha;
     TangentScaledIncrement(s.rotation_increment, &alpha, nullptr);

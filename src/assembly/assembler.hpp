@@ -39,7 +39,7 @@ struct DynamicsDiagnostics {
 
 class Assembler {
 public:
-  Assembler() = default;
+  Assembler()                             = default;
   Assembler(const Assembler &)            = delete;
   Assembler &operator=(const Assembler &) = delete;
   ~Assembler();
@@ -135,10 +135,10 @@ private:
   enum class Mode { Static, Dynamic, InitialAcceleration };
   struct LocalRigidBody {
     int          global_index = -1; // number in the whole model (DofMap::global_rigid_bodies)
-    int          local_node = -1;
-    double       mass       = 0.0;
-    Vec3         offset     = Vec3::Zero(); // centre of mass, node body frame
-    MotionState  centre_of_mass;            // motion of the centre of mass, global axes
+    int          local_node   = -1;
+    double       mass         = 0.0;
+    Vec3         offset       = Vec3::Zero(); // centre of mass, node body frame
+    MotionState  centre_of_mass;              // motion of the centre of mass, global axes
     MotionUpdate centre_of_mass_update;
     Vec3         gravity_force = Vec3::Zero(); // m g at the centre of mass, weighted in time for the step
   };
@@ -149,14 +149,14 @@ private:
     int              local_slave  = -1;
     int              local_master = -1; // -1: the ground
     JointGeometry    geometry;
-    JointCoordinates start;              // at the start of the step (a free rotation keeps C_n, q = 0)
+    JointCoordinates start; // at the start of the step (a free rotation keeps C_n, q = 0)
     double           increment[kJointMaxReleased] = {0, 0, 0, 0, 0, 0};
     PetscInt         slot[kJointMaxReleased]      = {-1, -1, -1, -1, -1, -1}; // in ghosted_increments_, -1 when driven
-    JointMatrix      rows_map;                     // the map of the residual rows: N, or the conserving map (mid-point)
-    double           released_test[kJointMaxReleased] = {0, 0, 0, 0, 0, 0}; // the test quantities of the released coordinates
+    JointMatrix      rows_map;                                                // the map of the residual rows: N, or the conserving map (mid-point)
+    double           released_test[kJointMaxReleased] = {0, 0, 0, 0, 0, 0};   // the test quantities of the released coordinates
     // Output of an owned joint (EvaluateJointReactions): force and moment on the slave, mean rates
     // of the released coordinates over the last step.
-    Vec6                                reaction = Vec6::Zero();
+    Vec6                                  reaction = Vec6::Zero();
     std::array<double, kJointMaxReleased> rate{};
   };
   const Joint &ModelJoint(const LocalJoint &J) const { return model_->joints[map_->local_joints[J.local_index]]; }
@@ -211,14 +211,14 @@ private:
   std::vector<int>                  node_local_joint_;   // per local node: index into joints_ if it is a slave, else -1
   // Per local slave node: rows and columns of its expansion (6 x m, row-major), m = number of
   // unknowns it depends on: R[unknowns] += rows^T g_spin, d(spin)/dX = columns.
-  std::vector<std::vector<double>>  expansion_rows_, expansion_columns_;
-  std::vector<Vec6>                 slave_residual_;     // per local node: spin residual gathered on slaves
-  Vec                               joint_output_ = nullptr; // 12 per joint slot (DofMap::joint_slot): reaction (6), rates (6)
-  std::vector<std::string>          joint_history_names_;    // rank 0: the joint series of the history, gathered once
-  bool                              joint_history_named_ = false;
-  std::vector<double>               expansion_scratch_;  // work space for expanded blocks
-  std::vector<double>               joint_geometric_scratch_; // work space of AddJointGeometricStiffness
-  std::vector<PetscInt>             expanded_indices_scratch_; // work space: an expanded element's unknowns
+  std::vector<std::vector<double>> expansion_rows_, expansion_columns_;
+  std::vector<Vec6>                slave_residual_;         // per local node: spin residual gathered on slaves
+  Vec                              joint_output_ = nullptr; // 12 per joint slot (DofMap::joint_slot): reaction (6), rates (6)
+  std::vector<std::string>         joint_history_names_;    // rank 0: the joint series of the history, gathered once
+  bool                             joint_history_named_ = false;
+  std::vector<double>              expansion_scratch_;        // work space for expanded blocks
+  std::vector<double>              joint_geometric_scratch_;  // work space of AddJointGeometricStiffness
+  std::vector<PetscInt>            expanded_indices_scratch_; // work space: an expanded element's unknowns
   // Per local node: whether its translations / rotations carry mass. In the initial-acceleration
   // problem a massless group gets zero acceleration instead of a singular equation.
   std::vector<char> has_translational_mass_, has_rotary_inertia_;
@@ -227,14 +227,14 @@ private:
   // node the dead force and moment (already weighted in time) and the follower loads in the body
   // frame at the start and end of the step with their weights (statics and the Newmark family:
   // end values only; mid-point family: the mean of both ends).
-  double            load_weight_start_ = 0.0, load_weight_end_ = 1.0;
-  std::vector<Vec3> element_line_load_;
-  std::vector<Vec3> dead_force_, dead_moment_;
-  std::vector<Vec3> follower_force_start_, follower_moment_start_, follower_force_end_, follower_moment_end_;
-  double            local_force_squares_ = 0.0; // sum of squared contributions in the last residual
-  double            energy_correction_   = 0.0; // em's beta in the last residual
-  double            roundoff_force_level_ = 0.0;
-  double            prescribed_work_      = 0.0; // work of the reactions on prescribed DOFs in the last residual (local)
+  double              load_weight_start_ = 0.0, load_weight_end_ = 1.0;
+  std::vector<Vec3>   element_line_load_;
+  std::vector<Vec3>   dead_force_, dead_moment_;
+  std::vector<Vec3>   follower_force_start_, follower_moment_start_, follower_force_end_, follower_moment_end_;
+  double              local_force_squares_  = 0.0; // sum of squared contributions in the last residual
+  double              energy_correction_    = 0.0; // em's beta in the last residual
+  double              roundoff_force_level_ = 0.0;
+  double              prescribed_work_      = 0.0;                         // work of the reactions on prescribed DOFs in the last residual (local)
   std::vector<double> element_force_scratch_, element_correction_scratch_; // per local element, kBeamMaxDofs each
 
   Mat                   jacobian_           = nullptr;
@@ -242,7 +242,7 @@ private:
   Vec                   ghosted_increments_ = nullptr; // sequential: the free DOFs of the local nodes
   Vec                   scratch_residual_   = nullptr; // for residual evaluations outside Newton
   VecScatter            to_ghosted_         = nullptr;
-  std::vector<PetscInt> ghosted_slot_;                 // per local node and DOF: index in ghosted_increments_, -1 if constrained
+  std::vector<PetscInt> ghosted_slot_; // per local node and DOF: index in ghosted_increments_, -1 if constrained
 
   // Direct assembly into the CSR value arrays of the owned rows (the pattern is fixed by exact
   // preallocation, so the position of every element-matrix entry is computed once). Per local
@@ -250,10 +250,10 @@ private:
   // owned by another rank: goes through MatSetValues), an index >= 0 into the diagonal block's
   // values, or kCsrOffDiagonal - index for the off-diagonal block. Empty when the matrix type
   // is not AIJ: then everything goes through MatSetValues.
-  static constexpr PetscInt          kCsrSkip = -1, kCsrOtherRank = -2, kCsrOffDiagonal = -3;
-  std::vector<PetscInt>              csr_destinations_;
-  std::vector<size_t>                csr_destination_offsets_; // per local element + 1: where its entries start
-  Mat                                diagonal_block_ = nullptr, off_diagonal_block_ = nullptr; // borrowed from jacobian_
+  static constexpr PetscInt kCsrSkip = -1, kCsrOtherRank = -2, kCsrOffDiagonal = -3;
+  std::vector<PetscInt>     csr_destinations_;
+  std::vector<size_t>       csr_destination_offsets_;                                 // per local element + 1: where its entries start
+  Mat                       diagonal_block_ = nullptr, off_diagonal_block_ = nullptr; // borrowed from jacobian_
 };
 
 } // namespace msflex

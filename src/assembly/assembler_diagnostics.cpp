@@ -30,7 +30,6 @@ constexpr PetscInt64 kNoFinding = std::numeric_limits<PetscInt64>::max();
 
 PetscInt64 FindingKey(Source source, PetscInt64 global_index) { return ((PetscInt64)source << 40) + global_index; }
 
-
 bool AllFinite(const double *values, int count)
 {
   for (int i = 0; i < count; ++i)
@@ -38,11 +37,7 @@ bool AllFinite(const double *values, int count)
   return true;
 }
 
-template <class Matrix>
-bool AllFinite(const Matrix &m)
-{
-  return m.allFinite();
-}
+template <class Matrix> bool AllFinite(const Matrix &m) { return m.allFinite(); }
 
 bool NodeStateFinite(const NodeState &s)
 {
@@ -137,8 +132,9 @@ PetscErrorCode Assembler::DescribeNonFinite(std::string *where)
     std::string  what;
     for (int c = JointNumCoordinates(J.geometry) - 1; c >= 0; --c)
       if (!std::isfinite(J.increment[c])) what = Format("in its coordinate %s", JointCoordinateName(joint, c));
-    if (what.empty() && !(node_finite[J.local_slave] && AllFinite(J.rows_map) && AllFinite(expansion_rows_[J.local_slave].data(), (int)expansion_rows_[J.local_slave].size()) &&
-                          AllFinite(expansion_columns_[J.local_slave].data(), (int)expansion_columns_[J.local_slave].size())))
+    if (what.empty() &&
+        !(node_finite[J.local_slave] && AllFinite(J.rows_map) && AllFinite(expansion_rows_[J.local_slave].data(), (int)expansion_rows_[J.local_slave].size()) &&
+          AllFinite(expansion_columns_[J.local_slave].data(), (int)expansion_columns_[J.local_slave].size())))
       what = Format("in the configuration of its slave node '%s'", model.nodes[joint.slave].name.c_str());
     if (!what.empty()) finding.Offer(Source::Joint, map.joint_slot[j], Format("joint '%s', ", joint.name.c_str()) + what);
   }
@@ -153,8 +149,8 @@ PetscErrorCode Assembler::DescribeNonFinite(std::string *where)
   // Elements whose nodes are finite: distributed load, then residual (internal forces, inertia,
   // em's correction), then tangent.
   for (size_t k = 0; k < map.local_elements.size(); ++k) {
-    const int          e       = map.local_elements[k];
-    const BeamElement &element = model.elements[e];
+    const int          e        = map.local_elements[k];
+    const BeamElement &element  = model.elements[e];
     bool               nodes_ok = true;
     for (int a = 0; a <= element.order; ++a) nodes_ok = nodes_ok && node_finite[map.node_to_local[element.nodes[a]]];
     if (!nodes_ok) continue;
@@ -174,7 +170,8 @@ PetscErrorCode Assembler::DescribeNonFinite(std::string *where)
         Mat3   triads[kBeamMaxNodes];
         double r[kBeamMaxDofs], K[kBeamMaxDofs * kBeamMaxDofs];
         ElementConfiguration(element, positions, triads, nullptr);
-        if (BeamInternalForces(element_references_[k], section_stiffness_[element.section], positions, triads, r, K, nullptr, nullptr) == BeamKernelStatus::Ok &&
+        if (BeamInternalForces(element_references_[k], section_stiffness_[element.section], positions, triads, r, K, nullptr, nullptr) ==
+                BeamKernelStatus::Ok &&
             !AllFinite(K, nd * nd))
           trouble = true, what = ", in its tangent";
       }
@@ -189,7 +186,8 @@ PetscErrorCode Assembler::DescribeNonFinite(std::string *where)
     NodalForces(l, r, &block);
     if (AllFinite(r, 6) && AllFinite(block)) continue;
     const int node = map.local_nodes[l];
-    finding.Offer(Source::NodeForces, map.global_nodes[node], NodeLabel(model, node) + (AllFinite(node_inertia_[l]) ? ", in its nodal forces" : ", in its rotary inertia"));
+    finding.Offer(Source::NodeForces, map.global_nodes[node],
+                  NodeLabel(model, node) + (AllFinite(node_inertia_[l]) ? ", in its nodal forces" : ", in its rotary inertia"));
   }
   for (LocalRigidBody &body : rigid_bodies_) {
     if (!node_finite[body.local_node]) continue;
@@ -211,8 +209,8 @@ PetscErrorCode Assembler::DescribeUnevaluable(std::string *where)
   Finding       finding;
   PetscFunctionBeginUser;
   for (size_t k = 0; k < map.local_elements.size(); ++k) {
-    const int          e       = map.local_elements[k];
-    const BeamElement &element = model.elements[e];
+    const int          e        = map.local_elements[k];
+    const BeamElement &element  = model.elements[e];
     bool               nodes_ok = true;
     for (int a = 0; a <= element.order; ++a) nodes_ok = nodes_ok && NodeStateFinite(nodes_[map.node_to_local[element.nodes[a]]]);
     if (!nodes_ok) continue; // a NaN configuration is DescribeNonFinite's business
@@ -244,7 +242,8 @@ PetscErrorCode Assembler::DescribeUnknown(PetscInt row, std::string *what)
       const int j = map.local_joints[i];
       if (map.joint_rank[j] != rank) continue;
       for (int c = 0; c < kJointMaxReleased; ++c)
-        if (map.joint_dofs[j][c] == row) finding.Offer(Source::NodeIncrement, row, Format("joint '%s' %s", model.joints[j].name.c_str(), JointCoordinateName(model.joints[j], c)));
+        if (map.joint_dofs[j][c] == row)
+          finding.Offer(Source::NodeIncrement, row, Format("joint '%s' %s", model.joints[j].name.c_str(), JointCoordinateName(model.joints[j], c)));
     }
   }
   PetscCall(LowestFinding(comm_, finding.key, finding.text, what));

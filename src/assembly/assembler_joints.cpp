@@ -17,12 +17,12 @@ namespace msflex {
 
 void Assembler::IndependentExpansion(int l, double *rows, double *columns) const
 {
-  const NodeState               &s        = nodes_[l];
-  const std::array<PetscInt, 6> &dofs     = map_->node_dofs[map_->local_nodes[l]];
+  const NodeState               &s    = nodes_[l];
+  const std::array<PetscInt, 6> &dofs = map_->node_dofs[map_->local_nodes[l]];
   // In the initial-acceleration problem the unknowns are the accelerations themselves: no H.
-  const Mat3                     H        = mode_ == Mode::InitialAcceleration ? Mat3::Identity() : s.rotation_tangent;
-  const int                      m        = (int)map_->node_unknowns[map_->local_nodes[l]].size();
-  int                            column   = 0;
+  const Mat3 H      = mode_ == Mode::InitialAcceleration ? Mat3::Identity() : s.rotation_tangent;
+  const int  m      = (int)map_->node_unknowns[map_->local_nodes[l]].size();
+  int        column = 0;
   for (int i = 0; i < 6 * m; ++i) rows[i] = columns[i] = 0.0;
   for (int d = 0; d < 6; ++d) {
     if (dofs[d] < 0) continue;
@@ -71,11 +71,12 @@ void Assembler::UpdateSlaves()
       // Accelerations: (xddot_s, wdot_s) = N (xddot_m, wdot_m, qddot), velocity-product terms
       // neglected (exact for a mechanism starting from rest).
       Eigen::Matrix<double, 6 + kJointMaxReleased, 1> rates = Eigen::Matrix<double, 6 + kJointMaxReleased, 1>::Zero();
-      if (J.local_master >= 0) rates << nodes_[J.local_master].displacement_increment, nodes_[J.local_master].rotation_increment, Eigen::Matrix<double, kJointMaxReleased, 1>::Zero();
+      if (J.local_master >= 0)
+        rates << nodes_[J.local_master].displacement_increment, nodes_[J.local_master].rotation_increment, Eigen::Matrix<double, kJointMaxReleased, 1>::Zero();
       for (int c = 0; c < k; ++c) rates(6 + c) = J.increment[c];
       const Eigen::Matrix<double, 6, 1> accelerations = N * rates;
-      slave.displacement_increment = accelerations.head<3>();
-      slave.rotation_increment     = accelerations.tail<3>();
+      slave.displacement_increment                    = accelerations.head<3>();
+      slave.rotation_increment                        = accelerations.tail<3>();
     } else {
       Vec3 x_s;
       Mat3 R_s;
@@ -102,10 +103,10 @@ void Assembler::UpdateSlaves()
     }
     J.rows_map = N_rows;
     // Expansion: the master's (through N_m) followed by the free released coordinates (N_q).
-    const int               m        = (int)map.node_unknowns[joint.slave].size();
-    std::vector<double>    &rows     = expansion_rows_[J.local_slave];
-    std::vector<double>    &columns  = expansion_columns_[J.local_slave];
-    int                     m_master = 0;
+    const int            m        = (int)map.node_unknowns[joint.slave].size();
+    std::vector<double> &rows     = expansion_rows_[J.local_slave];
+    std::vector<double> &columns  = expansion_columns_[J.local_slave];
+    int                  m_master = 0;
     std::fill(rows.begin(), rows.end(), 0.0);
     std::fill(columns.begin(), columns.end(), 0.0);
     if (J.local_master >= 0) {
@@ -178,12 +179,12 @@ PetscErrorCode Assembler::AddNodeBlock(Mat jacobian, int l, const Mat6 &block)
 
 PetscErrorCode Assembler::AddExpandedElementMatrix(Mat jacobian, const BeamElement &element, const double *K)
 {
-  const int n  = element.order + 1;
-  const int nd = 6 * n;
-  double    scratch_rows[kBeamMaxNodes][36], scratch_columns[kBeamMaxNodes][36];
-  const double *rows[kBeamMaxNodes], *columns[kBeamMaxNodes];
-  int           offset[kBeamMaxNodes + 1] = {0};
-  std::vector<PetscInt> &indices = expanded_indices_scratch_;
+  const int              n  = element.order + 1;
+  const int              nd = 6 * n;
+  double                 scratch_rows[kBeamMaxNodes][36], scratch_columns[kBeamMaxNodes][36];
+  const double          *rows[kBeamMaxNodes], *columns[kBeamMaxNodes];
+  int                    offset[kBeamMaxNodes + 1] = {0};
+  std::vector<PetscInt> &indices                   = expanded_indices_scratch_;
   PetscFunctionBeginUser;
   indices.clear();
   for (int a = 0; a < n; ++a) {
@@ -218,7 +219,7 @@ PetscErrorCode Assembler::AddExpandedElementMatrix(Mat jacobian, const BeamEleme
 
 PetscErrorCode Assembler::AddJointGeometricStiffness(Mat jacobian)
 {
-  const DofMap &map   = *map_;
+  const DofMap &map = *map_;
   double        master_rows[6 * 6 * kJointMaxReleased], master_columns[6 * 6 * kJointMaxReleased];
   PetscFunctionBeginUser;
   // Slaves deepest first: each passes N_m^T g on to its master before the master is processed.
@@ -239,7 +240,7 @@ PetscErrorCode Assembler::AddJointGeometricStiffness(Mat jacobian)
     const int                    m        = (int)unknowns.size();
     const int                    m_master = J.local_master >= 0 ? (int)map.node_unknowns[joint.master].size() : 0;
     // R, C ((6 + k) x m), G C and the block (m x m) live in preallocated scratch: no allocation per joint.
-    using RowMajorMap = Eigen::Map<Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>>;
+    using RowMajorMap   = Eigen::Map<Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>>;
     double     *scratch = joint_geometric_scratch_.data();
     RowMajorMap R(scratch, 6 + k, m), C(scratch + (6 + k) * m, 6 + k, m), GC(scratch + 2 * (6 + k) * m, 6 + k, m), block(scratch + 3 * (6 + k) * m, m, m);
     R.setZero();
@@ -313,9 +314,9 @@ PetscErrorCode Assembler::EvaluateJointReactions(double dt)
 PetscErrorCode Assembler::JointHistory(std::vector<std::string> *names, std::vector<double> *values)
 {
   static const char *const translation_names[3] = {"tx", "ty", "tz"}, *rotation_names[3] = {"rx", "ry", "rz"};
-  static const char *const reaction_names[6]    = {"force_x", "force_y", "force_z", "moment_x", "moment_y", "moment_z"};
-  const DofMap &map = *map_;
-  PetscMPIInt   rank, size;
+  static const char *const reaction_names[6] = {"force_x", "force_y", "force_z", "moment_x", "moment_y", "moment_z"};
+  const DofMap            &map               = *map_;
+  PetscMPIInt              rank, size;
   PetscFunctionBeginUser;
   PetscCallMPI(MPI_Comm_rank(comm_, &rank));
   PetscCallMPI(MPI_Comm_size(comm_, &size));
@@ -323,7 +324,9 @@ PetscErrorCode Assembler::JointHistory(std::vector<std::string> *names, std::vec
   std::vector<const LocalJoint *> owned;
   for (const LocalJoint &J : joints_)
     if (map.joint_rank[map.local_joints[J.local_index]] == rank) owned.push_back(&J);
-  std::sort(owned.begin(), owned.end(), [&](const LocalJoint *a, const LocalJoint *b) { return map.joint_slot[map.local_joints[a->local_index]] < map.joint_slot[map.local_joints[b->local_index]]; });
+  std::sort(owned.begin(), owned.end(), [&](const LocalJoint *a, const LocalJoint *b) {
+    return map.joint_slot[map.local_joints[a->local_index]] < map.joint_slot[map.local_joints[b->local_index]];
+  });
   const bool          need_names = !joint_history_named_;
   std::vector<double> local;
   std::string         local_names; // '\0'-terminated series names
@@ -331,7 +334,7 @@ PetscErrorCode Assembler::JointHistory(std::vector<std::string> *names, std::vec
     const Joint            &joint = ModelJoint(*J);
     const JointCoordinates &q     = J->start;
     const int               nt    = joint.num_translations;
-    auto add = [&](const std::string &name, double value) {
+    auto                    add   = [&](const std::string &name, double value) {
       if (need_names) local_names += joint.name + "." + name + '\0';
       local.push_back(value);
     };

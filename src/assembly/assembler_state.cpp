@@ -73,7 +73,7 @@ PetscErrorCode Assembler::ImportState(const std::vector<double> &nodes, const st
 {
   PetscFunctionBeginUser;
   PetscCheck(nodes.size() == kNodeStateSize * nodes_.size() && joints.size() == kJointStateSize * joints_.size() &&
-               bodies.size() == kRigidBodyStateSize * rigid_bodies_.size(),
+                 bodies.size() == kRigidBodyStateSize * rigid_bodies_.size(),
              PETSC_COMM_SELF, PETSC_ERR_ARG_SIZ, "state records do not match the local nodes, joints and rigid bodies");
   for (size_t l = 0; l < nodes_.size(); ++l) {
     const double *record = &nodes[kNodeStateSize * l];

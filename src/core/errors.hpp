@@ -7,7 +7,7 @@
 #include <petscsys.h>
 
 // PetscCheck for a model error located by a SourceMark.
-#define MSFLEX_INPUT_CHECK(cond, mark, fmt, ...) \
+#define MSFLEX_INPUT_CHECK(cond, mark, fmt, ...)                                                                                                               \
   PetscCheck(cond, PETSC_COMM_SELF, PETSC_ERR_USER_INPUT, "%s:%d: error: " fmt, (mark).file.c_str(), (mark).line, ##__VA_ARGS__)
 
 namespace msflex {

@@ -36,7 +36,7 @@ static PetscErrorCode CollectConstraints(const Model &model, DofMap *map)
 // Joints in an order where the joint of a master comes before the joints of its slaves.
 static std::vector<int> JointChainOrder(const Model &model, const std::vector<int> &node_joint)
 {
-  std::vector<int> depth(model.joints.size(), -1), order(model.joints.size());
+  std::vector<int>        depth(model.joints.size(), -1), order(model.joints.size());
   std::function<int(int)> depth_of = [&](int j) {
     if (depth[j] >= 0) return depth[j];
     const int master = model.joints[j].master;
@@ -170,8 +170,7 @@ static void RestrictList(const std::vector<int> &to_local, std::vector<int> *lis
 }
 
 // out[k] = in[local[k]]: a per-model-entry array cut down to the local entries, in local order.
-template <class T>
-static void RestrictArray(const std::vector<int> &local, std::vector<T> *array)
+template <class T> static void RestrictArray(const std::vector<int> &local, std::vector<T> *array)
 {
   std::vector<T> restricted;
   restricted.reserve(local.size());
@@ -246,8 +245,8 @@ PetscErrorCode DofMapRestrictToLocal(Model *model, DofMap *map)
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
-PetscErrorCode DofMapPreallocation(const DofMap &map, const Model &model, std::vector<PetscInt> *diagonal_nonzeros, std::vector<PetscInt> *off_diagonal_nonzeros,
-                                   std::vector<PetscInt> *row_start, std::vector<PetscInt> *pattern_columns)
+PetscErrorCode DofMapPreallocation(const DofMap &map, const Model &model, std::vector<PetscInt> *diagonal_nonzeros,
+                                   std::vector<PetscInt> *off_diagonal_nonzeros, std::vector<PetscInt> *row_start, std::vector<PetscInt> *pattern_columns)
 {
   PetscFunctionBeginUser;
   // A row r couples with every unknown of every group that contains it: an element's group is the
@@ -256,8 +255,8 @@ PetscErrorCode DofMapPreallocation(const DofMap &map, const Model &model, std::v
   // on it), so columns(r) = union over holders h of C(h), with C(h) = the unknowns of h and of
   // every node sharing an element with h. Most rows have one holder and the rows of a node share
   // it: C(h) is built once per node.
-  const PetscInt first = map.first_owned, last = map.first_owned + map.num_owned;
-  const size_t   num_nodes = map.node_unknowns.size();
+  const PetscInt   first = map.first_owned, last = map.first_owned + map.num_owned;
+  const size_t     num_nodes = map.node_unknowns.size();
   std::vector<int> element_start(num_nodes + 1, 0), node_elements; // node -> elements touching it
   for (const BeamElement &element : model.elements)
     for (int a = 0; a <= element.order; ++a) ++element_start[element.nodes[a] + 1];
@@ -284,7 +283,8 @@ PetscErrorCode DofMapPreallocation(const DofMap &map, const Model &model, std::v
     columns->insert(columns->end(), map.node_unknowns[h].begin(), map.node_unknowns[h].end());
     for (int k = element_start[h]; k < element_start[h + 1]; ++k) {
       const BeamElement &element = model.elements[(size_t)node_elements[(size_t)k]];
-      for (int a = 0; a <= element.order; ++a) columns->insert(columns->end(), map.node_unknowns[element.nodes[a]].begin(), map.node_unknowns[element.nodes[a]].end());
+      for (int a = 0; a <= element.order; ++a)
+        columns->insert(columns->end(), map.node_unknowns[element.nodes[a]].begin(), map.node_unknowns[element.nodes[a]].end());
     }
   };
   diagonal_nonzeros->assign(map.num_owned, 0);

@@ -40,20 +40,20 @@ struct DofMap {
   std::vector<std::array<PetscInt, 6>>      node_dofs;   // every node: global unknown index, -1 when constrained
   std::vector<std::array<DofConstraint, 6>> constraints; // every node
 
-  std::vector<int> local_nodes;     // owned nodes first (in global numbering order), then ghosts
+  std::vector<int> local_nodes; // owned nodes first (in global numbering order), then ghosts
   PetscInt         num_owned_nodes = 0;
-  std::vector<int> node_to_local;   // every node: index into local_nodes, or -1
-  std::vector<int> local_elements;  // elements assembled here: those whose first node is owned
+  std::vector<int> node_to_local;    // every node: index into local_nodes, or -1
+  std::vector<int> local_elements;   // elements assembled here: those whose first node is owned
   std::vector<int> element_to_local; // every element: index into local_elements, or -1
 
-  std::vector<int> node_joint;  // every node: the joint whose slave it is, or -1
-  std::vector<int> joint_rank;  // every joint: owning rank (that of its slave node)
+  std::vector<int>                     node_joint; // every node: the joint whose slave it is, or -1
+  std::vector<int>                     joint_rank; // every joint: owning rank (that of its slave node)
   std::vector<std::array<PetscInt, 6>> joint_dofs; // every joint: global index of each released coordinate, -1 when driven
   // Every node: the global unknowns its configuration depends on — its own free DOFs, or for a
   // slave those of its master followed by its joint's free coordinates.
   std::vector<std::vector<PetscInt>> node_unknowns;
-  std::vector<int> local_joints;    // joints whose slave node is local, each after the joint of its master
-  std::vector<int> joint_to_local;  // every joint: index into local_joints, or -1
+  std::vector<int>                   local_joints;   // joints whose slave node is local, each after the joint of its master
+  std::vector<int>                   joint_to_local; // every joint: index into local_joints, or -1
 
   // Output numbering. Per model node / element: its number in the whole model (the identity
   // before restriction). Per model joint: its slot in joint data distributed by owner (joints
@@ -81,8 +81,9 @@ PetscErrorCode DofMapCreate(MPI_Comm comm, const Model &model, const std::vector
 // it depends on (nodal inertia, loads and the joints' geometric stiffness).
 // With row_start and columns (may be null): the pattern itself, in CSR form for the owned rows
 // (global column indices, ascending per row), as MatMPIAIJSetPreallocationCSR takes it.
-PetscErrorCode DofMapPreallocation(const DofMap &map, const Model &model, std::vector<PetscInt> *diagonal_nonzeros, std::vector<PetscInt> *off_diagonal_nonzeros,
-                                   std::vector<PetscInt> *row_start = nullptr, std::vector<PetscInt> *columns = nullptr);
+PetscErrorCode DofMapPreallocation(const DofMap &map, const Model &model, std::vector<PetscInt> *diagonal_nonzeros,
+                                   std::vector<PetscInt> *off_diagonal_nonzeros, std::vector<PetscInt> *row_start = nullptr,
+                                   std::vector<PetscInt> *columns = nullptr);
 
 // Replaces the model by the part this rank holds and renumbers the map to match: the local nodes
 // (owned first, then ghosts), the local elements and joints (masters' joints first), each in the

@@ -60,8 +60,7 @@ GaussInterpolation InterpolateAtGauss(const BeamElementReference &ref, int gp, c
   return g;
 }
 
-template <int NN>
-using NodalMatrix = Eigen::Matrix<double, 6 * NN, 6 * NN, Eigen::RowMajor>;
+template <int NN> using NodalMatrix = Eigen::Matrix<double, 6 * NN, 6 * NN, Eigen::RowMajor>;
 
 // Per Gauss point, the 3x3 products from which every block of the local stiffness is a scalar
 // combination (I_a, I'_a are the shape functions and derivatives at the point):
@@ -71,11 +70,11 @@ using NodalMatrix = Eigen::Matrix<double, 6 * NN, 6 * NN, Eigen::RowMajor>;
 // with P = d(E N)/dPsi, Q = d(H M)/dPsi. The sums shared by every (a, b) pair are formed once per point.
 struct GaussProducts {
   double wJ;
-  Vec3   EN, AN_BM, HM;                // E N, A^T N + B^T M, H M
-  Mat3   ECE, HCH;                     // E C_N E^T, H C_M H^T
-  Mat3   ECA_P;                        // E C_N A + P
-  Mat3   ACA_BCB_S;                    // A^T C_N A + B^T C_M B + Sg + Sk
-  Mat3   BCH_QT;                       // B^T C_M H^T + Q^T
+  Vec3   EN, AN_BM, HM; // E N, A^T N + B^T M, H M
+  Mat3   ECE, HCH;      // E C_N E^T, H C_M H^T
+  Mat3   ECA_P;         // E C_N A + P
+  Mat3   ACA_BCB_S;     // A^T C_N A + B^T C_M B + Sg + Sk
+  Mat3   BCH_QT;        // B^T C_M H^T + Q^T
 };
 
 template <int NN>
@@ -89,28 +88,28 @@ BeamKernelStatus InternalForces(const BeamElementReference &ref, const BeamSecti
   for (int a = 0, o = 0; a < NN; ++a)
     if (a != c) others[o++] = a;
 
-  const bool   want_tangent = tangent_out != nullptr;
-  const Vec3  &CN = section.axial_shear, &CM = section.torsion_bending;
-  double       energy = 0.0;
-  Vec3         g_rho[NN], g_psi[NN]; // gradient of the energy with respect to the local coordinates
+  const bool  want_tangent = tangent_out != nullptr;
+  const Vec3 &CN = section.axial_shear, &CM = section.torsion_bending;
+  double      energy = 0.0;
+  Vec3        g_rho[NN], g_psi[NN]; // gradient of the energy with respect to the local coordinates
   for (int a = 0; a < NN; ++a) g_rho[a].setZero(), g_psi[a].setZero();
   GaussProducts gauss[kBeamMaxGauss];
 
   for (int gp = 0; gp < ref.num_gauss; ++gp) {
-    const double *I  = ref.shape[gp];
-    const double *dI = ref.shape_derivative[gp];
-    GaussProducts &G = gauss[gp];
-    G.wJ             = ref.weight_jacobian[gp];
+    const double  *I             = ref.shape[gp];
+    const double  *dI            = ref.shape_derivative[gp];
+    GaussProducts &G             = gauss[gp];
+    G.wJ                         = ref.weight_jacobian[gp];
     const auto [Psi, dPsi, drho] = InterpolateAtGauss(ref, gp, rho, psi);
     const RotationSeries series  = EvaluateRotationSeries(Psi.squaredNorm());
-    const RodriguesForm  Fe     = ExpForm(series);
-    const RodriguesForm  Fh     = TangentForm(series);
-    const Mat3           E      = RodriguesMatrix(Fe, Psi);
-    const Mat3           H      = RodriguesMatrix(Fh, Psi);
-    const Vec3           eps    = E.transpose() * drho - ref.strain0[gp];   // Gamma - Gamma_0
-    const Vec3           kap    = H.transpose() * dPsi - ref.curvature0[gp]; // K - K_0
-    const Vec3           N      = CN.cwiseProduct(eps);
-    const Vec3           M      = CM.cwiseProduct(kap);
+    const RodriguesForm  Fe      = ExpForm(series);
+    const RodriguesForm  Fh      = TangentForm(series);
+    const Mat3           E       = RodriguesMatrix(Fe, Psi);
+    const Mat3           H       = RodriguesMatrix(Fh, Psi);
+    const Vec3           eps     = E.transpose() * drho - ref.strain0[gp];    // Gamma - Gamma_0
+    const Vec3           kap     = H.transpose() * dPsi - ref.curvature0[gp]; // K - K_0
+    const Vec3           N       = CN.cwiseProduct(eps);
+    const Vec3           M       = CM.cwiseProduct(kap);
     energy += 0.5 * G.wJ * (eps.dot(N) + kap.dot(M));
     if (results) {
       results->strain[gp]    = eps;
@@ -134,28 +133,28 @@ BeamKernelStatus InternalForces(const BeamElementReference &ref, const BeamSecti
     const Mat3 ECA = ECN * A, ACA = ACN * A, BCB = BCM * B, BCH = BCM * H.transpose();
     const Mat3 P = RodriguesApplyJacobian(Fe, Psi, N), Q = RodriguesApplyJacobian(Fh, Psi, M);
     const Mat3 S = RodriguesTransposeApplyHessian(Fe, Psi, drho, N) + RodriguesTransposeApplyHessian(Fh, Psi, dPsi, M);
-    G.ECE       = ECN * E.transpose();
-    G.HCH       = HCM * H.transpose();
-    G.ECA_P     = ECA + P;
-    G.ACA_BCB_S = ACA + BCB + S;
-    G.BCH_QT    = BCH + Q.transpose();
+    G.ECE        = ECN * E.transpose();
+    G.HCH        = HCM * H.transpose();
+    G.ECA_P      = ECA + P;
+    G.ACA_BCB_S  = ACA + BCB + S;
+    G.BCH_QT     = BCH + Q.transpose();
   }
   if (energy_out) *energy_out = energy;
 
   // Chain rule to nodal (x, theta), with d_a = x_a - x_c, L = Lambda_c:
   //   delta rho_a = L^T (dx_a - dx_c) + M_a dtheta_c,  M_a = L^T hat(d_a)
   //   delta psi_a = P_a (dtheta_a - dtheta_c),         P_a = Hinv(psi_a) L^T
-  const Mat3    &L  = triads[c];
-  const Mat3     LT = L.transpose();
-  Mat3           Pm[NN], Mm[NN];
-  RodriguesForm  Finv[NN];
-  Vec3           fa[NN], ma[NN]; // nodal force L g_rho_a and moment P_a^T g_psi_a
+  const Mat3                                  &L  = triads[c];
+  const Mat3                                   LT = L.transpose();
+  Mat3                                         Pm[NN], Mm[NN];
+  RodriguesForm                                Finv[NN];
+  Vec3                                         fa[NN], ma[NN]; // nodal force L g_rho_a and moment P_a^T g_psi_a
   Eigen::Map<Eigen::Matrix<double, 6 * NN, 1>> residual(residual_out);
   residual.setZero();
   for (int a : others) {
-    Finv[a]      = TangentInverseForm(EvaluateRotationSeries(psi[a].squaredNorm()));
-    Pm[a]        = RodriguesMatrix(Finv[a], psi[a]) * LT;
-    Mm[a]        = LT * Skew(positions[a] - positions[c]);
+    Finv[a]       = TangentInverseForm(EvaluateRotationSeries(psi[a].squaredNorm()));
+    Pm[a]         = RodriguesMatrix(Finv[a], psi[a]) * LT;
+    Mm[a]         = LT * Skew(positions[a] - positions[c]);
     const Vec3 &f = fa[a] = L * g_rho[a];
     const Vec3 &m = ma[a] = Pm[a].transpose() * g_psi[a];
     residual.template segment<3>(6 * a) += f;
@@ -180,15 +179,15 @@ BeamKernelStatus InternalForces(const BeamElementReference &ref, const BeamSecti
         Kpr += (G.wJ * I[a] * dI[b]) * G.ECA_P.transpose();
         Kpp += G.wJ * (I[a] * I[b] * G.ACA_BCB_S + I[a] * dI[b] * G.BCH_QT + dI[a] * I[b] * G.BCH_QT.transpose() + dI[a] * dI[b] * G.HCH);
       }
-      const Mat3 PaT = Pm[a].transpose();
+      const Mat3 PaT  = Pm[a].transpose();
       const Mat3 LKrr = L * Krr, LKrp = L * Krp, PKpr = PaT * Kpr, PKpp = PaT * Kpp;
       const Mat3 Nxx = LKrr * LT, Nxt = LKrp * Pm[b], Ntx = PKpr * LT, Ntt = PKpp * Pm[b];
       // The rank-3 part of the map (M_b on dtheta_c) adds to the columns and rows of theta_c.
       const Mat3 Cx = LKrr * Mm[b], Ct = PKpr * Mm[b];
       const Mat3 MaT = Mm[a].transpose();
       const Mat3 Rx = MaT * Krr * LT, Rt = MaT * Krp * Pm[b], Ecc = MaT * Krr * Mm[b];
-      auto add = [&K](int row, int column, const Mat3 &block) { K.template block<3, 3>(row, column) += block; };
-      const int ax = 6 * a, at = 6 * a + 3, bx = 6 * b, bt = 6 * b + 3, cx = 6 * c, ct = 6 * c + 3;
+      auto       add = [&K](int row, int column, const Mat3 &block) { K.template block<3, 3>(row, column) += block; };
+      const int  ax = 6 * a, at = 6 * a + 3, bx = 6 * b, bt = 6 * b + 3, cx = 6 * c, ct = 6 * c + 3;
       add(ax, bx, Nxx), add(ax, bt, Nxt), add(at, bx, Ntx), add(at, bt, Ntt);
       add(ax, cx, -Nxx), add(ax, ct, Cx - Nxt), add(at, cx, -Ntx), add(at, ct, Ct - Ntt);
       add(cx, bx, -Nxx), add(cx, bt, -Nxt), add(ct, bx, Rx - Ntx), add(ct, bt, Rt - Ntt);
@@ -199,9 +198,9 @@ BeamKernelStatus InternalForces(const BeamElementReference &ref, const BeamSecti
   //   f_a = L g_rho_a, m_a = P_a^T g_psi_a, G_a = L d(Hinv^T g_psi)/dpsi P_a.
   for (int a : others) {
     const Vec3 &f = fa[a], &m = ma[a];
-    const Mat3 Ga = L * RodriguesTransposeApplyJacobian(Finv[a], psi[a], g_psi[a]) * Pm[a];
-    const Vec3 d  = positions[a] - positions[c];
-    const Mat3 hf = Skew(f), hm = Skew(m);
+    const Mat3  Ga = L * RodriguesTransposeApplyJacobian(Finv[a], psi[a], g_psi[a]) * Pm[a];
+    const Vec3  d  = positions[a] - positions[c];
+    const Mat3  hf = Skew(f), hm = Skew(m);
     K.template block<3, 3>(6 * a, 6 * c + 3) -= hf;
     K.template block<3, 3>(6 * c, 6 * c + 3) += hf;
     K.template block<3, 3>(6 * c + 3, 6 * a) += hf;
@@ -219,8 +218,8 @@ void GaussStrains(const BeamElementReference &ref, int gp, const Vec3 *rho, cons
 {
   const auto [Psi, dPsi, drho] = InterpolateAtGauss(ref, gp, rho, psi);
   const RotationSeries series  = EvaluateRotationSeries(Psi.squaredNorm());
-  *strain                     = RodriguesMatrix(ExpForm(series), Psi).transpose() * drho - ref.strain0[gp];
-  *curvature                  = RodriguesMatrix(TangentForm(series), Psi).transpose() * dPsi - ref.curvature0[gp];
+  *strain                      = RodriguesMatrix(ExpForm(series), Psi).transpose() * drho - ref.strain0[gp];
+  *curvature                   = RodriguesMatrix(TangentForm(series), Psi).transpose() * dPsi - ref.curvature0[gp];
 }
 
 } // namespace
@@ -246,7 +245,7 @@ BeamKernelStatus BeamMidpointInternalForces(const BeamElementReference &ref, con
     GaussStrains(ref, gp, rho_n, psi_n, &eps_n, &kap_n);
     GaussStrains(ref, gp, rho_1, psi_1, &eps_1, &kap_1);
     const Vec3   N_n = CN.cwiseProduct(eps_n), M_n = CM.cwiseProduct(kap_n), N_1 = CN.cwiseProduct(eps_1), M_1 = CM.cwiseProduct(kap_1);
-    const double wJ  = ref.weight_jacobian[gp];
+    const double wJ = ref.weight_jacobian[gp];
     energy_n += 0.5 * wJ * (eps_n.dot(N_n) + kap_n.dot(M_n));
     energy_1 += 0.5 * wJ * (eps_1.dot(N_1) + kap_1.dot(M_1));
     const Vec3 N_mid = 0.5 * (N_n + N_1), M_mid = 0.5 * (M_n + M_1), N_d = N_1 - N_n, M_d = M_1 - M_n;
@@ -295,9 +294,9 @@ BeamKernelStatus BeamMidpointInternalForces(const BeamElementReference &ref, con
 BeamKernelStatus BeamElementSetup(int num_nodes, const Vec3 *reference_positions, const Mat3 *reference_triads, BeamElementReference *ref)
 {
   if (num_nodes != 2 && num_nodes != 3) return BeamKernelStatus::DegenerateGeometry;
-  ref->num_nodes      = num_nodes;
-  ref->num_gauss      = num_nodes - 1; // reduced integration
-  ref->reference_node = (num_nodes == 2) ? 0 : 1;
+  ref->num_nodes                  = num_nodes;
+  ref->num_gauss                  = num_nodes - 1; // reduced integration
+  ref->reference_node             = (num_nodes == 2) ? 0 : 1;
   const double gauss_point[2][2]  = {{0.0, 0.0}, {-1.0 / std::sqrt(3.0), 1.0 / std::sqrt(3.0)}};
   const double gauss_weight[2][2] = {{2.0, 0.0}, {1.0, 1.0}};
 
@@ -307,8 +306,7 @@ BeamKernelStatus BeamElementSetup(int num_nodes, const Vec3 *reference_positions
   if (!(extent > 0.0)) return BeamKernelStatus::DegenerateGeometry;
 
   Vec3 rho[kBeamMaxNodes], psi[kBeamMaxNodes];
-  if (!LocalCoordinates(num_nodes, ref->reference_node, reference_positions, reference_triads, rho, psi))
-    return BeamKernelStatus::RotationTooLarge;
+  if (!LocalCoordinates(num_nodes, ref->reference_node, reference_positions, reference_triads, rho, psi)) return BeamKernelStatus::RotationTooLarge;
 
   for (int gp = 0; gp < ref->num_gauss; ++gp) {
     double I[kBeamMaxNodes], dI_dxi[kBeamMaxNodes];
@@ -323,14 +321,14 @@ BeamKernelStatus BeamElementSetup(int num_nodes, const Vec3 *reference_positions
       ref->shape_derivative[gp][a] = dI_dxi[a] / jacobian;
     }
     const auto [Psi, dPsi, drho] = InterpolateAtGauss(*ref, gp, rho, psi);
-    ref->strain0[gp]    = ExpSO3(Psi).transpose() * drho;
-    ref->curvature0[gp] = TangentH(Psi).transpose() * dPsi;
+    ref->strain0[gp]             = ExpSO3(Psi).transpose() * drho;
+    ref->curvature0[gp]          = TangentH(Psi).transpose() * dPsi;
   }
 
   // Length, consistent nodal lengths and mass integrals with 3-point Gauss (exact for straight
   // elements: I_a I_b is at most quartic).
   const double xi3[3] = {-std::sqrt(0.6), 0.0, std::sqrt(0.6)}, w3[3] = {5.0 / 9.0, 8.0 / 9.0, 5.0 / 9.0};
-  ref->length         = 0.0;
+  ref->length = 0.0;
   for (int a = 0; a < kBeamMaxNodes; ++a) {
     ref->nodal_length[a] = 0.0;
     for (int b = 0; b < kBeamMaxNodes; ++b) ref->mass_shape[a][b] = 0.0;

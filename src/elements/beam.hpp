@@ -27,8 +27,8 @@ constexpr int kBeamMaxGauss = 2;
 constexpr int kBeamMaxDofs  = 6 * kBeamMaxNodes;
 
 struct BeamSectionStiffness {
-  Vec3 axial_shear;       // EA, GA2, GA3
-  Vec3 torsion_bending;   // GJ, EI2, EI3
+  Vec3 axial_shear;     // EA, GA2, GA3
+  Vec3 torsion_bending; // GJ, EI2, EI3
 };
 
 // Everything about an element that is fixed after set-up (computed from the reference configuration).
@@ -36,22 +36,22 @@ struct BeamElementReference {
   int    num_nodes      = 2;
   int    num_gauss      = 1;
   int    reference_node = 0;
-  double length         = 0.0;                         // reference arc length
-  double weight_jacobian[kBeamMaxGauss]{};             // Gauss weight * ds/dxi
-  double shape[kBeamMaxGauss][kBeamMaxNodes]{};        // I_a at the Gauss points
+  double length         = 0.0;                             // reference arc length
+  double weight_jacobian[kBeamMaxGauss]{};                 // Gauss weight * ds/dxi
+  double shape[kBeamMaxGauss][kBeamMaxNodes]{};            // I_a at the Gauss points
   double shape_derivative[kBeamMaxGauss][kBeamMaxNodes]{}; // dI_a/ds at the Gauss points
-  double nodal_length[kBeamMaxNodes]{};                // integral of I_a ds (consistent dead loads, lumped rotary inertia)
-  double mass_shape[kBeamMaxNodes][kBeamMaxNodes]{};   // integral of I_a I_b ds (consistent translational mass / rhoA)
-  Vec3   strain0[kBeamMaxGauss];                       // Gamma_0
-  Vec3   curvature0[kBeamMaxGauss];                    // K_0
+  double nodal_length[kBeamMaxNodes]{};                    // integral of I_a ds (consistent dead loads, lumped rotary inertia)
+  double mass_shape[kBeamMaxNodes][kBeamMaxNodes]{};       // integral of I_a I_b ds (consistent translational mass / rhoA)
+  Vec3   strain0[kBeamMaxGauss];                           // Gamma_0
+  Vec3   curvature0[kBeamMaxGauss];                        // K_0
 };
 
 // Strains and stress resultants at the Gauss points (section frame).
 struct BeamGaussResults {
-  Vec3 strain[kBeamMaxGauss];     // Gamma - Gamma_0
-  Vec3 curvature[kBeamMaxGauss];  // K - K_0
-  Vec3 force[kBeamMaxGauss];      // N
-  Vec3 moment[kBeamMaxGauss];     // M
+  Vec3 strain[kBeamMaxGauss];    // Gamma - Gamma_0
+  Vec3 curvature[kBeamMaxGauss]; // K - K_0
+  Vec3 force[kBeamMaxGauss];     // N
+  Vec3 moment[kBeamMaxGauss];    // M
 };
 
 enum class BeamKernelStatus { Ok, DegenerateGeometry, RotationTooLarge };

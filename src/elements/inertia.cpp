@@ -11,17 +11,17 @@ void RotationalInertia(const TimeScheme &scheme, const Mat3 &J, const Mat3 &rota
     Vec3 alpha;
     Mat3 dalpha;
     TangentScaledIncrement(omega, &alpha, &dalpha);
-    *update                = AdvanceMotion(scheme, start, rotation_start.transpose() * alpha);
-    const Vec3 momentum    = R_new * (J * update->velocity);
-    *moment                = (momentum - rotation_start * (J * start.velocity)) / scheme.dt;
+    *update             = AdvanceMotion(scheme, start, rotation_start.transpose() * alpha);
+    const Vec3 momentum = R_new * (J * update->velocity);
+    *moment             = (momentum - rotation_start * (J * start.velocity)) / scheme.dt;
     if (tangent) *tangent = (-Skew(momentum) * H + R_new * J * (scheme.VelocityCoefficient() * rotation_start.transpose() * dalpha)) / scheme.dt;
     return;
   }
-  *update            = AdvanceMotion(scheme, start, rotation_start.transpose() * omega);
-  const Vec3 &W      = update->velocity;
-  const Vec3  JW     = J * W;
-  const Vec3  body   = J * update->acceleration + W.cross(JW);
-  *moment            = R_new * body;
+  *update          = AdvanceMotion(scheme, start, rotation_start.transpose() * omega);
+  const Vec3 &W    = update->velocity;
+  const Vec3  JW   = J * W;
+  const Vec3  body = J * update->acceleration + W.cross(JW);
+  *moment          = R_new * body;
   if (tangent) {
     const Mat3 dbody_dtheta = scheme.InertiaCoefficient() * J + scheme.VelocityCoefficient() * (Skew(W) * J - Skew(JW));
     *tangent                = -Skew(*moment) * H + R_new * dbody_dtheta * rotation_start.transpose();
@@ -33,17 +33,17 @@ void OffsetPointMassInertia(const TimeScheme &scheme, double mass, const Vec3 &o
 {
   const Mat3 R_new = ExpSO3(omega) * rotation_start;
   const Vec3 r_old = rotation_start * offset, r_new = R_new * offset;
-  *update          = AdvanceMotion(scheme, start, u + r_new - r_old);
-  const Vec3 F     = mass * update->acceleration;
+  *update      = AdvanceMotion(scheme, start, u + r_new - r_old);
+  const Vec3 F = mass * update->acceleration;
   // Lever arm of the virtual work: r_{n+1} (Newmark family) or the mid-point (r_n + r_{n+1})/2.
-  const Vec3 arm   = scheme.Midpoint() ? Vec3(0.5 * (r_old + r_new)) : r_new;
+  const Vec3   arm        = scheme.Midpoint() ? Vec3(0.5 * (r_old + r_new)) : r_new;
   const double arm_weight = scheme.Midpoint() ? 0.5 : 1.0; // d arm / d r_new
-  residual->head<3>() = F;
-  residual->tail<3>() = arm.cross(F);
+  residual->head<3>()     = F;
+  residual->tail<3>()     = arm.cross(F);
   if (!tangent) return;
-  const Mat3 dr_domega = -Skew(r_new) * TangentH(omega);
-  const Mat3 dF_du     = mass * scheme.InertiaCoefficient() * Mat3::Identity();
-  const Mat3 dF_domega = dF_du * dr_domega;
+  const Mat3 dr_domega       = -Skew(r_new) * TangentH(omega);
+  const Mat3 dF_du           = mass * scheme.InertiaCoefficient() * Mat3::Identity();
+  const Mat3 dF_domega       = dF_du * dr_domega;
   tangent->block<3, 3>(0, 0) = dF_du;
   tangent->block<3, 3>(0, 3) = dF_domega;
   tangent->block<3, 3>(3, 0) = Skew(arm) * dF_du;

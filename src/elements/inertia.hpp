@@ -24,8 +24,8 @@ using Vec6 = Eigen::Matrix<double, 6, 1>;
 using Mat6 = Eigen::Matrix<double, 6, 6, Eigen::RowMajor>;
 
 // residual: inertial moment (3); tangent: d/d omega (3x3); update: W_{n+1}, Wdot_{n+1}, a_{n+1}.
-void RotationalInertia(const TimeScheme &scheme, const Mat3 &inertia, const Mat3 &rotation_start, const Vec3 &omega, const MotionState &start,
-                       Vec3 *moment, Mat3 *tangent, MotionUpdate *update);
+void RotationalInertia(const TimeScheme &scheme, const Mat3 &inertia, const Mat3 &rotation_start, const Vec3 &omega, const MotionState &start, Vec3 *moment,
+                       Mat3 *tangent, MotionUpdate *update);
 
 // residual: (force, moment) on the node (6); tangent: d/d(u, omega) (6x6); update: the point's motion.
 void OffsetPointMassInertia(const TimeScheme &scheme, double mass, const Vec3 &offset, const Mat3 &rotation_start, const Vec3 &u, const Vec3 &omega,

@@ -69,24 +69,24 @@ double NextTarget(const AnalysisSettings &analysis, double t)
 
 // Everything one analysis owns, so that the step loop reads as the algorithm.
 struct Analysis {
-  MPI_Comm          comm;
-  Model            &model; // the whole model during set-up, this rank's part afterwards
-  const RunOptions &options;
-  bool              dynamic = false;
-  TimeSchemeKind    scheme_kind = TimeSchemeKind::EnergyMomentum;
-  DofMap            map;
-  Assembler         assembler;
-  NewtonContext     newton_context;
-  SNES              snes       = nullptr;
-  Vec               increments = nullptr;
-  OutputFile        output;
-  double            external_work = 0.0; // accumulated work of the external loads (dynamics)
-  const CheckpointRun *restart      = nullptr; // the checkpoint this run continues, or null
-  long long         history_rows   = 0;       // rows written to /history
-  std::string       input_file_absolute, input_text; // for checkpoints (the text only on rank 0)
+  MPI_Comm             comm;
+  Model               &model; // the whole model during set-up, this rank's part afterwards
+  const RunOptions    &options;
+  bool                 dynamic     = false;
+  TimeSchemeKind       scheme_kind = TimeSchemeKind::EnergyMomentum;
+  DofMap               map;
+  Assembler            assembler;
+  NewtonContext        newton_context;
+  SNES                 snes       = nullptr;
+  Vec                  increments = nullptr;
+  OutputFile           output;
+  double               external_work = 0.0;             // accumulated work of the external loads (dynamics)
+  const CheckpointRun *restart       = nullptr;         // the checkpoint this run continues, or null
+  long long            history_rows  = 0;               // rows written to /history
+  std::string          input_file_absolute, input_text; // for checkpoints (the text only on rank 0)
   // Wall clock (rank 0's, broadcast) and simulated time when this process started stepping, and
   // of the last checkpoint.
-  double            wall_start = 0.0, time_start = 0.0, last_checkpoint_wall = 0.0;
+  double wall_start = 0.0, time_start = 0.0, last_checkpoint_wall = 0.0;
   // -log_view stages: Setup, Partition, Assembly (pushed by the Newton callbacks), LinearSolve
   // (the rest of each Newton solve: factorisation, triangular or Krylov solves), Output.
   PetscLogStage stage_setup, stage_partition, stage_solve, stage_output;
@@ -198,8 +198,8 @@ PetscErrorCode InitialiseMotion(Analysis &a)
   PetscCall(VecZeroEntries(a.increments));
   PetscCall(SNESSolve(a.snes, nullptr, a.increments));
   PetscCall(SNESGetConvergedReason(a.snes, &reason));
-  PetscCheck(reason > 0, a.comm, PETSC_ERR_NOT_CONVERGED, "the initial accelerations could not be computed (%s): is every node with a DOF free given mass or stiffness?",
-             SNESConvergedReasons[reason]);
+  PetscCheck(reason > 0, a.comm, PETSC_ERR_NOT_CONVERGED,
+             "the initial accelerations could not be computed (%s): is every node with a DOF free given mass or stiffness?", SNESConvergedReasons[reason]);
   PetscCall(a.assembler.SetIncrements(a.increments));
   PetscCall(a.assembler.CommitInitialAcceleration());
   PetscFunctionReturn(PETSC_SUCCESS);
@@ -218,11 +218,11 @@ PetscErrorCode WriteHistory(Analysis &a, const StepRecord &record, double strain
     PetscCall(a.assembler.EvaluateDynamics(&d));
     *kinetic_energy    = d.kinetic_energy;
     const double total = d.kinetic_energy + strain_energy;
-    names.insert(names.end(), {"kinetic_energy", "total_energy", "external_work", "energy_balance", "linear_momentum_x", "linear_momentum_y", "linear_momentum_z",
-                               "angular_momentum_x", "angular_momentum_y", "angular_momentum_z", "energy_correction"});
-    values.insert(values.end(), {d.kinetic_energy, total, a.external_work, total - a.external_work, d.linear_momentum(0), d.linear_momentum(1),
-                                 d.linear_momentum(2), d.angular_momentum(0), d.angular_momentum(1), d.angular_momentum(2),
-                                 record.step == 0 ? 0.0 : a.assembler.EnergyCorrectionFactor()});
+    names.insert(names.end(), {"kinetic_energy", "total_energy", "external_work", "energy_balance", "linear_momentum_x", "linear_momentum_y",
+                               "linear_momentum_z", "angular_momentum_x", "angular_momentum_y", "angular_momentum_z", "energy_correction"});
+    values.insert(values.end(),
+                  {d.kinetic_energy, total, a.external_work, total - a.external_work, d.linear_momentum(0), d.linear_momentum(1), d.linear_momentum(2),
+                   d.angular_momentum(0), d.angular_momentum(1), d.angular_momentum(2), record.step == 0 ? 0.0 : a.assembler.EnergyCorrectionFactor()});
   }
   if (a.map.global_count.joints > 0) {
     std::vector<std::string> joint_names;
@@ -263,9 +263,9 @@ PetscErrorCode RecordStep(Analysis &a, const StepRecord &record, bool write_fram
   const bool last = record.time >= a.model.analysis.end_time * (1.0 - 1e-14);
   if (!a.options.quiet && record.step > 0 && (record.step % a.options.progress_every == 0 || last)) {
     // Wall time of this process so far and the time left at the average rate since it started.
-    const double elapsed = MPI_Wtime() - a.wall_start;
-    const double left    = record.time > a.time_start ? elapsed * (a.model.analysis.end_time - record.time) / (record.time - a.time_start) : NAN;
-    const std::string timing = "wall " + FormatDuration(elapsed) + (last ? "" : ", left ~" + FormatDuration(left));
+    const double      elapsed = MPI_Wtime() - a.wall_start;
+    const double      left    = record.time > a.time_start ? elapsed * (a.model.analysis.end_time - record.time) / (record.time - a.time_start) : NAN;
+    const std::string timing  = "wall " + FormatDuration(elapsed) + (last ? "" : ", left ~" + FormatDuration(left));
     if (a.dynamic) {
       PetscCall(PetscPrintf(a.comm, "step %6d  t = %-11.6g dt = %-10.4g newton %2d  |R| = %.3e  energy = %.10e  %s\n", record.step, record.time,
                             record.step_size, record.newton_iterations, record.residual_norm, kinetic_energy + strain_energy, timing.c_str()));
@@ -327,8 +327,10 @@ PetscErrorCode CheckpointIfDue(Analysis &a, int step, double t, int last_written
   if (!o.quiet && !*stop) PetscCall(PetscPrintf(a.comm, "checkpoint at step %d, t = %g: %s\n", step, t, o.checkpoint_file.c_str()));
   if (*stop)
     PetscCall(PetscPrintf(a.comm, "msflex: stopped by %s at step %d, t = %g; checkpoint %s; continue with: msflex --restart %s\n",
-                          signal == SIGTERM ? "SIGTERM" : signal == SIGUSR1 ? "SIGUSR1" : "a signal", step, t, o.checkpoint_file.c_str(),
-                          o.checkpoint_file.c_str()));
+                          signal == SIGTERM   ? "SIGTERM"
+                          : signal == SIGUSR1 ? "SIGUSR1"
+                                              : "a signal",
+                          step, t, o.checkpoint_file.c_str(), o.checkpoint_file.c_str()));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
@@ -363,7 +365,7 @@ PetscErrorCode RunAnalysis(MPI_Comm comm, Model model, const RunOptions &options
   controller_settings.easy_steps_to_grow = analysis.easy_steps_to_grow;
   StepController controller(controller_settings);
 
-  double t = 0.0;
+  double t    = 0.0;
   int    step = 0, last_written = 0;
   if (restart) {
     t            = restart->time;
@@ -373,7 +375,7 @@ PetscErrorCode RunAnalysis(MPI_Comm comm, Model model, const RunOptions &options
     if (!options.quiet) PetscCall(PetscPrintf(comm, "msflex: continuing from step %d, t = %g (checkpoint %s)\n", step, t, options.restart_file.c_str()));
   }
   a.wall_start = a.last_checkpoint_wall = WallClock(comm);
-  a.time_start = t;
+  a.time_start                          = t;
   while (t < analysis.end_time * (1.0 - 1e-14)) {
     const double target = NextTarget(analysis, t);
     double       dt     = controller.Propose(t, target);

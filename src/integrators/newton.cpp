@@ -74,7 +74,7 @@ PetscErrorCode SafeguardedNewtonStep(SNESLineSearch linesearch, void *ctx)
     if (evaluable) break;
   }
   // w and g keep the shortest step's increments and residual: NewtonDescribeFailure looks there.
-  context->line_search_trouble     = evaluable ? NewtonContext::StepTrouble::None
+  context->line_search_trouble     = evaluable     ? NewtonContext::StepTrouble::None
                                      : geometry_ok ? NewtonContext::StepTrouble::NonFinite
                                                    : NewtonContext::StepTrouble::Unevaluable;
   context->line_search_last_lambda = lambda;
@@ -153,7 +153,6 @@ PetscErrorCode NewtonSolverCreate(MPI_Comm comm, const AnalysisSettings &analysi
 }
 
 namespace {
-
 
 // The lowest global row of v holding NaN or Inf (-1: none) and whether v holds a NaN. Collective.
 PetscErrorCode FirstNonFiniteRow(Vec v, PetscInt *row, PetscBool *has_nan)
@@ -265,7 +264,7 @@ PetscErrorCode DescribeNonFiniteTangent(NewtonContext *context, Vec x, Mat tange
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
-const char *const kHalfTurn     = "its nodes turn by nearly pi relative to each other";
+const char *const kHalfTurn = "its nodes turn by nearly pi relative to each other";
 // Growth of |R| in one Newton iteration beyond which the tangent must be nearly singular.
 constexpr double  kAbsurdGrowth = 1e12;
 const char *const kSingularHint = "is part of the model a mechanism free to move, or has a node neither stiffness nor mass in some direction?";
@@ -289,7 +288,7 @@ PetscErrorCode DescribeFactorFailure(PC pc, std::string *detail, MatFactorError 
   PetscCall(MatFactorGetError(factor, &local_error));
   int local = (int)local_error, global;
   PetscCall(MPIU_Allreduce(&local, &global, 1, MPI_INT, MPI_MAX, PetscObjectComm((PetscObject)pc)));
-  *error = (MatFactorError)global;
+  *error             = (MatFactorError)global;
   PetscBool is_mumps = PETSC_FALSE;
   if (solver) PetscCall(PetscStrcmp(solver, MATSOLVERMUMPS, &is_mumps));
 #if defined(PETSC_HAVE_MUMPS)
@@ -380,8 +379,8 @@ PetscErrorCode DescribeNonFiniteUpdate(SNES snes, NewtonContext *context, Vec x,
   else {
     std::string unknown;
     PetscCall(context->assembler->DescribeUnknown(row, &unknown));
-    *why = Format("the Newton update is %s at %s though the tangent is finite: the tangent is singular and the linear solver did not say so; ", NonFiniteWord(has_nan),
-                  unknown.c_str()) +
+    *why = Format("the Newton update is %s at %s though the tangent is finite: the tangent is singular and the linear solver did not say so; ",
+                  NonFiniteWord(has_nan), unknown.c_str()) +
            kSingularHint;
   }
   PetscFunctionReturn(PETSC_SUCCESS);
@@ -415,8 +414,9 @@ PetscErrorCode DescribeFailedStep(SNES snes, NewtonContext *context, Vec x, Vec 
              (where.empty() ? std::string("an element") : where) + ": " + kHalfTurn;
     } else {
       PetscCall(DescribeNonFiniteResidual(context, trial, trial_residual, &where, &has_nan));
-      *why = Format("after the Newton update (norm %.3e), even shortened to 1/%ld, the residual is %s", (double)update_norm, shortening, NonFiniteWord(has_nan)) +
-             (where.empty() ? std::string() : " at " + where);
+      *why =
+          Format("after the Newton update (norm %.3e), even shortened to 1/%ld, the residual is %s", (double)update_norm, shortening, NonFiniteWord(has_nan)) +
+          (where.empty() ? std::string() : " at " + where);
     }
     PetscFunctionReturn(PETSC_SUCCESS);
   }
@@ -447,7 +447,7 @@ PetscErrorCode DescribeFailedStep(SNES snes, NewtonContext *context, Vec x, Vec 
 // report its norm) beyond x along the update.
 PetscErrorCode DescribeNonFiniteNorm(SNES snes, NewtonContext *context, Vec x, Vec update, Vec residual, std::string *why)
 {
-  PetscInt    row, update_row = -1, linear_iterations;
+  PetscInt    row, update_row     = -1, linear_iterations;
   PetscBool   has_nan, update_nan = PETSC_FALSE;
   std::string where;
   PetscFunctionBeginUser;
@@ -512,8 +512,8 @@ PetscErrorCode DescribeDivergence(SNES snes, NewtonContext *context, SNESConverg
   default:
     *why = Format("Newton failed after %" PetscInt_FMT " iteration%s", iterations, iterations == 1 ? "" : "s");
   }
-  *why += Format(": |R| = %.3e at the start of the step, %.3e after the last iteration (convergence needs %.3e); the largest residual, %.3e, is at %s", first, last, needed,
-                 (double)largest, unknown.c_str());
+  *why += Format(": |R| = %.3e at the start of the step, %.3e after the last iteration (convergence needs %.3e); the largest residual, %.3e, is at %s", first,
+                 last, needed, (double)largest, unknown.c_str());
   // A factorisation of a singular tangent may not fail: its round-off pivots make absurd updates,
   // which even large-rotation steps (a few orders of magnitude) do not approach.
   int    jump_iteration = 0;

@@ -68,7 +68,8 @@ MotionUpdate AdvanceMotion(const TimeScheme &s, const MotionState &start, const 
   }
   next.pseudo_acceleration = (increment - dt * start.velocity - dt * dt * (0.5 - s.beta) * start.pseudo_acceleration) / (s.beta * dt * dt);
   next.velocity            = start.velocity + dt * ((1.0 - s.gamma) * start.pseudo_acceleration + s.gamma * next.pseudo_acceleration);
-  next.acceleration = ((1.0 - s.alpha_m) * next.pseudo_acceleration + s.alpha_m * start.pseudo_acceleration - s.alpha_f * start.acceleration) / (1.0 - s.alpha_f);
+  next.acceleration =
+      ((1.0 - s.alpha_m) * next.pseudo_acceleration + s.alpha_m * start.pseudo_acceleration - s.alpha_f * start.acceleration) / (1.0 - s.alpha_f);
   return next;
 }
 

@@ -28,10 +28,7 @@ namespace msflex {
 enum class TimeSchemeKind { Newmark, GeneralizedAlpha, MomentumConserving, EnergyMomentum };
 
 // mc and em: the mid-point family (see above).
-inline bool IsMidpointScheme(TimeSchemeKind kind)
-{
-  return kind == TimeSchemeKind::MomentumConserving || kind == TimeSchemeKind::EnergyMomentum;
-}
+inline bool IsMidpointScheme(TimeSchemeKind kind) { return kind == TimeSchemeKind::MomentumConserving || kind == TimeSchemeKind::EnergyMomentum; }
 
 struct TimeScheme {
   TimeSchemeKind kind = TimeSchemeKind::Newmark;
@@ -47,15 +44,15 @@ struct TimeScheme {
 };
 
 // Parses "newmark", "genalpha", "mc", "em"; false for anything else.
-bool TimeSchemeKindFromName(const std::string &name, TimeSchemeKind *kind);
+bool        TimeSchemeKindFromName(const std::string &name, TimeSchemeKind *kind);
 const char *TimeSchemeName(TimeSchemeKind kind);
 TimeScheme  MakeTimeScheme(TimeSchemeKind kind, double spectral_radius, double dt);
 
 // Kinematic state of one vector DOF group (translation, or rotation in the material frame) at the
 // start of a step, and the values at the end that a given increment implies.
 struct MotionState {
-  Vec3 velocity          = Vec3::Zero();
-  Vec3 acceleration      = Vec3::Zero(); // true acceleration vdot
+  Vec3 velocity            = Vec3::Zero();
+  Vec3 acceleration        = Vec3::Zero(); // true acceleration vdot
   Vec3 pseudo_acceleration = Vec3::Zero(); // the Newmark family's a
 };
 struct MotionUpdate {

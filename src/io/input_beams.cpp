@@ -72,8 +72,7 @@ Vec3 ReadLineOrientation(const MappingReader &beam, const Vec3 &start, const Vec
   const Vec3 orientation = ReadVec3(*value, "orientation");
   if (orientation.stableNorm() == 0.0) FailAt(value->Mark(), "'orientation' of " + beam.Description() + " must not be the zero vector");
   if (OrientationAlongAxis(orientation, start, end))
-    FailAt(value->Mark(), "'orientation' " + FormatVec3(orientation) + " is parallel to the axis of " + beam.Description() +
-                              "; it must point across the beam");
+    FailAt(value->Mark(), "'orientation' " + FormatVec3(orientation) + " is parallel to the axis of " + beam.Description() + "; it must point across the beam");
   return orientation;
 }
 
@@ -83,8 +82,7 @@ Vec3 ArcNormal(const MappingReader &arc, const Vec3 &start_radius, const Vec3 &e
   if (value == nullptr) {
     const Vec3 plane_normal = start_radius.cross(end_radius);
     if (plane_normal.norm() <= 1e-9 * start_radius.norm() * end_radius.norm())
-      FailAt(arc.Mark(), "'from', 'to' and 'center' are collinear in " + arc.Description() +
-                             ", so the plane of the arc is undefined; give 'normal'");
+      FailAt(arc.Mark(), "'from', 'to' and 'center' are collinear in " + arc.Description() + ", so the plane of the arc is undefined; give 'normal'");
     return plane_normal.normalized();
   }
   const Vec3 normal = ReadVec3(*value, "normal");
@@ -111,9 +109,8 @@ ReferenceCurve ArcCurve(const YAML::Node &arc_node, const MappingReader &beam, c
   const double radius       = start_radius.norm();
   // Also rejects a zero radius: from != to, so at most one of them can sit on the centre.
   if (std::abs(radius - end_radius.norm()) > 1e-9 * std::max(radius, end_radius.norm()))
-    FailAt(arc.Required("center").Mark(), "'from' and 'to' of " + beam.Description() + " are not equally far from 'center' " +
-                                              FormatVec3(curve.center) + ": " + FormatNumber(radius) + " and " +
-                                              FormatNumber(end_radius.norm()));
+    FailAt(arc.Required("center").Mark(), "'from' and 'to' of " + beam.Description() + " are not equally far from 'center' " + FormatVec3(curve.center) + ": " +
+                                              FormatNumber(radius) + " and " + FormatNumber(end_radius.norm()));
   curve.normal      = ArcNormal(arc, start_radius, end_radius);
   curve.sweep_angle = std::atan2(curve.normal.dot(start_radius.cross(end_radius)), start_radius.dot(end_radius));
   if (curve.sweep_angle <= 0.0) curve.sweep_angle += 2.0 * M_PI;
@@ -140,7 +137,7 @@ BeamLayout ReadLayout(const MappingReader &beam)
 // appends the beam to Model::beams.
 void AppendNodesAndElements(const ReferenceCurve &curve, const BeamLayout &layout, int from, int to, Beam beam, ReaderContext &context)
 {
-  Model            &model      = context.model;
+  Model &model                 = context.model;
   beam.order                   = layout.order;
   const int         beam_index = static_cast<int>(model.beams.size());
   const int         segments   = layout.elements * layout.order;
@@ -152,8 +149,8 @@ void AppendNodesAndElements(const ReferenceCurve &curve, const BeamLayout &layou
       node = static_cast<int>(model.nodes.size());
       Node generated{beam.name + "." + std::to_string(k), curve.PositionAt(fraction), beam.mark};
       if (const auto clash = context.names.find(generated.name); clash != context.names.end())
-        FailAt(beam.mark, "beam " + Quote(beam.name) + " generates node " + Quote(generated.name) +
-                              ", but that name is already used at line " + std::to_string(clash->second.line));
+        FailAt(beam.mark, "beam " + Quote(beam.name) + " generates node " + Quote(generated.name) + ", but that name is already used at line " +
+                              std::to_string(clash->second.line));
       context.RegisterName(generated.name, NameKind::Node, node, beam.mark);
       model.nodes.push_back(std::move(generated));
     }
@@ -185,12 +182,11 @@ void ReadBeam(const YAML::Node &item, ReaderContext &context)
   beam.name = entry.String("name");
   beam.mark = context.MarkOf(entry.Mark());
   context.RegisterName(beam.name, NameKind::Beam, static_cast<int>(model.beams.size()), context.MarkOf(entry.Required("name").Mark()));
-  beam.section = context.SectionIndex(entry, "section");
+  beam.section   = context.SectionIndex(entry, "section");
   const int from = context.NodeIndex(entry, "from");
   const int to   = context.NodeIndex(entry, "to");
   if (from == to)
-    FailAt(entry.Required("to").Mark(),
-           "'to' must differ from 'from' in " + entry.Description() + " (both are " + Quote(model.nodes[to].name) + ")");
+    FailAt(entry.Required("to").Mark(), "'to' must differ from 'from' in " + entry.Description() + " (both are " + Quote(model.nodes[to].name) + ")");
   const Vec3 start = model.nodes[from].position;
   const Vec3 end   = model.nodes[to].position;
   if (BeamHasZeroLength(start, end))
@@ -200,8 +196,8 @@ void ReadBeam(const YAML::Node &item, ReaderContext &context)
   if (const YAML::Node *arc = entry.Find("arc")) {
     // On an arc t2 is fixed by the geometry (towards the centre); `roll` rotates it instead.
     if (const YAML::Node *orientation = entry.Find("orientation"))
-      FailAt(orientation->Mark(), "'orientation' cannot be combined with 'arc' in " + entry.Description() +
-                                      " (on an arc t2 points to the centre; use 'roll' to turn the section)");
+      FailAt(orientation->Mark(),
+             "'orientation' cannot be combined with 'arc' in " + entry.Description() + " (on an arc t2 points to the centre; use 'roll' to turn the section)");
     AppendNodesAndElements(ArcCurve(*arc, entry, start, end), layout, from, to, std::move(beam), context);
   } else {
     AppendStraightBeam(std::move(beam), from, to, ReadLineOrientation(entry, start, end), layout, context);
@@ -231,10 +227,9 @@ void AppendStraightBeam(Beam beam, int from, int to, const Vec3 &orientation, co
   // YAML nodes are checked when read; this also covers the nodes of a mesh file.
   for (const int node : {from, to})
     if (const std::string problem = PositionProblem(model.nodes[node].position); !problem.empty())
-      FailAt(beam.mark, "node " + Quote(model.nodes[node].name) + " of beam " + Quote(beam.name) + " is at " +
-                            FormatVec3(model.nodes[node].position) + ": " + problem);
-  AppendNodesAndElements(StraightCurve(model.nodes[from].position, model.nodes[to].position, orientation), layout, from, to,
-                         std::move(beam), context);
+      FailAt(beam.mark,
+             "node " + Quote(model.nodes[node].name) + " of beam " + Quote(beam.name) + " is at " + FormatVec3(model.nodes[node].position) + ": " + problem);
+  AppendNodesAndElements(StraightCurve(model.nodes[from].position, model.nodes[to].position, orientation), layout, from, to, std::move(beam), context);
 }
 
 void ReadBeams(const YAML::Node &beams, ReaderContext &context)

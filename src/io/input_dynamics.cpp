@@ -31,15 +31,14 @@ Mat3 ReadInertia(const YAML::Node &value, const std::string &body)
     for (int column = row + 1; column < 3; ++column)
       if (std::abs(inertia(row, column) - inertia(column, row)) > kInertiaSymmetryTolerance * scale)
         FailAt(value[column][row].Mark(), Quote(key) + " of " + body + " is not symmetric: entry (" + std::to_string(row + 1) + ", " +
-                                              std::to_string(column + 1) + ") is " + FormatNumber(inertia(row, column)) +
-                                              " but entry (" + std::to_string(column + 1) + ", " + std::to_string(row + 1) + ") is " +
-                                              FormatNumber(inertia(column, row)));
+                                              std::to_string(column + 1) + ") is " + FormatNumber(inertia(row, column)) + " but entry (" +
+                                              std::to_string(column + 1) + ", " + std::to_string(row + 1) + ") is " + FormatNumber(inertia(column, row)));
   const Mat3                                symmetric = 0.5 * (inertia + inertia.transpose());
   const Eigen::SelfAdjointEigenSolver<Mat3> eigen(symmetric, Eigen::EigenvaluesOnly);
   const Vec3                               &eigenvalues = eigen.eigenvalues(); // ascending
   if (eigenvalues(0) < -kInertiaEigenvalueTolerance * eigenvalues.cwiseAbs().maxCoeff())
-    FailAt(value.Mark(), Quote(key) + " of " + body + " is not positive semi-definite: its eigenvalues are " +
-                             FormatNumber(eigenvalues(0)) + ", " + FormatNumber(eigenvalues(1)) + " and " + FormatNumber(eigenvalues(2)));
+    FailAt(value.Mark(), Quote(key) + " of " + body + " is not positive semi-definite: its eigenvalues are " + FormatNumber(eigenvalues(0)) + ", " +
+                             FormatNumber(eigenvalues(1)) + " and " + FormatNumber(eigenvalues(2)));
   return symmetric;
 }
 
@@ -69,8 +68,7 @@ void ReadInitialConditions(const YAML::Node *list, ReaderContext &context)
   std::vector<int> condition_of_node(model.nodes.size(), -1); // index into model.initial_conditions
   for (const YAML::Node &item : ReadOptionalList(list, "initial_conditions")) {
     const MappingReader entry(item, "initial condition", {"nodes", "velocity", "angular_velocity", "rigid_body_center"});
-    if (!entry.Has("velocity") && !entry.Has("angular_velocity"))
-      FailAt(entry.Mark(), "an initial condition needs 'velocity', 'angular_velocity' or both");
+    if (!entry.Has("velocity") && !entry.Has("angular_velocity")) FailAt(entry.Mark(), "an initial condition needs 'velocity', 'angular_velocity' or both");
     InitialCondition condition;
     condition.mark             = context.MarkOf(entry.Mark());
     const YAML::Node &nodes    = entry.Required("nodes");
@@ -79,12 +77,11 @@ void ReadInitialConditions(const YAML::Node *list, ReaderContext &context)
     condition.angular_velocity = entry.Vector("angular_velocity", Vec3::Zero());
     condition.rigid_body_field = entry.Has("rigid_body_center");
     if (entry.Has("rigid_body_center")) condition.center = ReadPosition(entry.Required("rigid_body_center"), "rigid_body_center");
-    const int index            = static_cast<int>(model.initial_conditions.size());
+    const int index = static_cast<int>(model.initial_conditions.size());
     for (int node : condition.nodes) {
       if (const int first = condition_of_node[node]; first >= 0)
         FailAt(nodes.Mark(), "node " + Quote(model.nodes[node].name) + " already has an initial condition from the entry at line " +
-                                 std::to_string(model.initial_conditions[first].mark.line) +
-                                 "; a node may get at most one initial condition");
+                                 std::to_string(model.initial_conditions[first].mark.line) + "; a node may get at most one initial condition");
       condition_of_node[node] = index;
     }
     model.initial_conditions.push_back(std::move(condition));

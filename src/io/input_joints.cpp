@@ -36,15 +36,14 @@ Mat3 ReadJointAxes(const MappingReader &entry)
   Vec3 axis = Vec3::UnitX();
   if (const YAML::Node *value = entry.Find("axis")) {
     axis = ReadVec3(*value, "axis");
-    if (const std::string problem = JointAxisProblem(axis); !problem.empty())
-      FailAt(value->Mark(), "'axis' of " + entry.Description() + " " + problem);
+    if (const std::string problem = JointAxisProblem(axis); !problem.empty()) FailAt(value->Mark(), "'axis' of " + entry.Description() + " " + problem);
   }
   const YAML::Node *value = entry.Find("second_axis");
   if (value == nullptr) return JointAxesFrom(axis, nullptr);
   const Vec3 second_axis = ReadVec3(*value, "second_axis");
   if (const std::string problem = JointSecondAxisProblem(axis, second_axis); !problem.empty())
-    FailAt(value->Mark(), "'second_axis' " + (second_axis.stableNorm() == 0.0 ? std::string() : FormatVec3(second_axis) + " ") + "of " +
-                              entry.Description() + " " + problem);
+    FailAt(value->Mark(),
+           "'second_axis' " + (second_axis.stableNorm() == 0.0 ? std::string() : FormatVec3(second_axis) + " ") + "of " + entry.Description() + " " + problem);
   return JointAxesFrom(axis, &second_axis);
 }
 
@@ -54,9 +53,8 @@ void SetRelease(Joint &joint, const std::vector<int> &translations, const std::v
 {
   joint.num_translations = static_cast<int>(translations.size());
   for (size_t k = 0; k < translations.size(); ++k) joint.translation_axis[k] = translations[k];
-  static const Joint::Rotation kinds[] = {Joint::Rotation::None, Joint::Rotation::OneAxis, Joint::Rotation::TwoAxes,
-                                          Joint::Rotation::Free};
-  joint.rotation = kinds[rotations.size()];
+  static const Joint::Rotation kinds[] = {Joint::Rotation::None, Joint::Rotation::OneAxis, Joint::Rotation::TwoAxes, Joint::Rotation::Free};
+  joint.rotation                       = kinds[rotations.size()];
   if (rotations.size() == 1 || rotations.size() == 2)
     for (size_t k = 0; k < rotations.size(); ++k) joint.rotation_axis[k] = rotations[k];
 }
@@ -96,14 +94,12 @@ void ReadProfile(const YAML::Node &value, const MappingReader &joint_entry, Join
 {
   const std::string   where = "the 'profile' of " + joint_entry.Description();
   const MappingReader entry(value, where, {"period", "points"});
-  joint.profile_period    = entry.PositiveNumber("period", kTwoPi);
+  joint.profile_period     = entry.PositiveNumber("period", kTwoPi);
   const YAML::Node &points = entry.Required("points");
   const auto        items  = ReadNonEmptyList(points, "points");
-  if (items.size() < 3)
-    FailAt(points.Mark(), "'points' of " + where + " needs at least 3 [phi, lift] pairs, got " + std::to_string(items.size()));
+  if (items.size() < 3) FailAt(points.Mark(), "'points' of " + where + " needs at least 3 [phi, lift] pairs, got " + std::to_string(items.size()));
   for (const YAML::Node &point : items) {
-    if (!point.IsSequence() || point.size() != 2)
-      FailAt(point.Mark(), "expected a [phi, lift] pair in 'points' of " + where + ", got " + DescribeValue(point));
+    if (!point.IsSequence() || point.size() != 2) FailAt(point.Mark(), "expected a [phi, lift] pair in 'points' of " + where + ", got " + DescribeValue(point));
     const double phi = ReadNumber(point[0], "points");
     if (!joint.profile_knots.empty() && !(phi > joint.profile_knots.back()))
       FailAt(point[0].Mark(), "angles in 'points' of " + where + " must be strictly increasing, got " + point[0].Scalar() + " after " +
@@ -113,9 +109,8 @@ void ReadProfile(const YAML::Node &value, const MappingReader &joint_entry, Join
   }
   const double first = joint.profile_knots.front(), last = joint.profile_knots.back();
   if (!(last < first + joint.profile_period))
-    FailAt(items.back()[0].Mark(), "the last angle in 'points' of " + where + " (" + items.back()[0].Scalar() +
-                                       ") must be less than the first (" + FormatNumber(first) + ") plus the period (" +
-                                       FormatNumber(joint.profile_period) + ")");
+    FailAt(items.back()[0].Mark(), "the last angle in 'points' of " + where + " (" + items.back()[0].Scalar() + ") must be less than the first (" +
+                                       FormatNumber(first) + ") plus the period (" + FormatNumber(joint.profile_period) + ")");
   joint.profile_second.assign(joint.profile_knots.size(), 0.0);
   if (!PeriodicSplineSecondDerivatives(joint.profile_period, static_cast<int>(joint.profile_knots.size()), joint.profile_knots.data(),
                                        joint.profile_values.data(), joint.profile_second.data()))
@@ -127,10 +122,9 @@ void ReadRelease(const std::string &type, const MappingReader &entry, Joint &joi
 {
   JointExtra extra = JointExtra::None;
   if (!JointTypeExtra(type, &extra))
-    FailAt(entry.Required("type").Mark(), "unknown joint type " + Quote(type) + " in " + entry.Description() + "; expected one of " +
-                                              kJointTypeList);
+    FailAt(entry.Required("type").Mark(), "unknown joint type " + Quote(type) + " in " + entry.Description() + "; expected one of " + kJointTypeList);
   // The keys every joint may have, plus the one of its type; keys of other types are errors.
-  static const char *const kTypeKeys[] = {nullptr, "pitch", "radius", "release", "profile"};
+  static const char *const  kTypeKeys[] = {nullptr, "pitch", "radius", "release", "profile"};
   std::vector<const char *> keys{"name", "type", "master", "slave", "axis", "second_axis", "drive"};
   if (const char *type_key = kTypeKeys[static_cast<int>(extra)]) keys.push_back(type_key);
   entry.RequireOnlyKeys(keys);
@@ -162,34 +156,32 @@ std::vector<std::string> DrivableCoordinates(const Joint &joint)
   std::vector<std::string> names;
   for (int k = 0; k < joint.num_translations; ++k) names.push_back(kCoordinateNames[joint.translation_axis[k]]);
   if (joint.rotation == Joint::Rotation::OneAxis || joint.rotation == Joint::Rotation::TwoAxes)
-    for (int k = 0; k < (joint.rotation == Joint::Rotation::OneAxis ? 1 : 2); ++k)
-      names.push_back(kCoordinateNames[3 + joint.rotation_axis[k]]);
+    for (int k = 0; k < (joint.rotation == Joint::Rotation::OneAxis ? 1 : 2); ++k) names.push_back(kCoordinateNames[3 + joint.rotation_axis[k]]);
   return names;
 }
 
 void ReadDrive(const YAML::Node &value, const MappingReader &joint_entry, const ReaderContext &context, Joint &joint)
 {
-  const MappingReader entry(value, "the 'drive' of " + joint_entry.Description(), {"coordinate", "value", "function"});
-  const YAML::Node   &coordinate_node = entry.Required("coordinate");
-  const std::string   coordinate      = ReadString(coordinate_node, "coordinate");
-  const std::vector<std::string> names = DrivableCoordinates(joint);
-  std::vector<std::string>       choices = names;
+  const MappingReader            entry(value, "the 'drive' of " + joint_entry.Description(), {"coordinate", "value", "function"});
+  const YAML::Node              &coordinate_node = entry.Required("coordinate");
+  const std::string              coordinate      = ReadString(coordinate_node, "coordinate");
+  const std::vector<std::string> names           = DrivableCoordinates(joint);
+  std::vector<std::string>       choices         = names;
   if (joint.rotation == Joint::Rotation::OneAxis) choices.push_back("rotation");
   if (joint.dependence == Joint::Dependence::Linear) choices.push_back("translation");
   const std::string joint_kind = joint_entry.Description() + " (" + joint.type + ")";
-  const std::string hint       = choices.empty() ? joint_kind + " has no coordinate that can be driven"
-                                                  : "the coordinates of " + joint_kind + " are " + JoinWords(choices);
+  const std::string hint =
+      choices.empty() ? joint_kind + " has no coordinate that can be driven" : "the coordinates of " + joint_kind + " are " + JoinWords(choices);
   double scale = 1.0;
   int    index = -1;
   if (coordinate == "rotation") {
     if (joint.rotation != Joint::Rotation::OneAxis)
-      FailAt(coordinate_node.Mark(), "'rotation' drives the single rotation of a one-axis joint, but " + joint_kind +
-                                         " has none; " + hint);
+      FailAt(coordinate_node.Mark(), "'rotation' drives the single rotation of a one-axis joint, but " + joint_kind + " has none; " + hint);
     index = joint.num_translations;
   } else if (coordinate == "translation") {
     if (joint.dependence != Joint::Dependence::Linear)
-      FailAt(coordinate_node.Mark(), "'translation' drives the dependent translation of a screw or rack_pinion joint, but " + joint_kind +
-                                         " is neither; " + hint);
+      FailAt(coordinate_node.Mark(),
+             "'translation' drives the dependent translation of a screw or rack_pinion joint, but " + joint_kind + " is neither; " + hint);
     // The translation is coefficient * phi, so the rotation is driven with value / coefficient.
     index = joint.num_translations;
     scale = 1.0 / joint.coefficient;
@@ -199,8 +191,8 @@ void ReadDrive(const YAML::Node &value, const MappingReader &joint_entry, const 
     if (index < 0) {
       const bool rotation_name = coordinate == "rx" || coordinate == "ry" || coordinate == "rz";
       if (rotation_name && joint.rotation == Joint::Rotation::Free)
-        FailAt(coordinate_node.Mark(), "the free rotation of " + joint_kind + " cannot be driven (" + Quote(coordinate) +
-                                           "); drive a joint with one or two rotation axes instead");
+        FailAt(coordinate_node.Mark(),
+               "the free rotation of " + joint_kind + " cannot be driven (" + Quote(coordinate) + "); drive a joint with one or two rotation axes instead");
       FailAt(coordinate_node.Mark(), "coordinate " + Quote(coordinate) + " in 'drive' is not released by " + joint_kind + "; " + hint);
     }
   }
@@ -216,11 +208,10 @@ int ReadJointNode(const MappingReader &entry, const std::string &key, const Read
   const std::string name  = ReadString(value, key);
   if (name != kGround) return context.NodeIndex(entry, key);
   if (key != "master")
-    FailAt(value.Mark(),
-           "the ground cannot be the " + key + " of " + entry.Description() + "; use 'master: ground' and make the node the slave");
+    FailAt(value.Mark(), "the ground cannot be the " + key + " of " + entry.Description() + "; use 'master: ground' and make the node the slave");
   if (context.names.count(kGround) > 0)
-    FailAt(value.Mark(), "'master: ground' of " + entry.Description() + " means the fixed ground, but a node, beam or set is also called " +
-                             Quote(kGround) + "; rename it");
+    FailAt(value.Mark(),
+           "'master: ground' of " + entry.Description() + " means the fixed ground, but a node, beam or set is also called " + Quote(kGround) + "; rename it");
   return -1;
 }
 
@@ -231,15 +222,15 @@ Joint ReadJoint(const YAML::Node &item, const ReaderContext &context)
   joint.name = entry.String("name");
   joint.mark = context.MarkOf(entry.Mark());
   if (const auto other = context.joint_names.find(joint.name); other != context.joint_names.end())
-    FailAt(entry.Required("name").Mark(), "duplicate joint name " + Quote(joint.name) + " (first defined at line " +
-                                              std::to_string(context.model.joints[other->second].mark.line) + ")");
+    FailAt(entry.Required("name").Mark(),
+           "duplicate joint name " + Quote(joint.name) + " (first defined at line " + std::to_string(context.model.joints[other->second].mark.line) + ")");
   joint.type = entry.String("type");
   ReadRelease(joint.type, entry, joint);
   joint.master = ReadJointNode(entry, "master", context);
   joint.slave  = ReadJointNode(entry, "slave", context);
   if (joint.master == joint.slave)
-    FailAt(entry.Required("slave").Mark(), "the slave of " + entry.Description() + " is its master " +
-                                               Quote(context.model.nodes[joint.slave].name) + "; a joint needs two different nodes");
+    FailAt(entry.Required("slave").Mark(),
+           "the slave of " + entry.Description() + " is its master " + Quote(context.model.nodes[joint.slave].name) + "; a joint needs two different nodes");
   bool at_slave = false;
   if (const std::string problem = JointTreeProblem(joint, context, &at_slave); !problem.empty())
     FailAt(at_slave ? entry.Required("slave").Mark() : entry.Mark(), problem);
@@ -256,10 +247,9 @@ const char *const kJointTypeList = "rigid, spherical, revolute, universal, cylin
 bool JointTypeExtra(const std::string &type, JointExtra *extra)
 {
   static const std::pair<const char *, JointExtra> kTypes[] = {
-      {"rigid", JointExtra::None},     {"spherical", JointExtra::None},   {"revolute", JointExtra::None},
-      {"universal", JointExtra::None}, {"cylindrical", JointExtra::None}, {"prismatic", JointExtra::None},
-      {"planar", JointExtra::None},    {"free", JointExtra::None},        {"custom", JointExtra::Release},
-      {"screw", JointExtra::Pitch},    {"rack_pinion", JointExtra::Radius}, {"cam", JointExtra::Radius},
+      {"rigid", JointExtra::None},       {"spherical", JointExtra::None}, {"revolute", JointExtra::None},      {"universal", JointExtra::None},
+      {"cylindrical", JointExtra::None}, {"prismatic", JointExtra::None}, {"planar", JointExtra::None},        {"free", JointExtra::None},
+      {"custom", JointExtra::Release},   {"screw", JointExtra::Pitch},    {"rack_pinion", JointExtra::Radius}, {"cam", JointExtra::Radius},
       {"cam_table", JointExtra::Profile}};
   for (const auto &[name, type_extra] : kTypes)
     if (type == name) {
@@ -312,8 +302,7 @@ std::string JointSecondAxisProblem(const Vec3 &axis, const Vec3 &second_axis)
   const double length = second_axis.stableNorm();
   if (length == 0.0) return "must not be the zero vector";
   const Vec3 a1 = axis / axis.stableNorm();
-  if ((second_axis / length).cross(a1).norm() < kParallelTolerance)
-    return "is parallel to its axis " + FormatVec3(a1) + "; it must point across it";
+  if ((second_axis / length).cross(a1).norm() < kParallelTolerance) return "is parallel to its axis " + FormatVec3(a1) + "; it must point across it";
   return "";
 }
 
@@ -345,8 +334,8 @@ std::string JointTreeProblem(const Joint &joint, const ReaderContext &context, b
   const Model &model = context.model;
   *at_slave          = true;
   if (const int first = context.JointOfSlave(joint.slave); first >= 0)
-    return "node " + Quote(model.nodes[joint.slave].name) + " is already the slave of joint " + Quote(model.joints[first].name) +
-           " at line " + std::to_string(model.joints[first].mark.line) + "; a node can be the slave of only one joint";
+    return "node " + Quote(model.nodes[joint.slave].name) + " is already the slave of joint " + Quote(model.joints[first].name) + " at line " +
+           std::to_string(model.joints[first].mark.line) + "; a node can be the slave of only one joint";
   *at_slave = false;
   std::vector<std::string> chain;
   for (int node = joint.master; node >= 0;) {
@@ -365,8 +354,8 @@ std::string JointTreeProblem(const Joint &joint, const ReaderContext &context, b
 
 void AppendJoint(Joint joint, ReaderContext &context)
 {
-  Model    &model = context.model;
-  const int index = static_cast<int>(model.joints.size());
+  Model    &model                     = context.model;
+  const int index                     = static_cast<int>(model.joints.size());
   context.joint_of_slave[joint.slave] = index;
   context.joint_names.emplace(joint.name, index);
   model.joints.push_back(std::move(joint));

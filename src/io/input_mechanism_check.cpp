@@ -68,7 +68,7 @@ ModeRow TranslationRow(const Vec3 &a, const Vec3 &arm)
 // The constraint "rotation about a = 0" in the six modes.
 ModeRow RotationRow(const Vec3 &a)
 {
-  ModeRow row = ModeRow::Zero();
+  ModeRow row   = ModeRow::Zero();
   row.tail<3>() = a.transpose();
   return row;
 }
@@ -140,8 +140,7 @@ std::string BeamList(const Model &model, const std::vector<int> &beams)
 {
   constexpr size_t kNamesShown = 3;
   std::string      list;
-  for (size_t index = 0; index < beams.size() && index < kNamesShown; ++index)
-    list += (index > 0 ? ", " : "") + Quote(model.beams[beams[index]].name);
+  for (size_t index = 0; index < beams.size() && index < kNamesShown; ++index) list += (index > 0 ? ", " : "") + Quote(model.beams[beams[index]].name);
   if (beams.size() > kNamesShown) list += " and " + std::to_string(beams.size() - kNamesShown) + " more";
   return list;
 }
@@ -155,13 +154,11 @@ void CheckStaticMechanisms(const Model &model)
   std::vector<std::vector<int>> nodes_of_component(model.nodes.size()); // indexed by component root
   std::vector<std::vector<int>> beams_of_component(model.nodes.size());
   std::vector<std::vector<int>> ground_joints_of_component(model.nodes.size());
-  for (size_t node = 0; node < model.nodes.size(); ++node)
-    nodes_of_component[components.Root(static_cast<int>(node))].push_back(static_cast<int>(node));
+  for (size_t node = 0; node < model.nodes.size(); ++node) nodes_of_component[components.Root(static_cast<int>(node))].push_back(static_cast<int>(node));
   for (size_t beam = 0; beam < model.beams.size(); ++beam)
     beams_of_component[components.Root(model.beams[beam].nodes.front())].push_back(static_cast<int>(beam));
   for (size_t joint = 0; joint < model.joints.size(); ++joint)
-    if (model.joints[joint].master < 0)
-      ground_joints_of_component[components.Root(model.joints[joint].slave)].push_back(static_cast<int>(joint));
+    if (model.joints[joint].master < 0) ground_joints_of_component[components.Root(model.joints[joint].slave)].push_back(static_cast<int>(joint));
   // Components in the order of their first beam, so the first mechanism reported is the first
   // one in the file.
   for (size_t beam = 0; beam < model.beams.size(); ++beam) {
@@ -170,8 +167,8 @@ void CheckStaticMechanisms(const Model &model)
     if (beams.front() != static_cast<int>(beam)) continue;
     const int restrained = RestrainedRigidBodyModes(model, nodes_of_component[root], constrained, ground_joints_of_component[root]);
     if (restrained < 6)
-      FailAt(model.beams[beam].mark, "mechanism: beam(s) " + BeamList(model, beams) + " can move as a rigid body (" +
-                                         std::to_string(restrained) + " of 6 rigid-body modes restrained); add supports");
+      FailAt(model.beams[beam].mark, "mechanism: beam(s) " + BeamList(model, beams) + " can move as a rigid body (" + std::to_string(restrained) +
+                                         " of 6 rigid-body modes restrained); add supports");
   }
   // A group of nodes outside every beam (carrying rigid bodies, possibly joined by joints) has no
   // stiffness at all: statics needs supports and joints to the ground that hold it completely.
@@ -183,9 +180,8 @@ void CheckStaticMechanisms(const Model &model)
     checked[root]        = true;
     const int restrained = RestrainedRigidBodyModes(model, nodes_of_component[root], constrained, ground_joints_of_component[root]);
     if (restrained < 6)
-      FailAt(body.mark, "mechanism: the rigid body at node " + Quote(model.nodes[body.node].name) +
-                            " is not connected to any beam and can move freely (" + std::to_string(restrained) +
-                            " of 6 rigid-body modes restrained); in a static analysis add supports or use type: dynamic");
+      FailAt(body.mark, "mechanism: the rigid body at node " + Quote(model.nodes[body.node].name) + " is not connected to any beam and can move freely (" +
+                            std::to_string(restrained) + " of 6 rigid-body modes restrained); in a static analysis add supports or use type: dynamic");
   }
 }
 

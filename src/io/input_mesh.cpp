@@ -182,8 +182,7 @@ public:
     if (!std::filesystem::is_regular_file(path, error)) problem = "cannot open mesh file " + Quote(label_) + " (looked for " + Quote(path.string()) + ")";
     else if (H5Fis_hdf5(path.c_str()) <= 0) problem = "mesh file " + Quote(label_) + " is not an HDF5 file";
     else if ((file_ = H5Fopen(path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT)) < 0) problem = "cannot open mesh file " + Quote(label_) + " as HDF5 (read-only)";
-    if (!group_.AllOk(problem.empty()))
-      FailAt(mark_, problem.empty() ? "mesh file " + Quote(label_) + " cannot be opened on another rank" : problem);
+    if (!group_.AllOk(problem.empty())) FailAt(mark_, problem.empty() ? "mesh file " + Quote(label_) + " cannot be opened on another rank" : problem);
   }
   ~MeshReader()
   {
@@ -192,10 +191,7 @@ public:
   MeshReader(const MeshReader &)            = delete;
   MeshReader &operator=(const MeshReader &) = delete;
 
-  [[noreturn]] void Fail(const std::string &dataset, const std::string &message) const
-  {
-    FailAt(mark_, label_ + ": " + dataset + ": " + message);
-  }
+  [[noreturn]] void Fail(const std::string &dataset, const std::string &message) const { FailAt(mark_, label_ + ": " + dataset + ": " + message); }
 
   // Whether every component of the absolute `path` exists (H5Lexists needs the parents).
   bool Exists(const std::string &path) const
@@ -214,8 +210,7 @@ public:
     std::vector<double> values(Count(*rows, shape));
     Read(dataset, path, H5T_NATIVE_DOUBLE, values.data(), *rows, std::max(shape.columns, 1));
     for (size_t index = 0; index < values.size(); ++index)
-      if (!std::isfinite(values[index]))
-        Fail(path + Row(static_cast<long long>(index) / std::max(shape.columns, 1)), "not a finite number");
+      if (!std::isfinite(values[index])) Fail(path + Row(static_cast<long long>(index) / std::max(shape.columns, 1)), "not a finite number");
     return values;
   }
 
@@ -267,7 +262,7 @@ public:
       std::vector<char> buffer(size * strings.size(), '\0');
       Read(dataset, path, memory_type.Get(), buffer.data(), rows, 1);
       for (size_t row = 0; row < strings.size(); ++row) {
-        const char *start = buffer.data() + row * size;
+        const char *start  = buffer.data() + row * size;
         size_t      length = 0;
         while (length < size && start[length] != '\0') ++length;
         strings[row].assign(start, length);
@@ -294,17 +289,15 @@ private:
     const H5T_class_t found = H5Tget_class(type.Get());
     if (!(found == type_class || (type_class == H5T_FLOAT && found == H5T_INTEGER)))
       Fail(path, std::string("expected ") + kind + ", found " + TypeClassName(found));
-    const Handle space(H5Dget_space(dataset.id.Get()), H5Sclose);
-    const int    rank = H5Sget_simple_extent_ndims(space.Get());
+    const Handle         space(H5Dget_space(dataset.id.Get()), H5Sclose);
+    const int            rank = H5Sget_simple_extent_ndims(space.Get());
     std::vector<hsize_t> dims(static_cast<size_t>(std::max(rank, 0)));
     if (rank > 0) H5Sget_simple_extent_dims(space.Get(), dims.data(), nullptr);
     const int  expected_rank = shape.columns == 0 ? 1 : 2;
     const bool shape_ok      = rank == expected_rank && (shape.rows < 0 || dims[0] == static_cast<hsize_t>(shape.rows)) &&
                           (expected_rank == 1 || dims[1] == static_cast<hsize_t>(shape.columns));
-    if (!shape_ok)
-      Fail(path, "wrong shape " + (rank <= 0 ? std::string("(scalar)") : FormatShape(dims)) + ", expected " + FormatShape(shape));
-    if (dims[0] > static_cast<hsize_t>(kMaxRows))
-      Fail(path, std::to_string(dims[0]) + " rows are too many (at most " + std::to_string(kMaxRows) + ")");
+    if (!shape_ok) Fail(path, "wrong shape " + (rank <= 0 ? std::string("(scalar)") : FormatShape(dims)) + ", expected " + FormatShape(shape));
+    if (dims[0] > static_cast<hsize_t>(kMaxRows)) Fail(path, std::to_string(dims[0]) + " rows are too many (at most " + std::to_string(kMaxRows) + ")");
     *rows = static_cast<long long>(dims[0]);
     return dataset;
   }
@@ -312,12 +305,12 @@ private:
   // Rows [first, last) of `dataset`, per_row elements of memory_type each, into `buffer`.
   bool ReadRows(const Dataset &dataset, hid_t memory_type, void *buffer, long long first, long long last, int per_row) const
   {
-    const Handle file_space(H5Dget_space(dataset.id.Get()), H5Sclose);
-    const int    rank           = H5Sget_simple_extent_ndims(file_space.Get());
-    const hsize_t start[2]      = {static_cast<hsize_t>(first), 0};
-    const hsize_t count[2]      = {static_cast<hsize_t>(last - first), static_cast<hsize_t>(per_row)};
-    const hsize_t memory_size   = std::max<hsize_t>(count[0] * (rank == 2 ? count[1] : 1), 1);
-    const Handle memory_space(H5Screate_simple(1, &memory_size, nullptr), H5Sclose);
+    const Handle  file_space(H5Dget_space(dataset.id.Get()), H5Sclose);
+    const int     rank        = H5Sget_simple_extent_ndims(file_space.Get());
+    const hsize_t start[2]    = {static_cast<hsize_t>(first), 0};
+    const hsize_t count[2]    = {static_cast<hsize_t>(last - first), static_cast<hsize_t>(per_row)};
+    const hsize_t memory_size = std::max<hsize_t>(count[0] * (rank == 2 ? count[1] : 1), 1);
+    const Handle  memory_space(H5Screate_simple(1, &memory_size, nullptr), H5Sclose);
     if (!file_space.Valid() || !memory_space.Valid()) return false;
     if (last == first) {
       H5Sselect_none(file_space.Get());
@@ -364,18 +357,18 @@ void CheckNodeIndex(const MeshData &mesh, const std::string &dataset, long long 
   const long long n = static_cast<long long>(mesh.coordinates.size());
   if (index < minimum || index >= n)
     FailRow(mesh, dataset, row,
-            "node index " + std::to_string(index) + " out of range (" + (minimum < 0 ? "-1 = ground, " : "") + "n = " + std::to_string(n) +
-                ")");
+            "node index " + std::to_string(index) + " out of range (" + (minimum < 0 ? "-1 = ground, " : "") + "n = " + std::to_string(n) + ")");
 }
 
 // Who already uses `name`, for messages.
 std::string UserOf(const ReaderContext &context, const std::string &name)
 {
   const NamedObject &object = context.names.at(name);
-  if (const int row = object.kind == NameKind::Node ? MeshNodeRow(context, object.index) : -1; row >= 0)
-    return "node" + Row(row) + " of /nodes";
-  return std::string(object.kind == NameKind::Node ? "the node" : object.kind == NameKind::Beam ? "the beam" : "the set") + " at line " +
-         std::to_string(object.line);
+  if (const int row = object.kind == NameKind::Node ? MeshNodeRow(context, object.index) : -1; row >= 0) return "node" + Row(row) + " of /nodes";
+  return std::string(object.kind == NameKind::Node   ? "the node"
+                     : object.kind == NameKind::Beam ? "the beam"
+                                                     : "the set") +
+         " at line " + std::to_string(object.line);
 }
 
 // Registers a node or beam name from the mesh.
@@ -385,11 +378,10 @@ void RegisterMeshName(const MeshData &mesh, const std::string &dataset, long lon
   const char *what = kind == NameKind::Node ? "node" : "beam";
   if (name.empty()) FailRow(mesh, dataset, row, std::string("empty ") + what + " name");
   if (name == kAllNodes)
-    FailRow(mesh, dataset, row,
-            std::string("a ") + what + " cannot be called " + Quote(kAllNodes) + ": in 'nodes' lists it means every node");
+    FailRow(mesh, dataset, row, std::string("a ") + what + " cannot be called " + Quote(kAllNodes) + ": in 'nodes' lists it means every node");
   if (context.names.count(name) > 0)
-    FailRow(mesh, dataset, row, std::string(what) + " name " + Quote(name) + " is already used by " + UserOf(context, name) +
-                                    " (nodes, beams and sets share one namespace)");
+    FailRow(mesh, dataset, row,
+            std::string(what) + " name " + Quote(name) + " is already used by " + UserOf(context, name) + " (nodes, beams and sets share one namespace)");
   context.RegisterName(name, kind, index, mesh.mark);
 }
 
@@ -405,7 +397,7 @@ MeshData ReadMeshFile(const YAML::Node &value, const YAML::Mark &key_mark, const
   const QuietHdf5Errors quiet;
   const MeshReader      file(path, mesh.label, mesh.mark, context.comm);
 
-  long long n = 0;
+  long long n      = 0;
   mesh.coordinates = ToVec3(file.Reals("/nodes/coordinates", Shape{-1, 3, "n"}, &n));
   if (n == 0) file.Fail("/nodes/coordinates", "the mesh has no nodes");
   if (file.Exists("/nodes/names")) mesh.node_names = file.Strings("/nodes/names", Shape{n, 0});
@@ -456,12 +448,12 @@ void AddMeshNodes(const MeshData &mesh, ReaderContext &context)
 
 void AddMeshBeams(const MeshData &mesh, ReaderContext &context)
 {
-  Model          &model = context.model;
+  Model          &model    = context.model;
   const long long sections = static_cast<long long>(model.sections.size());
   // Every beam adds elements * order - 1 nodes; the total must stay a valid int index.
   long long generated = 0;
   for (size_t index = 0; index < mesh.beam_nodes.size(); ++index) {
-    const long long row = static_cast<long long>(index);
+    const long long row      = static_cast<long long>(index);
     const long long elements = mesh.beam_elements[index], order = mesh.beam_order[index];
     if (elements < 1 || elements > kMaxElementsPerBeam)
       FailRow(mesh, "/beams/elements", row,
@@ -470,8 +462,8 @@ void AddMeshBeams(const MeshData &mesh, ReaderContext &context)
     generated += elements * order - 1;
   }
   if (static_cast<long long>(model.nodes.size()) + generated > kMaxRows)
-    FailAt(mesh.mark, mesh.label + ": /beams/elements: the beams would generate " + std::to_string(generated) +
-                          " nodes, too many (at most " + std::to_string(kMaxRows) + " in all)");
+    FailAt(mesh.mark, mesh.label + ": /beams/elements: the beams would generate " + std::to_string(generated) + " nodes, too many (at most " +
+                          std::to_string(kMaxRows) + " in all)");
   model.nodes.reserve(model.nodes.size() + static_cast<size_t>(generated));
   context.names.reserve(context.names.size() + static_cast<size_t>(generated) + mesh.beam_nodes.size());
 
@@ -488,21 +480,18 @@ void AddMeshBeams(const MeshData &mesh, ReaderContext &context)
               "zero length: nodes " + Quote(model.nodes[from].name) + " and " + Quote(model.nodes[to].name) + " are at the same position");
     const long long section = mesh.beam_section[index];
     if (section < 0 || section >= sections)
-      FailRow(mesh, "/beams/section", row,
-              "section index " + std::to_string(section) + " out of range ('sections' lists " + std::to_string(sections) + ")");
+      FailRow(mesh, "/beams/section", row, "section index " + std::to_string(section) + " out of range ('sections' lists " + std::to_string(sections) + ")");
     Vec3 orientation = DefaultBeamOrientation(start, end);
     if (!mesh.beam_orientation.empty() && mesh.beam_orientation[index] != Vec3::Zero()) {
       orientation = mesh.beam_orientation[index];
       if (OrientationAlongAxis(orientation, start, end))
-        FailRow(mesh, "/beams/orientation", row,
-                "orientation " + FormatVec3(orientation) + " is parallel to the beam's axis; it must point across the beam");
+        FailRow(mesh, "/beams/orientation", row, "orientation " + FormatVec3(orientation) + " is parallel to the beam's axis; it must point across the beam");
     }
     Beam beam;
     beam.name    = named ? mesh.beam_names[index] : "b" + std::to_string(index);
     beam.section = static_cast<int>(section);
     beam.mark    = mesh.mark;
-    RegisterMeshName(mesh, named ? "/beams/names" : "/beams/nodes", row, beam.name, NameKind::Beam, static_cast<int>(model.beams.size()),
-                     context);
+    RegisterMeshName(mesh, named ? "/beams/names" : "/beams/nodes", row, beam.name, NameKind::Beam, static_cast<int>(model.beams.size()), context);
     BeamLayout layout;
     layout.elements = static_cast<int>(mesh.beam_elements[index]);
     layout.order    = static_cast<int>(mesh.beam_order[index]);
@@ -526,14 +515,14 @@ void AddMeshJoints(const MeshData &mesh, ReaderContext &context)
     if (joint.name.empty()) FailRow(mesh, "/joints/names", row, "empty joint name");
     if (const auto other = context.joint_names.find(joint.name); other != context.joint_names.end())
       FailRow(mesh, mesh.joint_names.empty() ? "/joints/type" : "/joints/names", row,
-              "duplicate joint name " + Quote(joint.name) + " (first defined at line " +
-                  std::to_string(model.joints[other->second].mark.line) + ")");
+              "duplicate joint name " + Quote(joint.name) + " (first defined at line " + std::to_string(model.joints[other->second].mark.line) + ")");
     const std::string &type  = mesh.joint_type[index];
     JointExtra         extra = JointExtra::None;
     if (!JointTypeExtra(type, &extra))
       FailRow(mesh, "/joints/type", row,
-              "unknown joint type " + Quote(type) + "; expected one of rigid, spherical, revolute, universal, cylindrical, prismatic, "
-                                                    "planar, free, screw, rack_pinion, cam");
+              "unknown joint type " + Quote(type) +
+                  "; expected one of rigid, spherical, revolute, universal, cylindrical, prismatic, "
+                  "planar, free, screw, rack_pinion, cam");
     if (extra == JointExtra::Release || extra == JointExtra::Profile)
       FailRow(mesh, "/joints/type", row,
               "a " + type + " joint needs '" + (extra == JointExtra::Release ? "release" : "profile") +
@@ -549,8 +538,7 @@ void AddMeshJoints(const MeshData &mesh, ReaderContext &context)
     joint.master = mesh.joint_master[index] < 0 ? -1 : context.mesh_first_node + static_cast<int>(mesh.joint_master[index]);
     joint.slave  = context.mesh_first_node + static_cast<int>(mesh.joint_slave[index]);
     if (joint.master == joint.slave)
-      FailRow(mesh, "/joints/slave", row,
-              "the slave is the master, node " + Quote(model.nodes[joint.slave].name) + "; a joint needs two different nodes");
+      FailRow(mesh, "/joints/slave", row, "the slave is the master, node " + Quote(model.nodes[joint.slave].name) + "; a joint needs two different nodes");
     const Vec3 &axis = mesh.joint_axis[index];
     if (const std::string problem = JointAxisProblem(axis); !problem.empty()) FailRow(mesh, "/joints/axis", row, "the axis " + problem);
     const Vec3 *second_axis = nullptr;

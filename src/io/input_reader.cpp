@@ -6,9 +6,9 @@
 
 #include "core/mpi_util.hpp"
 
+#include "integrators/time_scheme.hpp"
 #include "io/input_reader_internal.hpp"
 #include "io/input_yaml_util.hpp"
-#include "integrators/time_scheme.hpp"
 
 #include <algorithm>
 #include <array>
@@ -46,8 +46,7 @@ const char *KindName(NameKind kind)
 }
 
 // Index of the object called `name` in `objects`, or -1.
-template <class NamedType>
-int IndexByName(const std::vector<NamedType> &objects, const std::string &name)
+template <class NamedType> int IndexByName(const std::vector<NamedType> &objects, const std::string &name)
 {
   for (size_t index = 0; index < objects.size(); ++index)
     if (objects[index].name == name) return static_cast<int>(index);
@@ -59,8 +58,8 @@ void RequireUniqueName(const std::vector<NamedType> &objects, const std::string 
 {
   const int existing = IndexByName(objects, name);
   if (existing >= 0)
-    FailAt(entry.Required("name").Mark(), "duplicate " + kind + " name " + Quote(name) + " (first defined at line " +
-                                              std::to_string(objects[existing].mark.line) + ")");
+    FailAt(entry.Required("name").Mark(),
+           "duplicate " + kind + " name " + Quote(name) + " (first defined at line " + std::to_string(objects[existing].mark.line) + ")");
 }
 
 } // namespace
@@ -68,16 +67,13 @@ void RequireUniqueName(const std::vector<NamedType> &objects, const std::string 
 void ReaderContext::RegisterName(const std::string &name, NameKind kind, int index, const SourceMark &mark)
 {
   if (name == kAllNodes)
-    FailAt(mark, std::string("a ") + KindName(kind) + " cannot be called " + Quote(kAllNodes) + ": in 'nodes' lists " +
-                     Quote(kAllNodes) + " means every node");
+    FailAt(mark, std::string("a ") + KindName(kind) + " cannot be called " + Quote(kAllNodes) + ": in 'nodes' lists " + Quote(kAllNodes) + " means every node");
   const auto [existing, inserted] = names.emplace(name, NamedObject{kind, index, mark.line});
   if (!inserted) {
     const int         mesh_row = existing->second.kind == NameKind::Node ? MeshNodeRow(*this, existing->second.index) : -1;
-    const std::string user     = mesh_row < 0 ? "the " + std::string(KindName(existing->second.kind)) + " at line " +
-                                                std::to_string(existing->second.line)
+    const std::string user     = mesh_row < 0 ? "the " + std::string(KindName(existing->second.kind)) + " at line " + std::to_string(existing->second.line)
                                               : "node row " + std::to_string(mesh_row) + " of the mesh file " + Quote(mesh_label);
-    FailAt(mark, "name " + Quote(name) + " of this " + KindName(kind) + " is already used by " + user +
-                     " (nodes, beams and sets share one namespace)");
+    FailAt(mark, "name " + Quote(name) + " of this " + KindName(kind) + " is already used by " + user + " (nodes, beams and sets share one namespace)");
   }
 }
 
@@ -145,8 +141,8 @@ void ReadTablePoints(const YAML::Node &points, TimeFunction &function)
       FailAt(point.Mark(), "expected a [t, value] pair in 'points' of function " + Quote(function.name) + ", got " + DescribeValue(point));
     const double time = ReadNumber(point[0], "points");
     if (!function.times.empty() && !(time > function.times.back()))
-      FailAt(point[0].Mark(), "times in 'points' of function " + Quote(function.name) + " must be strictly increasing, got " +
-                                  point[0].Scalar() + " after " + FormatNumber(function.times.back()));
+      FailAt(point[0].Mark(), "times in 'points' of function " + Quote(function.name) + " must be strictly increasing, got " + point[0].Scalar() + " after " +
+                                  FormatNumber(function.times.back()));
     function.times.push_back(time);
     function.values.push_back(ReadNumber(point[1], "points"));
   }
@@ -191,8 +187,8 @@ TimeFunction ReadFunction(const YAML::Node &item, const ReaderContext &context)
     for (const YAML::Node &coefficient : ReadNonEmptyList(entry.Required("coefficients"), "coefficients"))
       function.values.push_back(ReadNumber(coefficient, "coefficients"));
   } else {
-    FailAt(entry.Required("type").Mark(), "unknown function type " + Quote(type) + " in " + entry.Description() +
-                                              "; expected constant, linear, table, harmonic, cosine_ramp or polynomial");
+    FailAt(entry.Required("type").Mark(),
+           "unknown function type " + Quote(type) + " in " + entry.Description() + "; expected constant, linear, table, harmonic, cosine_ramp or polynomial");
   }
   return function;
 }
@@ -204,8 +200,7 @@ void ReadSectionInertia(const MappingReader &entry, Section &section)
   if (entry.Has("density")) {
     for (const char *direct : {"rhoA", "rhoJ"})
       if (const YAML::Node *value = entry.Find(direct))
-        FailAt(value->Mark(), "give either 'density' (with 'area', 'I2' and 'I3') or " + Quote(direct) + " in " + entry.Description() +
-                                  ", not both");
+        FailAt(value->Mark(), "give either 'density' (with 'area', 'I2' and 'I3') or " + Quote(direct) + " in " + entry.Description() + ", not both");
     const double density = entry.PositiveNumber("density");
     const double area    = entry.PositiveNumber("area");
     const double I2      = entry.PositiveNumber("I2");
@@ -216,26 +211,25 @@ void ReadSectionInertia(const MappingReader &entry, Section &section)
   }
   for (const char *geometric : {"area", "I2", "I3"})
     if (const YAML::Node *value = entry.Find(geometric))
-      FailAt(value->Mark(), Quote(geometric) + " in " + entry.Description() +
-                                " needs 'density' (kg/m^3); to give the mass per length directly use 'rhoA' and 'rhoJ'");
+      FailAt(value->Mark(),
+             Quote(geometric) + " in " + entry.Description() + " needs 'density' (kg/m^3); to give the mass per length directly use 'rhoA' and 'rhoJ'");
   section.rhoA = entry.NonNegativeNumber("rhoA", 0.0);
   if (const YAML::Node *rhoJ = entry.Find("rhoJ")) section.rhoJ = ReadNonNegativeVec3(*rhoJ, "rhoJ");
 }
 
 Section ReadSection(const YAML::Node &item, const ReaderContext &context)
 {
-  const MappingReader entry(item, "section",
-                            {"name", "EA", "GA2", "GA3", "GJ", "EI2", "EI3", "rhoA", "rhoJ", "density", "area", "I2", "I3"});
+  const MappingReader entry(item, "section", {"name", "EA", "GA2", "GA3", "GJ", "EI2", "EI3", "rhoA", "rhoJ", "density", "area", "I2", "I3"});
   Section             section;
   section.name = entry.String("name");
   section.mark = context.MarkOf(entry.Mark());
   RequireUniqueName(context.model.sections, section.name, "section", entry);
-  section.EA   = entry.PositiveNumber("EA");
-  section.GA2  = entry.PositiveNumber("GA2");
-  section.GA3  = entry.PositiveNumber("GA3");
-  section.GJ   = entry.PositiveNumber("GJ");
-  section.EI2  = entry.PositiveNumber("EI2");
-  section.EI3  = entry.PositiveNumber("EI3");
+  section.EA  = entry.PositiveNumber("EA");
+  section.GA2 = entry.PositiveNumber("GA2");
+  section.GA3 = entry.PositiveNumber("GA3");
+  section.GJ  = entry.PositiveNumber("GJ");
+  section.EI2 = entry.PositiveNumber("EI2");
+  section.EI3 = entry.PositiveNumber("EI3");
   ReadSectionInertia(entry, section);
   return section;
 }
@@ -257,7 +251,7 @@ void ReadNodes(const YAML::Node &mapping, ReaderContext &context)
 // node would have neither stiffness nor mass and be attached to nothing.
 void CheckEveryNodeConnected(const ReaderContext &context, size_t user_node_count)
 {
-  const Model &model = context.model;
+  const Model      &model = context.model;
   std::vector<bool> connected(model.nodes.size(), false);
   for (const BeamElement &element : model.elements)
     for (int node : element.nodes)
@@ -332,8 +326,7 @@ void CheckNoJointSlaves(const YAML::Node &nodes_value, const std::vector<int> &n
       }
     const Joint &slave_joint = context.model.joints[joint];
     FailAt(mark, "node " + Quote(context.model.nodes[node].name) + " is the slave of joint " + Quote(slave_joint.name) + " (line " +
-                     std::to_string(slave_joint.mark.line) +
-                     ") and cannot carry a support; support its master or prescribe the joint's motion with 'drive'");
+                     std::to_string(slave_joint.mark.line) + ") and cannot carry a support; support its master or prescribe the joint's motion with 'drive'");
   }
 }
 
@@ -346,7 +339,7 @@ Support ReadSupport(const YAML::Node &item, const ReaderContext &context)
   CheckNoJointSlaves(entry.Required("nodes"), support.nodes, context);
   if (const YAML::Node *fix = entry.Find("fix")) ReadFixedDofs(*fix, support);
   if (const YAML::Node *prescribe = entry.Find("prescribe")) ReadPrescribedDofs(*prescribe, support);
-  support.function = context.OptionalFunctionIndex(entry, "function");
+  support.function          = context.OptionalFunctionIndex(entry, "function");
   bool constrains_something = false;
   for (Support::Kind kind : support.kind) constrains_something = constrains_something || kind != Support::Kind::Free;
   if (!constrains_something) FailAt(entry.Mark(), "a support must fix or prescribe at least one DOF (use 'fix' or 'prescribe')");
@@ -367,13 +360,11 @@ void CheckSupportConflicts(const Model &model)
     for (int node : support.nodes)
       for (int dof = 0; dof < 6; ++dof) {
         if (support.kind[dof] == Support::Kind::Free) continue;
-        Constraint &previous = constraints[node][dof];
+        Constraint &previous   = constraints[node][dof];
         const bool  both_fixed = previous.kind == Support::Kind::Fixed && support.kind[dof] == Support::Kind::Fixed;
         if (previous.support >= 0 && !both_fixed)
-          FailAt(support.mark, "DOF " + Quote(DofName(dof)) + " of node " + Quote(model.nodes[node].name) +
-                                   " is already constrained by the support at line " +
-                                   std::to_string(model.supports[previous.support].mark.line) +
-                                   "; a prescribed DOF must belong to exactly one support");
+          FailAt(support.mark, "DOF " + Quote(DofName(dof)) + " of node " + Quote(model.nodes[node].name) + " is already constrained by the support at line " +
+                                   std::to_string(model.supports[previous.support].mark.line) + "; a prescribed DOF must belong to exactly one support");
         previous = Constraint{static_cast<int>(support_index), support.kind[dof]};
       }
   }
@@ -392,10 +383,9 @@ std::vector<int> ElementsOfBeams(const YAML::Node &beams, const ReaderContext &c
   std::vector<bool> listed_beams(context.model.beams.size(), false);
   for (const NameReference &reference : ReadNameList(beams, "beams")) {
     const auto found = context.names.find(reference.name);
-    if (found == context.names.end() || found->second.kind != NameKind::Beam)
-      FailAt(reference.mark, "unknown beam " + Quote(reference.name) + " in 'beams'");
+    if (found == context.names.end() || found->second.kind != NameKind::Beam) FailAt(reference.mark, "unknown beam " + Quote(reference.name) + " in 'beams'");
     if (listed_beams[found->second.index]) continue;
-    listed_beams[found->second.index] = true;
+    listed_beams[found->second.index]     = true;
     const std::vector<int> &beam_elements = context.model.beams[found->second.index].elements;
     elements.insert(elements.end(), beam_elements.begin(), beam_elements.end());
   }
@@ -406,10 +396,9 @@ std::vector<int> ElementsOfBeams(const YAML::Node &beams, const ReaderContext &c
 void ReadLoad(const YAML::Node &item, ReaderContext &context)
 {
   const MappingReader entry(item, "load");
-  const int kinds = int(entry.Has("nodes")) + int(entry.Has("gravity")) + int(entry.Has("beams"));
+  const int           kinds = int(entry.Has("nodes")) + int(entry.Has("gravity")) + int(entry.Has("beams"));
   if (kinds != 1)
-    FailAt(entry.Mark(), "a load needs exactly one of 'nodes' (nodal load), 'gravity' or 'beams' (distributed load), got " +
-                             std::to_string(kinds));
+    FailAt(entry.Mark(), "a load needs exactly one of 'nodes' (nodal load), 'gravity' or 'beams' (distributed load), got " + std::to_string(kinds));
   Model &model = context.model;
   if (entry.Has("nodes")) {
     entry.RequireOnlyKeys({"nodes", "force", "moment", "follower", "function"});
@@ -458,8 +447,7 @@ void ReadOutputTimes(const YAML::Node &value, AnalysisSettings &analysis)
     if (!(time > 0.0 && time <= analysis.end_time))
       FailAt(item.Mark(), "'output_times' must lie in (0, end_time = " + FormatNumber(analysis.end_time) + "], got " + item.Scalar());
     if (!analysis.output_times.empty() && !(time > analysis.output_times.back()))
-      FailAt(item.Mark(), "'output_times' must be strictly increasing, got " + item.Scalar() + " after " +
-                              FormatNumber(analysis.output_times.back()));
+      FailAt(item.Mark(), "'output_times' must be strictly increasing, got " + item.Scalar() + " after " + FormatNumber(analysis.output_times.back()));
     analysis.output_times.push_back(time);
   }
 }
@@ -468,9 +456,8 @@ void ReadAnalysis(const YAML::Node *mapping, const ReaderContext &context, Analy
 {
   if (mapping == nullptr || mapping->IsNull()) return;
   const MappingReader entry(*mapping, "'analysis'",
-                            {"type", "integrator", "spectral_radius", "end_time", "initial_step", "min_step", "max_step", "growth_factor",
-                             "easy_iterations", "easy_steps_to_grow", "max_rotation_increment", "max_newton_iterations", "newton_rtol",
-                             "newton_atol", "output_times"});
+                            {"type", "integrator", "spectral_radius", "end_time", "initial_step", "min_step", "max_step", "growth_factor", "easy_iterations",
+                             "easy_steps_to_grow", "max_rotation_increment", "max_newton_iterations", "newton_rtol", "newton_atol", "output_times"});
   analysis.mark = context.MarkOf(entry.Mark());
   analysis.type = entry.String("type", analysis.type);
   if (analysis.type != "static" && analysis.type != "dynamic")
@@ -482,20 +469,17 @@ void ReadAnalysis(const YAML::Node *mapping, const ReaderContext &context, Analy
            "unknown integrator " + Quote(analysis.integrator) + " in 'analysis'; expected one of newmark, mc, em, genalpha");
   analysis.spectral_radius = entry.Number("spectral_radius", analysis.spectral_radius);
   if (analysis.spectral_radius < 0.0 || analysis.spectral_radius > 1.0)
-    FailAt(entry.Required("spectral_radius").Mark(),
-           "'spectral_radius' must lie in [0, 1], got " + entry.Required("spectral_radius").Scalar());
+    FailAt(entry.Required("spectral_radius").Mark(), "'spectral_radius' must lie in [0, 1], got " + entry.Required("spectral_radius").Scalar());
   analysis.end_time     = entry.PositiveNumber("end_time", analysis.end_time);
   analysis.initial_step = entry.PositiveNumber("initial_step", analysis.initial_step);
   analysis.min_step     = entry.PositiveNumber("min_step", analysis.min_step);
   if (analysis.min_step > analysis.initial_step)
     FailAt(entry.Has("min_step") ? entry.Required("min_step").Mark() : entry.Required("initial_step").Mark(),
-           "'min_step' (" + FormatNumber(analysis.min_step) + ") must not exceed 'initial_step' (" +
-               FormatNumber(analysis.initial_step) + ")");
+           "'min_step' (" + FormatNumber(analysis.min_step) + ") must not exceed 'initial_step' (" + FormatNumber(analysis.initial_step) + ")");
   analysis.max_step = entry.PositiveNumber("max_step", analysis.max_step);
   if (analysis.max_step < analysis.initial_step)
     FailAt(entry.Has("max_step") ? entry.Required("max_step").Mark() : entry.Required("initial_step").Mark(),
-           "'max_step' (" + FormatNumber(analysis.max_step) + ") must not be less than 'initial_step' (" +
-               FormatNumber(analysis.initial_step) + ")");
+           "'max_step' (" + FormatNumber(analysis.max_step) + ") must not be less than 'initial_step' (" + FormatNumber(analysis.initial_step) + ")");
   analysis.growth_factor = entry.Number("growth_factor", analysis.growth_factor);
   if (analysis.growth_factor < 1.0)
     FailAt(entry.Required("growth_factor").Mark(), "'growth_factor' must be at least 1, got " + entry.Required("growth_factor").Scalar());
@@ -542,11 +526,9 @@ YAML::Node LoadSingleDocument(const std::string &text)
   const YamlStream stream = LoadYamlStream(text); // not YAML::LoadAll, which can loop forever
   // Located at 1:1 like every other message, so that a message always names file:line.
   if (stream.roots.empty() || stream.first.IsNull()) FailAt(YAML::Mark(), "the input is empty; expected a mapping of top-level keys");
-  if (stream.roots.size() > 1)
-    FailAt(stream.roots[1], "the input holds " + std::to_string(stream.roots.size()) + " YAML documents; expected one");
+  if (stream.roots.size() > 1) FailAt(stream.roots[1], "the input holds " + std::to_string(stream.roots.size()) + " YAML documents; expected one");
   if (!stream.first.IsMap())
-    FailAt(stream.first.Mark(), "the top level must be a mapping of keys such as 'sections', 'nodes' and 'beams', got " +
-                                    DescribeValue(stream.first));
+    FailAt(stream.first.Mark(), "the top level must be a mapping of keys such as 'sections', 'nodes' and 'beams', got " + DescribeValue(stream.first));
   return stream.first;
 }
 
@@ -565,8 +547,8 @@ Model ParseModel(const std::string &text, const std::string &file_label, MPI_Com
   context.model.input_file = file_label;
   context.model.input_text = text;
   const MappingReader top(LoadSingleDocument(text), "the top-level mapping",
-                          {"title", "mesh", "functions", "sections", "nodes", "beams", "rigid_bodies", "sets", "supports", "loads",
-                           "joints", "initial_conditions", "probes", "analysis", "output"});
+                          {"title", "mesh", "functions", "sections", "nodes", "beams", "rigid_bodies", "sets", "supports", "loads", "joints",
+                           "initial_conditions", "probes", "analysis", "output"});
   // The model has no place for the title; it is validated here and kept in input_text.
   if (top.Has("title")) top.String("title");
   Model &model = context.model;
@@ -579,13 +561,13 @@ Model ParseModel(const std::string &text, const std::string &file_label, MPI_Com
   const std::vector<YAML::Node> beam_items       = ReadOptionalList(top.Find("beams"), "beams");
   const std::vector<YAML::Node> rigid_body_items = ReadOptionalList(top.Find("rigid_bodies"), "rigid_bodies");
   if (beam_items.empty() && rigid_body_items.empty() && !mesh_beams)
-    FailAt(KeyMark(top, "beams"), mesh == nullptr ? "the model has no beams and no rigid bodies; give 'beams', 'rigid_bodies' or both"
-                                                  : "the model has no beams (neither in 'beams' nor in the mesh file " +
-                                                        Quote(mesh->label) + ") and no rigid bodies");
+    FailAt(KeyMark(top, "beams"), mesh == nullptr
+                                      ? "the model has no beams and no rigid bodies; give 'beams', 'rigid_bodies' or both"
+                                      : "the model has no beams (neither in 'beams' nor in the mesh file " + Quote(mesh->label) + ") and no rigid bodies");
   for (const YAML::Node &item : ReadOptionalList(top.Find("functions"), "functions")) model.functions.push_back(ReadFunction(item, context));
-  const bool                    has_beams     = !beam_items.empty() || mesh_beams;
-  const std::vector<YAML::Node> section_items = has_beams ? ReadNonEmptyList(top.Required("sections"), "sections")
-                                                          : ReadOptionalList(top.Find("sections"), "sections");
+  const bool                    has_beams = !beam_items.empty() || mesh_beams;
+  const std::vector<YAML::Node> section_items =
+      has_beams ? ReadNonEmptyList(top.Required("sections"), "sections") : ReadOptionalList(top.Find("sections"), "sections");
   for (const YAML::Node &item : section_items) model.sections.push_back(ReadSection(item, context));
   // Mesh nodes first, so that mesh node i is model node i when `nodes` is left out.
   if (mesh != nullptr) AddMeshNodes(*mesh, context);

@@ -43,10 +43,7 @@ struct ReaderContext {
   // The ranks reading the model together (ReadModelFile).
   MPI_Comm comm = MPI_COMM_SELF;
 
-  int JointOfSlave(int node) const
-  {
-    return node >= 0 && static_cast<size_t>(node) < joint_of_slave.size() ? joint_of_slave[node] : -1;
-  }
+  int JointOfSlave(int node) const { return node >= 0 && static_cast<size_t>(node) < joint_of_slave.size() ? joint_of_slave[node] : -1; }
 
   SourceMark MarkOf(const YAML::Mark &mark) const;
   // Adds a node, beam or set name; a name used twice, or the reserved word `all`, is an error at `mark`.

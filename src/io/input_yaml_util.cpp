@@ -32,8 +32,8 @@ std::string JoinKeys(const std::vector<const char *> &keys)
 bool IsOutOfRangeNumber(const std::string &scalar)
 {
   if (scalar.empty() || std::isspace(static_cast<unsigned char>(scalar.front()))) return false;
-  char *end = nullptr;
-  errno     = 0;
+  char *end           = nullptr;
+  errno               = 0;
   const double number = std::strtod(scalar.c_str(), &end);
   return errno == ERANGE && std::isinf(number) && end == scalar.c_str() + scalar.size();
 }
@@ -77,9 +77,9 @@ YamlStream LoadYamlStream(const std::string &text)
     const size_t count = marks.starts.size();
     // A document that starts where the previous one did consumed nothing: yaml-cpp is stuck.
     if (count >= 2 && marks.starts[count - 1].pos == marks.starts[count - 2].pos) {
-      const YAML::Mark &mark     = marks.starts[count - 1];
-      const bool        in_text  = mark.pos >= 0 && static_cast<size_t>(mark.pos) < text.size();
-      const std::string token    = in_text ? Quote(std::string(1, text[static_cast<size_t>(mark.pos)])) : "token";
+      const YAML::Mark &mark    = marks.starts[count - 1];
+      const bool        in_text = mark.pos >= 0 && static_cast<size_t>(mark.pos) < text.size();
+      const std::string token   = in_text ? Quote(std::string(1, text[static_cast<size_t>(mark.pos)])) : "token";
       throw YAML::ParserException(mark, "unexpected " + token + (token == "','" ? " outside [...] and {...}" : ""));
     }
   }
@@ -147,15 +147,14 @@ std::string SyntaxErrorContext(const std::string &text, const YAML::Mark &mark)
   // The line holding the mark: yaml-cpp's pos counts bytes from the start of the input.
   const size_t position = static_cast<size_t>(mark.pos);
   size_t       begin    = 0;
-  if (const size_t newline = position > 0 ? text.rfind('\n', position - 1) : std::string::npos; newline != std::string::npos)
-    begin = newline + 1;
+  if (const size_t newline = position > 0 ? text.rfind('\n', position - 1) : std::string::npos; newline != std::string::npos) begin = newline + 1;
   size_t end = text.find('\n', position);
   if (end == std::string::npos) end = text.size();
   if (end > begin && text[end - 1] == '\r') --end;
   if (position >= end && text.find_first_not_of(" \t\r\n", position) == std::string::npos) return ", at the end of the input";
   std::string line = text.substr(begin, end - begin);
   if (line.find_first_not_of(" \t") == std::string::npos) return "";
-  const bool  tab_indented = line.find('\t') < line.find_first_not_of(" \t");
+  const bool tab_indented = line.find('\t') < line.find_first_not_of(" \t");
   // A long line is shown around the column, at most 80 bytes.
   constexpr size_t kShown = 80;
   if (line.size() > kShown) {
@@ -174,10 +173,7 @@ std::string FormatNumber(double number)
   return text.str();
 }
 
-std::string FormatVec3(const Vec3 &vector)
-{
-  return "[" + FormatNumber(vector(0)) + ", " + FormatNumber(vector(1)) + ", " + FormatNumber(vector(2)) + "]";
-}
+std::string FormatVec3(const Vec3 &vector) { return "[" + FormatNumber(vector(0)) + ", " + FormatNumber(vector(1)) + ", " + FormatNumber(vector(2)) + "]"; }
 
 std::string DescribeValue(const YAML::Node &value)
 {
@@ -221,8 +217,7 @@ int ReadInteger(const YAML::Node &value, const std::string &key, int minimum)
   int number = 0;
   if (!value.IsScalar() || !YAML::convert<int>::decode(value, number))
     FailAt(value.Mark(), "expected an integer for " + Quote(key) + ", got " + DescribeValue(value));
-  if (number < minimum)
-    FailAt(value.Mark(), Quote(key) + " must be at least " + std::to_string(minimum) + ", got " + value.Scalar());
+  if (number < minimum) FailAt(value.Mark(), Quote(key) + " must be at least " + std::to_string(minimum) + ", got " + value.Scalar());
   return number;
 }
 
@@ -254,8 +249,7 @@ Vec3 ReadNonNegativeVec3(const YAML::Node &value, const std::string &key)
 {
   const Vec3 vector = ReadVec3(value, key);
   for (int component = 0; component < 3; ++component)
-    if (vector(component) < 0.0)
-      FailAt(value[component].Mark(), "components of " + Quote(key) + " must not be negative, got " + value[component].Scalar());
+    if (vector(component) < 0.0) FailAt(value[component].Mark(), "components of " + Quote(key) + " must not be negative, got " + value[component].Scalar());
   return vector;
 }
 
@@ -270,8 +264,8 @@ Vec3 ReadPosition(const YAML::Node &value, const std::string &key)
   const Vec3 position = ReadVec3(value, key);
   for (int component = 0; component < 3; ++component)
     if (!(std::abs(position(component)) <= kMaxCoordinate))
-      FailAt(value[component].Mark(), "coordinates of " + Quote(key) + " must not exceed " + FormatNumber(kMaxCoordinate) +
-                                          " m in magnitude, got " + value[component].Scalar());
+      FailAt(value[component].Mark(),
+             "coordinates of " + Quote(key) + " must not exceed " + FormatNumber(kMaxCoordinate) + " m in magnitude, got " + value[component].Scalar());
   return position;
 }
 
@@ -308,8 +302,7 @@ std::vector<NameReference> ReadNameList(const YAML::Node &value, const std::stri
   return names;
 }
 
-MappingReader::MappingReader(const YAML::Node &mapping, const std::string &kind)
-    : description_(kind), mark_(mapping.Mark())
+MappingReader::MappingReader(const YAML::Node &mapping, const std::string &kind) : description_(kind), mark_(mapping.Mark())
 {
   if (!mapping.IsMap()) FailAt(mark_, "expected a mapping (key: value) for " + kind + ", got " + DescribeValue(mapping));
   for (const auto &pair : mapping) {
@@ -323,8 +316,8 @@ MappingReader::MappingReader(const YAML::Node &mapping, const std::string &kind)
   first_of_key.reserve(entries_.size());
   for (const Entry &entry : entries_)
     if (const auto [first, inserted] = first_of_key.emplace(entry.key, &entry); !inserted)
-      FailAt(entry.key_node.Mark(), "duplicate key " + Quote(entry.key) + " in " + description_ + " (first at line " +
-                                        std::to_string(first->second->key_node.Mark().line + 1) + ")");
+      FailAt(entry.key_node.Mark(),
+             "duplicate key " + Quote(entry.key) + " in " + description_ + " (first at line " + std::to_string(first->second->key_node.Mark().line + 1) + ")");
 }
 
 MappingReader::MappingReader(const YAML::Node &mapping, const std::string &kind, std::initializer_list<const char *> allowed_keys)
@@ -333,18 +326,14 @@ MappingReader::MappingReader(const YAML::Node &mapping, const std::string &kind,
   RequireOnlyKeys(allowed_keys);
 }
 
-void MappingReader::RequireOnlyKeys(std::initializer_list<const char *> allowed_keys) const
-{
-  RequireOnlyKeys(std::vector<const char *>(allowed_keys));
-}
+void MappingReader::RequireOnlyKeys(std::initializer_list<const char *> allowed_keys) const { RequireOnlyKeys(std::vector<const char *>(allowed_keys)); }
 
 void MappingReader::RequireOnlyKeys(const std::vector<const char *> &allowed_keys) const
 {
   for (const Entry &entry : entries_) {
     bool allowed = false;
     for (const char *allowed_key : allowed_keys) allowed = allowed || entry.key == allowed_key;
-    if (!allowed)
-      FailAt(entry.key_node.Mark(), "unknown key " + Quote(entry.key) + " in " + description_ + "; allowed keys: " + JoinKeys(allowed_keys));
+    if (!allowed) FailAt(entry.key_node.Mark(), "unknown key " + Quote(entry.key) + " in " + description_ + "; allowed keys: " + JoinKeys(allowed_keys));
   }
 }
 
@@ -374,10 +363,7 @@ double MappingReader::Number(const std::string &key, double fallback) const { re
 
 double MappingReader::PositiveNumber(const std::string &key) const { return ReadPositiveNumber(Required(key), key); }
 
-double MappingReader::PositiveNumber(const std::string &key, double fallback) const
-{
-  return Has(key) ? PositiveNumber(key) : fallback;
-}
+double MappingReader::PositiveNumber(const std::string &key, double fallback) const { return Has(key) ? PositiveNumber(key) : fallback; }
 
 double MappingReader::NonNegativeNumber(const std::string &key, double fallback) const
 {
@@ -386,19 +372,13 @@ double MappingReader::NonNegativeNumber(const std::string &key, double fallback)
 
 int MappingReader::Integer(const std::string &key, int minimum) const { return ReadInteger(Required(key), key, minimum); }
 
-int MappingReader::Integer(const std::string &key, int minimum, int fallback) const
-{
-  return Has(key) ? Integer(key, minimum) : fallback;
-}
+int MappingReader::Integer(const std::string &key, int minimum, int fallback) const { return Has(key) ? Integer(key, minimum) : fallback; }
 
 bool MappingReader::Bool(const std::string &key, bool fallback) const { return Has(key) ? ReadBool(Required(key), key) : fallback; }
 
 std::string MappingReader::String(const std::string &key) const { return ReadString(Required(key), key); }
 
-std::string MappingReader::String(const std::string &key, const std::string &fallback) const
-{
-  return Has(key) ? String(key) : fallback;
-}
+std::string MappingReader::String(const std::string &key, const std::string &fallback) const { return Has(key) ? String(key) : fallback; }
 
 Vec3 MappingReader::Vector(const std::string &key) const { return ReadVec3(Required(key), key); }
 

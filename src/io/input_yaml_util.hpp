@@ -27,15 +27,15 @@ struct InputFailure {
 
 // 'text', as it goes into a one-line message: control characters are escaped (\n, \t, \x01) and
 // a text longer than kQuotedLength bytes is cut short with "...".
-std::string Quote(const std::string &text);
+std::string             Quote(const std::string &text);
 inline constexpr size_t kQuotedLength = 100;
 // The message with its control characters escaped, so that it prints as one line.
 std::string OneLine(const std::string &message);
 // Where a YAML syntax error is, for its message: ", at 'the line'" (long lines shortened around
 // the column, with a hint when tabs indent it) or ", at the end of the input"; "" without a mark.
 std::string SyntaxErrorContext(const std::string &text, const YAML::Mark &mark);
-std::string FormatNumber(double number);     // shortest readable form, e.g. 0.5 or 1e-06
-std::string FormatVec3(const Vec3 &vector);   // [x, y, z] with FormatNumber
+std::string FormatNumber(double number);    // shortest readable form, e.g. 0.5 or 1e-06
+std::string FormatVec3(const Vec3 &vector); // [x, y, z] with FormatNumber
 // How a value reads in a message: 'abc', a list, a mapping or an empty value.
 std::string DescribeValue(const YAML::Node &value);
 
@@ -55,8 +55,8 @@ double      ReadPositiveNumber(const YAML::Node &value, const std::string &key);
 double      ReadNonNegativeNumber(const YAML::Node &value, const std::string &key);
 int         ReadInteger(const YAML::Node &value, const std::string &key, int minimum);
 bool        ReadBool(const YAML::Node &value, const std::string &key);
-std::string ReadString(const YAML::Node &value, const std::string &key); // non-empty scalar
-Vec3        ReadVec3(const YAML::Node &value, const std::string &key);   // 3 finite numbers
+std::string ReadString(const YAML::Node &value, const std::string &key);          // non-empty scalar
+Vec3        ReadVec3(const YAML::Node &value, const std::string &key);            // 3 finite numbers
 Vec3        ReadNonNegativeVec3(const YAML::Node &value, const std::string &key); // 3 finite numbers >= 0
 // A point in space (m): 3 numbers of magnitude at most kMaxCoordinate (see PositionProblem).
 Vec3        ReadPosition(const YAML::Node &value, const std::string &key);

@@ -110,14 +110,14 @@ void Rotation(const JointGeometry &joint, const JointCoordinates &q, Mat3 *C, Ei
     *C = Mat3::Identity();
     return;
   case JointRotation::OneAxis: {
-    const Vec3 a  = joint.axes.col(joint.rotation_axis[0]);
-    *C            = ExpSO3(q.q[nt] * a);
+    const Vec3 a   = joint.axes.col(joint.rotation_axis[0]);
+    *C             = ExpSO3(q.q[nt] * a);
     Omega->col(nt) = a;
     return;
   }
   case JointRotation::TwoAxes: {
     const Vec3 ai = joint.axes.col(joint.rotation_axis[0]), aj = joint.axes.col(joint.rotation_axis[1]);
-    const Mat3 Ei = ExpSO3(q.q[nt] * ai);
+    const Mat3 Ei      = ExpSO3(q.q[nt] * ai);
     *C                 = Ei * ExpSO3(q.q[nt + 1] * aj);
     Omega->col(nt)     = ai;
     Omega->col(nt + 1) = Ei * aj;
@@ -125,8 +125,8 @@ void Rotation(const JointGeometry &joint, const JointCoordinates &q, Mat3 *C, Ei
   }
   case JointRotation::Free: {
     const Vec3 w(q.q[nt], q.q[nt + 1], q.q[nt + 2]);
-    *C                          = ExpSO3(w) * q.free_rotation_start;
-    Omega->block<3, 3>(0, nt)   = TangentH(w);
+    *C                        = ExpSO3(w) * q.free_rotation_start;
+    Omega->block<3, 3>(0, nt) = TangentH(w);
     return;
   }
   }
@@ -173,15 +173,15 @@ void JointMap(const JointGeometry &joint, const JointCoordinates &q, const Mat3 
 
 void JointGeometricStiffness(const JointGeometry &joint, const JointCoordinates &q, const Mat3 &R, const Eigen::Matrix<double, 6, 1> &g, JointSquare *G)
 {
-  const int         k     = JointNumCoordinates(joint);
-  const int         nt    = joint.num_translations;
-  const JointTerms  terms = EvaluateTerms(joint, q);
-  const Vec3       &b = terms.b;
-  const auto       &B = terms.B, &Omega = terms.Omega;
-  const double      ddf = terms.ddf;
-  const Vec3 gf = g.head<3>(), gm = g.tail<3>();
-  const Vec3 vf = R.transpose() * gf, vm = R.transpose() * gm;
-  const Mat3 hgf = Skew(gf), hgm = Skew(gm);
+  const int        k     = JointNumCoordinates(joint);
+  const int        nt    = joint.num_translations;
+  const JointTerms terms = EvaluateTerms(joint, q);
+  const Vec3      &b     = terms.b;
+  const auto      &B = terms.B, &Omega = terms.Omega;
+  const double     ddf = terms.ddf;
+  const Vec3       gf = g.head<3>(), gm = g.tail<3>();
+  const Vec3       vf = R.transpose() * gf, vm = R.transpose() * gm;
+  const Mat3       hgf = Skew(gf), hgm = Skew(gm);
   G->setZero();
   // Rows theta_m: d(hat(R b) g_f) = hat(g_f) hat(R b) dtheta_m - hat(g_f) R B dq.
   G->block<3, 3>(3, 3) = hgf * Skew(R * b);
@@ -209,7 +209,7 @@ void JointConservingMap(const JointGeometry &joint, const JointCoordinates &star
   const int k  = JointNumCoordinates(joint);
   Nt->setZero();
   for (int c = 0; c < k; ++c) p[c] = 0.0;
-  const Mat3 Ct = (Mat3::Identity() + 0.5 * Skew(alpha_m)) * R_n;
+  const Mat3 Ct         = (Mat3::Identity() + 0.5 * Skew(alpha_m)) * R_n;
   Nt->block<3, 3>(0, 0) = Mat3::Identity();
   Nt->block<3, 3>(0, 3) = -0.5 * (Skew(r_n) + Skew(r_1));
   Nt->block<3, 3>(3, 3) = Mat3::Identity();
@@ -219,31 +219,31 @@ void JointConservingMap(const JointGeometry &joint, const JointCoordinates &star
     Nt->block<3, 1>(0, 6 + c) = Ct * joint.axes.col(joint.translation_axis[c]);
   }
   // Released rotation: alpha_R = W p, and the dependent translation's secant.
-  Eigen::Matrix<double, 3, 3> W = Eigen::Matrix<double, 3, 3>::Zero();
+  Eigen::Matrix<double, 3, 3> W  = Eigen::Matrix<double, 3, 3>::Zero();
   int                         nr = 0;
   switch (joint.rotation) {
   case JointRotation::None:
     break;
   case JointRotation::OneAxis: {
-    nr     = 1;
-    p[nt]  = 2.0 * std::tan(0.5 * increment[nt]);
+    nr       = 1;
+    p[nt]    = 2.0 * std::tan(0.5 * increment[nt]);
     W.col(0) = joint.axes.col(joint.rotation_axis[0]);
     break;
   }
   case JointRotation::TwoAxes: {
     // C_{n+1} C_n^T = cay(tau2 b) cay(tau1 a_i), b = exp(phi1_{n+1} a_i) a_j (b . a_i = 0):
     // alpha_R = tau1 (a_i + tau2 b x a_i / 2) + tau2 b.
-    nr             = 2;
-    const Vec3 ai  = joint.axes.col(joint.rotation_axis[0]), aj = joint.axes.col(joint.rotation_axis[1]);
-    const Vec3 b   = ExpSO3((start.q[nt] + increment[nt]) * ai) * aj;
-    p[nt]          = 2.0 * std::tan(0.5 * increment[nt]);
-    p[nt + 1]      = 2.0 * std::tan(0.5 * increment[nt + 1]);
-    W.col(0)       = ai + 0.5 * p[nt + 1] * b.cross(ai);
-    W.col(1)       = b;
+    nr            = 2;
+    const Vec3 ai = joint.axes.col(joint.rotation_axis[0]), aj = joint.axes.col(joint.rotation_axis[1]);
+    const Vec3 b = ExpSO3((start.q[nt] + increment[nt]) * ai) * aj;
+    p[nt]        = 2.0 * std::tan(0.5 * increment[nt]);
+    p[nt + 1]    = 2.0 * std::tan(0.5 * increment[nt + 1]);
+    W.col(0)     = ai + 0.5 * p[nt + 1] * b.cross(ai);
+    W.col(1)     = b;
     break;
   }
   case JointRotation::Free: {
-    nr = 3;
+    nr                 = 3;
     const Vec3 alpha_R = TangentScaledFromRotationVector(Vec3(increment[nt], increment[nt + 1], increment[nt + 2]));
     for (int i = 0; i < 3; ++i) p[nt + i] = alpha_R(i);
     W = Mat3::Identity();

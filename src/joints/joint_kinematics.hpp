@@ -51,10 +51,10 @@ struct JointGeometry {
   Mat3 axes   = Mat3::Identity(); // columns a1, a2, a3 (master body frame)
   Vec3 offset = Vec3::Zero();     // d0: slave minus master position at the reference configuration
   // Released translations: along axes translation_axis[0..n_translations).
-  int num_translations   = 0;
-  int translation_axis[3] = {0, 1, 2};
-  JointRotation rotation = JointRotation::None;
-  int           rotation_axis[2] = {0, 1}; // OneAxis: [0]; TwoAxes: [0] then [1]
+  int           num_translations    = 0;
+  int           translation_axis[3] = {0, 1, 2};
+  JointRotation rotation            = JointRotation::None;
+  int           rotation_axis[2]    = {0, 1}; // OneAxis: [0]; TwoAxes: [0] then [1]
   // Dependent translation along axis `dependent_axis`: f(phi) - f(0), phi the (single) rotation.
   JointDependence dependence     = JointDependence::None;
   int             dependent_axis = 0;
@@ -70,11 +70,11 @@ void JointDependentTranslation(const JointGeometry &joint, double phi, double *f
 
 struct JointCoordinates {
   double q[kJointMaxReleased] = {0, 0, 0, 0, 0, 0}; // translations, then angles (or omega_R for a free rotation)
-  Mat3   free_rotation_start = Mat3::Identity();     // C_n of a free rotation
+  Mat3   free_rotation_start  = Mat3::Identity();   // C_n of a free rotation
 };
 
-using JointMatrix  = Eigen::Matrix<double, 6, 6 + kJointMaxReleased, Eigen::RowMajor>;
-using JointSquare  = Eigen::Matrix<double, 6 + kJointMaxReleased, 6 + kJointMaxReleased, Eigen::RowMajor>;
+using JointMatrix = Eigen::Matrix<double, 6, 6 + kJointMaxReleased, Eigen::RowMajor>;
+using JointSquare = Eigen::Matrix<double, 6 + kJointMaxReleased, 6 + kJointMaxReleased, Eigen::RowMajor>;
 
 // Slave position and rotation from the master's and the released coordinates.
 void JointSlaveConfiguration(const JointGeometry &joint, const JointCoordinates &q, const Vec3 &master_position, const Mat3 &master_rotation,

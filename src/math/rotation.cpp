@@ -7,7 +7,7 @@ namespace msflex {
 namespace {
 // Below this x = theta^2 the power series is summed; above it the closed forms are used
 // (at x = 4 the closed forms lose at most a digit to cancellation).
-constexpr double kSeriesLimit = 4.0;
+constexpr double kSeriesLimit    = 4.0;
 constexpr int    kMaxSeriesTerms = 24;
 constexpr int    kNumFunctions   = sizeof(RotationSeries::c) / sizeof(double);
 
@@ -30,7 +30,7 @@ RotationSeries EvaluateRotationSeries(double x)
     // c_n = sum_k (-x)^k/(2k+n)!, c_n' = sum_k k (-x)^(k-1) (-1)/(2k+n)!, c_n'' likewise. Terms
     // shrink at least like x^k/(2k)!; stop once that bound is below 1e-20 (all c_n, n <= 4, are
     // at least 1/24 there, their derivatives at least 1/4000).
-    double power = 1.0; // (-x)^k
+    double power           = 1.0;                        // (-x)^k
     double power_minus_one = 0.0, power_minus_two = 0.0; // (-x)^(k-1), (-x)^(k-2)
     for (int k = 0; k < kMaxSeriesTerms; ++k) {
       for (int n = 0; n < kNumFunctions; ++n) {
@@ -185,8 +185,8 @@ Mat3 CayleyMidpointOperatorInverse(const Vec3 &a) { return (Mat3::Identity() + 0
 
 Quaternion QuaternionMultiply(const Quaternion &p, const Quaternion &q)
 {
-  return {p.w * q.w - p.x * q.x - p.y * q.y - p.z * q.z, p.w * q.x + p.x * q.w + p.y * q.z - p.z * q.y,
-          p.w * q.y - p.x * q.z + p.y * q.w + p.z * q.x, p.w * q.z + p.x * q.y - p.y * q.x + p.z * q.w};
+  return {p.w * q.w - p.x * q.x - p.y * q.y - p.z * q.z, p.w * q.x + p.x * q.w + p.y * q.z - p.z * q.y, p.w * q.y - p.x * q.z + p.y * q.w + p.z * q.x,
+          p.w * q.z + p.x * q.y - p.y * q.x + p.z * q.w};
 }
 
 Quaternion QuaternionFromRotationVector(const Vec3 &psi)
@@ -236,7 +236,7 @@ Mat3 QuaternionToMatrix(const Quaternion &q)
   const double w = q.w, x = q.x, y = q.y, z = q.z;
   Mat3         R;
   R << 1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y), 2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x),
-    2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y);
+      2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y);
   return R;
 }
 

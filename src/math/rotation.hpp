@@ -46,9 +46,9 @@ struct RodriguesForm {
   double alpha, alpha_x, alpha_xx;
   double beta, beta_x, beta_xx;
 };
-RodriguesForm ExpForm(const RotationSeries &s);             // alpha = c1, beta = c2
-RodriguesForm TangentForm(const RotationSeries &s);         // H: alpha = c2, beta = c3
-RodriguesForm TangentInverseForm(const RotationSeries &s);  // H^{-1}: alpha = -1/2, beta = (c3 - 2 c4)/(2 c2)
+RodriguesForm ExpForm(const RotationSeries &s);            // alpha = c1, beta = c2
+RodriguesForm TangentForm(const RotationSeries &s);        // H: alpha = c2, beta = c3
+RodriguesForm TangentInverseForm(const RotationSeries &s); // H^{-1}: alpha = -1/2, beta = (c3 - 2 c4)/(2 c2)
 
 Mat3 RodriguesMatrix(const RodriguesForm &f, const Vec3 &psi);
 // d/dpsi [F(psi)^T a]   (3x3)

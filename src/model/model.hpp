@@ -53,9 +53,9 @@ struct Node {
 
 // A Lagrange beam element of order 1 (2 nodes) or 2 (3 nodes, middle node in the middle).
 struct BeamElement {
-  int                 section = -1;
-  int                 order   = 1;
-  std::array<int, 3>  nodes{{-1, -1, -1}};
+  int                section = -1;
+  int                order   = 1;
+  std::array<int, 3> nodes{{-1, -1, -1}};
   // Reference section triads at the element's nodes: columns t1 (axis), t2, t3. The current triad
   // of the section at element node a is R_node * reference_triads[a], where R_node is the node's
   // rotation from the reference configuration (identity at the start).
@@ -99,8 +99,8 @@ struct Support {
 // (f = R_node f0, m = R_node m0).
 struct NodalLoad {
   std::vector<int> nodes;
-  Vec3             force  = Vec3::Zero();
-  Vec3             moment = Vec3::Zero();
+  Vec3             force    = Vec3::Zero();
+  Vec3             moment   = Vec3::Zero();
   bool             follower = false;
   int              function = -1;
   SourceMark       mark;
@@ -120,10 +120,10 @@ struct DistributedLoad {
 // the centre of mass from the node, both given in global axes for the reference configuration
 // (the node's rotation is the identity there, so they are also the node's body-frame values).
 struct RigidBody {
-  int        node   = -1;
-  double     mass   = 0.0;             // kg
-  Mat3       inertia = Mat3::Zero();   // kg m^2, about the centre of mass, symmetric positive semi-definite
-  Vec3       offset = Vec3::Zero();    // m, centre of mass minus node position
+  int        node    = -1;
+  double     mass    = 0.0;          // kg
+  Mat3       inertia = Mat3::Zero(); // kg m^2, about the centre of mass, symmetric positive semi-definite
+  Vec3       offset  = Vec3::Zero(); // m, centre of mass minus node position
   SourceMark mark;
 };
 
@@ -145,18 +145,18 @@ struct InitialCondition {
 struct Joint {
   enum class Rotation { None, OneAxis, TwoAxes, Free };
   enum class Dependence { None, Linear, EccentricCam, Table };
-  std::string name;
-  std::string type;                  // as written in the input (revolute, screw, ...)
-  int         master = -1, slave = -1;
-  Mat3        axes = Mat3::Identity(); // columns a1, a2, a3: orthonormal, right-handed
-  int         num_translations = 0;  // released translations along axes translation_axis[0..n)
-  std::array<int, 3> translation_axis{{0, 1, 2}};
-  Rotation           rotation = Rotation::None;
-  std::array<int, 2> rotation_axis{{0, 1}}; // OneAxis: [0]; TwoAxes: [0] then [1] (rotation about a_[0], then about the carried a_[1])
-  Dependence         dependence     = Dependence::None;  // translation along a_dependent_axis = f(phi) - f(0)
-  int                dependent_axis = 0;
-  double             coefficient    = 0.0;               // Linear: f = c phi (pitch, pinion radius); EccentricCam: f = R cos(phi)
-  double              profile_period = 0.0;              // Table: periodic cubic spline through (knots, values)
+  std::string         name;
+  std::string         type; // as written in the input (revolute, screw, ...)
+  int                 master = -1, slave = -1;
+  Mat3                axes             = Mat3::Identity(); // columns a1, a2, a3: orthonormal, right-handed
+  int                 num_translations = 0;                // released translations along axes translation_axis[0..n)
+  std::array<int, 3>  translation_axis{{0, 1, 2}};
+  Rotation            rotation = Rotation::None;
+  std::array<int, 2>  rotation_axis{{0, 1}};             // OneAxis: [0]; TwoAxes: [0] then [1] (rotation about a_[0], then about the carried a_[1])
+  Dependence          dependence     = Dependence::None; // translation along a_dependent_axis = f(phi) - f(0)
+  int                 dependent_axis = 0;
+  double              coefficient    = 0.0; // Linear: f = c phi (pitch, pinion radius); EccentricCam: f = R cos(phi)
+  double              profile_period = 0.0; // Table: periodic cubic spline through (knots, values)
   std::vector<double> profile_knots, profile_values, profile_second;
   // A driven released coordinate: q_k(t) = drive_value * function(t) (k indexes translations, then rotations).
   int        driven_coordinate = -1;
@@ -175,27 +175,27 @@ struct Probe {
 // [0, end_time]; the default function is the ramp f(t) = t, so t is the load factor.
 // Dynamic analysis: t is time, the steps are time steps, and `integrator` selects the scheme.
 struct AnalysisSettings {
-  std::string         type                   = "static";     // static | dynamic
-  std::string         integrator             = "em";         // newmark | mc | em | genalpha (dynamic only)
-  double              spectral_radius        = 0.9;          // rho_infinity of genalpha, in [0, 1]
+  std::string         type                   = "static"; // static | dynamic
+  std::string         integrator             = "em";     // newmark | mc | em | genalpha (dynamic only)
+  double              spectral_radius        = 0.9;      // rho_infinity of genalpha, in [0, 1]
   double              end_time               = 1.0;
   double              initial_step           = 0.1;
   double              min_step               = 1e-6;
   double              max_step               = 1.0;
-  double              growth_factor          = 1.5;  // step multiplier after easy steps
-  int                 easy_iterations        = 5;    // a step converged in <= this many iterations is easy
-  int                 easy_steps_to_grow     = 2;    // consecutive easy steps before growing
-  double              max_rotation_increment = 1.0;  // rad: a step whose |omega| exceeds it is halved
+  double              growth_factor          = 1.5; // step multiplier after easy steps
+  int                 easy_iterations        = 5;   // a step converged in <= this many iterations is easy
+  int                 easy_steps_to_grow     = 2;   // consecutive easy steps before growing
+  double              max_rotation_increment = 1.0; // rad: a step whose |omega| exceeds it is halved
   int                 max_newton_iterations  = 25;
   double              newton_rtol            = 1e-10;
   double              newton_atol            = 1e-50;
-  std::vector<double> output_times;                  // steps are shortened to hit these exactly
+  std::vector<double> output_times; // steps are shortened to hit these exactly
   SourceMark          mark;
 };
 
 struct OutputSettings {
-  std::string file;       // HDF5 output; default: input file name with .h5, in the working directory
-  int         every = 1;  // write every n-th converged step (the last step is always written)
+  std::string file;               // HDF5 output; default: input file name with .h5, in the working directory
+  int         every          = 1; // write every n-th converged step (the last step is always written)
   int         progress_every = 1; // a progress line every n-th converged step
   // Checkpoints for restarts (docs/options.md): every n converged steps and/or every so many
   // seconds of wall time (0: never); file default: the output file with .ckpt.h5.
@@ -206,23 +206,23 @@ struct OutputSettings {
 };
 
 struct Model {
-  std::string                  input_file;
-  std::string                  input_text; // copy of the input, stored in the output for provenance
-  std::vector<TimeFunction>    functions;
-  std::vector<Section>         sections;
-  std::vector<Node>            nodes;
-  std::vector<Beam>            beams;
-  std::vector<BeamElement>     elements;
-  std::vector<NodeSet>         node_sets;
-  std::vector<Support>         supports;
-  std::vector<NodalLoad>       nodal_loads;
-  std::vector<DistributedLoad> distributed_loads;
-  std::vector<Probe>           probes;
-  std::vector<RigidBody>       rigid_bodies;
+  std::string                   input_file;
+  std::string                   input_text; // copy of the input, stored in the output for provenance
+  std::vector<TimeFunction>     functions;
+  std::vector<Section>          sections;
+  std::vector<Node>             nodes;
+  std::vector<Beam>             beams;
+  std::vector<BeamElement>      elements;
+  std::vector<NodeSet>          node_sets;
+  std::vector<Support>          supports;
+  std::vector<NodalLoad>        nodal_loads;
+  std::vector<DistributedLoad>  distributed_loads;
+  std::vector<Probe>            probes;
+  std::vector<RigidBody>        rigid_bodies;
   std::vector<InitialCondition> initial_conditions;
-  std::vector<Joint>           joints;
-  AnalysisSettings             analysis;
-  OutputSettings               output;
+  std::vector<Joint>            joints;
+  AnalysisSettings              analysis;
+  OutputSettings                output;
 };
 
 } // namespace msflex

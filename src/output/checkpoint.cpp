@@ -9,17 +9,22 @@ namespace msflex {
 
 namespace {
 
-constexpr const char *kFormat = "msflex checkpoint 1";
+constexpr const char *kFormat     = "msflex checkpoint 1";
 constexpr int         kRunNumbers = 11;
 
 // The run record's numbers, in a fixed order.
 void PackNumbers(const CheckpointRun &run, double *numbers)
 {
-  const double values[kRunNumbers] = {(double)run.step,         run.time,
-                                      run.external_work,        (double)run.last_written,
-                                      (double)run.history_rows, run.controller_step,
-                                      (double)run.controller_easy_run, (double)run.num_nodes,
-                                      (double)run.num_joints,   (double)run.num_rigid_bodies,
+  const double values[kRunNumbers] = {(double)run.step,
+                                      run.time,
+                                      run.external_work,
+                                      (double)run.last_written,
+                                      (double)run.history_rows,
+                                      run.controller_step,
+                                      (double)run.controller_easy_run,
+                                      (double)run.num_nodes,
+                                      (double)run.num_joints,
+                                      (double)run.num_rigid_bodies,
                                       0.0};
   std::copy(values, values + kRunNumbers, numbers);
 }
@@ -54,8 +59,8 @@ PetscErrorCode ReadText(const std::string &label, hid_t parent, const char *name
 {
   H5Id dataset, space;
   PetscFunctionBeginUser;
-  PetscCheck(H5Lexists(parent, name, H5P_DEFAULT) > 0, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "'%s' is not an msflex checkpoint: no %s",
-             label.c_str(), name);
+  PetscCheck(H5Lexists(parent, name, H5P_DEFAULT) > 0, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "'%s' is not an msflex checkpoint: no %s", label.c_str(),
+             name);
   PetscCallHDF5At(label, dataset = H5Dopen2(parent, name, H5P_DEFAULT));
   PetscCallHDF5At(label, space = H5Dget_space(dataset));
   const hssize_t size = H5Sget_simple_extent_npoints(space);
@@ -100,8 +105,8 @@ PetscErrorCode CheckpointWrite(MPI_Comm comm, const std::string &path, const Che
     PetscCall(OpenFileCollective(comm, temporary, &file));
     PetscCall(WriteRowsCollective(temporary, file, "nodes", (hsize_t)run.num_nodes, Assembler::kNodeStateSize, nodes.numbers, nodes.values));
     PetscCall(WriteRowsCollective(temporary, file, "joints", (hsize_t)run.num_joints, Assembler::kJointStateSize, joints.numbers, joints.values));
-    PetscCall(WriteRowsCollective(temporary, file, "rigid_bodies", (hsize_t)run.num_rigid_bodies, Assembler::kRigidBodyStateSize, bodies.numbers,
-                                  bodies.values));
+    PetscCall(
+        WriteRowsCollective(temporary, file, "rigid_bodies", (hsize_t)run.num_rigid_bodies, Assembler::kRigidBodyStateSize, bodies.numbers, bodies.values));
     PetscCallHDF5At(temporary, H5Fclose(file.Release()));
     PetscFunctionReturn(PETSC_SUCCESS);
   }));

@@ -11,8 +11,7 @@
 
 // Checks the result of an HDF5 call (negative means failure); `label` names the file in the message.
 // HDF5 prints its own error stack to stderr as well.
-#define PetscCallHDF5At(label, call) \
-  PetscCheck((call) >= 0, PETSC_COMM_SELF, PETSC_ERR_FILE_OPEN, "HDF5 call failed on '%s': %s", (label).c_str(), #call)
+#define PetscCallHDF5At(label, call) PetscCheck((call) >= 0, PETSC_COMM_SELF, PETSC_ERR_FILE_OPEN, "HDF5 call failed on '%s': %s", (label).c_str(), #call)
 
 namespace msflex {
 
@@ -20,7 +19,7 @@ namespace msflex {
 // H5Idec_ref closes whatever it refers to, so early returns on errors leak nothing.
 class H5Id {
 public:
-  H5Id() = default;
+  H5Id()                        = default;
   H5Id(const H5Id &)            = delete;
   H5Id &operator=(const H5Id &) = delete;
   ~H5Id() { Reset(); }
@@ -53,11 +52,10 @@ private:
 // rank 0 broadcasts its error code and message, and every rank raises the same error, so no rank
 // is left waiting in a later collective call. Rank 0's handler is silenced meanwhile so that the
 // message is reported once, by the collective PetscCheck.
-template <class RootWork>
-PetscErrorCode RunOnRoot(MPI_Comm comm, RootWork &&root_work)
+template <class RootWork> PetscErrorCode RunOnRoot(MPI_Comm comm, RootWork &&root_work)
 {
   PetscMPIInt    rank;
-  PetscErrorCode status = PETSC_SUCCESS;
+  PetscErrorCode status        = PETSC_SUCCESS;
   char           message[1024] = "";
 
   PetscFunctionBeginUser;
@@ -80,8 +78,7 @@ PetscErrorCode RunOnRoot(MPI_Comm comm, RootWork &&root_work)
 
 // Runs `work` on every rank and makes the outcome collective: when any rank fails, the lowest
 // failing rank broadcasts its error code and message and every rank raises that same error.
-template <class Work>
-PetscErrorCode RunCollective(MPI_Comm comm, Work &&work)
+template <class Work> PetscErrorCode RunCollective(MPI_Comm comm, Work &&work)
 {
   PetscMPIInt    rank, size, first;
   PetscErrorCode status        = PETSC_SUCCESS;

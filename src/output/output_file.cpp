@@ -18,8 +18,7 @@
 
 // Checks the result of an HDF5 call (negative means failure) inside an OutputFile::Impl member,
 // whose `path` names the file in the message. HDF5 prints its own error stack to stderr as well.
-#define PetscCallHDF5(call) \
-  PetscCheck((call) >= 0, PETSC_COMM_SELF, PETSC_ERR_FILE_OPEN, "HDF5 call failed on output file '%s': %s", path.c_str(), #call)
+#define PetscCallHDF5(call) PetscCheck((call) >= 0, PETSC_COMM_SELF, PETSC_ERR_FILE_OPEN, "HDF5 call failed on output file '%s': %s", path.c_str(), #call)
 
 namespace msflex {
 
@@ -55,11 +54,20 @@ std::string XmlEscape(const std::string &text)
   std::string escaped;
   for (const char c : text) {
     switch (c) {
-    case '&': escaped += "&amp;"; break;
-    case '<': escaped += "&lt;"; break;
-    case '>': escaped += "&gt;"; break;
-    case '"': escaped += "&quot;"; break;
-    default: escaped += c;
+    case '&':
+      escaped += "&amp;";
+      break;
+    case '<':
+      escaped += "&lt;";
+      break;
+    case '>':
+      escaped += "&gt;";
+      break;
+    case '"':
+      escaped += "&quot;";
+      break;
+    default:
+      escaped += c;
     }
   }
   return escaped;
@@ -105,8 +113,8 @@ struct OutputFile::Impl {
   };
 
   explicit Impl(const std::string &h5_path)
-    : path(h5_path), xdmf_path(std::filesystem::path(h5_path).replace_extension(".xmf").string()),
-      h5_file_name(std::filesystem::path(h5_path).filename().string())
+      : path(h5_path), xdmf_path(std::filesystem::path(h5_path).replace_extension(".xmf").string()),
+        h5_file_name(std::filesystem::path(h5_path).filename().string())
   {
   }
 
@@ -121,8 +129,8 @@ struct OutputFile::Impl {
   // Parallel build: opens the file created by rank 0 on every rank through MPI-IO.
   PetscErrorCode OpenParallel();
   // Checks this rank's part of a frame (`node_rows`, `element_rows`: the rows it writes).
-  PetscErrorCode CheckFrame(const OutputFrame &frame, int step, bool has_velocities, const std::vector<int> &node_rows,
-                            const std::vector<int> &element_rows, hsize_t total_node_rows, hsize_t total_element_rows) const;
+  PetscErrorCode CheckFrame(const OutputFrame &frame, int step, bool has_velocities, const std::vector<int> &node_rows, const std::vector<int> &element_rows,
+                            hsize_t total_node_rows, hsize_t total_element_rows) const;
   // Writes a frame collectively, each rank its rows.
   PetscErrorCode WriteFrameRows(const OutputFrame &frame, int step, double time, bool has_velocities, const std::vector<int> &node_rows,
                                 const std::vector<int> &element_rows);
@@ -151,20 +159,20 @@ struct OutputFile::Impl {
   // float64 dataset `name` under `parent`, creating the dataset for the first row.
   PetscErrorCode AppendRow(hid_t parent, const char *name, const std::vector<hsize_t> &entry_dims, const double *entry);
 
-  std::string path;         // the .h5 file, as given to Open
-  std::string xdmf_path;    // the sidecar: path with the extension replaced by .xmf
-  std::string h5_file_name; // base name of path, by which the sidecar refers to it
-  H5Id        file;
-  hsize_t     n_nodes = 0, n_elements = 0, n_segments = 0;
+  std::string              path;         // the .h5 file, as given to Open
+  std::string              xdmf_path;    // the sidecar: path with the extension replaced by .xmf
+  std::string              h5_file_name; // base name of path, by which the sidecar refers to it
+  H5Id                     file;
+  hsize_t                  n_nodes = 0, n_elements = 0, n_segments = 0;
   std::vector<int>         segment_element; // rank 0, during Create: element of each 2-node visualisation segment
   std::vector<FrameEntry>  frames;          // in the order written
   hsize_t                  rows_written = 0;
   std::vector<std::string> history_names, probe_names; // fixed by the first history row
-  MPI_Comm                 comm     = MPI_COMM_NULL;
-  PetscMPIInt              rank     = 0;
+  MPI_Comm                 comm = MPI_COMM_NULL;
+  PetscMPIInt              rank = 0;
   // Rank 0, only once a frame that is not distributed arrives (read back from /mesh):
   // n_elements + 1 entries, the segments of element e are [first[e], first[e + 1]).
-  std::vector<int>         segment_first;
+  std::vector<int> segment_first;
 };
 
 PetscErrorCode OutputFile::Impl::CreateStringType(H5Id *type)
@@ -297,8 +305,8 @@ PetscErrorCode OutputFile::Impl::WriteMesh(const OutputMesh &mesh)
   std::vector<int> segments;
 
   PetscFunctionBeginUser;
-  n_nodes    = mesh.node_coordinates.size() / 3;
-  n_elements = mesh.element_order.size();
+  n_nodes               = mesh.node_coordinates.size() / 3;
+  n_elements            = mesh.element_order.size();
   const hsize_t n_beams = mesh.beam_names.size();
   PetscCheck(mesh.node_coordinates.size() == 3 * n_nodes && mesh.node_names.size() == n_nodes, PETSC_COMM_SELF, PETSC_ERR_ARG_SIZ,
              "output file '%s': %zu node coordinates and %zu node names do not describe n x 3 and n", path.c_str(), mesh.node_coordinates.size(),
@@ -314,12 +322,11 @@ PetscErrorCode OutputFile::Impl::WriteMesh(const OutputMesh &mesh)
     PetscCheck(mesh.element_beam[e] >= 0 && (hsize_t)mesh.element_beam[e] < n_beams, PETSC_COMM_SELF, PETSC_ERR_ARG_OUTOFRANGE,
                "output file '%s': element %llu refers to beam %d of %llu", path.c_str(), (unsigned long long)e, mesh.element_beam[e],
                (unsigned long long)n_beams);
-    PetscCheck(order == 2 || nodes[2] == -1, PETSC_COMM_SELF, PETSC_ERR_ARG_WRONG, "output file '%s': 2-node element %llu is not padded with -1",
-               path.c_str(), (unsigned long long)e);
+    PetscCheck(order == 2 || nodes[2] == -1, PETSC_COMM_SELF, PETSC_ERR_ARG_WRONG, "output file '%s': 2-node element %llu is not padded with -1", path.c_str(),
+               (unsigned long long)e);
     for (int a = 0; a <= order; ++a)
       PetscCheck(nodes[a] >= 0 && (hsize_t)nodes[a] < n_nodes, PETSC_COMM_SELF, PETSC_ERR_ARG_OUTOFRANGE,
-                 "output file '%s': element %llu refers to node %d of %llu", path.c_str(), (unsigned long long)e, nodes[a],
-                 (unsigned long long)n_nodes);
+                 "output file '%s': element %llu refers to node %d of %llu", path.c_str(), (unsigned long long)e, nodes[a], (unsigned long long)n_nodes);
     // Consecutive element nodes form the segments: (n0, n1) and, for order 2, (n1, n2).
     for (int a = 0; a < order; ++a) {
       segments.push_back(nodes[a]);
@@ -346,7 +353,7 @@ PetscErrorCode OutputFile::Impl::WriteMesh(const OutputMesh &mesh)
   const hsize_t n_joints = mesh.joint_names.size();
   if (n_joints > 0) {
     PetscCheck(mesh.joint_types.size() == n_joints && mesh.joint_master.size() == n_joints && mesh.joint_slave.size() == n_joints &&
-                 mesh.joint_axes.size() == 9 * n_joints && mesh.joint_offset.size() == 3 * n_joints,
+                   mesh.joint_axes.size() == 9 * n_joints && mesh.joint_offset.size() == 3 * n_joints,
                PETSC_COMM_SELF, PETSC_ERR_ARG_SIZ, "output file '%s': joint arrays do not match %llu joints", path.c_str(), (unsigned long long)n_joints);
     PetscCall(WriteStrings(group, "joint_names", {n_joints}, mesh.joint_names));
     PetscCall(WriteStrings(group, "joint_types", {n_joints}, mesh.joint_types));
@@ -367,8 +374,7 @@ PetscErrorCode OutputFile::Impl::CheckNewStep(int step) const
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
-PetscErrorCode OutputFile::Impl::CheckHistory(const std::vector<std::string> &names, const std::vector<double> &values,
-                                              const std::vector<ProbeSample> &probes)
+PetscErrorCode OutputFile::Impl::CheckHistory(const std::vector<std::string> &names, const std::vector<double> &values, const std::vector<ProbeSample> &probes)
 {
   const std::vector<std::string> sample_names = ProbeNames(probes);
 
@@ -414,15 +420,15 @@ PetscErrorCode OutputFile::Impl::WriteHistory(const std::vector<std::string> &na
 
 PetscErrorCode OutputFile::Impl::WriteXdmf() const
 {
-  const std::string  h5_name    = XmlEscape(h5_file_name);
-  const std::string  temporary  = xdmf_path + ".tmp";
+  const std::string  h5_name   = XmlEscape(h5_file_name);
+  const std::string  temporary = xdmf_path + ".tmp";
   std::ostringstream xml;
 
   // One <DataItem> referring to a dataset of the .h5 file by its relative name.
   const auto data_item = [&](const char *number_type, int precision, hsize_t rows, int columns, const std::string &dataset) {
     std::ostringstream item;
-    item << "<DataItem Format=\"HDF\" NumberType=\"" << number_type << "\" Precision=\"" << precision << "\" Dimensions=\"" << rows << " " << columns
-         << "\">" << h5_name << ":" << dataset << "</DataItem>";
+    item << "<DataItem Format=\"HDF\" NumberType=\"" << number_type << "\" Precision=\"" << precision << "\" Dimensions=\"" << rows << " " << columns << "\">"
+         << h5_name << ":" << dataset << "</DataItem>";
     return item.str();
   };
   const auto attribute = [&](const char *name, const char *type, const char *center, const std::string &item) {
@@ -467,8 +473,8 @@ PetscErrorCode OutputFile::Impl::WriteXdmf() const
   out << xml.str();
   out.close();
   PetscCheck(out.good(), PETSC_COMM_SELF, PETSC_ERR_FILE_OPEN, "cannot write XDMF sidecar '%s'", temporary.c_str());
-  PetscCheck(std::rename(temporary.c_str(), xdmf_path.c_str()) == 0, PETSC_COMM_SELF, PETSC_ERR_FILE_OPEN, "cannot rename '%s' to '%s'",
-             temporary.c_str(), xdmf_path.c_str());
+  PetscCheck(std::rename(temporary.c_str(), xdmf_path.c_str()) == 0, PETSC_COMM_SELF, PETSC_ERR_FILE_OPEN, "cannot rename '%s' to '%s'", temporary.c_str(),
+             xdmf_path.c_str());
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
@@ -498,16 +504,16 @@ PetscErrorCode OutputFile::Impl::CheckFrame(const OutputFrame &frame, int step, 
              "output file '%s': step %d: the ranks hold %llu node and %llu element rows, not %llu and %llu", path.c_str(), step,
              (unsigned long long)total_node_rows, (unsigned long long)total_element_rows, (unsigned long long)n_nodes, (unsigned long long)n_elements);
   if (nr == 0 && er == 0) PetscFunctionReturn(PETSC_SUCCESS); // nothing of this rank's arrays is read
-  PetscCheck(frame.position.size() == 3 * nr && frame.displacement.size() == 3 * nr && frame.rotation.size() == 4 * nr, PETSC_COMM_SELF,
-             PETSC_ERR_ARG_SIZ, "output file '%s': step %d: nodal arrays do not match %llu nodes", path.c_str(), step, (unsigned long long)nr);
+  PetscCheck(frame.position.size() == 3 * nr && frame.displacement.size() == 3 * nr && frame.rotation.size() == 4 * nr, PETSC_COMM_SELF, PETSC_ERR_ARG_SIZ,
+             "output file '%s': step %d: nodal arrays do not match %llu nodes", path.c_str(), step, (unsigned long long)nr);
   PetscCheck(frame.element_resultants.size() == 6 * er && frame.element_strains.size() == 6 * er, PETSC_COMM_SELF, PETSC_ERR_ARG_SIZ,
              "output file '%s': step %d: element arrays do not match %llu elements", path.c_str(), step, (unsigned long long)er);
   if (has_velocities)
     PetscCheck(frame.velocity.size() == 3 * nr && frame.angular_velocity.size() == 3 * nr, PETSC_COMM_SELF, PETSC_ERR_ARG_SIZ,
                "output file '%s': step %d: velocity arrays do not match %llu nodes", path.c_str(), step, (unsigned long long)nr);
   for (const int row : node_rows)
-    PetscCheck(row >= 0 && (hsize_t)row < n_nodes, PETSC_COMM_SELF, PETSC_ERR_ARG_OUTOFRANGE, "output file '%s': step %d: node row %d of %llu",
-               path.c_str(), step, row, (unsigned long long)n_nodes);
+    PetscCheck(row >= 0 && (hsize_t)row < n_nodes, PETSC_COMM_SELF, PETSC_ERR_ARG_OUTOFRANGE, "output file '%s': step %d: node row %d of %llu", path.c_str(),
+               step, row, (unsigned long long)n_nodes);
   for (const int row : element_rows)
     PetscCheck(row >= 0 && (hsize_t)row < n_elements, PETSC_COMM_SELF, PETSC_ERR_ARG_OUTOFRANGE, "output file '%s': step %d: element row %d of %llu",
                path.c_str(), step, row, (unsigned long long)n_elements);
@@ -612,7 +618,7 @@ PetscErrorCode OutputFile::Impl::Resume(int last_step, long long history_rows)
   PetscCallHDF5(file = H5Fopen(path.c_str(), H5F_ACC_RDWR, H5P_DEFAULT));
   // The sizes of the mesh, from its datasets.
   const auto rows_of = [&](const char *name, hsize_t *rows) -> PetscErrorCode {
-    H5Id dataset, space;
+    H5Id    dataset, space;
     hsize_t dims[2] = {0, 0};
     PetscFunctionBeginUser;
     PetscCallHDF5(dataset = H5Dopen2(file, name, H5P_DEFAULT));
@@ -697,7 +703,6 @@ OutputFile::~OutputFile()
   delete impl_;
 }
 
-
 PetscErrorCode OutputFile::Open(MPI_Comm comm, const std::string &path, bool overwrite, const std::string &input_file, const std::string &input_text,
                                 const OutputMesh &mesh)
 {
@@ -716,15 +721,14 @@ PetscErrorCode OutputFile::Reopen(MPI_Comm comm, const std::string &path, int la
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
-template <class RootWork>
-PetscErrorCode OutputFile::OpenWith(MPI_Comm comm, const std::string &path, RootWork &&root_work)
+template <class RootWork> PetscErrorCode OutputFile::OpenWith(MPI_Comm comm, const std::string &path, RootWork &&root_work)
 {
   PetscFunctionBeginUser;
   PetscCheck(!impl_, comm, PETSC_ERR_ARG_WRONGSTATE, "cannot open output file '%s': '%s' is still open", path.c_str(), path_.c_str());
-  comm_ = comm;
-  path_ = path;
-  impl_ = new Impl(path);
-  impl_->comm     = comm;
+  comm_       = comm;
+  path_       = path;
+  impl_       = new Impl(path);
+  impl_->comm = comm;
   PetscCallMPI(MPI_Comm_rank(comm, &impl_->rank));
   // Rank 0 prepares the file (creates it with /input and /mesh — replicated, small, partly
   // variable-length strings, which MPI-IO cannot write — or trims an existing one); then every
@@ -737,7 +741,7 @@ PetscErrorCode OutputFile::OpenWith(MPI_Comm comm, const std::string &path, Root
     impl_->n_nodes    = sizes[0];
     impl_->n_elements = sizes[1];
     impl_->n_segments = sizes[2];
-    status = RunCollective(comm_, [&] { return impl_->OpenParallel(); });
+    status            = RunCollective(comm_, [&] { return impl_->OpenParallel(); });
   }
   if (status != PETSC_SUCCESS) {
     // A failed Open leaves nothing open, so the object can be opened again.

@@ -32,8 +32,8 @@ struct OutputMesh {
 };
 
 struct OutputFrame {
-  int                 step = 0;   // converged step number (0 = initial state)
-  double              time = 0.0; // time, or pseudo-time (load factor) in statics
+  int                 step = 0;           // converged step number (0 = initial state)
+  double              time = 0.0;         // time, or pseudo-time (load factor) in statics
   std::vector<double> position;           // n_nodes * 3
   std::vector<double> displacement;       // n_nodes * 3
   std::vector<double> rotation;           // n_nodes * 4, quaternion (w, x, y, z) from the reference configuration
@@ -46,9 +46,9 @@ struct OutputFrame {
   // must be held by exactly one rank. The velocities are present when any rank has them.
   // Each element row also names its visualisation segments (rows of /mesh/segments): the
   // element's order many, from element_first_segment.
-  bool                distributed = false;
-  std::vector<int>    node_rows, element_rows;
-  std::vector<int>    element_first_segment, element_segment_count;
+  bool             distributed = false;
+  std::vector<int> node_rows, element_rows;
+  std::vector<int> element_first_segment, element_segment_count;
   // Distributed frames: the current section triad (axes e1 = beam axis, e2, e3, each 3 numbers)
   // at the first node of every segment of the element rows, in order (9 per segment).
   std::vector<double> segment_triads;
@@ -64,7 +64,7 @@ struct ProbeSample {
 
 class OutputFile {
 public:
-  OutputFile() = default;
+  OutputFile()                              = default;
   OutputFile(const OutputFile &)            = delete;
   OutputFile &operator=(const OutputFile &) = delete;
   ~OutputFile();
@@ -88,11 +88,10 @@ public:
 
 private:
   struct Impl;
-  template <class RootWork>
-  PetscErrorCode OpenWith(MPI_Comm comm, const std::string &path, RootWork &&root_work);
-  Impl       *impl_ = nullptr;
-  MPI_Comm    comm_ = MPI_COMM_NULL;
-  std::string path_;
+  template <class RootWork> PetscErrorCode OpenWith(MPI_Comm comm, const std::string &path, RootWork &&root_work);
+  Impl                                    *impl_ = nullptr;
+  MPI_Comm                                 comm_ = MPI_COMM_NULL;
+  std::string                              path_;
 };
 
 } // namespace msflex

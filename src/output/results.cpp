@@ -43,7 +43,7 @@ void BuildOutputMesh(const Model &model, OutputMesh *mesh)
 // Position (3), displacement (3), quaternion (4), tracked rotation angle (1), velocity (3) and
 // spatial angular velocity (3) of a node.
 constexpr int kNodeRecordSize = 17;
-static void PackNodeRecord(const Model &model, int node, const NodeState &state, double *out)
+static void   PackNodeRecord(const Model &model, int node, const NodeState &state, double *out)
 {
   const Quaternion q = NodeStateCurrentQuaternion(state);
   for (int i = 0; i < 3; ++i) {
@@ -51,8 +51,8 @@ static void PackNodeRecord(const Model &model, int node, const NodeState &state,
     out[3 + i] = state.position(i) - model.nodes[node].position(i);
   }
   out[6] = q.w, out[7] = q.x, out[8] = q.y, out[9] = q.z;
-  out[10]       = QuaternionTrackedAngle(q);
-  const Vec3 w  = QuaternionToMatrix(state.rotation_start) * state.rotation_motion.velocity;
+  out[10]      = QuaternionTrackedAngle(q);
+  const Vec3 w = QuaternionToMatrix(state.rotation_start) * state.rotation_motion.velocity;
   for (int i = 0; i < 3; ++i) {
     out[11 + i] = state.translation_motion.velocity(i);
     out[14 + i] = w(i);
@@ -73,16 +73,16 @@ static void AppendNodeRecord(const double *in, bool with_velocities, OutputFrame
 
 // A distributed frame: each rank holds the rows of the nodes and elements it owns, which the
 // output file writes collectively (parallel HDF5). No communication here.
-PetscErrorCode GatherFrame(MPI_Comm, const Model &model, const Assembler &assembler, const std::vector<ElementResults> &element_results, int step,
-                           double time, bool with_velocities, OutputFrame *frame)
+PetscErrorCode GatherFrame(MPI_Comm, const Model &model, const Assembler &assembler, const std::vector<ElementResults> &element_results, int step, double time,
+                           bool with_velocities, OutputFrame *frame)
 {
   PetscFunctionBeginUser;
   const DofMap                 &map   = assembler.Map();
   const std::vector<NodeState> &nodes = assembler.LocalNodes();
-  *frame             = OutputFrame{};
-  frame->step        = step;
-  frame->time        = time;
-  frame->distributed = true;
+  *frame                              = OutputFrame{};
+  frame->step                         = step;
+  frame->time                         = time;
+  frame->distributed                  = true;
   for (PetscInt l = 0; l < map.num_owned_nodes; ++l) {
     double in[kNodeRecordSize];
     PackNodeRecord(model, map.local_nodes[l], nodes[l], in);

@@ -68,8 +68,8 @@ static std::vector<int> ContractJointChains(const Model &model, int *num_vertice
 static PetscErrorCode MetisPartition(const Model &model, int parts, std::vector<int> *node_rank)
 {
   PetscFunctionBeginUser;
-  int                            num_vertices;
-  const std::vector<int>         vertex = ContractJointChains(model, &num_vertices);
+  int                             num_vertices;
+  const std::vector<int>          vertex = ContractJointChains(model, &num_vertices);
   std::vector<std::vector<idx_t>> neighbours(num_vertices);
   for (const BeamElement &element : model.elements)
     for (int a = 0; a <= element.order; ++a)

@@ -19,8 +19,8 @@ struct NodeState {
   Vec3 displacement_increment = Vec3::Zero();
   Vec3 rotation_increment     = Vec3::Zero();
   // Current configuration, derived from the two above by UpdateCurrent().
-  Vec3 position      = Vec3::Zero();
-  Mat3 rotation      = Mat3::Identity();
+  Vec3 position         = Vec3::Zero();
+  Mat3 rotation         = Mat3::Identity();
   Mat3 rotation_tangent = Mat3::Identity(); // H(omega): d theta = H(omega) d omega
 
   // Dynamics at the start of the step: translation in global axes, rotation in the node's body
@@ -28,7 +28,7 @@ struct NodeState {
   MotionState translation_motion, rotation_motion;
   // Dynamics at the end of the step, derived from the increments by the time scheme.
   MotionUpdate translation_update;
-  Vec3         tangent_scaled_increment = Vec3::Zero(); // alpha = 2 tan(|omega|/2) omega/|omega|
+  Vec3         tangent_scaled_increment  = Vec3::Zero();     // alpha = 2 tan(|omega|/2) omega/|omega|
   Mat3         tangent_scaled_derivative = Mat3::Identity(); // d alpha / d omega
 };
 

@@ -40,7 +40,7 @@ constexpr double kIntegerBudget = 300000;
 bool AsksForBigModel(const std::string &text)
 {
   const auto word_character = [](char c) { return std::isalnum(static_cast<unsigned char>(c)) || c == '.' || c == '_'; };
-  double sum = 0.0;
+  double     sum            = 0.0;
   for (size_t at = 0; at < text.size();) {
     if (!word_character(text[at])) {
       ++at;
@@ -50,8 +50,8 @@ bool AsksForBigModel(const std::string &text)
     while (end < text.size() && word_character(text[end])) ++end;
     const std::string word = text.substr(at, end - at);
     at                     = end;
-    const bool hexadecimal = word.size() > 2 && word[0] == '0' && (word[1] == 'x' || word[1] == 'X') &&
-                             word.find_first_not_of("0123456789abcdefABCDEF", 2) == std::string::npos;
+    const bool hexadecimal =
+        word.size() > 2 && word[0] == '0' && (word[1] == 'x' || word[1] == 'X') && word.find_first_not_of("0123456789abcdefABCDEF", 2) == std::string::npos;
     const bool decimal = word.find_first_not_of("0123456789") == std::string::npos;
     if (!hexadecimal && !decimal) continue;
     double value = 0.0;
@@ -73,8 +73,7 @@ void CheckNodeList(const std::vector<int> &nodes, size_t node_count, const char 
 
 void CheckFunction(int function, size_t function_count, const char *what)
 {
-  if (function != -1 && !InRange(function, function_count))
-    Broken("accepted model", std::string(what) + " refers to function " + std::to_string(function));
+  if (function != -1 && !InRange(function, function_count)) Broken("accepted model", std::string(what) + " refers to function " + std::to_string(function));
 }
 
 // What the solver takes for granted of a model the reader accepted.
@@ -86,8 +85,8 @@ void CheckModel(const msflex::Model &model)
     if (!node.position.allFinite()) Broken("accepted model", "node '" + node.name + "' has a non-finite position");
   for (const msflex::Section &section : model.sections)
     if (!(section.EA > 0 && section.GA2 > 0 && section.GA3 > 0 && section.GJ > 0 && section.EI2 > 0 && section.EI3 > 0 &&
-          std::isfinite(section.EA + section.GA2 + section.GA3 + section.GJ + section.EI2 + section.EI3) && section.rhoA >= 0 &&
-          std::isfinite(section.rhoA) && section.rhoJ.allFinite() && (section.rhoJ.array() >= 0).all()))
+          std::isfinite(section.EA + section.GA2 + section.GA3 + section.GJ + section.EI2 + section.EI3) && section.rhoA >= 0 && std::isfinite(section.rhoA) &&
+          section.rhoJ.allFinite() && (section.rhoJ.array() >= 0).all()))
       Broken("accepted model", "section '" + section.name + "' has a non-positive or non-finite property");
   for (const msflex::BeamElement &element : model.elements) {
     if (!InRange(element.section, sections)) Broken("accepted model", "an element refers to section " + std::to_string(element.section));
@@ -147,8 +146,8 @@ void CheckModel(const msflex::Model &model)
   }
   const msflex::AnalysisSettings &analysis = model.analysis;
   if (!(analysis.end_time > 0 && analysis.initial_step > 0 && analysis.min_step > 0 && analysis.max_step > 0 && analysis.newton_rtol > 0 &&
-        analysis.newton_atol >= 0 && analysis.growth_factor >= 1 && analysis.min_step <= analysis.initial_step &&
-        analysis.initial_step <= analysis.max_step && std::isfinite(analysis.end_time + analysis.max_step + analysis.growth_factor)))
+        analysis.newton_atol >= 0 && analysis.growth_factor >= 1 && analysis.min_step <= analysis.initial_step && analysis.initial_step <= analysis.max_step &&
+        std::isfinite(analysis.end_time + analysis.max_step + analysis.growth_factor)))
     Broken("accepted model", "bad analysis settings");
   if (model.output.every < 1 || model.output.file.empty()) Broken("accepted model", "bad output settings");
 }

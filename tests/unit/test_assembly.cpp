@@ -228,7 +228,10 @@ void CheckEveryProblem(const char *model, const char *label)
   const struct {
     Problem     problem;
     const char *name;
-  } cases[] = {{Problem::Static, "statics"}, {Problem::Newmark, "newmark"}, {Problem::GeneralizedAlpha, "genalpha"}, {Problem::InitialAcceleration, "initial accelerations"}};
+  } cases[] = {{Problem::Static, "statics"},
+               {Problem::Newmark, "newmark"},
+               {Problem::GeneralizedAlpha, "genalpha"},
+               {Problem::InitialAcceleration, "initial accelerations"}};
   PetscMPIInt size;
   MPI_Comm_size(PETSC_COMM_WORLD, &size);
   for (const auto &c : cases) {

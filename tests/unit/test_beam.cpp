@@ -93,7 +93,7 @@ double TangentRelativeError(const BeamElementReference &ref, const ElementCase &
   const int           n = 6 * c.num_nodes;
   std::vector<double> r(n), K(n * n);
   EXPECT_EQ(BeamInternalForces(ref, kSection, c.positions.data(), c.triads.data(), r.data(), K.data(), nullptr, nullptr), BeamKernelStatus::Ok);
-  const double h = 1e-6;
+  const double h        = 1e-6;
   double       max_diff = 0, max_entry = 0;
   for (int j = 0; j < n; ++j) {
     const std::vector<double> rp = Residual(ref, Perturb(c, j, h)), rm = Residual(ref, Perturb(c, j, -h));
@@ -142,12 +142,12 @@ TEST_P(BeamKernel, StrainsAreInvariantUnderSuperposedRigidMotion)
   const ElementCase    ec = CurvedTwistedReference(nn, 0.6);
   BeamElementReference ref;
   ASSERT_EQ(BeamElementSetup(nn, ec.positions.data(), ec.triads.data(), &ref), BeamKernelStatus::Ok);
-  const ElementCase deformed = Deform(ec, 7, 0.3);
-  BeamGaussResults  base;
+  const ElementCase   deformed = Deform(ec, 7, 0.3);
+  BeamGaussResults    base;
   std::vector<double> r(6 * nn);
   ASSERT_EQ(BeamInternalForces(ref, kSection, deformed.positions.data(), deformed.triads.data(), r.data(), nullptr, nullptr, &base), BeamKernelStatus::Ok);
   for (const Vec3 &axis : {Vec3(0, 0, 1), Vec3(1, 2, -1), Vec3(-3, 0.5, 2)}) {
-    const Mat3  Q = ExpSO3(axis.normalized() * 2.9);
+    const Mat3  Q       = ExpSO3(axis.normalized() * 2.9);
     ElementCase rotated = deformed;
     for (int a = 0; a < nn; ++a) {
       rotated.positions[a] = Q * deformed.positions[a] + Vec3(100, -50, 25);

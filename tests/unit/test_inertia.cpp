@@ -104,7 +104,7 @@ TEST(Inertia, OffsetPointMassTangentMatchesFiniteDifferences)
     const TimeScheme  scheme = MakeTimeScheme(kind, 0.7, 0.05);
     const Mat3        R      = ExpSO3(RandomVector(2.0));
     const Vec3        offset = RandomVector(0.8), u = RandomVector(0.1), omega = RandomVector(0.4);
-    const MotionState start  = RandomMotion();
+    const MotionState start = RandomMotion();
     Vec6              residual;
     Mat6              tangent, fd;
     MotionUpdate      update;

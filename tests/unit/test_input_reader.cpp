@@ -177,8 +177,8 @@ beams:
 
 TEST(InputReader, LineBeamTriadsFollowOrientationRollAndTwist)
 {
-  const Model model = ReadValid(std::string(kLineHead) +
-                                "  - {name: line, section: s, from: a, to: b, elements: 2, orientation: [1, 1, 0], roll: 0.3, twist: 0.4}\n");
+  const Model model =
+      ReadValid(std::string(kLineHead) + "  - {name: line, section: s, from: a, to: b, elements: 2, orientation: [1, 1, 0], roll: 0.3, twist: 0.4}\n");
   ASSERT_EQ(model.elements.size(), 2u);
   const Vec3 t1 = Vec3::UnitZ();
   const Vec3 t2 = Vec3(1, 1, 0).normalized();
@@ -194,7 +194,7 @@ TEST(InputReader, LineBeamTriadsFollowOrientationRollAndTwist)
 
 TEST(InputReader, DefaultOrientationAvoidsVerticalAxis)
 {
-  const std::string head = R"(sections:
+  const std::string head  = R"(sections:
   - {name: s, EA: 1, GA2: 1, GA3: 1, GJ: 1, EI2: 1, EI3: 1}
 nodes: {a: [0, 0, 0], b: [0, 3, 0], c: [4, 0, 0]}
 supports: [{nodes: a, fix: all}]
@@ -202,7 +202,7 @@ beams:
   - {name: up, section: s, from: a, to: b, elements: 1}
   - {name: along, section: s, from: a, to: c, elements: 1}
 )";
-  const Model model = ReadValid(head);
+  const Model       model = ReadValid(head);
   EXPECT_LT((model.elements[0].reference_triads[0].col(1) - Vec3(-1, 0, 0)).norm(), kTolerance);
   EXPECT_LT((model.elements[1].reference_triads[0].col(1) - Vec3(0, 1, 0)).norm(), kTolerance);
   EXPECT_LT((model.elements[1].reference_triads[1].col(2) - Vec3(0, 0, 1)).norm(), kTolerance);
@@ -253,7 +253,7 @@ supports:
   ASSERT_EQ(chain.size(), 17u);
   for (size_t k = 0; k < chain.size(); ++k) {
     // The default normal (from - c) x (to - c) is +z: a quarter circle counter-clockwise about z.
-    const double angle = 0.5 * M_PI * static_cast<double>(k) / 16.0;
+    const double angle    = 0.5 * M_PI * static_cast<double>(k) / 16.0;
     const Vec3   expected = center + radius * Vec3(std::sin(angle), -std::cos(angle), 0.0);
     EXPECT_LT((model.nodes[chain[k]].position - expected).norm(), 1e-9) << "node " << k;
   }
@@ -273,14 +273,14 @@ supports:
 TEST(InputReader, ArcWithNormalRunsTheLongWay)
 {
   // Counter-clockwise about -z from (0, 0) to (100, 100) around (0, 100) is three quarters of a turn.
-  const std::string text = R"(sections:
+  const std::string text  = R"(sections:
   - {name: s, EA: 1, GA2: 1, GA3: 1, GJ: 1, EI2: 1, EI3: 1}
 nodes: {start: [0, 0, 0], end: [100, 100, 0]}
 beams:
   - {name: loop, section: s, from: start, to: end, elements: 3, arc: {center: [0, 100, 0], normal: [0, 0, -1]}}
 supports: [{nodes: [start, end], fix: all}]
 )";
-  const Model model = ReadValid(text);
+  const Model       model = ReadValid(text);
   // After a quarter turn clockwise about z the beam is at (-100, 100).
   EXPECT_LT((model.nodes[NodeIndex(model, "loop.1")].position - Vec3(-100, 100, 0)).norm(), 1e-9);
   EXPECT_LT((model.nodes[NodeIndex(model, "loop.2")].position - Vec3(0, 200, 0)).norm(), 1e-9);
@@ -289,7 +289,7 @@ supports: [{nodes: [start, end], fix: all}]
 
 TEST(InputReader, GeneratedCountsForSeveralBeams)
 {
-  const std::string text = R"(sections:
+  const std::string text  = R"(sections:
   - {name: s, EA: 1, GA2: 1, GA3: 1, GJ: 1, EI2: 1, EI3: 1}
 nodes: {a: [0, 0, 0], b: [1, 0, 0], c: [1, 1, 0]}
 beams:
@@ -298,7 +298,7 @@ beams:
   - {name: branch, section: s, from: second.3, to: a, elements: 2}
 supports: [{nodes: a, fix: all}]
 )";
-  const Model model = ReadValid(text);
+  const Model       model = ReadValid(text);
   // 3 named + 4 + 7 + 1 generated nodes; 5 + 4 + 2 elements.
   EXPECT_EQ(model.nodes.size(), 15u);
   EXPECT_EQ(model.elements.size(), 11u);
@@ -314,8 +314,8 @@ beams: [{name: only, section: s, from: a, to: b, elements: 1}]
 supports: [{nodes: only, fix: [ux, uy, uz, rx, ry, rz]}]
 loads:
 )";
-  Model      model;
-  InputError error;
+  Model             model;
+  InputError        error;
   ASSERT_TRUE(ReadModelString(text, "input/dir.v2/roll.yaml", &model, &error)) << error.Format();
   EXPECT_EQ(model.output.file, "roll.h5");
   EXPECT_EQ(model.output.every, 1);
@@ -337,13 +337,13 @@ TEST(InputReader, SupportsAcrossABeamRestrainAllModes)
 {
   // Pinned translations at two nodes leave the rotation about the line through them free; a
   // third pinned node off that line (via a second beam) removes it.
-  const std::string head = R"(sections: [{name: s, EA: 1, GA2: 1, GA3: 1, GJ: 1, EI2: 1, EI3: 1}]
+  const std::string head  = R"(sections: [{name: s, EA: 1, GA2: 1, GA3: 1, GJ: 1, EI2: 1, EI3: 1}]
 nodes: {a: [0, 0, 0], b: [1, 0, 0], c: [1, 1, 0]}
 beams:
   - {name: ab, section: s, from: a, to: b, elements: 2}
   - {name: bc, section: s, from: b, to: c, elements: 2}
 )";
-  const InputError error = ReadInvalid(head + "supports: [{nodes: [a, b], fix: [ux, uy, uz]}]\n");
+  const InputError  error = ReadInvalid(head + "supports: [{nodes: [a, b], fix: [ux, uy, uz]}]\n");
   EXPECT_NE(error.message.find("mechanism: beam(s) 'ab', 'bc' can move as a rigid body (5 of 6"), std::string::npos) << error.message;
   EXPECT_EQ(error.line, 4);
   ReadValid(head + "supports: [{nodes: [a, b, c], fix: [ux, uy, uz]}]\n");
@@ -435,8 +435,7 @@ TEST(InputReader, DynamicModelWithRigidBodiesAndInitialConditions)
   EXPECT_FALSE(uniform.rigid_body_field);
   EXPECT_EQ(uniform.mark.line, 23);
   const InitialCondition &field = model.initial_conditions[1];
-  EXPECT_EQ(field.nodes, (std::vector<int>{NodeIndex(model, "arm.1"), NodeIndex(model, "arm.2"), NodeIndex(model, "arm.3"),
-                                           NodeIndex(model, "tip")}));
+  EXPECT_EQ(field.nodes, (std::vector<int>{NodeIndex(model, "arm.1"), NodeIndex(model, "arm.2"), NodeIndex(model, "arm.3"), NodeIndex(model, "tip")}));
   EXPECT_EQ(field.velocity, Vec3(0, 0, 1));
   EXPECT_EQ(field.angular_velocity, Vec3(0, 0, 2));
   EXPECT_TRUE(field.rigid_body_field);
@@ -456,8 +455,7 @@ TEST(InputReader, StaticModelNeedsSupportsForBeamlessRigidBodies)
   std::string text = kDynamicModel;
   text.replace(text.find("type: dynamic"), 13, "type: static");
   const InputError error = ReadInvalid(text + "supports: [{nodes: root, fix: all}]\n");
-  EXPECT_NE(error.message.find("mechanism: the rigid body at node 'pod' is not connected to any beam and can move freely (0 of 6"),
-            std::string::npos)
+  EXPECT_NE(error.message.find("mechanism: the rigid body at node 'pod' is not connected to any beam and can move freely (0 of 6"), std::string::npos)
       << error.message;
   EXPECT_EQ(error.line, 21);
   const Model model = ReadValid(text + "supports: [{nodes: [root, pod], fix: all}]\n");
@@ -468,7 +466,7 @@ TEST(InputReader, StaticModelNeedsSupportsForBeamlessRigidBodies)
 
 TEST(InputReader, RigidBodyOnlyModelNeedsNoBeamsOrSections)
 {
-  const std::string text = R"(nodes:
+  const std::string text  = R"(nodes:
   hub: [1, 2, 3]
 rigid_bodies:
   - {node: hub, mass: 2, inertia: [1, 2, 3], offset: [0.1, 0, 0]}
@@ -476,7 +474,7 @@ initial_conditions:
   - {nodes: all, velocity: [0, 1, 0], angular_velocity: [0, 0, 5], rigid_body_center: [1, 2, 0]}
 analysis: {type: dynamic}
 )";
-  const Model model = ReadValid(text);
+  const Model       model = ReadValid(text);
   EXPECT_TRUE(model.sections.empty());
   EXPECT_TRUE(model.beams.empty());
   EXPECT_TRUE(model.elements.empty());
@@ -500,7 +498,7 @@ analysis: {type: dynamic}
 
 TEST(InputReader, AllSelectsEveryNode)
 {
-  const std::string text = R"(sections: [{name: s, EA: 1, GA2: 1, GA3: 1, GJ: 1, EI2: 1, EI3: 1}]
+  const std::string text  = R"(sections: [{name: s, EA: 1, GA2: 1, GA3: 1, GJ: 1, EI2: 1, EI3: 1}]
 nodes: {a: [0, 0, 0], b: [1, 0, 0]}
 beams: [{name: ab, section: s, from: a, to: b, elements: 3}]
 supports: [{nodes: all, fix: [uz, rx, ry]}, {nodes: a, fix: [ux, uy, rz]}]
@@ -508,7 +506,7 @@ loads: [{nodes: [b, all], force: [1, 0, 0]}]
 initial_conditions:
   - {nodes: all, velocity: [0, 2, 0]}
 )";
-  const Model model = ReadValid(text);
+  const Model       model = ReadValid(text);
   // Named nodes first, then the generated ones; `all` lists them in index order.
   const std::vector<int> every{0, 1, 2, 3};
   ASSERT_EQ(model.nodes.size(), 4u);
@@ -519,8 +517,7 @@ initial_conditions:
 
   // Every node gets at most one initial condition, `all` included.
   const InputError error = ReadInvalid(text + "  - {nodes: ab.2, velocity: [1, 0, 0]}\n");
-  EXPECT_NE(error.message.find("node 'ab.2' already has an initial condition from the entry at line 7"), std::string::npos)
-      << error.message;
+  EXPECT_NE(error.message.find("node 'ab.2' already has an initial condition from the entry at line 7"), std::string::npos) << error.message;
   EXPECT_EQ(error.line, 8);
 }
 
@@ -741,9 +738,8 @@ TEST(InputReader, JointsOfEveryType)
   for (int k = 0; k < 4; ++k) EXPECT_DOUBLE_EQ(table.profile_second[k], second[k]);
   EXPECT_LT(table.profile_second[2], 0.0); // the peak at phi = 3 curves down
   // The spline passes through the points and repeats with the period.
-  const PeriodicSpline spline{table.profile_period, 4, table.profile_knots.data(), table.profile_values.data(),
-                              table.profile_second.data()};
-  double f = 0, df = 0, ddf = 0;
+  const PeriodicSpline spline{table.profile_period, 4, table.profile_knots.data(), table.profile_values.data(), table.profile_second.data()};
+  double               f = 0, df = 0, ddf = 0;
   PeriodicSplineEvaluate(spline, 1.5 + 2.0 * M_PI, &f, &df, &ddf);
   EXPECT_NEAR(f, 0.1, 1e-12);
 }
@@ -781,14 +777,14 @@ analysis: {type: dynamic}
 // that belongs to no beam and carries no rigid body, only joints.
 TEST(InputReader, JointChainAtOnePointAndStaticMechanismCheck)
 {
-  const std::string head = R"(sections: [{name: s, EA: 1, GA2: 1, GA3: 1, GJ: 1, EI2: 1, EI3: 1}]
+  const std::string head  = R"(sections: [{name: s, EA: 1, GA2: 1, GA3: 1, GJ: 1, EI2: 1, EI3: 1}]
 nodes: {cross: [0, 0, 0], nut: [0, 0, 0], tip: [0, 0, 2]}
 beams: [{name: rod, section: s, from: nut, to: tip, elements: 2}]
 joints:
   - {name: cardan, type: universal, master: ground, slave: cross, axis: [1, 0, 0], second_axis: [0, 1, 0]}
   - {name: thread, type: screw, master: cross, slave: nut, axis: [0, 0, 1], pitch: 0.01}
 )";
-  const Model model = ReadValid(head + "supports: [{nodes: tip, fix: all}]\n");
+  const Model       model = ReadValid(head + "supports: [{nodes: tip, fix: all}]\n");
   ASSERT_EQ(model.joints.size(), 2u);
   const int cross = NodeIndex(model, "cross"), nut = NodeIndex(model, "nut");
   EXPECT_EQ(model.joints[0].master, -1);
@@ -850,24 +846,22 @@ joints:
 )";
   ReadValid(bodies + "  - {name: weld, type: rigid, master: ground, slave: p}\n");
   const InputError error = ReadInvalid(bodies + "  - {name: pivot, type: revolute, master: ground, slave: p}\n");
-  EXPECT_NE(error.message.find("mechanism: the rigid body at node 'p' is not connected to any beam and can move freely (5 of 6"),
-            std::string::npos)
+  EXPECT_NE(error.message.find("mechanism: the rigid body at node 'p' is not connected to any beam and can move freely (5 of 6"), std::string::npos)
       << error.message;
   EXPECT_EQ(error.line, 3);
 }
 
 TEST(InputReader, JointSlavesTakeInitialConditionsButNoSupports)
 {
-  const std::string head = R"(nodes: {hub: [0, 0, 0], wheel: [0, 0, 0]}
+  const std::string head  = R"(nodes: {hub: [0, 0, 0], wheel: [0, 0, 0]}
 rigid_bodies: [{node: hub, mass: 1, inertia: [1, 1, 1]}, {node: wheel, mass: 1, inertia: [1, 1, 1]}]
 joints: [{name: axle, type: revolute, master: hub, slave: wheel}]
 analysis: {type: dynamic}
 )";
-  const Model model = ReadValid(head + "initial_conditions: [{nodes: wheel, angular_velocity: [3, 0, 0]}]\n");
+  const Model       model = ReadValid(head + "initial_conditions: [{nodes: wheel, angular_velocity: [3, 0, 0]}]\n");
   ASSERT_EQ(model.initial_conditions.size(), 1u);
   const InputError error = ReadInvalid(head + "supports: [{nodes: [hub, wheel], fix: [ux]}]\n");
-  EXPECT_NE(error.message.find("node 'wheel' is the slave of joint 'axle' (line 3) and cannot carry a support"), std::string::npos)
-      << error.message;
+  EXPECT_NE(error.message.find("node 'wheel' is the slave of joint 'axle' (line 3) and cannot carry a support"), std::string::npos) << error.message;
   EXPECT_EQ(error.line, 5);
   EXPECT_EQ(error.column, 26);
 }
@@ -886,10 +880,7 @@ struct MeshDataset {
 using MeshSpec = std::map<std::string, MeshDataset>;
 
 MeshDataset Reals(std::vector<hsize_t> dims, std::vector<double> values) { return {MeshDataset::Kind::Real, dims, values, {}, {}}; }
-MeshDataset Integers(std::vector<hsize_t> dims, std::vector<long long> values)
-{
-  return {MeshDataset::Kind::Integer, dims, {}, values, {}};
-}
+MeshDataset Integers(std::vector<hsize_t> dims, std::vector<long long> values) { return {MeshDataset::Kind::Integer, dims, {}, values, {}}; }
 MeshDataset Strings(std::vector<std::string> values, bool fixed = false)
 {
   return {fixed ? MeshDataset::Kind::FixedString : MeshDataset::Kind::String, {values.size()}, {}, {}, values};
@@ -903,9 +894,9 @@ void WriteMesh(const std::filesystem::path &path, const MeshSpec &spec)
   const hid_t links = H5Pcreate(H5P_LINK_CREATE);
   H5Pset_create_intermediate_group(links, 1);
   for (const auto &[name, dataset] : spec) {
-    const hid_t space = H5Screate_simple(static_cast<int>(dataset.dims.size()), dataset.dims.data(), nullptr);
-    hid_t       type  = -1;
-    const void *data  = nullptr;
+    const hid_t               space = H5Screate_simple(static_cast<int>(dataset.dims.size()), dataset.dims.data(), nullptr);
+    hid_t                     type  = -1;
+    const void               *data  = nullptr;
     std::vector<const char *> pointers;
     std::string               fixed;
     switch (dataset.kind) {
@@ -948,9 +939,8 @@ void WriteMesh(const std::filesystem::path &path, const MeshSpec &spec)
 // A fresh directory per test for the mesh and the (virtual) YAML file next to it.
 std::filesystem::path MeshTestDirectory()
 {
-  const ::testing::TestInfo *info = ::testing::UnitTest::GetInstance()->current_test_info();
-  const std::filesystem::path directory =
-      std::filesystem::temp_directory_path() / ("msflex_mesh_" + std::to_string(::getpid()) + "_" + info->name());
+  const ::testing::TestInfo  *info      = ::testing::UnitTest::GetInstance()->current_test_info();
+  const std::filesystem::path directory = std::filesystem::temp_directory_path() / ("msflex_mesh_" + std::to_string(::getpid()) + "_" + info->name());
   std::filesystem::remove_all(directory);
   std::filesystem::create_directories(directory);
   return directory;
@@ -1010,14 +1000,14 @@ MeshSpec MeshSpecOfEquivalentYaml()
 }
 
 // The YAML file that refers to mesh.h5 (line 4: the `mesh:` key).
-const std::string kMeshYaml = std::string(kMeshSections) + R"(mesh: mesh.h5
+const std::string kMeshYaml    = std::string(kMeshSections) + R"(mesh: mesh.h5
 supports:
   - {nodes: p1, fix: [ux]}
 probes:
   - {name: tip, node: p6}
 analysis: {type: dynamic}
 )";
-constexpr int kMeshKeyLine = 4;
+constexpr int     kMeshKeyLine = 4;
 
 bool ReadWithMesh(const MeshSpec &spec, const std::string &yaml, Model *model, InputError *error)
 {
@@ -1092,8 +1082,7 @@ TEST(InputMesh, SameModelAsEquivalentYaml)
 TEST(InputMesh, DefaultNamesAndYamlNodesAndBeamsAlongside)
 {
   MeshSpec spec = MeshSpecOfEquivalentYaml();
-  for (const char *optional : {"/nodes/names", "/beams/names", "/beams/orientation", "/joints/names", "/joints/second_axis"})
-    spec.erase(optional);
+  for (const char *optional : {"/nodes/names", "/beams/names", "/beams/orientation", "/joints/names", "/joints/second_axis"}) spec.erase(optional);
   const std::string yaml = std::string(kMeshSections) + R"(mesh: mesh.h5
 nodes:
   extra: [0, -1, 0]
@@ -1132,9 +1121,9 @@ analysis: {type: dynamic}
 }
 
 struct BadMeshCase {
-  std::string                   label;
+  std::string                     label;
   std::function<void(MeshSpec &)> change;
-  std::string                   expected_message;
+  std::string                     expected_message;
 };
 
 TEST(InputMesh, BadMeshesNameFileDatasetAndRow)
@@ -1142,30 +1131,35 @@ TEST(InputMesh, BadMeshesNameFileDatasetAndRow)
   const std::vector<BadMeshCase> cases = {
       {"missing dataset", [](MeshSpec &spec) { spec.erase("/beams/section"); }, "mesh.h5: /beams/section: missing dataset"},
       {"missing nodes", [](MeshSpec &spec) { spec.erase("/nodes/coordinates"); }, "mesh.h5: /nodes/coordinates: missing dataset"},
-      {"wrong shape", [](MeshSpec &spec) { spec["/nodes/coordinates"] = Reals({12, 2}, std::vector<double>(24, 0.0)); },
+      {"wrong shape",
+       [](MeshSpec &spec) {
+         spec["/nodes/coordinates"] = Reals({12, 2}, std::vector<double>(24, 0.0));
+       },
        "mesh.h5: /nodes/coordinates: wrong shape (12, 2), expected (n, 3)"},
-      {"wrong row count", [](MeshSpec &spec) { spec["/beams/order"] = Integers({3}, {1, 1, 1}); },
+      {"wrong row count",
+       [](MeshSpec &spec) {
+         spec["/beams/order"] = Integers({3}, {1, 1, 1});
+       },
        "mesh.h5: /beams/order: wrong shape (3,), expected (4,)"},
-      {"not integers", [](MeshSpec &spec) { spec["/beams/elements"] = Reals({4}, {3, 2, 1, 2}); },
+      {"not integers",
+       [](MeshSpec &spec) {
+         spec["/beams/elements"] = Reals({4}, {3, 2, 1, 2});
+       },
        "mesh.h5: /beams/elements: expected integers, found floating-point numbers"},
       {"node index out of range", [](MeshSpec &spec) { spec["/beams/nodes"].integers[5] = 999; },
        "mesh.h5: /beams/nodes row 2: node index 999 out of range (n = 8)"},
       {"master out of range", [](MeshSpec &spec) { spec["/joints/master"].integers[1] = -2; },
        "mesh.h5: /joints/master row 1: node index -2 out of range (-1 = ground, n = 8)"},
-      {"unknown joint type", [](MeshSpec &spec) { spec["/joints/type"].strings[1] = "hinge"; },
-       "mesh.h5: /joints/type row 1: unknown joint type 'hinge'"},
-      {"custom joint", [](MeshSpec &spec) { spec["/joints/type"].strings[0] = "custom"; },
-       "mesh.h5: /joints/type row 0: a custom joint needs 'release'"},
+      {"unknown joint type", [](MeshSpec &spec) { spec["/joints/type"].strings[1] = "hinge"; }, "mesh.h5: /joints/type row 1: unknown joint type 'hinge'"},
+      {"custom joint", [](MeshSpec &spec) { spec["/joints/type"].strings[0] = "custom"; }, "mesh.h5: /joints/type row 0: a custom joint needs 'release'"},
       {"bad section index", [](MeshSpec &spec) { spec["/beams/section"].integers[3] = 2; },
        "mesh.h5: /beams/section row 3: section index 2 out of range ('sections' lists 2)"},
-      {"order three", [](MeshSpec &spec) { spec["/beams/order"].integers[0] = 3; },
-       "mesh.h5: /beams/order row 0: the order must be 1 or 2, got 3"},
+      {"order three", [](MeshSpec &spec) { spec["/beams/order"].integers[0] = 3; }, "mesh.h5: /beams/order row 0: the order must be 1 or 2, got 3"},
       {"zero elements", [](MeshSpec &spec) { spec["/beams/elements"].integers[1] = 0; },
        "mesh.h5: /beams/elements row 1: the number of elements must be between 1 and 10000000, got 0"},
       {"zero length", [](MeshSpec &spec) { spec["/beams/nodes"].integers[5] = 2; },
        "mesh.h5: /beams/nodes row 2: zero length: nodes 'p3' and 'p2' are at the same position"},
-      {"both ends the same", [](MeshSpec &spec) { spec["/beams/nodes"].integers[1] = 0; },
-       "mesh.h5: /beams/nodes row 0: both ends are node 'p0'"},
+      {"both ends the same", [](MeshSpec &spec) { spec["/beams/nodes"].integers[1] = 0; }, "mesh.h5: /beams/nodes row 0: both ends are node 'p0'"},
       {"orientation along the axis", [](MeshSpec &spec) { spec["/beams/orientation"].reals[0] = 5; },
        "mesh.h5: /beams/orientation row 0: orientation [5, 0, 0] is parallel to the beam's axis"},
       {"zero pitch", [](MeshSpec &spec) { spec["/joints/parameter"].reals[2] = 0; },
@@ -1174,8 +1168,7 @@ TEST(InputMesh, BadMeshesNameFileDatasetAndRow)
        "mesh.h5: /joints/axis row 1: the axis must not be the zero vector"},
       {"slave twice", [](MeshSpec &spec) { spec["/joints/slave"].integers[3] = 5; },
        "mesh.h5: /joints/slave row 3: node 'p5' is already the slave of joint 'lead'"},
-      {"not finite", [](MeshSpec &spec) { spec["/nodes/coordinates"].reals[7] = std::nan(""); },
-       "mesh.h5: /nodes/coordinates row 2: not a finite number"},
+      {"not finite", [](MeshSpec &spec) { spec["/nodes/coordinates"].reals[7] = std::nan(""); }, "mesh.h5: /nodes/coordinates row 2: not a finite number"},
       {"duplicate node name", [](MeshSpec &spec) { spec["/nodes/names"].strings[6] = "p1"; },
        "mesh.h5: /nodes/names row 6: node name 'p1' is already used by node row 1 of /nodes"},
       {"beam name taken by a node", [](MeshSpec &spec) { spec["/beams/names"].strings[2] = "p3"; },
@@ -1183,12 +1176,13 @@ TEST(InputMesh, BadMeshesNameFileDatasetAndRow)
       {"generated name taken", [](MeshSpec &spec) { spec["/nodes/names"].strings[7] = "first.1"; },
        "mesh.h5: /beams/nodes row 0: beam 'first' generates node 'first.1', but that name is already used"},
       {"missing joint types", [](MeshSpec &spec) { spec.erase("/joints/type"); }, "mesh.h5: /joints/type: missing dataset"},
-      {"names not strings", [](MeshSpec &spec) { spec["/joints/names"] = Integers({4}, {1, 2, 3, 4}); },
+      {"names not strings",
+       [](MeshSpec &spec) {
+         spec["/joints/names"] = Integers({4}, {1, 2, 3, 4});
+       },
        "mesh.h5: /joints/names: expected strings"},
-      {"duplicate joint name", [](MeshSpec &spec) { spec["/joints/names"].strings[3] = "base"; },
-       "mesh.h5: /joints/names row 3: duplicate joint name 'base'"},
-      {"slave is master", [](MeshSpec &spec) { spec["/joints/slave"].integers[1] = 2; },
-       "mesh.h5: /joints/slave row 1: the slave is the master, node 'p2'"},
+      {"duplicate joint name", [](MeshSpec &spec) { spec["/joints/names"].strings[3] = "base"; }, "mesh.h5: /joints/names row 3: duplicate joint name 'base'"},
+      {"slave is master", [](MeshSpec &spec) { spec["/joints/slave"].integers[1] = 2; }, "mesh.h5: /joints/slave row 1: the slave is the master, node 'p2'"},
   };
   for (const BadMeshCase &bad : cases) {
     SCOPED_TRACE(bad.label);
@@ -1206,8 +1200,7 @@ TEST(InputMesh, BadMeshesNameFileDatasetAndRow)
 TEST(InputMesh, UnconnectedMeshNodeAndMissingOrBrokenFile)
 {
   MeshSpec spec = MeshSpecOfEquivalentYaml();
-  for (const char *joints : {"/joints/type", "/joints/master", "/joints/slave", "/joints/axis", "/joints/second_axis", "/joints/parameter",
-                             "/joints/names"})
+  for (const char *joints : {"/joints/type", "/joints/master", "/joints/slave", "/joints/axis", "/joints/second_axis", "/joints/parameter", "/joints/names"})
     spec.erase(joints);
   Model      model;
   InputError error;
@@ -1228,7 +1221,7 @@ TEST(InputMesh, UnconnectedMeshNodeAndMissingOrBrokenFile)
 
 struct BadInputCase {
   std::string path;
-  std::string expected_message; // from "# expect: ..."
+  std::string expected_message;   // from "# expect: ..."
   int         expected_line = -1; // from "# line: N"
 };
 

@@ -26,12 +26,12 @@ std::vector<double> spline_knots, spline_values, spline_second;
 
 std::vector<Case> Cases()
 {
-  const Mat3 axes = ExpSO3(Vec3(0.3, -0.5, 0.8)); // a skewed joint frame
+  const Mat3    axes = ExpSO3(Vec3(0.3, -0.5, 0.8)); // a skewed joint frame
   JointGeometry base;
   base.axes   = axes;
   base.offset = Vec3(0.4, -0.2, 0.7);
   std::vector<Case> cases;
-  auto add = [&](const std::string &name, auto &&configure) {
+  auto              add = [&](const std::string &name, auto &&configure) {
     JointGeometry j = base;
     configure(j);
     cases.push_back({name, j});
@@ -42,28 +42,23 @@ std::vector<Case> Cases()
   add("spherical", [](JointGeometry &j) { j.rotation = JointRotation::Free; });
   add("cylindrical", [](JointGeometry &j) { j.num_translations = 1, j.translation_axis[0] = 0, j.rotation = JointRotation::OneAxis; });
   add("prismatic", [](JointGeometry &j) { j.num_translations = 1, j.translation_axis[0] = 0; });
-  add("planar", [](JointGeometry &j) {
-    j.num_translations = 2, j.translation_axis[0] = 1, j.translation_axis[1] = 2, j.rotation = JointRotation::OneAxis;
-  });
+  add("planar", [](JointGeometry &j) { j.num_translations = 2, j.translation_axis[0] = 1, j.translation_axis[1] = 2, j.rotation = JointRotation::OneAxis; });
   add("free", [](JointGeometry &j) { j.num_translations = 3, j.rotation = JointRotation::Free; });
-  add("screw", [](JointGeometry &j) {
-    j.rotation = JointRotation::OneAxis, j.dependence = JointDependence::Linear, j.dependent_axis = 0, j.coefficient = 2.2918;
-  });
-  add("rack_pinion", [](JointGeometry &j) {
-    j.rotation = JointRotation::OneAxis, j.dependence = JointDependence::Linear, j.dependent_axis = 1, j.coefficient = 0.35;
-  });
-  add("cam_eccentric", [](JointGeometry &j) {
-    j.rotation = JointRotation::OneAxis, j.dependence = JointDependence::EccentricCam, j.dependent_axis = 1, j.coefficient = 0.3;
-  });
+  add("screw",
+      [](JointGeometry &j) { j.rotation = JointRotation::OneAxis, j.dependence = JointDependence::Linear, j.dependent_axis = 0, j.coefficient = 2.2918; });
+  add("rack_pinion",
+      [](JointGeometry &j) { j.rotation = JointRotation::OneAxis, j.dependence = JointDependence::Linear, j.dependent_axis = 1, j.coefficient = 0.35; });
+  add("cam_eccentric",
+      [](JointGeometry &j) { j.rotation = JointRotation::OneAxis, j.dependence = JointDependence::EccentricCam, j.dependent_axis = 1, j.coefficient = 0.3; });
   // A general cam: a lobe sampled at 12 unequal angles.
-  spline_knots  = {0.0, 0.4, 0.9, 1.3, 1.9, 2.5, 3.0, 3.6, 4.1, 4.8, 5.4, 5.9};
+  spline_knots = {0.0, 0.4, 0.9, 1.3, 1.9, 2.5, 3.0, 3.6, 4.1, 4.8, 5.4, 5.9};
   spline_values.clear();
   for (double k : spline_knots) spline_values.push_back(0.2 * std::cos(k) + 0.05 * std::sin(2 * k));
   spline_second.assign(spline_knots.size(), 0.0);
   EXPECT_TRUE(PeriodicSplineSecondDerivatives(2 * M_PI, (int)spline_knots.size(), spline_knots.data(), spline_values.data(), spline_second.data()));
   add("cam_table", [](JointGeometry &j) {
     j.rotation = JointRotation::OneAxis, j.dependence = JointDependence::Table, j.dependent_axis = 2;
-    j.profile  = {2 * M_PI, (int)spline_knots.size(), spline_knots.data(), spline_values.data(), spline_second.data()};
+    j.profile = {2 * M_PI, (int)spline_knots.size(), spline_knots.data(), spline_values.data(), spline_second.data()};
   });
   return cases;
 }
@@ -151,7 +146,9 @@ TEST(JointKinematics, DependentTranslationFollowsTheRotationExactly)
       JointDependentTranslation(c.joint, 0.0, &f0, &df0, &ddf0);
       EXPECT_NEAR(t(c.joint.dependent_axis), f - f0, 1e-12) << c.name;
       for (int i = 0; i < 3; ++i) {
-        if (i != c.joint.dependent_axis) { EXPECT_NEAR(t(i), 0.0, 1e-12) << c.name; }
+        if (i != c.joint.dependent_axis) {
+          EXPECT_NEAR(t(i), 0.0, 1e-12) << c.name;
+        }
       }
       // and the released rotation is exactly phi about the axis
       const Mat3 C = R_m.transpose() * R_s;
@@ -214,11 +211,11 @@ TEST(JointKinematics, ConservingMapIsExactForFiniteSteps)
       start.free_rotation_start = ExpSO3(Vec3(0.3, -0.2, 0.6));
       for (int i = c.joint.num_translations; i < k; ++i) start.q[i] = 0.0; // a free rotation restarts from C_n
     }
-    const Vec3 x_mn(0.2, 0.1, -0.3), u_m(0.05, -0.1, 0.08);
-    const Mat3 R_mn = ExpSO3(Vec3(0.4, -0.7, 0.2));
-    const Vec3 omega_m(0.3, 0.5, -0.2);
-    const Mat3 R_m1 = ExpSO3(omega_m) * R_mn;
-    JointCoordinates end = start;
+    const Vec3       x_mn(0.2, 0.1, -0.3), u_m(0.05, -0.1, 0.08);
+    const Mat3       R_mn = ExpSO3(Vec3(0.4, -0.7, 0.2));
+    const Vec3       omega_m(0.3, 0.5, -0.2);
+    const Mat3       R_m1 = ExpSO3(omega_m) * R_mn;
+    JointCoordinates end  = start;
     for (int i = 0; i < k; ++i) end.q[i] += increment[i];
     Vec3 x_sn, x_s1;
     Mat3 R_sn, R_s1;
@@ -229,12 +226,12 @@ TEST(JointKinematics, ConservingMapIsExactForFiniteSteps)
     double      p[kJointMaxReleased];
     JointConservingMap(c.joint, start, increment, R_mn, alpha_m, x_sn - x_mn, x_s1 - x_mn - u_m, &Nt, p);
     Eigen::Matrix<double, 6 + kJointMaxReleased, 1> test = Eigen::Matrix<double, 6 + kJointMaxReleased, 1>::Zero();
-    test.head<3>() = u_m;
-    test.segment<3>(3) = alpha_m;
+    test.head<3>()                                       = u_m;
+    test.segment<3>(3)                                   = alpha_m;
     for (int i = 0; i < k; ++i) test(6 + i) = p[i];
-    const Eigen::Matrix<double, 6, 1> slave = Nt * test;
-    const Vec3 alpha_s = TangentScaledFromRotationVector(LogSO3(R_s1 * R_sn.transpose()));
-    const double u_error = (slave.head<3>() - (x_s1 - x_sn)).norm(), alpha_error = (slave.tail<3>() - alpha_s).norm();
+    const Eigen::Matrix<double, 6, 1> slave   = Nt * test;
+    const Vec3                        alpha_s = TangentScaledFromRotationVector(LogSO3(R_s1 * R_sn.transpose()));
+    const double                      u_error = (slave.head<3>() - (x_s1 - x_sn)).norm(), alpha_error = (slave.tail<3>() - alpha_s).norm();
     std::printf("joint %-14s conserving map: |u_s error| %.1e, |alpha_s error| %.1e\n", c.name.c_str(), u_error, alpha_error);
     EXPECT_LT(u_error, 1e-13) << c.name;
     EXPECT_LT(alpha_error, 1e-13) << c.name;

@@ -84,7 +84,6 @@ analysis: {type: dynamic}
 
 const char *const kDofNames[6] = {"ux", "uy", "uz", "rx", "ry", "rz"};
 
-
 // What the analysis holds after set-up, plus what the test needs to know of the whole model
 // before DofMapRestrictToLocal cuts it down.
 struct Problem {
@@ -144,8 +143,8 @@ PetscErrorCode Build(const char *text, const std::function<void(Model &)> &edit,
 
 // One step t0 -> t1 (statics when scheme is null) from the predicted increments, optionally
 // changed by `start`; then why it failed.
-PetscErrorCode SolveStep(Problem *p, double t0, double t1, const TimeScheme *scheme, const std::function<PetscErrorCode(Vec)> &start, SNESConvergedReason *reason,
-                         std::string *why)
+PetscErrorCode SolveStep(Problem *p, double t0, double t1, const TimeScheme *scheme, const std::function<PetscErrorCode(Vec)> &start,
+                         SNESConvergedReason *reason, std::string *why)
 {
   PetscFunctionBeginUser;
   PetscCall(p->assembler.BeginStep(t0, t1, scheme));
@@ -228,7 +227,6 @@ PetscMPIInt Size()
 
 } // namespace
 
-
 // MUMPS' INFOG(1) and INFOG(2) of the last factorisation of the solver's preconditioner.
 PetscErrorCode MumpsInfog(SNES snes, PetscInt *infog1, PetscInt *infog2)
 {
@@ -251,7 +249,9 @@ TEST(NumericalTrouble, NanIncrementIsNamedAtItsNode)
   SNESConvergedReason reason;
   std::string         why;
   const PetscInt      row = p.node_rows.at("arm.2")[1];
-  ASSERT_EQ(SolveStep(&p, 0, 1, nullptr, [row](Vec x) { return SetEntry(x, row, NAN); }, &reason, &why), PETSC_SUCCESS);
+  ASSERT_EQ(SolveStep(
+                &p, 0, 1, nullptr, [row](Vec x) { return SetEntry(x, row, NAN); }, &reason, &why),
+            PETSC_SUCCESS);
   EXPECT_EQ(reason, SNES_DIVERGED_FNORM_NAN);
   EXPECT_EQ(why, "the residual is NaN at node 'arm.2', in its increment uy (SNES: DIVERGED_FNORM_NAN)");
 }
@@ -259,7 +259,9 @@ TEST(NumericalTrouble, NanIncrementIsNamedAtItsNode)
 TEST(NumericalTrouble, LoadFunctionOverflowIsNamedAtItsNode)
 {
   Problem p; // the tip load times 1e308 t^2: Inf at t = 2 (and 0 * Inf = NaN in its other components)
-  ASSERT_EQ(Build(kArm, [](Model &m) { m.nodal_loads[0].function = 0; }, &p), PETSC_SUCCESS);
+  ASSERT_EQ(Build(
+                kArm, [](Model &m) { m.nodal_loads[0].function = 0; }, &p),
+            PETSC_SUCCESS);
   SNESConvergedReason reason;
   std::string         why;
   ASSERT_EQ(SolveStep(&p, 0, 2, nullptr, nullptr, &reason, &why), PETSC_SUCCESS);
@@ -270,7 +272,9 @@ TEST(NumericalTrouble, LoadFunctionOverflowIsNamedAtItsNode)
 TEST(NumericalTrouble, NanSectionIsNamedAtTheFirstElement)
 {
   Problem p; // every element of the hand is NaN; the lowest element number wins on any number of ranks
-  ASSERT_EQ(Build(kArm, [](Model &m) { m.sections[1].EI3 = NAN; }, &p), PETSC_SUCCESS);
+  ASSERT_EQ(Build(
+                kArm, [](Model &m) { m.sections[1].EI3 = NAN; }, &p),
+            PETSC_SUCCESS);
   SNESConvergedReason reason;
   std::string         why;
   ASSERT_EQ(SolveStep(&p, 0, 1, nullptr, nullptr, &reason, &why), PETSC_SUCCESS);
@@ -282,13 +286,14 @@ TEST(NumericalTrouble, NanSectionIsNamedAtTheFirstElement)
 TEST(NumericalTrouble, JointDriveOverflowIsNamedAtTheJoint)
 {
   Problem p; // the hinge driven by 1e308 t^2: Inf at t = 2, so the rotor's slave node and elements are NaN
-  ASSERT_EQ(Build(kMechanism,
-                  [](Model &m) {
-                    m.joints[0].driven_coordinate = 0;
-                    m.joints[0].drive_value       = 1.0;
-                    m.joints[0].drive_function    = 0;
-                  },
-                  &p),
+  ASSERT_EQ(Build(
+                kMechanism,
+                [](Model &m) {
+                  m.joints[0].driven_coordinate = 0;
+                  m.joints[0].drive_value       = 1.0;
+                  m.joints[0].drive_function    = 0;
+                },
+                &p),
             PETSC_SUCCESS);
   SNESConvergedReason reason;
   std::string         why;
@@ -313,8 +318,9 @@ TEST(NumericalTrouble, NanTangentBehindTheLineSearchIsNamedAtItsRow)
     ASSERT_EQ(SolveStep(&p, 0, 1, nullptr, nullptr, &reason, &why), PETSC_SUCCESS);
     const SNESConvergedReason expected = std::string(line_search) == "shell" ? SNES_DIVERGED_LINE_SEARCH : SNES_DIVERGED_FNORM_NAN;
     EXPECT_EQ(reason, expected) << line_search;
-    EXPECT_EQ(why, std::string("the Newton update is NaN: the tangent is not finite at the row of node 'arm.2' uy (SNES: ") + SNESConvergedReasons[expected] + ")")
-      << line_search;
+    EXPECT_EQ(why,
+              std::string("the Newton update is NaN: the tangent is not finite at the row of node 'arm.2' uy (SNES: ") + SNESConvergedReasons[expected] + ")")
+        << line_search;
   }
 }
 
@@ -337,18 +343,19 @@ TEST(NumericalTrouble, NanTangentInTheFactorisationIsNamedAtItsRow)
 TEST(NumericalTrouble, SingularTangentNamesTheUnknownNothingResists)
 {
   Problem p;
-  ASSERT_EQ(Build(kArm,
-                  [](Model &m) {
-                    Node loose;
-                    loose.name     = "loose";
-                    loose.position = Vec3(1, 1, 0);
-                    m.nodes.push_back(loose);
-                    RigidBody body;
-                    body.node = (int)m.nodes.size() - 1;
-                    body.mass = 1.0;
-                    m.rigid_bodies.push_back(body);
-                  },
-                  &p),
+  ASSERT_EQ(Build(
+                kArm,
+                [](Model &m) {
+                  Node loose;
+                  loose.name     = "loose";
+                  loose.position = Vec3(1, 1, 0);
+                  m.nodes.push_back(loose);
+                  RigidBody body;
+                  body.node = (int)m.nodes.size() - 1;
+                  body.mass = 1.0;
+                  m.rigid_bodies.push_back(body);
+                },
+                &p),
             PETSC_SUCCESS);
   static const TimeScheme scheme = MakeTimeScheme(TimeSchemeKind::Newmark, 0.9, 0.01);
   SNESConvergedReason     reason;
@@ -371,7 +378,9 @@ TEST(NumericalTrouble, SingularTangentNamesTheUnknownNothingResists)
 TEST(NumericalTrouble, FreeBeamStaticsIsReportedSingular)
 {
   Problem p;
-  ASSERT_EQ(Build(kArm, [](Model &m) { m.supports.clear(); }, &p), PETSC_SUCCESS);
+  ASSERT_EQ(Build(
+                kArm, [](Model &m) { m.supports.clear(); }, &p),
+            PETSC_SUCCESS);
   SNESConvergedReason reason;
   std::string         why;
   ASSERT_EQ(SolveStep(&p, 0, 1, nullptr, nullptr, &reason, &why), PETSC_SUCCESS);
@@ -379,8 +388,8 @@ TEST(NumericalTrouble, FreeBeamStaticsIsReportedSingular)
   if (reason == SNES_DIVERGED_LINEAR_SOLVE) {
     PetscInt infog1, infog2;
     ASSERT_EQ(MumpsInfog(p.snes, &infog1, &infog2), PETSC_SUCCESS);
-    EXPECT_EQ(why, Format("the tangent is singular (MUMPS INFOG(1) = %" PetscInt_FMT ", INFOG(2) = %" PetscInt_FMT "): %s (SNES: DIVERGED_LINEAR_SOLVE)", infog1, infog2,
-                          hint.c_str()));
+    EXPECT_EQ(why, Format("the tangent is singular (MUMPS INFOG(1) = %" PetscInt_FMT ", INFOG(2) = %" PetscInt_FMT "): %s (SNES: DIVERGED_LINEAR_SOLVE)",
+                          infog1, infog2, hint.c_str()));
     return;
   }
   EXPECT_EQ(reason, SNES_DIVERGED_MAX_IT);
@@ -394,7 +403,7 @@ TEST(NumericalTrouble, FreeBeamStaticsIsReportedSingular)
     if (norms[i] / norms[i - 1] > growth) growth = norms[i] / norms[i - 1], growth_iteration = (int)i;
   EXPECT_GT(growth, 1e12);
   const std::string expected =
-    Format("|R| grew %.1e-fold in iteration %d, so the tangent is nearly singular: %s (SNES: DIVERGED_MAX_IT)", growth, growth_iteration, hint.c_str());
+      Format("|R| grew %.1e-fold in iteration %d, so the tangent is nearly singular: %s (SNES: DIVERGED_MAX_IT)", growth, growth_iteration, hint.c_str());
   EXPECT_NE(why.find(expected), std::string::npos) << expected;
   EXPECT_EQ(why.rfind("Newton did not converge in 25 iterations: ", 0), 0u);
 }
@@ -406,7 +415,9 @@ TEST(NumericalTrouble, FreeBeamStaticsWithPetscLUReportsTheZeroPivot)
   if (Size() > 1) GTEST_SKIP() << "PETSc's LU is sequential";
   ScopedOptions options{{"-pc_factor_mat_solver_type", "petsc"}};
   Problem       p;
-  ASSERT_EQ(Build(kArm, [](Model &m) { m.supports.clear(); }, &p), PETSC_SUCCESS);
+  ASSERT_EQ(Build(
+                kArm, [](Model &m) { m.supports.clear(); }, &p),
+            PETSC_SUCCESS);
   SNESConvergedReason reason;
   std::string         why;
   ASSERT_EQ(SolveStep(&p, 0, 1, nullptr, nullptr, &reason, &why), PETSC_SUCCESS);
@@ -420,9 +431,11 @@ TEST(NumericalTrouble, FreeBeamStaticsWithPetscLUReportsTheZeroPivot)
   ASSERT_EQ(KSPGetPC(ksp, &pc), PETSC_SUCCESS);
   ASSERT_EQ(PCFactorGetMatrix(pc, &factor), PETSC_SUCCESS);
   ASSERT_EQ(MatFactorGetErrorZeroPivot(factor, &pivot, &pivot_row), PETSC_SUCCESS);
-  EXPECT_EQ(why, Format("the tangent is singular (zero pivot %.3g in the lu factorisation by petsc): is part of the model a mechanism free to move, or has a node neither "
-                        "stiffness nor mass in some direction? (SNES: DIVERGED_LINEAR_SOLVE)",
-                        (double)pivot));
+  EXPECT_EQ(
+      why,
+      Format("the tangent is singular (zero pivot %.3g in the lu factorisation by petsc): is part of the model a mechanism free to move, or has a node neither "
+             "stiffness nor mass in some direction? (SNES: DIVERGED_LINEAR_SOLVE)",
+             (double)pivot));
 }
 
 // One Newton iteration for a moment that rolls the arm up: the residual norms of the first and
@@ -430,13 +443,14 @@ TEST(NumericalTrouble, FreeBeamStaticsWithPetscLUReportsTheZeroPivot)
 TEST(NumericalTrouble, DivergingSolveGivesItsResidualsAndLargestResidual)
 {
   Problem p;
-  ASSERT_EQ(Build(kArm,
-                  [](Model &m) {
-                    m.analysis.max_newton_iterations = 1;
-                    m.nodal_loads[0].force           = Vec3::Zero();
-                    m.nodal_loads[0].moment          = Vec3(0, 0, 2 * M_PI * 80 / 3.0);
-                  },
-                  &p),
+  ASSERT_EQ(Build(
+                kArm,
+                [](Model &m) {
+                  m.analysis.max_newton_iterations = 1;
+                  m.nodal_loads[0].force           = Vec3::Zero();
+                  m.nodal_loads[0].moment          = Vec3(0, 0, 2 * M_PI * 80 / 3.0);
+                },
+                &p),
             PETSC_SUCCESS);
   SNESConvergedReason reason;
   std::string         why;
@@ -458,9 +472,11 @@ TEST(NumericalTrouble, DivergingSolveGivesItsResidualsAndLargestResidual)
   ASSERT_EQ(p.assembler.ForceScale(&force_scale), PETSC_SUCCESS);
   const double needed = std::max({(double)atol, rtol * norms[0], rtol * force_scale, p.assembler.RoundoffForceLevel()});
   EXPECT_GT(norms[1], 1e-3 * norms[0]); // not converged by far
-  EXPECT_EQ(why, Format("Newton did not converge in 1 iteration: |R| = %.3e at the start of the step, %.3e after the last iteration (convergence needs %.3e); the largest "
-                        "residual, %.3e, is at %s (SNES: DIVERGED_MAX_IT)",
-                        norms[0], norms[1], needed, (double)largest, p.row_names.at(row).c_str()));
+  EXPECT_EQ(
+      why,
+      Format("Newton did not converge in 1 iteration: |R| = %.3e at the start of the step, %.3e after the last iteration (convergence needs %.3e); the largest "
+             "residual, %.3e, is at %s (SNES: DIVERGED_MAX_IT)",
+             norms[0], norms[1], needed, (double)largest, p.row_names.at(row).c_str()));
   // The assembler is left at the increments SNESSolve ended with.
   double after_description, at_solution;
   ASSERT_EQ(p.assembler.MaxRotationIncrement(&after_description), PETSC_SUCCESS);
@@ -475,24 +491,27 @@ TEST(NumericalTrouble, DivergingSolveGivesItsResidualsAndLargestResidual)
 TEST(NumericalTrouble, HalfTurnNamesTheElement)
 {
   Problem p;
-  ASSERT_EQ(Build(kArm,
-                  [](Model &m) {
-                    Support turn;
-                    turn.nodes     = {2}; // tip
-                    turn.kind[5]   = Support::Kind::Prescribed;
-                    turn.values[5] = 3.0;
-                    m.supports.push_back(turn);
-                  },
-                  &p),
+  ASSERT_EQ(Build(
+                kArm,
+                [](Model &m) {
+                  Support turn;
+                  turn.nodes     = {2}; // tip
+                  turn.kind[5]   = Support::Kind::Prescribed;
+                  turn.values[5] = 3.0;
+                  m.supports.push_back(turn);
+                },
+                &p),
             PETSC_SUCCESS);
   SNESConvergedReason reason;
   std::string         why;
   ASSERT_EQ(SolveStep(&p, 0, 1, nullptr, nullptr, &reason, &why), PETSC_SUCCESS);
   EXPECT_EQ(reason, SNES_DIVERGED_FUNCTION_DOMAIN);
   EXPECT_EQ(p.element_names.at("hand.last"), "element 5 (nodes 'hand.1', 'tip')");
-  EXPECT_EQ(why, p.element_names.at("hand.last") +
-                   " cannot be evaluated: its nodes turn by nearly pi relative to each other at the start of the step (the predicted or prescribed increments) (SNES: "
-                   "DIVERGED_FUNCTION_DOMAIN)");
+  EXPECT_EQ(
+      why,
+      p.element_names.at("hand.last") +
+          " cannot be evaluated: its nodes turn by nearly pi relative to each other at the start of the step (the predicted or prescribed increments) (SNES: "
+          "DIVERGED_FUNCTION_DOMAIN)");
 }
 
 // Every unknown of a model with joints, after the model is cut down to each rank's part, against

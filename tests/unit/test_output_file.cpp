@@ -69,10 +69,10 @@ std::vector<double> HistoryRow(int row) { return {0.5 * row, 0.1 * row, 3.0 + ro
 ProbeSample ProbeOfRow(int row)
 {
   ProbeSample probe;
-  probe.name           = "tip";
-  probe.position[0]    = row;
-  probe.position[1]    = row + 0.25;
-  probe.position[2]    = row + 0.5;
+  probe.name            = "tip";
+  probe.position[0]     = row;
+  probe.position[1]     = row + 0.25;
+  probe.position[2]     = row + 0.5;
   probe.displacement[0] = -row;
   probe.rotation[3]     = 0.1 * row;
   probe.rotation_angle  = 0.2 * row;
@@ -80,8 +80,7 @@ ProbeSample ProbeOfRow(int row)
 }
 
 // Reads a whole dataset as `memory_type` into a vector of T, and its shape into *dims.
-template <class T>
-std::vector<T> ReadDataset(hid_t file, const std::string &name, hid_t memory_type, std::vector<hsize_t> *dims)
+template <class T> std::vector<T> ReadDataset(hid_t file, const std::string &name, hid_t memory_type, std::vector<hsize_t> *dims)
 {
   const hid_t dataset = H5Dopen2(file, name.c_str(), H5P_DEFAULT);
   if (dataset < 0) {
@@ -116,7 +115,7 @@ hid_t CreateUtf8StringType()
 
 std::vector<std::string> ReadStrings(hid_t file, const std::string &name, std::vector<hsize_t> *dims)
 {
-  const hid_t type = CreateUtf8StringType();
+  const hid_t              type = CreateUtf8StringType();
   std::vector<std::string> strings;
   for (char *s : ReadDataset<char *>(file, name, type, dims)) {
     strings.emplace_back(s ? s : "");
@@ -126,8 +125,7 @@ std::vector<std::string> ReadStrings(hid_t file, const std::string &name, std::v
   return strings;
 }
 
-template <class T>
-T ReadAttribute(hid_t file, const std::string &object, const char *name, hid_t memory_type)
+template <class T> T ReadAttribute(hid_t file, const std::string &object, const char *name, hid_t memory_type)
 {
   T           value{};
   const hid_t attribute = H5Aopen_by_name(file, object.c_str(), name, H5P_DEFAULT, H5P_DEFAULT);
@@ -196,7 +194,7 @@ TEST_F(OutputFileTest, WritesMeshFramesHistoryAndSidecar)
   EXPECT_EQ(ReadStrings(file, "/input", &dims), std::vector<std::string>{"analysis: {type: static}\n"});
   EXPECT_EQ(dims, Shape{});
   const hid_t string_type = CreateUtf8StringType();
-  char *input_file = ReadAttribute<char *>(file, "/input", "file", string_type);
+  char       *input_file  = ReadAttribute<char *>(file, "/input", "file", string_type);
   EXPECT_STREQ(input_file, "tiny.yaml");
   H5free_memory(input_file);
   H5Tclose(string_type);

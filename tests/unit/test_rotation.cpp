@@ -80,11 +80,11 @@ TEST(SO3, TangentOperatorIsTheDerivativeOfExp)
   std::mt19937 gen(2);
   for (double angle : kTestAngles) {
     for (int trial = 0; trial < 5; ++trial) {
-      const Vec3 psi  = RandomVector(gen, 1.0).normalized() * angle;
-      const Vec3 dpsi = RandomVector(gen, 1.0);
-      const double h  = 1e-6;
-      const Mat3 dR   = (ExpSO3(psi + h * dpsi) - ExpSO3(psi - h * dpsi)) / (2 * h);
-      const Vec3 spin = Unskew(dR * ExpSO3(psi).transpose());
+      const Vec3   psi  = RandomVector(gen, 1.0).normalized() * angle;
+      const Vec3   dpsi = RandomVector(gen, 1.0);
+      const double h    = 1e-6;
+      const Mat3   dR   = (ExpSO3(psi + h * dpsi) - ExpSO3(psi - h * dpsi)) / (2 * h);
+      const Vec3   spin = Unskew(dR * ExpSO3(psi).transpose());
       EXPECT_LT((spin - TangentH(psi) * dpsi).norm(), 1e-8) << "angle " << angle;
       // H(psi) = exp(psi) H(psi)^T and H^{-1} H = I (away from 2 pi)
       EXPECT_LT(MaxAbs(TangentH(psi) - ExpSO3(psi) * TangentH(psi).transpose()), 1e-13);
@@ -98,7 +98,7 @@ TEST(SO3, RodriguesJacobiansAndHessiansMatchFiniteDifferences)
   std::mt19937 gen(3);
   for (double angle : kTestAngles) {
     if (angle > 5.0) continue; // H^{-1} is singular at 2 pi
-    const Vec3 psi = RandomVector(gen, 1.0).normalized() * angle, a = RandomVector(gen, 2.0), m = RandomVector(gen, 2.0);
+    const Vec3   psi = RandomVector(gen, 1.0).normalized() * angle, a = RandomVector(gen, 2.0), m = RandomVector(gen, 2.0);
     const double h = 1e-6;
     for (int which = 0; which < 3; ++which) {
       auto form = [which](const Vec3 &p) {
@@ -106,20 +106,22 @@ TEST(SO3, RodriguesJacobiansAndHessiansMatchFiniteDifferences)
         return which == 0 ? ExpForm(s) : which == 1 ? TangentForm(s) : TangentInverseForm(s);
       };
       const RodriguesForm f = form(psi);
-      Mat3 JT_fd, J_fd, H_fd;
+      Mat3                JT_fd, J_fd, H_fd;
       for (int k = 0; k < 3; ++k) {
-        const Vec3 e = Vec3::Unit(k) * h;
+        const Vec3 e  = Vec3::Unit(k) * h;
         const Mat3 Fp = RodriguesMatrix(form(psi + e), psi + e), Fm = RodriguesMatrix(form(psi - e), psi - e);
-        JT_fd.col(k) = (Fp.transpose() * a - Fm.transpose() * a) / (2 * h);
-        J_fd.col(k)  = (Fp * a - Fm * a) / (2 * h);
+        JT_fd.col(k)  = (Fp.transpose() * a - Fm.transpose() * a) / (2 * h);
+        J_fd.col(k)   = (Fp * a - Fm * a) / (2 * h);
         const Mat3 Jp = RodriguesTransposeApplyJacobian(form(psi + e), psi + e, a), Jm = RodriguesTransposeApplyJacobian(form(psi - e), psi - e, a);
-        H_fd.col(k)   = (Jp.transpose() * m - Jm.transpose() * m) / (2 * h);
+        H_fd.col(k) = (Jp.transpose() * m - Jm.transpose() * m) / (2 * h);
       }
       const double scale = 1 + a.norm() * m.norm();
       EXPECT_LT(MaxAbs(RodriguesTransposeApplyJacobian(f, psi, a) - JT_fd), 1e-7 * scale) << which << " angle " << angle;
       EXPECT_LT(MaxAbs(RodriguesApplyJacobian(f, psi, a) - J_fd), 1e-7 * scale) << which << " angle " << angle;
       EXPECT_LT(MaxAbs(RodriguesTransposeApplyHessian(f, psi, a, m) - H_fd), 1e-6 * scale) << which << " angle " << angle;
-      if (which == 0) { EXPECT_LT(MaxAbs(RodriguesMatrix(f, psi) - ExpSO3(psi)), 1e-13); }
+      if (which == 0) {
+        EXPECT_LT(MaxAbs(RodriguesMatrix(f, psi) - ExpSO3(psi)), 1e-13);
+      }
     }
   }
 }
@@ -137,8 +139,8 @@ TEST(SO3, CayleyAndTangentScaledVectors)
     const Mat3 S = Skew(a);
     EXPECT_LT(MaxAbs((Mat3::Identity() - 0.5 * S) * CayleySO3(a) - (Mat3::Identity() + 0.5 * S)), 1e-12);
     // S(a)^{-1} of eq. (17) is the tangent operator of the Cayley map: d cay(a) cay(a)^T = hat(S^{-1} da).
-    const Vec3   da = RandomVector(gen, 1.0);
-    const double h  = 1e-6;
+    const Vec3   da   = RandomVector(gen, 1.0);
+    const double h    = 1e-6;
     const Vec3   spin = Unskew((CayleySO3(a + h * da) - CayleySO3(a - h * da)) / (2 * h) * CayleySO3(a).transpose());
     EXPECT_LT((spin - CayleyMidpointOperatorInverse(a) * da).norm(), 1e-8);
   }

@@ -57,8 +57,8 @@ TEST(TimeFunction, EveryKindEvaluates)
 
 TEST(TimeFunction, CosineRampNeedsAPositiveDuration)
 {
-  Model      model;
-  InputError error;
+  Model             model;
+  InputError        error;
   const std::string bad = std::string(kModel).replace(std::string(kModel).find("duration: 2"), 11, "duration: 0");
   EXPECT_FALSE(ReadModelString(bad, "bad.yaml", &model, &error));
   EXPECT_NE(error.message.find("duration"), std::string::npos) << error.Format();
