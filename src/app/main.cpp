@@ -1,32 +1,53 @@
-static const char help[] = "msflex: flexible mechanisms of geometrically exact beams.\n\n"
-                           "Usage: msflex INPUT.yaml [PETSc and msflex options]\n"
-                           "       msflex --restart CHECKPOINT.h5 [options]   continue a run from its checkpoint\n"
-                           "  -analysis_<key> value   override a key of the input's analysis section (see docs/input.md)\n"
-                           "  -output_file FILE.h5    result file (default: the input's output.file, or <input name>.h5)\n"
-                           "  -output_every N         write every N-th step\n"
-                           "  -output_overwrite       replace an existing result file\n"
-                           "  -partitioner metis|simple  node partitioning over MPI ranks (default: metis on more than one rank)\n"
-                           "  -progress_every N       a progress line every N steps\n"
-                           "  -quiet                  no progress lines\n"
-                           "  -checkpoint_every N     a checkpoint every N steps\n"
-                           "  -checkpoint_wall_time S a checkpoint every S seconds of wall time\n"
-                           "  -checkpoint_file FILE   checkpoint file (default: <output>.ckpt.h5); SIGTERM or SIGUSR1 writes one and\n"
-                           "                          stops with exit status 75\n"
-                           "Solver options (-snes_*, -ksp_*, -pc_*) are PETSc's; the default is Newton with line search and MUMPS LU.\n";
-
+// msflex: the command-line program. Reads the model (or a checkpoint with --restart), applies the
+// options and runs the analysis (app/run_analysis.hpp).
 #include "app/settings.hpp"
 #include "core/errors.hpp"
-#include "integrators/analysis.hpp"
 #include "io/input_reader.hpp"
-#include "output/checkpoint.hpp"
+#include "model/analysis_types.hpp"
+#include "model/joint_kinds.hpp"
+#include "schemes/time_scheme.hpp"
+#include "state/checkpoint.hpp"
 
 #include <petscsys.h>
 
+#include <algorithm>
 #include <cstring>
 #include <string>
 #include <utility>
 
 using namespace msflex;
+
+// The usage, the options and the registered choices (analysis types, integrators, joint kinds), as
+// -help prints them before PETSc's own options.
+static std::string HelpText()
+{
+  std::string text = "msflex: flexible mechanisms of geometrically exact beams.\n\n"
+                     "Usage: msflex INPUT.yaml [PETSc and msflex options]\n"
+                     "       msflex --restart CHECKPOINT.h5 [options]   continue a run from its checkpoint\n"
+                     "  -analysis_<key> value   override a key of the input's analysis section (see docs/input.md)\n"
+                     "  -output_file FILE.h5    result file (default: the input's output.file, or <input name>.h5)\n"
+                     "  -output_every N         write every N-th step\n"
+                     "  -output_overwrite       replace an existing result file\n"
+                     "  -partitioner metis|simple  node partitioning over MPI ranks (default: metis on more than one rank)\n"
+                     "  -progress_every N       a progress line every N steps\n"
+                     "  -quiet                  no progress lines\n"
+                     "  -checkpoint_every N     a checkpoint every N steps\n"
+                     "  -checkpoint_wall_time S a checkpoint every S seconds of wall time\n"
+                     "  -checkpoint_file FILE   checkpoint file (default: <output>.ckpt.h5); SIGTERM or SIGUSR1 writes one and\n"
+                     "                          stops with exit status 75\n"
+                     "Solver options (-snes_*, -ksp_*, -pc_*) are PETSc's; the default is Newton with line search and MUMPS LU.\n";
+  int         count;
+  text += "\nAnalysis types (analysis.type, -analysis_type):\n";
+  for (const AnalysisTypeInfo *info = AnalysisTypes(&count), *end = info + count; info != end; ++info)
+    text += "  " + std::string(info->name) + std::string(12 - std::min<size_t>(11, std::string(info->name).size()), ' ') + info->description + "\n";
+  text += "Integrators (analysis.integrator, -analysis_integrator):\n";
+  for (const IntegratorInfo *info = Integrators(&count), *end = info + count; info != end; ++info)
+    text += "  " + std::string(info->name) + std::string(12 - std::min<size_t>(11, std::string(info->name).size()), ' ') + info->description + "\n";
+  text += "Joint kinds (joints: type):\n";
+  for (const JointKindInfo *info = JointKinds(&count), *end = info + count; info != end; ++info)
+    text += "  " + std::string(info->name) + std::string(12 - std::min<size_t>(11, std::string(info->name).size()), ' ') + info->description + "\n";
+  return text;
+}
 
 // Every rank reads the model (collectively: the input text and the mesh are shared) and each drops
 // what it does not hold once set-up is done. The ranks agree on the outcome, so that every rank
@@ -99,7 +120,8 @@ static PetscErrorCode RunMsflex(int argc, char **argv, RunEnd *end)
 
 int main(int argc, char **argv)
 {
-  PetscCall(PetscInitialize(&argc, &argv, nullptr, help));
+  static const std::string help = HelpText();
+  PetscCall(PetscInitialize(&argc, &argv, nullptr, help.c_str()));
   PetscCall(PetscPushErrorHandler(ErrorHandler, nullptr));
   PetscBool help_requested = PETSC_FALSE;
   PetscCall(PetscOptionsHasHelp(nullptr, &help_requested));

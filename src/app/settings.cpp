@@ -18,11 +18,12 @@ PetscErrorCode SettingsFromOptions(MPI_Comm comm, Model *model, RunOptions *opti
   PetscBool              output_times_set = PETSC_FALSE;
   char                   type[32], integrator[32];
   PetscFunctionBeginUser;
-  PetscCall(PetscStrncpy(type, a.type.c_str(), sizeof(type)));
-  PetscCall(PetscStrncpy(integrator, a.integrator.c_str(), sizeof(integrator)));
+  PetscCall(PetscStrncpy(type, AnalysisTypeName(a.type), sizeof(type)));
+  PetscCall(PetscStrncpy(integrator, TimeSchemeName(a.integrator), sizeof(integrator)));
+  const std::string type_list = AnalysisTypeNameList(), integrator_list = IntegratorNameList();
   PetscOptionsBegin(comm, "analysis_", "Analysis settings (defaults: the input's analysis section)", "msflex");
-  PetscCall(PetscOptionsString("-type", "static or dynamic", "", type, type, sizeof(type), nullptr));
-  PetscCall(PetscOptionsString("-integrator", "newmark, mc, em or genalpha", "", integrator, integrator, sizeof(integrator), nullptr));
+  PetscCall(PetscOptionsString("-type", type_list.c_str(), "", type, type, sizeof(type), nullptr));
+  PetscCall(PetscOptionsString("-integrator", integrator_list.c_str(), "", integrator, integrator, sizeof(integrator), nullptr));
   PetscCall(PetscOptionsReal("-spectral_radius", "rho_infinity of genalpha", "", a.spectral_radius, &a.spectral_radius, nullptr));
   PetscCall(PetscOptionsReal("-end_time", "Final (pseudo-)time", "", a.end_time, &a.end_time, nullptr));
   PetscCall(PetscOptionsReal("-initial_step", "First step size", "", a.initial_step, &a.initial_step, nullptr));
@@ -39,16 +40,15 @@ PetscErrorCode SettingsFromOptions(MPI_Comm comm, Model *model, RunOptions *opti
   PetscCall(
       PetscOptionsRealArray("-output_times", "Times the steps must land on (comma separated)", "", output_times.data(), &num_output_times, &output_times_set));
   PetscOptionsEnd();
-  const bool made_static = a.type != "static" && std::string(type) == "static";
-  a.type                 = type;
-  a.integrator           = integrator;
-  PetscCheck(a.type == "static" || a.type == "dynamic", comm, PETSC_ERR_USER_INPUT, "option -analysis_type must be static or dynamic, got '%s'", type);
+  const AnalysisType input_type = a.type;
+  PetscCheck(AnalysisTypeFromName(type, &a.type), comm, PETSC_ERR_USER_INPUT, "option -analysis_type must be one of %s, got '%s'", type_list.c_str(), type);
+  PetscCheck(TimeSchemeKindFromName(integrator, &a.integrator), comm, PETSC_ERR_USER_INPUT, "option -analysis_integrator must be one of %s, got '%s'",
+             integrator_list.c_str(), integrator);
+  const bool made_static = input_type != AnalysisType::Static && a.type == AnalysisType::Static;
   if (made_static) { // the reader checked the input for its own (dynamic) analysis only
     InputError error;
     PetscCheck(CheckStaticModel(*model, &error), comm, PETSC_ERR_USER_INPUT, "with -analysis_type static: %s", error.Format().c_str());
   }
-  PetscCheck(a.integrator == "newmark" || a.integrator == "mc" || a.integrator == "em" || a.integrator == "genalpha", comm, PETSC_ERR_USER_INPUT,
-             "option -analysis_integrator must be newmark, mc, em or genalpha, got '%s'", integrator);
   PetscCheck(a.spectral_radius >= 0.0 && a.spectral_radius <= 1.0, comm, PETSC_ERR_USER_INPUT, "option -analysis_spectral_radius must lie in [0, 1], got %g",
              a.spectral_radius);
   if (output_times_set) a.output_times.assign(output_times.begin(), output_times.begin() + num_output_times);

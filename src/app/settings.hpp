@@ -1,7 +1,7 @@
 // Run settings: the input's analysis and output sections, overridable by PETSc options.
 #pragma once
 
-#include "integrators/analysis.hpp"
+#include "app/run_analysis.hpp"
 #include "model/model.hpp"
 
 #include <petscsys.h>

@@ -1,7 +1,7 @@
 #include "dofs/dof_map.hpp"
 
 #include "core/errors.hpp"
-#include "joints/joint_model.hpp"
+#include "model/joint_geometry.hpp"
 
 #include <functional>
 
@@ -159,23 +159,22 @@ PetscErrorCode DofMapCreate(MPI_Comm comm, const Model &model, const std::vector
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
-// Keeps the entries of `list` (model indices) that `to_local` maps to a local index, renumbered.
-static void RestrictList(const std::vector<int> &to_local, std::vector<int> *list)
+// The entries of `list` (model indices) that `to_local` maps to a local index, renumbered.
+static std::vector<int> RestrictList(const std::vector<int> &to_local, const std::vector<int> &list)
 {
-  size_t kept = 0;
-  for (int index : *list)
-    if (to_local[index] >= 0) (*list)[kept++] = to_local[index];
-  list->resize(kept);
-  list->shrink_to_fit();
+  std::vector<int> kept;
+  for (int index : list)
+    if (to_local[index] >= 0) kept.push_back(to_local[index]);
+  return kept;
 }
 
 // out[k] = in[local[k]]: a per-model-entry array cut down to the local entries, in local order.
-template <class T> static void RestrictArray(const std::vector<int> &local, std::vector<T> *array)
+template <class T> static std::vector<T> RestrictArray(const std::vector<int> &local, const std::vector<T> &array)
 {
   std::vector<T> restricted;
   restricted.reserve(local.size());
-  for (int index : local) restricted.push_back(std::move((*array)[index]));
-  array->swap(restricted);
+  for (int index : local) restricted.push_back(array[index]);
+  return restricted;
 }
 
 static std::vector<int> Identity(size_t n)
@@ -185,63 +184,85 @@ static std::vector<int> Identity(size_t n)
   return identity;
 }
 
-PetscErrorCode DofMapRestrictToLocal(Model *model, DofMap *map)
+PetscErrorCode DofMapRestrictToLocal(const Model &model, const DofMap &map, Model *local_model, DofMap *local_map)
 {
   PetscFunctionBeginUser;
-  PetscCheck(!map->restricted, PETSC_COMM_SELF, PETSC_ERR_ARG_WRONGSTATE, "the model is already restricted to the local part");
-  const std::vector<int> &node_to_local = map->node_to_local;
+  PetscCheck(!map.restricted, PETSC_COMM_SELF, PETSC_ERR_ARG_WRONGSTATE, "the model is already restricted to the local part");
+  const std::vector<int> &node_to_local = map.node_to_local;
   const auto              local_node    = [&](int node) { return node >= 0 ? node_to_local[node] : -1; };
+  Model                  &local         = *local_model;
 
   // The model: local entities in local order, node and element references renumbered.
-  RestrictArray(map->local_nodes, &model->nodes);
-  RestrictArray(map->local_elements, &model->elements);
-  for (BeamElement &element : model->elements) {
+  local            = Model{};
+  local.input_file = model.input_file;
+  local.functions  = model.functions;
+  local.sections   = model.sections;
+  local.analysis   = model.analysis;
+  local.output     = model.output;
+  local.nodes      = RestrictArray(map.local_nodes, model.nodes);
+  for (const Beam &beam : model.beams) { // names and places for messages only
+    Beam named;
+    named.name    = beam.name;
+    named.section = beam.section;
+    named.order   = beam.order;
+    named.mark    = beam.mark;
+    local.beams.push_back(std::move(named));
+  }
+  local.elements = RestrictArray(map.local_elements, model.elements);
+  for (BeamElement &element : local.elements)
     for (int a = 0; a <= element.order; ++a) element.nodes[a] = local_node(element.nodes[a]);
-    element.beam = -1;
-  }
-  RestrictArray(map->local_joints, &model->joints);
-  for (Joint &joint : model->joints) joint.master = local_node(joint.master), joint.slave = local_node(joint.slave);
-  for (Support &support : model->supports) RestrictList(node_to_local, &support.nodes);
-  for (NodalLoad &load : model->nodal_loads) RestrictList(node_to_local, &load.nodes);
-  for (DistributedLoad &load : model->distributed_loads) RestrictList(map->element_to_local, &load.elements);
-  for (InitialCondition &condition : model->initial_conditions) RestrictList(node_to_local, &condition.nodes);
-  for (Probe &probe : model->probes) probe.node = local_node(probe.node);
-  std::vector<RigidBody> bodies;
-  std::vector<int>       body_numbers;
-  for (size_t b = 0; b < model->rigid_bodies.size(); ++b) {
-    const RigidBody &body = model->rigid_bodies[b];
+  local.joints = RestrictArray(map.local_joints, model.joints);
+  for (Joint &joint : local.joints) joint.master = local_node(joint.master), joint.slave = local_node(joint.slave);
+  local.supports = model.supports;
+  for (Support &support : local.supports) support.nodes = RestrictList(node_to_local, support.nodes);
+  local.nodal_loads = model.nodal_loads;
+  for (NodalLoad &load : local.nodal_loads) load.nodes = RestrictList(node_to_local, load.nodes);
+  local.distributed_loads = model.distributed_loads;
+  for (DistributedLoad &load : local.distributed_loads) load.elements = RestrictList(map.element_to_local, load.elements);
+  local.initial_conditions = model.initial_conditions;
+  for (InitialCondition &condition : local.initial_conditions) condition.nodes = RestrictList(node_to_local, condition.nodes);
+  local.probes = model.probes;
+  for (Probe &probe : local.probes) probe.node = local_node(probe.node);
+  std::vector<int> body_numbers;
+  for (size_t b = 0; b < model.rigid_bodies.size(); ++b) {
+    const RigidBody &body = model.rigid_bodies[b];
     if (local_node(body.node) < 0) continue;
-    bodies.push_back(body);
-    bodies.back().node = local_node(body.node);
-    body_numbers.push_back(map->global_rigid_bodies[b]);
+    local.rigid_bodies.push_back(body);
+    local.rigid_bodies.back().node = local_node(body.node);
+    body_numbers.push_back(map.global_rigid_bodies[b]);
   }
-  model->rigid_bodies.swap(bodies);
-  map->global_rigid_bodies.swap(body_numbers);
-  std::vector<Beam>().swap(model->beams);
-  std::vector<NodeSet>().swap(model->node_sets);
-  std::string().swap(model->input_text);
 
   // The map: per-node and per-joint arrays in local order, indices renumbered.
-  RestrictArray(map->local_nodes, &map->node_rank);
-  RestrictArray(map->local_nodes, &map->node_dofs);
-  RestrictArray(map->local_nodes, &map->constraints);
-  RestrictArray(map->local_nodes, &map->node_unknowns);
-  RestrictArray(map->local_nodes, &map->global_nodes);
-  RestrictArray(map->local_nodes, &map->node_joint);
-  for (int &joint : map->node_joint) joint = joint >= 0 ? map->joint_to_local[joint] : -1;
-  RestrictArray(map->local_elements, &map->global_elements);
-  RestrictArray(map->local_elements, &map->element_first_segment);
-  RestrictArray(map->local_joints, &map->joint_rank);
-  RestrictArray(map->local_joints, &map->joint_dofs);
-  RestrictArray(map->local_joints, &map->joint_slot);
-  RestrictArray(map->local_joints, &map->global_joints);
-  map->local_nodes      = Identity(map->local_nodes.size());
-  map->node_to_local    = map->local_nodes;
-  map->local_elements   = Identity(map->local_elements.size());
-  map->element_to_local = map->local_elements;
-  map->local_joints     = Identity(map->local_joints.size());
-  map->joint_to_local   = map->local_joints;
-  map->restricted       = true;
+  DofMap &out         = *local_map;
+  out                 = DofMap{};
+  out.num_global      = map.num_global;
+  out.num_owned       = map.num_owned;
+  out.first_owned     = map.first_owned;
+  out.num_owned_nodes = map.num_owned_nodes;
+  out.node_rank       = RestrictArray(map.local_nodes, map.node_rank);
+  out.node_dofs       = RestrictArray(map.local_nodes, map.node_dofs);
+  out.constraints     = RestrictArray(map.local_nodes, map.constraints);
+  out.node_unknowns   = RestrictArray(map.local_nodes, map.node_unknowns);
+  out.global_nodes    = RestrictArray(map.local_nodes, map.global_nodes);
+  out.node_joint      = RestrictArray(map.local_nodes, map.node_joint);
+  for (int &joint : out.node_joint) joint = joint >= 0 ? map.joint_to_local[joint] : -1;
+  out.global_elements        = RestrictArray(map.local_elements, map.global_elements);
+  out.element_first_segment  = RestrictArray(map.local_elements, map.element_first_segment);
+  out.joint_rank             = RestrictArray(map.local_joints, map.joint_rank);
+  out.joint_dofs             = RestrictArray(map.local_joints, map.joint_dofs);
+  out.joint_slot             = RestrictArray(map.local_joints, map.joint_slot);
+  out.global_joints          = RestrictArray(map.local_joints, map.global_joints);
+  out.global_rigid_bodies    = std::move(body_numbers);
+  out.first_owned_joint_slot = map.first_owned_joint_slot;
+  out.num_owned_joints       = map.num_owned_joints;
+  out.global_count           = map.global_count;
+  out.local_nodes            = Identity(map.local_nodes.size());
+  out.node_to_local          = out.local_nodes;
+  out.local_elements         = Identity(map.local_elements.size());
+  out.element_to_local       = out.local_elements;
+  out.local_joints           = Identity(map.local_joints.size());
+  out.joint_to_local         = out.local_joints;
+  out.restricted             = true;
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 

@@ -1,4 +1,4 @@
-// The map from nodes and joints to global unknowns (DESIGN.md §3–4): 6 per independent node
+// The map from nodes and joints to global unknowns (docs/theory.md): 6 per independent node
 // (displacement increment, incremental rotation vector) minus the DOFs that supports fix or
 // prescribe, plus the released coordinates of every joint that are not driven. A slave node has
 // no unknowns of its own: its configuration follows from its master and its joint (chains
@@ -6,9 +6,9 @@
 // joint belongs to the rank of its slave node. Ghost nodes are the non-owned nodes of the rank's
 // elements and, recursively, the masters of local slave nodes.
 //
-// Set-up sees the whole model; DofMapRestrictToLocal then cuts model and map down to what the rank
-// holds (its local nodes, elements and joints, renumbered), so that no array of the size of the
-// whole model remains during the time loop (DESIGN.md §5). Code indexing through the map works
+// Set-up sees the whole model; DofMapRestrictToLocal then makes the distributed model: a new model
+// and map of what the rank holds (its local nodes, elements and joints, renumbered), so that no
+// array of the size of the whole model remains during the time loop. Code indexing through the map works
 // unchanged in both states: a model index goes through node_to_local / element_to_local /
 // joint_to_local, a local index through local_nodes / local_elements / local_joints, and
 // global_nodes / global_elements give the rows of the output file.
@@ -85,13 +85,13 @@ PetscErrorCode DofMapPreallocation(const DofMap &map, const Model &model, std::v
                                    std::vector<PetscInt> *off_diagonal_nonzeros, std::vector<PetscInt> *row_start = nullptr,
                                    std::vector<PetscInt> *columns = nullptr);
 
-// Replaces the model by the part this rank holds and renumbers the map to match: the local nodes
-// (owned first, then ghosts), the local elements and joints (masters' joints first), each in the
-// map's local order, so that every local_* list becomes the identity; node lists of supports,
+// The distributed model: a new model and map of the part this rank holds, the local nodes (owned
+// first, then ghosts), the local elements and joints (masters' joints first), each in the map's
+// local order, so that every local_* list of the new map is the identity; node lists of supports,
 // loads, initial conditions and rigid bodies keep their local nodes, distributed loads their local
-// elements, probes point at their local node or -1; node sets, beams and the copy of the input
-// text are dropped (the output file already has them). Per-node and per-joint arrays of the map
-// shrink to the local entries. Assembly over the restricted model is identical. Not collective.
-PetscErrorCode DofMapRestrictToLocal(Model *model, DofMap *map);
+// elements, probes point at their local node or -1; beams keep only their names and places (for
+// messages), node sets and the copy of the input text are dropped (the output file already has
+// them). Assembly over the distributed model is identical. Not collective.
+PetscErrorCode DofMapRestrictToLocal(const Model &model, const DofMap &map, Model *local_model, DofMap *local_map);
 
 } // namespace msflex

@@ -50,4 +50,27 @@ void OffsetPointMassInertia(const TimeScheme &scheme, double mass, const Vec3 &o
   tangent->block<3, 3>(3, 3) = Skew(arm) * dF_domega - arm_weight * Skew(F) * dr_domega;
 }
 
+void InitialRotationalInertia(const Mat3 &inertia, const Mat3 &rotation, const Vec3 &body_angular_velocity, const Vec3 &angular_acceleration, Vec3 *moment,
+                              Mat3 *tangent)
+{
+  const Vec3 &W = body_angular_velocity;
+  *moment       = rotation * (inertia * (rotation.transpose() * angular_acceleration) + W.cross(inertia * W));
+  if (tangent) *tangent = rotation * inertia * rotation.transpose();
+}
+
+void InitialOffsetPointMassInertia(double mass, const Vec3 &offset, const Vec3 &angular_velocity, const Vec3 &acceleration, const Vec3 &angular_acceleration,
+                                   Vec6 *residual, Mat6 *tangent)
+{
+  const Vec3 &r = offset, &w = angular_velocity;
+  const Vec3  F       = mass * (acceleration + angular_acceleration.cross(r) + w.cross(w.cross(r)));
+  residual->head<3>() = F;
+  residual->tail<3>() = r.cross(F);
+  if (!tangent) return;
+  const Mat3 hr              = Skew(r);
+  tangent->block<3, 3>(0, 0) = mass * Mat3::Identity();
+  tangent->block<3, 3>(0, 3) = -mass * hr;
+  tangent->block<3, 3>(3, 0) = mass * hr;
+  tangent->block<3, 3>(3, 3) = -mass * hr * hr;
+}
+
 } // namespace msflex

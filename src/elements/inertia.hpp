@@ -1,4 +1,4 @@
-// Inertia kernels for the time schemes of integrators/time_scheme.hpp. Pure functions: no PETSc,
+// Inertia kernels for the time schemes of schemes/time_scheme.hpp. Pure functions: no PETSc,
 // no MPI, no allocation. Each returns the inertial force and moment on a node (spatial) and
 // their derivatives with respect to the node's step unknowns (u, omega), where
 // Lambda_{n+1} = exp(hat(omega)) Lambda_n — not with respect to spins.
@@ -12,9 +12,15 @@
 //   u_c = u + (Lambda_{n+1} - Lambda_n) c,  F = m * (inertial acceleration from u_c)
 //   Newmark family:  force F, moment r_{n+1} x F          (virtual work at t_{n+1})
 //   mid-point:       force F, moment (r_n + r_{n+1})/2 x F (the conserving map D of eq. 21)
+//
+// The initial-acceleration problem of the Newmark family (the equations of motion at t, with the
+// configuration Lambda and the velocities of the start state; the unknowns are the accelerations
+// xddot and the spatial angular acceleration wdot, so the tangents are the mass matrices):
+//   rotary:          m_in = Lambda (J Wdot + W x J W),  Wdot = Lambda^T wdot,   dm/dwdot = Lambda J Lambda^T
+//   offset point:    a_c = xddot + wdot x r + w x (w x r),  F = m a_c,  moment r x F
 #pragma once
 
-#include "integrators/time_scheme.hpp"
+#include "schemes/time_scheme.hpp"
 
 #include <Eigen/Core>
 
@@ -30,5 +36,15 @@ void RotationalInertia(const TimeScheme &scheme, const Mat3 &inertia, const Mat3
 // residual: (force, moment) on the node (6); tangent: d/d(u, omega) (6x6); update: the point's motion.
 void OffsetPointMassInertia(const TimeScheme &scheme, double mass, const Vec3 &offset, const Mat3 &rotation_start, const Vec3 &u, const Vec3 &omega,
                             const MotionState &start, Vec6 *residual, Mat6 *tangent, MotionUpdate *update);
+
+// Initial-acceleration problem: rotary inertia of a node with body-frame tensor J, rotation Lambda
+// and body angular velocity W; moment and d moment / d wdot.
+void InitialRotationalInertia(const Mat3 &inertia, const Mat3 &rotation, const Vec3 &body_angular_velocity, const Vec3 &angular_acceleration, Vec3 *moment,
+                              Mat3 *tangent);
+
+// Initial-acceleration problem: point mass at the spatial offset r from a node moving with spatial
+// angular velocity w; (force, moment) on the node and its derivative d/d(xddot, wdot).
+void InitialOffsetPointMassInertia(double mass, const Vec3 &offset, const Vec3 &angular_velocity, const Vec3 &acceleration, const Vec3 &angular_acceleration,
+                                   Vec6 *residual, Mat6 *tangent);
 
 } // namespace msflex

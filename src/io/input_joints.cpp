@@ -117,34 +117,33 @@ void ReadProfile(const YAML::Node &value, const MappingReader &joint_entry, Join
     FailAt(value.Mark(), "cannot fit a periodic spline through the 'points' of " + where);
 }
 
-// Everything a joint type fixes: releases, dependent translation and the keys it allows.
+// Everything a joint kind fixes: releases, dependent translation and the keys it allows.
 void ReadRelease(const std::string &type, const MappingReader &entry, Joint &joint)
 {
-  JointExtra extra = JointExtra::None;
-  if (!JointTypeExtra(type, &extra))
-    FailAt(entry.Required("type").Mark(), "unknown joint type " + Quote(type) + " in " + entry.Description() + "; expected one of " + kJointTypeList);
-  // The keys every joint may have, plus the one of its type; keys of other types are errors.
-  static const char *const  kTypeKeys[] = {nullptr, "pitch", "radius", "release", "profile"};
+  const JointKindInfo *info = JointKindFind(type);
+  if (!info)
+    FailAt(entry.Required("type").Mark(), "unknown joint type " + Quote(type) + " in " + entry.Description() + "; expected one of " + JointKindNameList());
+  // The keys every joint may have, plus the one of its kind; keys of other kinds are errors.
+  static const char *const  kParameterKeys[] = {nullptr, "pitch", "radius", "release", "profile"};
   std::vector<const char *> keys{"name", "type", "master", "slave", "axis", "second_axis", "drive"};
-  if (const char *type_key = kTypeKeys[static_cast<int>(extra)]) keys.push_back(type_key);
+  if (const char *parameter_key = kParameterKeys[static_cast<int>(info->parameter)]) keys.push_back(parameter_key);
   entry.RequireOnlyKeys(keys);
-  switch (extra) {
-  case JointExtra::None:
-    ApplyJointType(type, 0.0, joint);
+  switch (info->parameter) {
+  case JointParameter::None:
+    ApplyJointKind(*info, 0.0, joint);
     break;
-  case JointExtra::Pitch:
-    ApplyJointType(type, ReadNonZeroNumber(entry, "pitch"), joint);
+  case JointParameter::Pitch:
+    ApplyJointKind(*info, ReadNonZeroNumber(entry, "pitch"), joint);
     break;
-  case JointExtra::Radius:
-    ApplyJointType(type, type == "cam" ? entry.PositiveNumber("radius") : ReadNonZeroNumber(entry, "radius"), joint);
+  case JointParameter::Radius:
+    ApplyJointKind(*info, info->kind == JointKind::Cam ? entry.PositiveNumber("radius") : ReadNonZeroNumber(entry, "radius"), joint);
     break;
-  case JointExtra::Release:
+  case JointParameter::Release:
+    ApplyJointKind(*info, 0.0, joint);
     ReadCustomRelease(entry.Required("release"), entry, joint);
     break;
-  case JointExtra::Profile:
-    SetRelease(joint, {}, {0});
-    joint.dependence     = Joint::Dependence::Table;
-    joint.dependent_axis = 1;
+  case JointParameter::Profile:
+    ApplyJointKind(*info, 0.0, joint);
     ReadProfile(entry.Required("profile"), entry, joint);
     break;
   }
@@ -169,7 +168,7 @@ void ReadDrive(const YAML::Node &value, const MappingReader &joint_entry, const 
   std::vector<std::string>       choices         = names;
   if (joint.rotation == Joint::Rotation::OneAxis) choices.push_back("rotation");
   if (joint.dependence == Joint::Dependence::Linear) choices.push_back("translation");
-  const std::string joint_kind = joint_entry.Description() + " (" + joint.type + ")";
+  const std::string joint_kind = joint_entry.Description() + " (" + JointKindName(joint.kind) + ")";
   const std::string hint =
       choices.empty() ? joint_kind + " has no coordinate that can be driven" : "the coordinates of " + joint_kind + " are " + JoinWords(choices);
   double scale = 1.0;
@@ -224,8 +223,7 @@ Joint ReadJoint(const YAML::Node &item, const ReaderContext &context)
   if (const auto other = context.joint_names.find(joint.name); other != context.joint_names.end())
     FailAt(entry.Required("name").Mark(),
            "duplicate joint name " + Quote(joint.name) + " (first defined at line " + std::to_string(context.model.joints[other->second].mark.line) + ")");
-  joint.type = entry.String("type");
-  ReadRelease(joint.type, entry, joint);
+  ReadRelease(entry.String("type"), entry, joint);
   joint.master = ReadJointNode(entry, "master", context);
   joint.slave  = ReadJointNode(entry, "slave", context);
   if (joint.master == joint.slave)
@@ -241,58 +239,23 @@ Joint ReadJoint(const YAML::Node &item, const ReaderContext &context)
 
 } // namespace
 
-const char *const kJointTypeList = "rigid, spherical, revolute, universal, cylindrical, prismatic, planar, free, custom, screw, "
-                                   "rack_pinion, cam, cam_table";
-
-bool JointTypeExtra(const std::string &type, JointExtra *extra)
-{
-  static const std::pair<const char *, JointExtra> kTypes[] = {
-      {"rigid", JointExtra::None},       {"spherical", JointExtra::None}, {"revolute", JointExtra::None},      {"universal", JointExtra::None},
-      {"cylindrical", JointExtra::None}, {"prismatic", JointExtra::None}, {"planar", JointExtra::None},        {"free", JointExtra::None},
-      {"custom", JointExtra::Release},   {"screw", JointExtra::Pitch},    {"rack_pinion", JointExtra::Radius}, {"cam", JointExtra::Radius},
-      {"cam_table", JointExtra::Profile}};
-  for (const auto &[name, type_extra] : kTypes)
-    if (type == name) {
-      *extra = type_extra;
-      return true;
-    }
-  return false;
-}
-
-std::string JointParameterProblem(const std::string &type, double parameter)
+std::string JointParameterProblem(JointKind kind, double parameter)
 {
   if (!std::isfinite(parameter)) return "must be a finite number";
-  if ((type == "screw" || type == "rack_pinion") && parameter == 0.0) return "must not be zero";
-  if (type == "cam" && !(parameter > 0.0)) return "must be positive";
+  if ((kind == JointKind::Screw || kind == JointKind::RackPinion) && parameter == 0.0) return "must not be zero";
+  if (kind == JointKind::Cam && !(parameter > 0.0)) return "must be positive";
   return "";
 }
 
-void ApplyJointType(const std::string &type, double parameter, Joint &joint)
+void ApplyJointKind(const JointKindInfo &info, double parameter, Joint &joint)
 {
-  joint.type = type;
-  if (type == "spherical") {
-    SetRelease(joint, {}, {0, 1, 2});
-  } else if (type == "revolute") {
-    SetRelease(joint, {}, {0});
-  } else if (type == "universal") {
-    SetRelease(joint, {}, {0, 1});
-  } else if (type == "cylindrical") {
-    SetRelease(joint, {0}, {0});
-  } else if (type == "prismatic") {
-    SetRelease(joint, {0}, {});
-  } else if (type == "planar") {
-    SetRelease(joint, {1, 2}, {0});
-  } else if (type == "free") {
-    SetRelease(joint, {0, 1, 2}, {0, 1, 2});
-  } else if (type == "screw" || type == "rack_pinion" || type == "cam") {
-    // Screw: translation pitch phi along a1; rack_pinion: radius phi along a2 (the rack);
-    // cam: radius (cos phi - 1) along a2.
-    SetRelease(joint, {}, {0});
-    joint.dependence     = type == "cam" ? Joint::Dependence::EccentricCam : Joint::Dependence::Linear;
-    joint.dependent_axis = type == "screw" ? 0 : 1;
-    joint.coefficient    = parameter;
-  }
-  // rigid: nothing released.
+  joint.kind = info.kind;
+  std::vector<int> rotations;
+  for (int k = 0; k < info.num_rotations; ++k) rotations.push_back(info.num_rotations == 3 ? k : info.rotation_axes[k]);
+  SetRelease(joint, std::vector<int>(info.translation_axes, info.translation_axes + info.num_translations), rotations);
+  joint.dependence     = info.dependence;
+  joint.dependent_axis = info.dependent_axis;
+  joint.coefficient    = info.dependence == JointDependence::None || info.dependence == JointDependence::Table ? 0.0 : parameter;
 }
 
 std::string JointAxisProblem(const Vec3 &axis) { return axis.stableNorm() == 0.0 ? "must not be the zero vector" : ""; }

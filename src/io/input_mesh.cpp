@@ -516,23 +516,25 @@ void AddMeshJoints(const MeshData &mesh, ReaderContext &context)
     if (const auto other = context.joint_names.find(joint.name); other != context.joint_names.end())
       FailRow(mesh, mesh.joint_names.empty() ? "/joints/type" : "/joints/names", row,
               "duplicate joint name " + Quote(joint.name) + " (first defined at line " + std::to_string(model.joints[other->second].mark.line) + ")");
-    const std::string &type  = mesh.joint_type[index];
-    JointExtra         extra = JointExtra::None;
-    if (!JointTypeExtra(type, &extra))
+    const std::string   &type = mesh.joint_type[index];
+    const JointKindInfo *info = JointKindFind(type);
+    if (!info) {
+      std::string names;
+      int         count;
+      for (const JointKindInfo *k = JointKinds(&count), *end = k + count; k != end; ++k)
+        if (k->parameter != JointParameter::Release && k->parameter != JointParameter::Profile) names += (names.empty() ? "" : ", ") + std::string(k->name);
+      FailRow(mesh, "/joints/type", row, "unknown joint type " + Quote(type) + "; expected one of " + names);
+    }
+    if (info->parameter == JointParameter::Release || info->parameter == JointParameter::Profile)
       FailRow(mesh, "/joints/type", row,
-              "unknown joint type " + Quote(type) +
-                  "; expected one of rigid, spherical, revolute, universal, cylindrical, prismatic, "
-                  "planar, free, screw, rack_pinion, cam");
-    if (extra == JointExtra::Release || extra == JointExtra::Profile)
-      FailRow(mesh, "/joints/type", row,
-              "a " + type + " joint needs '" + (extra == JointExtra::Release ? "release" : "profile") +
+              "a " + type + " joint needs '" + (info->parameter == JointParameter::Release ? "release" : "profile") +
                   "', which a mesh file cannot give; list it under 'joints' in the YAML file");
     const double parameter = mesh.joint_parameter[index];
-    if (const std::string problem = JointParameterProblem(type, parameter); !problem.empty())
+    if (const std::string problem = JointParameterProblem(info->kind, parameter); !problem.empty())
       FailRow(mesh, "/joints/parameter", row,
-              std::string(extra == JointExtra::Pitch ? "the pitch" : "the radius") + " of a " + type + " joint " + problem + ", got " +
+              std::string(info->parameter == JointParameter::Pitch ? "the pitch" : "the radius") + " of a " + type + " joint " + problem + ", got " +
                   FormatNumber(parameter));
-    ApplyJointType(type, parameter, joint);
+    ApplyJointKind(*info, parameter, joint);
     CheckNodeIndex(mesh, "/joints/master", row, mesh.joint_master[index], -1);
     CheckNodeIndex(mesh, "/joints/slave", row, mesh.joint_slave[index], 0);
     joint.master = mesh.joint_master[index] < 0 ? -1 : context.mesh_first_node + static_cast<int>(mesh.joint_master[index]);

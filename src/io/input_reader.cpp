@@ -6,9 +6,9 @@
 
 #include "core/mpi_util.hpp"
 
-#include "integrators/time_scheme.hpp"
 #include "io/input_reader_internal.hpp"
 #include "io/input_yaml_util.hpp"
+#include "schemes/time_scheme.hpp"
 
 #include <algorithm>
 #include <array>
@@ -459,14 +459,17 @@ void ReadAnalysis(const YAML::Node *mapping, const ReaderContext &context, Analy
                             {"type", "integrator", "spectral_radius", "end_time", "initial_step", "min_step", "max_step", "growth_factor", "easy_iterations",
                              "easy_steps_to_grow", "max_rotation_increment", "max_newton_iterations", "newton_rtol", "newton_atol", "output_times"});
   analysis.mark = context.MarkOf(entry.Mark());
-  analysis.type = entry.String("type", analysis.type);
-  if (analysis.type != "static" && analysis.type != "dynamic")
-    FailAt(entry.Required("type").Mark(), "unknown analysis type " + Quote(analysis.type) + "; expected static or dynamic");
+  if (const YAML::Node *value = entry.Find("type")) {
+    const std::string type = ReadString(*value, "type");
+    if (!AnalysisTypeFromName(type, &analysis.type))
+      FailAt(value->Mark(), "unknown analysis type " + Quote(type) + "; expected one of " + AnalysisTypeNameList());
+  }
   // Accepted (and ignored) in static analyses too, so one file can switch by `type` alone.
-  analysis.integrator = entry.String("integrator", analysis.integrator);
-  if (TimeSchemeKind kind; !TimeSchemeKindFromName(analysis.integrator, &kind))
-    FailAt(entry.Required("integrator").Mark(),
-           "unknown integrator " + Quote(analysis.integrator) + " in 'analysis'; expected one of newmark, mc, em, genalpha");
+  if (const YAML::Node *value = entry.Find("integrator")) {
+    const std::string integrator = ReadString(*value, "integrator");
+    if (!TimeSchemeKindFromName(integrator, &analysis.integrator))
+      FailAt(value->Mark(), "unknown integrator " + Quote(integrator) + " in 'analysis'; expected one of " + IntegratorNameList());
+  }
   analysis.spectral_radius = entry.Number("spectral_radius", analysis.spectral_radius);
   if (analysis.spectral_radius < 0.0 || analysis.spectral_radius > 1.0)
     FailAt(entry.Required("spectral_radius").Mark(), "'spectral_radius' must lie in [0, 1], got " + entry.Required("spectral_radius").Scalar());
@@ -591,7 +594,7 @@ Model ParseModel(const std::string &text, const std::string &file_label, MPI_Com
   for (const YAML::Node &item : ReadOptionalList(top.Find("probes"), "probes")) model.probes.push_back(ReadProbe(item, context));
   ReadAnalysis(top.Find("analysis"), context, model.analysis);
   ReadOutput(top.Find("output"), context, model.output);
-  if (model.analysis.type == "static") CheckStaticMechanisms(model);
+  if (model.analysis.type == AnalysisType::Static) CheckStaticMechanisms(model);
   return std::move(context.model);
 }
 

@@ -101,17 +101,13 @@ void ReadJoints(const YAML::Node *list, ReaderContext &context);
 
 // --- Joints, shared by YAML `joints` and the joints of a mesh file (input_joints.cpp) ---
 
-// The joint types, for messages: "rigid, spherical, ..., cam_table".
-extern const char *const kJointTypeList;
-// What a joint type needs besides its axes; false for an unknown type.
-enum class JointExtra { None, Pitch, Radius, Release, Profile };
-bool JointTypeExtra(const std::string &type, JointExtra *extra);
-// "" when `parameter` suits `type` (pitch and rack_pinion radius: non-zero; cam radius: positive;
+// "" when `parameter` suits a kind (pitch and rack_pinion radius: non-zero; cam radius: positive;
 // ignored otherwise), else what is wrong with it, e.g. "must not be zero".
-std::string JointParameterProblem(const std::string &type, double parameter);
-// Sets joint.type and the releases and dependence of a type whose extra is None, Pitch or Radius;
-// `parameter` (checked with JointParameterProblem) is the pitch or radius.
-void ApplyJointType(const std::string &type, double parameter, Joint &joint);
+std::string JointParameterProblem(JointKind kind, double parameter);
+// Sets joint.kind and the releases and dependence the registry (model/joint_kinds.hpp) gives the
+// kind; `parameter` (checked with JointParameterProblem) is the pitch or radius. A custom kind's
+// releases and a cam_table's profile are read separately.
+void ApplyJointKind(const JointKindInfo &info, double parameter, Joint &joint);
 // "" for a usable `axis` (non-zero), else the problem.
 std::string JointAxisProblem(const Vec3 &axis);
 // "" for a usable `second_axis` with the (non-zero) `axis`, else the problem.

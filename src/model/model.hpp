@@ -4,7 +4,11 @@
 // file and line.
 #pragma once
 
+#include "joints/joint_kinematics.hpp"
 #include "math/rotation.hpp"
+#include "model/analysis_types.hpp"
+#include "model/joint_kinds.hpp"
+#include "schemes/time_scheme.hpp"
 
 #include <array>
 #include <string>
@@ -143,10 +147,10 @@ struct InitialCondition {
 // the released coordinates; the joint axes a1, a2, a3 are given in global axes at the reference
 // configuration. master = -1 means the ground (a fixed frame).
 struct Joint {
-  enum class Rotation { None, OneAxis, TwoAxes, Free };
-  enum class Dependence { None, Linear, EccentricCam, Table };
+  using Rotation   = JointRotation; // the kinematics' enums (joints/joint_kinematics.hpp)
+  using Dependence = JointDependence;
   std::string         name;
-  std::string         type; // as written in the input (revolute, screw, ...)
+  JointKind           kind   = JointKind::Rigid; // the registered kind (model/joint_kinds.hpp)
   int                 master = -1, slave = -1;
   Mat3                axes             = Mat3::Identity(); // columns a1, a2, a3: orthonormal, right-handed
   int                 num_translations = 0;                // released translations along axes translation_axis[0..n)
@@ -175,9 +179,9 @@ struct Probe {
 // [0, end_time]; the default function is the ramp f(t) = t, so t is the load factor.
 // Dynamic analysis: t is time, the steps are time steps, and `integrator` selects the scheme.
 struct AnalysisSettings {
-  std::string         type                   = "static"; // static | dynamic
-  std::string         integrator             = "em";     // newmark | mc | em | genalpha (dynamic only)
-  double              spectral_radius        = 0.9;      // rho_infinity of genalpha, in [0, 1]
+  AnalysisType        type                   = AnalysisType::Static;           // model/analysis_types.hpp
+  TimeSchemeKind      integrator             = TimeSchemeKind::EnergyMomentum; // dynamic only; schemes/time_scheme.hpp
+  double              spectral_radius        = 0.9;                            // rho_infinity of genalpha, in [0, 1]
   double              end_time               = 1.0;
   double              initial_step           = 0.1;
   double              min_step               = 1e-6;
@@ -224,5 +228,11 @@ struct Model {
   AnalysisSettings              analysis;
   OutputSettings                output;
 };
+
+// Value at t of the model's function number `function`; -1 is the ramp f(t) = t.
+double FunctionValue(const Model &model, int function, double t);
+// Its first or second derivative (order 1 or 2) at t, by second-order one-sided differences
+// forward in time: tables are only piecewise smooth, so stay on the side of the coming motion.
+double FunctionDerivative(const Model &model, int function, double t, int order);
 
 } // namespace msflex

@@ -36,4 +36,15 @@ double TimeFunction::Evaluate(double t) const
   return 0.0;
 }
 
+double FunctionValue(const Model &model, int function, double t) { return function < 0 ? t : model.functions[function].Evaluate(t); }
+
+double FunctionDerivative(const Model &model, int function, double t, int order)
+{
+  const double h  = 1e-4 * std::max(1.0, std::abs(t));
+  const double f0 = FunctionValue(model, function, t), f1 = FunctionValue(model, function, t + h), f2 = FunctionValue(model, function, t + 2 * h);
+  if (order == 1) return (-3.0 * f0 + 4.0 * f1 - f2) / (2.0 * h);
+  const double f3 = FunctionValue(model, function, t + 3 * h);
+  return (2.0 * f0 - 5.0 * f1 + 4.0 * f2 - f3) / (h * h);
+}
+
 } // namespace msflex

@@ -1,7 +1,7 @@
 #include "output/output_file.hpp"
 
+#include "core/hdf5_util.hpp"
 #include "core/mpi_util.hpp"
-#include "output/hdf5_util.hpp"
 
 #include <hdf5.h>
 

@@ -1,6 +1,9 @@
 #include "output/results.hpp"
 
-#include "joints/joint_model.hpp"
+#include "model/joint_geometry.hpp"
+
+#include <algorithm>
+#include <cstring>
 
 #include <H5pubconf.h>
 
@@ -30,7 +33,7 @@ void BuildOutputMesh(const Model &model, OutputMesh *mesh)
   for (const Beam &beam : model.beams) mesh->beam_names.push_back(beam.name);
   for (const Joint &joint : model.joints) {
     mesh->joint_names.push_back(joint.name);
-    mesh->joint_types.push_back(joint.type);
+    mesh->joint_types.push_back(JointKindName(joint.kind));
     mesh->joint_master.push_back(joint.master);
     mesh->joint_slave.push_back(joint.slave);
     for (int c = 0; c < 3; ++c)
@@ -73,12 +76,11 @@ static void AppendNodeRecord(const double *in, bool with_velocities, OutputFrame
 
 // A distributed frame: each rank holds the rows of the nodes and elements it owns, which the
 // output file writes collectively (parallel HDF5). No communication here.
-PetscErrorCode GatherFrame(MPI_Comm, const Model &model, const Assembler &assembler, const std::vector<ElementResults> &element_results, int step, double time,
-                           bool with_velocities, OutputFrame *frame)
+PetscErrorCode GatherFrame(MPI_Comm, const Model &model, const DofMap &map, const State &state, const std::vector<ElementResults> &element_results, int step,
+                           double time, bool with_velocities, OutputFrame *frame)
 {
   PetscFunctionBeginUser;
-  const DofMap                 &map   = assembler.Map();
-  const std::vector<NodeState> &nodes = assembler.LocalNodes();
+  const std::vector<NodeState> &nodes = state.nodes;
   *frame                              = OutputFrame{};
   frame->step                         = step;
   frame->time                         = time;
@@ -109,11 +111,10 @@ PetscErrorCode GatherFrame(MPI_Comm, const Model &model, const Assembler &assemb
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
-PetscErrorCode SampleProbes(MPI_Comm comm, const Model &model, const Assembler &assembler, std::vector<ProbeSample> *samples)
+PetscErrorCode SampleProbes(MPI_Comm comm, const Model &model, const DofMap &map, const State &state, std::vector<ProbeSample> *samples)
 {
   PetscFunctionBeginUser;
-  const DofMap                 &map   = assembler.Map();
-  const std::vector<NodeState> &nodes = assembler.LocalNodes();
+  const std::vector<NodeState> &nodes = state.nodes;
   const size_t                  count = model.probes.size();
   std::vector<double>           local(kNodeRecordSize * count, 0.0), global(kNodeRecordSize * count, 0.0);
   for (size_t p = 0; p < count; ++p) {
@@ -133,6 +134,88 @@ PetscErrorCode SampleProbes(MPI_Comm comm, const Model &model, const Assembler &
     }
     for (int i = 0; i < 4; ++i) sample.rotation[i] = in[6 + i];
     sample.rotation_angle = in[10];
+  }
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode JointHistory(MPI_Comm comm, const Model &model, const DofMap &map, const State &state, JointHistoryNames *cache, std::vector<std::string> *names,
+                            std::vector<double> *values)
+{
+  static const char *const translation_names[3] = {"tx", "ty", "tz"}, *rotation_names[3] = {"rx", "ry", "rz"};
+  static const char *const reaction_names[6] = {"force_x", "force_y", "force_z", "moment_x", "moment_y", "moment_z"};
+  PetscMPIInt              rank, size;
+  PetscFunctionBeginUser;
+  PetscCallMPI(MPI_Comm_rank(comm, &rank));
+  PetscCallMPI(MPI_Comm_size(comm, &size));
+  // Owned joints in slot order; the series names are only built (and gathered to rank 0) once.
+  std::vector<const JointState *> owned;
+  for (const JointState &J : state.joints)
+    if (map.joint_rank[J.joint] == rank) owned.push_back(&J);
+  std::sort(owned.begin(), owned.end(), [&](const JointState *a, const JointState *b) { return map.joint_slot[a->joint] < map.joint_slot[b->joint]; });
+  const bool          need_names = !cache->gathered;
+  std::vector<double> local;
+  std::string         local_names; // '\0'-terminated series names
+  for (const JointState *J : owned) {
+    const Joint            &joint = model.joints[J->joint];
+    const JointCoordinates &q     = J->start;
+    const int               nt    = joint.num_translations;
+    auto                    add   = [&](const std::string &name, double value) {
+      if (need_names) local_names += joint.name + "." + name + '\0';
+      local.push_back(value);
+    };
+    for (int c = 0; c < nt; ++c) {
+      add(translation_names[joint.translation_axis[c]], q.q[c]);
+      add(std::string(translation_names[joint.translation_axis[c]]) + "_rate", J->rate[c]);
+    }
+    if (joint.rotation == Joint::Rotation::Free) {
+      const Vec3 rotation = joint.axes.transpose() * LogSO3(q.free_rotation_start);
+      for (int i = 0; i < 3; ++i) add(rotation_names[i], rotation(i));
+    } else {
+      const int nr = joint.rotation == Joint::Rotation::OneAxis ? 1 : joint.rotation == Joint::Rotation::TwoAxes ? 2 : 0;
+      for (int c = 0; c < nr; ++c) {
+        add(rotation_names[joint.rotation_axis[c]], q.q[nt + c]);
+        add(std::string(rotation_names[joint.rotation_axis[c]]) + "_rate", J->rate[nt + c]);
+      }
+    }
+    if (joint.dependence != Joint::Dependence::None) {
+      double f, df, ddf, f0, df0, ddf0;
+      JointDependentTranslation(J->geometry, q.q[nt], &f, &df, &ddf);
+      JointDependentTranslation(J->geometry, 0.0, &f0, &df0, &ddf0);
+      add(translation_names[joint.dependent_axis], f - f0);
+    }
+    for (int i = 0; i < 6; ++i) add(reaction_names[i], J->reaction(i));
+  }
+  // Gather to rank 0, which writes the history; the ranks' parts follow in slot order.
+  auto gather = [&](const void *send, int count, MPI_Datatype type, std::vector<char> *received, size_t element_size) -> PetscErrorCode {
+    std::vector<int> counts(rank == 0 ? size : 0), offsets(rank == 0 ? size : 0);
+    PetscFunctionBeginUser;
+    PetscCallMPI(MPI_Gather(&count, 1, MPI_INT, counts.data(), 1, MPI_INT, 0, comm));
+    int total = 0;
+    for (int r = 0; r < (int)counts.size(); ++r) offsets[r] = total, total += counts[r];
+    received->resize(element_size * (size_t)total);
+    PetscCallMPI(MPI_Gatherv(send, count, type, received->data(), counts.data(), offsets.data(), type, 0, comm));
+    PetscFunctionReturn(PETSC_SUCCESS);
+  };
+  if (need_names) {
+    std::vector<char> gathered;
+    PetscCall(gather(local_names.data(), (int)local_names.size(), MPI_CHAR, &gathered, 1));
+    for (size_t start = 0; start < gathered.size();) {
+      const size_t end = std::find(gathered.begin() + (std::ptrdiff_t)start, gathered.end(), '\0') - gathered.begin();
+      cache->names.emplace_back(gathered.data() + start, end - start);
+      start = end + 1;
+    }
+    cache->gathered = true;
+  }
+  std::vector<char> gathered_values;
+  PetscCall(gather(local.data(), (int)local.size(), MPI_DOUBLE, &gathered_values, sizeof(double)));
+  names->clear();
+  values->clear();
+  if (rank == 0) {
+    *names = cache->names;
+    values->resize(names->size());
+    PetscCheck(gathered_values.size() == sizeof(double) * names->size(), PETSC_COMM_SELF, PETSC_ERR_PLIB, "joint history: %zu values for %zu series",
+               gathered_values.size() / sizeof(double), names->size());
+    std::memcpy(values->data(), gathered_values.data(), gathered_values.size());
   }
   PetscFunctionReturn(PETSC_SUCCESS);
 }

@@ -1,9 +1,16 @@
-// From the distributed solver state to the arrays the output file takes: the mesh, frames
-// (distributed, or gathered on rank 0 with serial HDF5), and probe samples.
+// From the State to the arrays the output file takes: the mesh, distributed frames, probe samples
+// and the joints' history series. Reads the State and the element results (a results view), never
+// the assembler.
 #pragma once
 
-#include "assembly/assembler.hpp"
+#include "contributors/beam_contributor.hpp"
+#include "dofs/dof_map.hpp"
+#include "model/model.hpp"
 #include "output/output_file.hpp"
+#include "state/state.hpp"
+
+#include <string>
+#include <vector>
 
 namespace msflex {
 
@@ -12,10 +19,22 @@ void BuildOutputMesh(const Model &model, OutputMesh *mesh);
 // Node and element results with the nodal velocities when asked (dynamics): a distributed frame,
 // each rank holding its owned nodes and elements, rows numbered by DofMap::global_nodes and
 // global_elements. Works on the whole or the restricted model.
-PetscErrorCode GatherFrame(MPI_Comm comm, const Model &model, const Assembler &assembler, const std::vector<ElementResults> &element_results, int step,
-                           double time, bool with_velocities, OutputFrame *frame);
+PetscErrorCode GatherFrame(MPI_Comm comm, const Model &model, const DofMap &map, const State &state, const std::vector<ElementResults> &element_results,
+                           int step, double time, bool with_velocities, OutputFrame *frame);
 
 // One sample per probe, valid on every rank. Collective.
-PetscErrorCode SampleProbes(MPI_Comm comm, const Model &model, const Assembler &assembler, std::vector<ProbeSample> *samples);
+PetscErrorCode SampleProbes(MPI_Comm comm, const Model &model, const DofMap &map, const State &state, std::vector<ProbeSample> *samples);
+
+// The joints' history series, per joint "<joint>.<quantity>": the released coordinates (tx ty tz
+// along, rx ry rz about the joint axes; a free rotation as the rotation vector of the relative
+// rotation in joint axes; a dependent translation under its axis) and their rates, and the force
+// and moment the joint exerts on its slave (State::joints' reactions). The names are gathered to
+// rank 0 once (kept in *cache); values and names are filled on rank 0, empty elsewhere. Collective.
+struct JointHistoryNames {
+  bool                     gathered = false;
+  std::vector<std::string> names;
+};
+PetscErrorCode JointHistory(MPI_Comm comm, const Model &model, const DofMap &map, const State &state, JointHistoryNames *cache, std::vector<std::string> *names,
+                            std::vector<double> *values);
 
 } // namespace msflex

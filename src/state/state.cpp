@@ -1,26 +1,296 @@
 #include "state/state.hpp"
 
+#include "model/joint_geometry.hpp"
+
 namespace msflex {
 
-void NodeStateUpdateCurrent(NodeState *node)
+namespace {
+
+void NodeUpdateConfiguration(NodeState *node)
 {
   node->position         = node->position_start + node->displacement_increment;
   node->rotation         = ExpSO3(node->rotation_increment) * QuaternionToMatrix(node->rotation_start);
   node->rotation_tangent = TangentH(node->rotation_increment);
 }
 
-Quaternion NodeStateCurrentQuaternion(const NodeState &node)
-{
-  return QuaternionNormalize(QuaternionMultiply(QuaternionFromRotationVector(node.rotation_increment), node.rotation_start));
-}
-
-void NodeStateCommit(NodeState *node)
+void NodeCommit(NodeState *node)
 {
   node->rotation_start         = NodeStateCurrentQuaternion(*node);
   node->position_start         = node->position_start + node->displacement_increment;
   node->displacement_increment = Vec3::Zero();
   node->rotation_increment     = Vec3::Zero();
-  NodeStateUpdateCurrent(node);
+  NodeUpdateConfiguration(node);
+}
+
+} // namespace
+
+Quaternion NodeStateCurrentQuaternion(const NodeState &node)
+{
+  return QuaternionNormalize(QuaternionMultiply(QuaternionFromRotationVector(node.rotation_increment), node.rotation_start));
+}
+
+void StateCreate(const Model &model, const DofMap &map, State *state)
+{
+  *state                 = State{};
+  state->num_owned_nodes = map.num_owned_nodes;
+  state->nodes.resize(map.local_nodes.size());
+  for (size_t l = 0; l < state->nodes.size(); ++l) {
+    state->nodes[l].position_start = model.nodes[map.local_nodes[l]].position;
+    NodeUpdateConfiguration(&state->nodes[l]);
+  }
+  state->node_joint.assign(state->nodes.size(), -1);
+  for (int j : map.local_joints) {
+    const Joint &joint = model.joints[j];
+    JointState   J;
+    J.joint        = j;
+    J.local_slave  = map.node_to_local[joint.slave];
+    J.local_master = joint.master >= 0 ? map.node_to_local[joint.master] : -1;
+    J.geometry     = JointGeometryOf(joint, JointReferenceOffset(model, joint));
+    J.map.setZero();
+    J.rows_map.setZero();
+    state->node_joint[J.local_slave] = (int)state->joints.size();
+    state->joints.push_back(J);
+  }
+  for (size_t b = 0; b < model.rigid_bodies.size(); ++b) {
+    const RigidBody &body = model.rigid_bodies[b];
+    const int        l    = map.node_to_local[body.node];
+    if (l < 0 || l >= map.num_owned_nodes) continue;
+    RigidBodyState local;
+    local.body         = (int)b;
+    local.global_index = map.global_rigid_bodies[b];
+    local.local_node   = l;
+    local.mass         = body.mass;
+    local.offset       = body.offset;
+    state->bodies.push_back(local);
+  }
+}
+
+void StateUpdateNode(const StepEquations &equations, NodeState *s)
+{
+  if (equations.InitialAcceleration()) return;
+  NodeUpdateConfiguration(s);
+  if (!equations.Dynamic()) return;
+  s->translation_update = AdvanceMotion(equations.scheme, s->translation_motion, s->displacement_increment);
+  TangentScaledIncrement(s->rotation_increment, &s->tangent_scaled_increment, &s->tangent_scaled_derivative);
+}
+
+// Fixed DOFs keep a zero increment. A prescribed displacement reaches its absolute target
+// X + value f(t_end); a prescribed rotation component turns by value (f(t_end) - f(t_start)) about
+// its global axis. In the initial-acceleration problem the unknowns are accelerations, so a
+// prescribed DOF gets value f''(t). A driven released coordinate reaches value f(t_end).
+void StateBeginStep(const Model &model, const DofMap &map, const StepEquations &equations, State *state)
+{
+  state->equations     = equations;
+  const double t_start = equations.t_start, t_end = equations.t_end;
+  const bool   accelerations = equations.InitialAcceleration();
+  for (size_t l = 0; l < state->nodes.size(); ++l) {
+    const int  node = map.local_nodes[l];
+    NodeState &s    = state->nodes[l];
+    for (int d = 0; d < 6; ++d) {
+      const DofConstraint &c = map.constraints[node][d];
+      if (c.kind == Support::Kind::Free) continue;
+      double value = 0.0;
+      if (c.kind == Support::Kind::Prescribed) {
+        if (accelerations) value = c.value * FunctionDerivative(model, c.function, t_end, 2);
+        else if (d < 3) value = model.nodes[node].position(d) + c.value * FunctionValue(model, c.function, t_end) - s.position_start(d);
+        else value = c.value * (FunctionValue(model, c.function, t_end) - FunctionValue(model, c.function, t_start));
+      }
+      if (d < 3) s.displacement_increment(d) = value;
+      else s.rotation_increment(d - 3) = value;
+    }
+    StateUpdateNode(equations, &s);
+  }
+  for (JointState &J : state->joints) {
+    const Joint &joint = model.joints[J.joint];
+    for (int c = 0; c < kJointMaxReleased; ++c) J.increment[c] = 0.0;
+    if (joint.driven_coordinate < 0) continue;
+    const int c    = joint.driven_coordinate;
+    J.increment[c] = accelerations ? joint.drive_value * FunctionDerivative(model, joint.drive_function, t_end, 2)
+                                   : joint.drive_value * FunctionValue(model, joint.drive_function, t_end) - J.start.q[c];
+  }
+  StateUpdateSlaves(model, state);
+}
+
+void StateUpdateSlaves(const Model &model, State *state)
+{
+  const StepEquations &equations     = state->equations;
+  const bool           accelerations = equations.InitialAcceleration();
+  for (JointState &J : state->joints) {
+    const Joint &joint = model.joints[J.joint];
+    NodeState   &slave = state->nodes[J.local_slave];
+    Vec3         x_m   = model.nodes[joint.slave].position; // the ground frame sits at the slave's reference position
+    Mat3         R_m   = Mat3::Identity();
+    if (J.local_master >= 0) {
+      x_m = state->nodes[J.local_master].position;
+      R_m = state->nodes[J.local_master].rotation;
+    }
+    // In the initial-acceleration problem the increments are accelerations: the map stays at the start.
+    JointCoordinates q = J.start;
+    if (!accelerations)
+      for (int c = 0; c < kJointMaxReleased; ++c) q.q[c] += J.increment[c];
+    JointMatrix &N = J.map;
+    JointMap(J.geometry, q, R_m, &N);
+    const int k = JointNumCoordinates(J.geometry);
+    if (accelerations) {
+      // Accelerations: (xddot_s, wdot_s) = N (xddot_m, wdot_m, qddot), velocity-product terms
+      // neglected (exact for a mechanism starting from rest).
+      Eigen::Matrix<double, 6 + kJointMaxReleased, 1> rates = Eigen::Matrix<double, 6 + kJointMaxReleased, 1>::Zero();
+      if (J.local_master >= 0)
+        rates << state->nodes[J.local_master].displacement_increment, state->nodes[J.local_master].rotation_increment,
+            Eigen::Matrix<double, kJointMaxReleased, 1>::Zero();
+      for (int c = 0; c < k; ++c) rates(6 + c) = J.increment[c];
+      const Eigen::Matrix<double, 6, 1> slave_accelerations = N * rates;
+      slave.displacement_increment                          = slave_accelerations.head<3>();
+      slave.rotation_increment                              = slave_accelerations.tail<3>();
+    } else {
+      Vec3 x_s;
+      Mat3 R_s;
+      JointSlaveConfiguration(J.geometry, q, x_m, R_m, &x_s, &R_s);
+      slave.displacement_increment = x_s - slave.position_start;
+      slave.rotation_increment     = LogSO3(R_s * QuaternionToMatrix(slave.rotation_start).transpose());
+      StateUpdateNode(equations, &slave);
+    }
+    // Rows of the mid-point schemes: the conserving map of eq. (21-22), so that the slave's work
+    // and momenta carry over exactly; elsewhere N itself.
+    J.rows_map = N;
+    for (int c = 0; c < kJointMaxReleased; ++c) J.released_test[c] = J.increment[c];
+    if (equations.Midpoint()) {
+      Vec3 x_m_start = model.nodes[joint.slave].position, alpha_m = Vec3::Zero();
+      Mat3 R_m_start = Mat3::Identity();
+      if (J.local_master >= 0) {
+        const NodeState &master = state->nodes[J.local_master];
+        x_m_start               = master.position_start;
+        R_m_start               = QuaternionToMatrix(master.rotation_start);
+        alpha_m                 = master.tangent_scaled_increment;
+      }
+      JointConservingMap(J.geometry, J.start, J.increment, R_m_start, alpha_m, slave.position_start - x_m_start, slave.position - x_m, &J.rows_map,
+                         J.released_test);
+    }
+  }
+}
+
+void StateCommitStep(const Model &model, State *state)
+{
+  const StepEquations &equations = state->equations;
+  if (equations.Dynamic()) {
+    const TimeScheme &scheme = equations.scheme;
+    for (RigidBodyState &body : state->bodies) {
+      const NodeState   &s       = state->nodes[body.local_node];
+      const Mat3         R_start = QuaternionToMatrix(s.rotation_start);
+      const Vec3         u_c     = s.displacement_increment + (s.rotation - R_start) * body.offset;
+      const MotionUpdate next    = AdvanceMotion(scheme, body.centre_of_mass, u_c);
+      body.centre_of_mass        = {next.velocity, next.acceleration, next.pseudo_acceleration};
+    }
+    for (NodeState &s : state->nodes) {
+      const Mat3 R_start = QuaternionToMatrix(s.rotation_start);
+      // Material increment: Theta = R_n^T omega (Newmark family), theta = R_n^T alpha (mid-point).
+      const Vec3         increment = R_start.transpose() * (scheme.Midpoint() ? s.tangent_scaled_increment : s.rotation_increment);
+      const MotionUpdate rotation  = AdvanceMotion(scheme, s.rotation_motion, increment);
+      s.translation_motion         = {s.translation_update.velocity, s.translation_update.acceleration, s.translation_update.pseudo_acceleration};
+      s.rotation_motion            = {rotation.velocity, rotation.acceleration, rotation.pseudo_acceleration};
+    }
+  }
+  for (NodeState &s : state->nodes) NodeCommit(&s);
+  for (JointState &J : state->joints) {
+    const int nt = J.geometry.num_translations;
+    if (J.geometry.rotation == JointRotation::Free) {
+      J.start.free_rotation_start = ExpSO3(Vec3(J.increment[nt], J.increment[nt + 1], J.increment[nt + 2])) * J.start.free_rotation_start;
+      for (int c = 0; c < nt; ++c) J.start.q[c] += J.increment[c];
+    } else {
+      for (int c = 0; c < kJointMaxReleased; ++c) J.start.q[c] += J.increment[c];
+    }
+    for (double &increment : J.increment) increment = 0.0;
+  }
+  StateUpdateSlaves(model, state);
+}
+
+void StateCommitInitialAcceleration(State *state)
+{
+  for (RigidBodyState &body : state->bodies) {
+    const NodeState &s = state->nodes[body.local_node];
+    const Mat3       R = QuaternionToMatrix(s.rotation_start);
+    const Vec3       r = R * body.offset, w = R * s.rotation_motion.velocity;
+    const Vec3       a               = s.displacement_increment + s.rotation_increment.cross(r) + w.cross(w.cross(r));
+    body.centre_of_mass.acceleration = body.centre_of_mass.pseudo_acceleration = a;
+  }
+  for (NodeState &s : state->nodes) {
+    const Mat3 R                      = QuaternionToMatrix(s.rotation_start);
+    s.translation_motion.acceleration = s.translation_motion.pseudo_acceleration = s.displacement_increment;
+    s.rotation_motion.acceleration = s.rotation_motion.pseudo_acceleration = R.transpose() * s.rotation_increment;
+    s.displacement_increment.setZero();
+    s.rotation_increment.setZero();
+  }
+  for (JointState &J : state->joints)
+    for (double &increment : J.increment) increment = 0.0;
+}
+
+void StateDiscardStep(const Model &model, State *state)
+{
+  for (NodeState &s : state->nodes) {
+    s.displacement_increment.setZero();
+    s.rotation_increment.setZero();
+    StateUpdateNode(state->equations, &s);
+  }
+  for (JointState &J : state->joints)
+    for (double &increment : J.increment) increment = 0.0;
+  StateUpdateSlaves(model, state);
+}
+
+void StateSetInitialVelocities(const Model &model, const DofMap &map, double t, State *state)
+{
+  std::vector<const InitialCondition *> condition(model.nodes.size(), nullptr);
+  for (const InitialCondition &ic : model.initial_conditions)
+    for (int node : ic.nodes) condition[node] = &ic;
+  for (size_t l = 0; l < state->nodes.size(); ++l) {
+    const int  node = map.local_nodes[l];
+    NodeState &s    = state->nodes[l];
+    Vec3       v = Vec3::Zero(), w = Vec3::Zero();
+    if (const InitialCondition *ic = condition[node]) {
+      w = ic->angular_velocity;
+      v = ic->velocity + (ic->rigid_body_field ? Vec3(ic->angular_velocity.cross(model.nodes[node].position - ic->center)) : Vec3::Zero());
+    }
+    for (int d = 0; d < 6; ++d) {
+      const DofConstraint &c = map.constraints[node][d];
+      if (c.kind == Support::Kind::Free) continue;
+      const double rate = c.kind == Support::Kind::Prescribed ? c.value * FunctionDerivative(model, c.function, t, 1) : 0.0;
+      if (d < 3) v(d) = rate;
+      else w(d - 3) = rate;
+    }
+    s.translation_motion.velocity = v;
+    s.rotation_motion.velocity    = QuaternionToMatrix(s.rotation_start).transpose() * w;
+  }
+  for (const JointState &J : state->joints) {
+    const Joint &joint = model.joints[J.joint];
+    if (condition[joint.slave]) continue;
+    NodeState &slave = state->nodes[J.local_slave];
+    Vec3       v = Vec3::Zero(), w = Vec3::Zero();
+    if (J.local_master >= 0) {
+      const NodeState &master = state->nodes[J.local_master];
+      w                       = QuaternionToMatrix(master.rotation_start) * master.rotation_motion.velocity;
+      v                       = master.translation_motion.velocity + w.cross(slave.position_start - master.position_start);
+    }
+    slave.translation_motion.velocity = v;
+    slave.rotation_motion.velocity    = QuaternionToMatrix(slave.rotation_start).transpose() * w;
+  }
+  for (RigidBodyState &body : state->bodies) {
+    const NodeState &s           = state->nodes[body.local_node];
+    const Mat3       R           = QuaternionToMatrix(s.rotation_start);
+    body.centre_of_mass.velocity = s.translation_motion.velocity + (R * s.rotation_motion.velocity).cross(R * body.offset);
+  }
+}
+
+bool NodeStateFinite(const NodeState &s)
+{
+  return s.displacement_increment.allFinite() && s.rotation_increment.allFinite() && s.position.allFinite() && s.rotation.allFinite() &&
+         s.rotation_tangent.allFinite() && s.tangent_scaled_increment.allFinite() && s.tangent_scaled_derivative.allFinite() &&
+         s.translation_update.velocity.allFinite() && s.translation_update.acceleration.allFinite();
+}
+
+double StateMaxRotationIncrement(const State &state)
+{
+  double largest = 0.0;
+  for (PetscInt l = 0; l < state.num_owned_nodes; ++l) largest = std::max(largest, state.nodes[l].rotation_increment.norm());
+  return largest;
 }
 
 } // namespace msflex

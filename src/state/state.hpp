@@ -1,12 +1,29 @@
-// Nodal state of the nodes a rank holds (owned and ghosts). Within a step the unknown is the
-// increment from the start of the step (DESIGN.md §3): x = x_n + u, Lambda = exp(hat(omega)) Lambda_n.
-// Ghost nodes receive the same increments as their owners (scattered), so no rotation ever
-// travels between ranks mid-step.
+// The State: everything that moves, for the nodes, joints and rigid bodies a rank holds. The
+// integrator owns it; assembly, output, checkpoints and diagnostics read it.
+//
+// Within a step the unknown is the increment from the start of the step (docs/theory.md):
+// x = x_n + u, Lambda = exp(hat(omega)) Lambda_n. Ghost nodes
+// receive the same increments as their owners (scattered by the assembler), so no rotation ever
+// travels between ranks mid-step. A slave node's configuration follows from its master and its
+// joint's released coordinates (StateUpdateSlaves). In the initial-acceleration problem
+// (schemes/step_equations.hpp) the increment fields hold the unknown accelerations instead and the
+// configuration stays at the start of the step.
+//
+// Lifecycle of a step: StateBeginStep (prescribed values, drives), then any number of trial
+// increments (the assembler sets them and calls StateUpdateNode and StateUpdateSlaves), then
+// StateCommitStep or StateDiscardStep.
 #pragma once
 
-#include "integrators/time_scheme.hpp"
+#include "dofs/dof_map.hpp"
+#include "joints/joint_kinematics.hpp"
 #include "math/rotation.hpp"
+#include "model/model.hpp"
+#include "schemes/step_equations.hpp"
+#include "schemes/time_scheme.hpp"
 
+#include <Eigen/Core>
+
+#include <array>
 #include <vector>
 
 namespace msflex {
@@ -18,7 +35,7 @@ struct NodeState {
   // Increment from the start of the step: the Newton unknowns (or prescribed values).
   Vec3 displacement_increment = Vec3::Zero();
   Vec3 rotation_increment     = Vec3::Zero();
-  // Current configuration, derived from the two above by UpdateCurrent().
+  // Current configuration, derived from the two above by StateUpdateNode.
   Vec3 position         = Vec3::Zero();
   Mat3 rotation         = Mat3::Identity();
   Mat3 rotation_tangent = Mat3::Identity(); // H(omega): d theta = H(omega) d omega
@@ -32,11 +49,74 @@ struct NodeState {
   Mat3         tangent_scaled_derivative = Mat3::Identity(); // d alpha / d omega
 };
 
-// Recomputes position, rotation and rotation_tangent from the start state and the increments.
-void NodeStateUpdateCurrent(NodeState *node);
-// Makes the current configuration the new start of step and clears the increments.
-void NodeStateCommit(NodeState *node);
-// The tracked quaternion of the current rotation: q(omega) * q_n.
+using Vec6 = Eigen::Matrix<double, 6, 1>;
+
+// A joint whose slave node is local.
+struct JointState {
+  int              joint        = -1; // index into the model's joints
+  int              local_slave  = -1;
+  int              local_master = -1; // -1: the ground
+  JointGeometry    geometry;
+  JointCoordinates start; // at the start of the step (a free rotation keeps C_n, q = 0)
+  double           increment[kJointMaxReleased] = {0, 0, 0, 0, 0, 0};
+  // Derived from the master and the increments by StateUpdateSlaves: the map N of the slave's
+  // spin variations, the map of the residual rows (N, or the conserving map of the mid-point
+  // schemes) and the released test quantities that go with it.
+  JointMatrix map;
+  JointMatrix rows_map;
+  double      released_test[kJointMaxReleased] = {0, 0, 0, 0, 0, 0};
+  // Output of an owned joint (Assembler::EvaluateJointReactions): force and moment on the slave,
+  // mean rates of the released coordinates over the last step.
+  Vec6                                  reaction = Vec6::Zero();
+  std::array<double, kJointMaxReleased> rate{};
+};
+
+// A rigid body on an owned node: its translational inertia sits at its centre of mass, which
+// moves with its own algorithmic velocity (elements/inertia.hpp).
+struct RigidBodyState {
+  int         body         = -1; // index into the model's rigid bodies
+  int         global_index = -1; // number in the whole model (checkpoints)
+  int         local_node   = -1;
+  double      mass         = 0.0;
+  Vec3        offset       = Vec3::Zero(); // centre of mass, node body frame
+  MotionState centre_of_mass;              // motion of the centre of mass, global axes
+};
+
+struct State {
+  std::vector<NodeState>      nodes;      // per local node (DofMap::local_nodes: owned first)
+  std::vector<JointState>     joints;     // per local joint (DofMap::local_joints: masters' joints first)
+  std::vector<int>            node_joint; // per local node: index into joints when it is a slave, else -1
+  std::vector<RigidBodyState> bodies;     // rigid bodies on owned nodes
+  PetscInt                    num_owned_nodes = 0;
+  StepEquations               equations; // of the step being solved
+};
+
+// The reference configuration at rest.
+void StateCreate(const Model &model, const DofMap &map, State *state);
+// Starts a step: fixed DOFs keep a zero increment, prescribed DOFs and driven joint coordinates
+// get their values at t_end (their second derivatives in the initial-acceleration problem), every
+// other increment is zero; slaves follow.
+void StateBeginStep(const Model &model, const DofMap &map, const StepEquations &equations, State *state);
+// The configuration and, in dynamics, the end-of-step translational motion and the tangent-scaled
+// rotation increment implied by a node's increments.
+void StateUpdateNode(const StepEquations &equations, NodeState *node);
+// Slave configurations from their masters and joints (masters first), the joints' maps N and the
+// rows' maps (the conserving map of eq. 21-22 in the mid-point schemes).
+void StateUpdateSlaves(const Model &model, State *state);
+// Accepts the increments as the new start of step (with velocities and accelerations); slaves follow.
+void StateCommitStep(const Model &model, State *state);
+// Stores the solved initial accelerations as the start-of-step accelerations.
+void StateCommitInitialAcceleration(State *state);
+// Forgets the increments (a rejected step); slaves follow.
+void StateDiscardStep(const Model &model, State *state);
+// Initial velocities from the model's initial conditions and prescribed motions at time t; a slave
+// without an initial condition moves rigidly with its master.
+void StateSetInitialVelocities(const Model &model, const DofMap &map, double t, State *state);
+// Largest |omega| over the owned nodes.
+double StateMaxRotationIncrement(const State &state);
+// Whether everything a node holds for this step is finite (diagnostics).
+bool NodeStateFinite(const NodeState &node);
+// The tracked quaternion of a node's current rotation: q(omega) * q_n.
 Quaternion NodeStateCurrentQuaternion(const NodeState &node);
 
 } // namespace msflex

@@ -6,8 +6,9 @@
 // generalized-alpha and the initial-acceleration problem, where the tangent is exact; the
 // mid-point schemes' inertia tangents are checked kernel by kernel in test_inertia.
 // Runs on any number of ranks.
-#include "assembly/assembler.hpp"
+#include "assembly/mechanical_system.hpp"
 #include "io/input_reader.hpp"
+#include "output/results.hpp"
 #include "parallel/partition.hpp"
 
 #include <gtest/gtest.h>
@@ -110,10 +111,35 @@ analysis: {type: dynamic}   # a mechanism: the static rigid-body check would ref
 enum class Problem { Static, Newmark, GeneralizedAlpha, InitialAcceleration };
 
 struct AssembledSystem {
-  Model     model;
-  DofMap    map;
-  Assembler assembler;
+  Model            model;
+  DofMap           map;
+  MechanicalSystem system;
 };
+
+StepEquations EquationsOf(Problem problem)
+{
+  switch (problem) {
+  case Problem::Static:
+    return StaticStep(0.0, 0.8);
+  case Problem::Newmark:
+  case Problem::GeneralizedAlpha:
+    return DynamicStep(MakeTimeScheme(problem == Problem::Newmark ? TimeSchemeKind::Newmark : TimeSchemeKind::GeneralizedAlpha, 0.6, 0.05), 0.0);
+  case Problem::InitialAcceleration:
+    break;
+  }
+  return InitialAccelerationProblem(0.0);
+}
+
+// The system of a model (whole, or restricted with the pattern and masses of the whole), with its
+// initial velocities, set up for `problem`.
+PetscErrorCode SetupSystem(Model *model, DofMap *map, MatrixPattern pattern, NodalMass mass, Problem problem, MechanicalSystem *system)
+{
+  PetscFunctionBeginUser;
+  PetscCall(system->Setup(PETSC_COMM_WORLD, *model, *map, std::move(pattern), std::move(mass)));
+  StateSetInitialVelocities(*model, *map, 0.0, &system->GetState());
+  PetscCall(system->GetAssembler().BeginStep(EquationsOf(problem)));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
 
 PetscErrorCode Build(const char *text, Problem problem, AssembledSystem *system)
 {
@@ -123,22 +149,10 @@ PetscErrorCode Build(const char *text, Problem problem, AssembledSystem *system)
   std::vector<int> node_rank;
   PetscCall(PartitionNodes(PETSC_COMM_WORLD, system->model, PartitionerType::Simple, &node_rank));
   PetscCall(DofMapCreate(PETSC_COMM_WORLD, system->model, node_rank, &system->map));
-  PetscCall(system->assembler.Setup(PETSC_COMM_WORLD, system->model, system->map));
-  PetscCall(system->assembler.SetInitialVelocities(0.0));
-  static TimeScheme scheme; // the assembler keeps a copy; static only to outlive this call
-  switch (problem) {
-  case Problem::Static:
-    PetscCall(system->assembler.BeginStep(0.0, 0.8, nullptr));
-    break;
-  case Problem::Newmark:
-  case Problem::GeneralizedAlpha:
-    scheme = MakeTimeScheme(problem == Problem::Newmark ? TimeSchemeKind::Newmark : TimeSchemeKind::GeneralizedAlpha, 0.6, 0.05);
-    PetscCall(system->assembler.BeginStep(0.0, 0.05, &scheme));
-    break;
-  case Problem::InitialAcceleration:
-    PetscCall(system->assembler.BeginInitialAcceleration(0.0));
-    break;
-  }
+  MatrixPattern pattern;
+  NodalMass     mass;
+  PetscCall(MechanicalSystemPrepare(system->model, system->map, &pattern, &mass));
+  PetscCall(SetupSystem(&system->model, &system->map, std::move(pattern), std::move(mass), problem, &system->system));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
@@ -161,7 +175,7 @@ PetscErrorCode JacobianRelativeError(const char *text, Problem problem, double *
   PetscInt        n, first, last;
   PetscFunctionBeginUser;
   PetscCall(Build(text, problem, &system));
-  Assembler &assembler = system.assembler;
+  Assembler &assembler = system.system.GetAssembler();
   PetscCall(VecDuplicate(assembler.SolutionTemplate(), &x));
   PetscCall(VecDuplicate(x, &r_plus));
   PetscCall(VecDuplicate(x, &r_minus));
@@ -319,18 +333,19 @@ struct AssembledState {
   std::vector<double>      joint_values;
 };
 
-PetscErrorCode AssembleState(AssembledSystem &system, Vec x, AssembledState *state)
+PetscErrorCode AssembleState(const Model &model, const DofMap &map, MechanicalSystem &system, Vec x, AssembledState *state)
 {
-  PetscBool ok;
+  PetscBool         ok;
+  Assembler        &assembler = system.GetAssembler();
+  JointHistoryNames names;
   PetscFunctionBeginUser;
-  PetscCall(system.assembler.SetInitialVelocities(0.0));
-  PetscCall(system.assembler.SetIncrements(x));
+  PetscCall(assembler.SetIncrements(x));
   PetscCall(VecDuplicate(x, &state->residual));
-  PetscCall(system.assembler.AssembleResidual(state->residual, &ok));
-  PetscCall(system.assembler.AssembleJacobian(system.assembler.Jacobian(), &ok));
-  PetscCall(MatDuplicate(system.assembler.Jacobian(), MAT_COPY_VALUES, &state->jacobian));
-  PetscCall(system.assembler.EvaluateJointReactions(0.05));
-  PetscCall(system.assembler.JointHistory(&state->joint_names, &state->joint_values));
+  PetscCall(assembler.AssembleResidual(state->residual, &ok));
+  PetscCall(assembler.AssembleJacobian(assembler.Jacobian(), &ok));
+  PetscCall(MatDuplicate(assembler.Jacobian(), MAT_COPY_VALUES, &state->jacobian));
+  PetscCall(assembler.EvaluateJointReactions(0.05));
+  PetscCall(JointHistory(PETSC_COMM_WORLD, model, map, system.GetState(), &names, &state->joint_names, &state->joint_values));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
@@ -345,15 +360,23 @@ TEST(AssembledSystem, RestrictedModelAssemblesIdentically)
     const size_t num_nodes = system.model.nodes.size(), num_elements = system.model.elements.size(), num_joints = system.model.joints.size();
     Vec          x;
     PetscInt     first, last;
-    ASSERT_EQ(VecDuplicate(system.assembler.SolutionTemplate(), &x), PETSC_SUCCESS);
+    ASSERT_EQ(VecDuplicate(system.system.GetAssembler().SolutionTemplate(), &x), PETSC_SUCCESS);
     ASSERT_EQ(VecGetOwnershipRange(x, &first, &last), PETSC_SUCCESS);
     for (PetscInt i = first; i < last; ++i) ASSERT_EQ(VecSetValue(x, i, 0.1 * std::sin(1.0 + 3.7 * (double)i), INSERT_VALUES), PETSC_SUCCESS);
     ASSERT_EQ(VecAssemblyBegin(x), PETSC_SUCCESS);
     ASSERT_EQ(VecAssemblyEnd(x), PETSC_SUCCESS);
     AssembledState whole, restricted;
-    ASSERT_EQ(AssembleState(system, x, &whole), PETSC_SUCCESS);
-    ASSERT_EQ(DofMapRestrictToLocal(&system.model, &system.map), PETSC_SUCCESS);
-    ASSERT_EQ(AssembleState(system, x, &restricted), PETSC_SUCCESS);
+    ASSERT_EQ(AssembleState(system.model, system.map, system.system, x, &whole), PETSC_SUCCESS);
+    // The distributed model: a new model and map, and a system built on them.
+    Model            local_model;
+    DofMap           local_map;
+    MatrixPattern    pattern;
+    NodalMass        mass;
+    MechanicalSystem local_system;
+    ASSERT_EQ(MechanicalSystemPrepare(system.model, system.map, &pattern, &mass), PETSC_SUCCESS);
+    ASSERT_EQ(DofMapRestrictToLocal(system.model, system.map, &local_model, &local_map), PETSC_SUCCESS);
+    ASSERT_EQ(SetupSystem(&local_model, &local_map, std::move(pattern), std::move(mass), problem, &local_system), PETSC_SUCCESS);
+    ASSERT_EQ(AssembleState(local_model, local_map, local_system, x, &restricted), PETSC_SUCCESS);
 
     PetscReal residual_difference, jacobian_difference, residual_norm, jacobian_norm;
     ASSERT_EQ(VecNorm(whole.residual, NORM_2, &residual_norm), PETSC_SUCCESS);
@@ -373,25 +396,26 @@ TEST(AssembledSystem, RestrictedModelAssemblesIdentically)
     }
 
     // Only the local part remains, numbered locally; the output numbering keeps the global rows.
-    const DofMap &map = system.map;
-    EXPECT_EQ(system.model.nodes.size(), map.local_nodes.size());
+    const DofMap &map = local_map;
+    EXPECT_EQ(local_model.nodes.size(), map.local_nodes.size());
     EXPECT_EQ(map.node_dofs.size(), map.local_nodes.size());
     EXPECT_EQ(map.node_unknowns.size(), map.local_nodes.size());
     EXPECT_EQ(map.global_nodes.size(), map.local_nodes.size());
-    EXPECT_EQ(system.model.elements.size(), map.local_elements.size());
-    EXPECT_EQ(system.model.joints.size(), map.local_joints.size());
+    EXPECT_EQ(local_model.elements.size(), map.local_elements.size());
+    EXPECT_EQ(local_model.joints.size(), map.local_joints.size());
     EXPECT_EQ(map.global_count.nodes, (PetscInt)num_nodes);
     EXPECT_EQ(map.global_count.elements, (PetscInt)num_elements);
-    EXPECT_TRUE(system.model.beams.empty() && system.model.node_sets.empty() && system.model.input_text.empty());
+    EXPECT_TRUE(local_model.node_sets.empty() && local_model.input_text.empty());
+    for (const Beam &beam : local_model.beams) EXPECT_TRUE(beam.elements.empty() && beam.nodes.empty()); // names only
     if (size > 1) {
-      EXPECT_LT(system.model.nodes.size(), num_nodes);
-      EXPECT_LT(system.model.elements.size(), num_elements);
+      EXPECT_LT(local_model.nodes.size(), num_nodes);
+      EXPECT_LT(local_model.elements.size(), num_elements);
     }
     PetscInt owned_nodes = map.num_owned_nodes, total_owned = 0;
     MPI_Allreduce(&owned_nodes, &total_owned, 1, MPIU_INT, MPI_SUM, PETSC_COMM_WORLD);
     EXPECT_EQ(total_owned, (PetscInt)num_nodes);
-    for (const BeamElement &element : system.model.elements)
-      for (int a = 0; a <= element.order; ++a) EXPECT_TRUE(element.nodes[a] >= 0 && element.nodes[a] < (int)system.model.nodes.size());
+    for (const BeamElement &element : local_model.elements)
+      for (int a = 0; a <= element.order; ++a) EXPECT_TRUE(element.nodes[a] >= 0 && element.nodes[a] < (int)local_model.nodes.size());
     VecDestroy(&x);
     for (AssembledState *state : {&whole, &restricted}) {
       VecDestroy(&state->residual);

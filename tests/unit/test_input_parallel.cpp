@@ -128,12 +128,12 @@ TEST(InputParallel, SlicedReadGivesTheSingleReaderModel)
   }
   ASSERT_EQ(together.joints.size(), 2u);
   for (size_t joint = 0; joint < 2; ++joint) {
-    EXPECT_EQ(together.joints[joint].type, alone.joints[joint].type);
+    EXPECT_EQ(together.joints[joint].kind, alone.joints[joint].kind);
     EXPECT_EQ(together.joints[joint].master, alone.joints[joint].master);
     EXPECT_EQ(together.joints[joint].slave, alone.joints[joint].slave);
     EXPECT_EQ(together.joints[joint].axes, alone.joints[joint].axes);
   }
-  EXPECT_EQ(together.joints[1].type, "spherical");
+  EXPECT_EQ(together.joints[1].kind, JointKind::Spherical);
   EXPECT_EQ(together.input_text, alone.input_text); // rank 0's text reached every rank
   ASSERT_EQ(together.probes.size(), 1u);
   EXPECT_EQ(together.probes[0].node, alone.probes[0].node);

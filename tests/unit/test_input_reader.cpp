@@ -319,8 +319,8 @@ loads:
   ASSERT_TRUE(ReadModelString(text, "input/dir.v2/roll.yaml", &model, &error)) << error.Format();
   EXPECT_EQ(model.output.file, "roll.h5");
   EXPECT_EQ(model.output.every, 1);
-  EXPECT_EQ(model.analysis.type, "static");
-  EXPECT_EQ(model.analysis.integrator, "em");
+  EXPECT_EQ(model.analysis.type, AnalysisType::Static);
+  EXPECT_EQ(model.analysis.integrator, TimeSchemeKind::EnergyMomentum);
   EXPECT_DOUBLE_EQ(model.analysis.spectral_radius, 0.9);
   EXPECT_DOUBLE_EQ(model.analysis.initial_step, 0.1);
   EXPECT_TRUE(model.rigid_bodies.empty());
@@ -393,8 +393,8 @@ analysis:
 TEST(InputReader, DynamicModelWithRigidBodiesAndInitialConditions)
 {
   const Model model = ReadValid(kDynamicModel);
-  EXPECT_EQ(model.analysis.type, "dynamic");
-  EXPECT_EQ(model.analysis.integrator, "genalpha");
+  EXPECT_EQ(model.analysis.type, AnalysisType::Dynamic);
+  EXPECT_EQ(model.analysis.integrator, TimeSchemeKind::GeneralizedAlpha);
   EXPECT_DOUBLE_EQ(model.analysis.spectral_radius, 0.6);
   EXPECT_DOUBLE_EQ(model.analysis.end_time, 0.5);
   EXPECT_DOUBLE_EQ(model.analysis.initial_step, 1.0e-3);
@@ -460,7 +460,7 @@ TEST(InputReader, StaticModelNeedsSupportsForBeamlessRigidBodies)
   EXPECT_EQ(error.line, 21);
   const Model model = ReadValid(text + "supports: [{nodes: [root, pod], fix: all}]\n");
   // Integrator settings and initial conditions are accepted, and ignored, by static analyses.
-  EXPECT_EQ(model.analysis.integrator, "genalpha");
+  EXPECT_EQ(model.analysis.integrator, TimeSchemeKind::GeneralizedAlpha);
   EXPECT_EQ(model.initial_conditions.size(), 3u);
 }
 
@@ -483,7 +483,7 @@ analysis: {type: dynamic}
   EXPECT_EQ(model.rigid_bodies[0].node, 0);
   EXPECT_EQ(model.rigid_bodies[0].inertia, Vec3(1, 2, 3).asDiagonal().toDenseMatrix());
   EXPECT_EQ(model.rigid_bodies[0].offset, Vec3(0.1, 0, 0));
-  EXPECT_EQ(model.analysis.integrator, "em");
+  EXPECT_EQ(model.analysis.integrator, TimeSchemeKind::EnergyMomentum);
   EXPECT_DOUBLE_EQ(model.analysis.spectral_radius, 0.9);
   ASSERT_EQ(model.initial_conditions.size(), 1u);
   EXPECT_EQ(model.initial_conditions[0].nodes, (std::vector<int>{0}));
@@ -492,7 +492,7 @@ analysis: {type: dynamic}
 
   // Static: accepted once all six DOFs of the node are held; `sections:` left empty means none.
   const Model fixed = ReadValid("sections:\n" + text.substr(0, text.find("analysis")) + "supports: [{nodes: hub, fix: all}]\n");
-  EXPECT_EQ(fixed.analysis.type, "static");
+  EXPECT_EQ(fixed.analysis.type, AnalysisType::Static);
   EXPECT_TRUE(fixed.sections.empty());
 }
 
@@ -536,7 +536,7 @@ analysis:
 )";
   for (const char *integrator : {"newmark", "mc", "em", "genalpha"}) {
     const Model model = ReadValid(head + "  integrator: " + integrator + "\n  spectral_radius: 0\n");
-    EXPECT_EQ(model.analysis.integrator, integrator);
+    EXPECT_STREQ(TimeSchemeName(model.analysis.integrator), integrator);
     EXPECT_DOUBLE_EQ(model.analysis.spectral_radius, 0.0);
     ASSERT_EQ(model.sections.size(), 2u);
     EXPECT_NEAR(model.sections[0].rhoA, model.sections[1].rhoA, 1e-12);
@@ -642,7 +642,7 @@ TEST(InputReader, JointsOfEveryType)
     SCOPED_TRACE(joint.name);
     ExpectOrthonormal(joint.axes); // orthonormal and right-handed (det = +1)
     const std::string suffix = joint.name.substr(2);
-    EXPECT_EQ(joint.type, suffix == "rack" ? "rack_pinion" : suffix == "table" ? "cam_table" : suffix);
+    EXPECT_EQ(std::string(JointKindName(joint.kind)), suffix == "rack" ? "rack_pinion" : suffix == "table" ? "cam_table" : suffix);
     EXPECT_EQ(joint.master, joint.name == "j_revolute" ? -1 : hub);
     EXPECT_EQ(joint.slave, NodeIndex(model, "s_" + joint.name.substr(2)));
   }
@@ -1056,7 +1056,7 @@ TEST(InputMesh, SameModelAsEquivalentYaml)
     const Joint &a = model.joints[index], &b = expected.joints[index];
     SCOPED_TRACE(b.name);
     EXPECT_EQ(a.name, b.name);
-    EXPECT_EQ(a.type, b.type);
+    EXPECT_EQ(a.kind, b.kind);
     EXPECT_EQ(a.master, b.master);
     EXPECT_EQ(a.slave, b.slave);
     EXPECT_EQ(a.axes, b.axes);

@@ -1,9 +1,8 @@
-#include "integrators/analysis.hpp"
+#include "app/run_analysis.hpp"
 
-#include "assembly/assembler.hpp"
 #include "core/errors.hpp"
 #include "core/format.hpp"
-#include "integrators/newton.hpp"
+#include "integrators/integrator.hpp"
 #include "integrators/step_controller.hpp"
 #include "output/results.hpp"
 #include "parallel/partition.hpp"
@@ -70,33 +69,23 @@ double NextTarget(const AnalysisSettings &analysis, double t)
 // Everything one analysis owns, so that the step loop reads as the algorithm.
 struct Analysis {
   MPI_Comm             comm;
-  Model               &model; // the whole model during set-up, this rank's part afterwards
   const RunOptions    &options;
-  bool                 dynamic     = false;
-  TimeSchemeKind       scheme_kind = TimeSchemeKind::EnergyMomentum;
+  Model                model; // this rank's part of the model (the distributed model)
   DofMap               map;
-  Assembler            assembler;
-  NewtonContext        newton_context;
-  SNES                 snes       = nullptr;
-  Vec                  increments = nullptr;
+  Integrator           integrator;
   OutputFile           output;
-  double               external_work = 0.0;             // accumulated work of the external loads (dynamics)
-  const CheckpointRun *restart       = nullptr;         // the checkpoint this run continues, or null
-  long long            history_rows  = 0;               // rows written to /history
-  std::string          input_file_absolute, input_text; // for checkpoints (the text only on rank 0)
+  JointHistoryNames    joint_history_names;
+  const CheckpointRun *restart      = nullptr;                      // the checkpoint this run continues, or null
+  long long            history_rows = 0;                            // rows written to /history
+  std::string          input_file_absolute, input_text, input_file; // for checkpoints (the text only on rank 0)
   // Wall clock (rank 0's, broadcast) and simulated time when this process started stepping, and
   // of the last checkpoint.
   double wall_start = 0.0, time_start = 0.0, last_checkpoint_wall = 0.0;
-  // -log_view stages: Setup, Partition, Assembly (pushed by the Newton callbacks), LinearSolve
-  // (the rest of each Newton solve: factorisation, triangular or Krylov solves), Output.
-  PetscLogStage stage_setup, stage_partition, stage_solve, stage_output;
+  // -log_view stages: Setup, Partition, Output (the integrator adds LinearSolve and Assembly).
+  PetscLogStage stage_setup, stage_partition, stage_output, stage_assembly;
 
-  Analysis(MPI_Comm c, Model &m, const RunOptions &o, const CheckpointRun *r) : comm(c), model(m), options(o), restart(r) {}
-  ~Analysis()
-  {
-    VecDestroy(&increments);
-    SNESDestroy(&snes);
-  }
+  Analysis(MPI_Comm c, const RunOptions &o, const CheckpointRun *r) : comm(c), options(o), restart(r) {}
+  bool Dynamic() const { return model.analysis.type == AnalysisType::Dynamic; }
 };
 
 struct StepRecord {
@@ -107,50 +96,50 @@ struct StepRecord {
   double residual_norm     = 0.0;
 };
 
-PetscErrorCode Setup(Analysis &a)
+// Set-up sees the whole model: partition, unknowns, the matrix pattern, nodal masses and the
+// output mesh; then each rank keeps only its part (the distributed model) and the integrator is
+// set up on it.
+PetscErrorCode Setup(Analysis &a, Model whole)
 {
   PartitionerType  partitioner;
   std::vector<int> node_rank;
+  DofMap           whole_map;
+  MatrixPattern    pattern;
+  NodalMass        nodal_mass;
   PetscFunctionBeginUser;
   PetscCall(PetscLogStageRegister("Setup", &a.stage_setup));
   PetscCall(PetscLogStageRegister("Partition", &a.stage_partition));
-  PetscCall(PetscLogStageRegister("LinearSolve", &a.stage_solve));
   PetscCall(PetscLogStageRegister("Output", &a.stage_output));
-  PetscCall(PetscLogStageRegister("Assembly", &a.newton_context.assembly_stage));
+  PetscCall(PetscLogStageRegister("Assembly", &a.stage_assembly));
   // Set-up's parts as -log_view events (registered once per process).
-  static PetscLogEvent event_dof_map = -1, event_assembler_setup, event_output_open, event_restrict;
+  static PetscLogEvent event_dof_map = -1, event_preallocation, event_integrator_setup, event_output_open, event_restrict;
   if (event_dof_map < 0) {
     PetscClassId classid;
     PetscCall(PetscClassIdRegister("msflex", &classid));
     PetscCall(PetscLogEventRegister("DofMapCreate", classid, &event_dof_map));
-    PetscCall(PetscLogEventRegister("AssemblerSetup", classid, &event_assembler_setup));
+    PetscCall(PetscLogEventRegister("Preallocation", classid, &event_preallocation));
+    PetscCall(PetscLogEventRegister("AssemblerSetup", classid, &event_integrator_setup));
     PetscCall(PetscLogEventRegister("OutputOpen", classid, &event_output_open));
     PetscCall(PetscLogEventRegister("ModelRestrict", classid, &event_restrict));
   }
   PetscCall(PetscLogStagePush(a.stage_setup));
-  a.dynamic = a.model.analysis.type == "dynamic";
-  if (a.dynamic)
-    PetscCheck(TimeSchemeKindFromName(a.model.analysis.integrator, &a.scheme_kind), a.comm, PETSC_ERR_USER_INPUT,
-               "unknown integrator '%s'; use newmark, mc, em or genalpha", a.model.analysis.integrator.c_str());
   PetscCall(PetscLogStagePush(a.stage_partition));
   PetscCall(PartitionerTypeFromOptions(a.comm, &partitioner));
-  PetscCall(PartitionNodes(a.comm, a.model, partitioner, &node_rank));
+  PetscCall(PartitionNodes(a.comm, whole, partitioner, &node_rank));
   PetscCall(PetscLogStagePop());
   PetscCall(PetscLogEventBegin(event_dof_map, 0, 0, 0, 0));
-  PetscCall(DofMapCreate(a.comm, a.model, node_rank, &a.map));
+  PetscCall(DofMapCreate(a.comm, whole, node_rank, &whole_map));
   PetscCall(PetscLogEventEnd(event_dof_map, 0, 0, 0, 0));
-  PetscCall(PetscLogEventBegin(event_assembler_setup, 0, 0, 0, 0));
-  PetscCall(a.assembler.Setup(a.comm, a.model, a.map));
-  PetscCall(PetscLogEventEnd(event_assembler_setup, 0, 0, 0, 0));
-  a.newton_context.assembler = &a.assembler;
-  PetscCall(NewtonSolverCreate(a.comm, a.model.analysis, a.dynamic && IsMidpointScheme(a.scheme_kind), &a.newton_context, &a.snes));
-  PetscCall(VecDuplicate(a.assembler.SolutionTemplate(), &a.increments));
+  PetscCall(PetscLogEventBegin(event_preallocation, 0, 0, 0, 0));
+  PetscCall(MechanicalSystemPrepare(whole, whole_map, &pattern, &nodal_mass));
+  PetscCall(PetscLogEventEnd(event_preallocation, 0, 0, 0, 0));
   PetscMPIInt rank;
   PetscCallMPI(MPI_Comm_rank(a.comm, &rank));
   PetscCall(PetscLogEventBegin(event_output_open, 0, 0, 0, 0));
   std::error_code no_throw;
-  a.input_file_absolute = std::filesystem::absolute(a.model.input_file, no_throw).string();
-  if (rank == 0) a.input_text = a.model.input_text;
+  a.input_file          = whole.input_file;
+  a.input_file_absolute = std::filesystem::absolute(whole.input_file, no_throw).string();
+  if (rank == 0) a.input_text = whole.input_text;
   // A restart continues its result file when it is there (-output_file may name a new one).
   int continue_output = 0;
   if (a.restart && rank == 0) {
@@ -164,44 +153,30 @@ PetscErrorCode Setup(Analysis &a)
   } else {
     OutputMesh mesh; // taken from rank 0
     if (rank == 0) {
-      BuildOutputMesh(a.model, &mesh);
-      mesh.node_rank = a.map.node_rank;
+      BuildOutputMesh(whole, &mesh);
+      mesh.node_rank = whole_map.node_rank;
     }
-    PetscCall(a.output.Open(a.comm, a.options.output_file, a.options.output_overwrite, a.model.input_file, a.model.input_text, mesh));
+    PetscCall(a.output.Open(a.comm, a.options.output_file, a.options.output_overwrite, whole.input_file, whole.input_text, mesh));
   }
   PetscCall(PetscLogEventEnd(event_output_open, 0, 0, 0, 0));
   PetscCall(PetscLogEventBegin(event_restrict, 0, 0, 0, 0));
-  PetscCall(DofMapRestrictToLocal(&a.model, &a.map));
+  PetscCall(DofMapRestrictToLocal(whole, whole_map, &a.model, &a.map));
+  whole     = Model{};
+  whole_map = DofMap{};
   PetscCall(PetscLogEventEnd(event_restrict, 0, 0, 0, 0));
+  PetscCall(PetscLogEventBegin(event_integrator_setup, 0, 0, 0, 0));
+  PetscCall(a.integrator.Setup(a.comm, a.model, a.map, std::move(pattern), std::move(nodal_mass), a.stage_assembly));
+  PetscCall(PetscLogEventEnd(event_integrator_setup, 0, 0, 0, 0));
   if (a.restart) {
     const DofMap::GlobalCount &count = a.map.global_count;
     PetscCheck(a.restart->num_nodes == count.nodes && a.restart->num_joints == count.joints && a.restart->num_rigid_bodies == count.rigid_bodies, a.comm,
                PETSC_ERR_USER_INPUT,
                "the checkpoint holds %lld nodes, %lld joints and %lld rigid bodies, but the model has %" PetscInt_FMT ", %" PetscInt_FMT " and %" PetscInt_FMT,
                a.restart->num_nodes, a.restart->num_joints, a.restart->num_rigid_bodies, count.nodes, count.joints, count.rigid_bodies);
-    PetscCall(CheckpointReadState(a.comm, a.options.restart_file, &a.assembler));
-    a.external_work = a.restart->external_work;
+    PetscCall(CheckpointReadState(a.comm, a.options.restart_file, a.model, a.map, a.integrator.MutableState()));
+    a.integrator.SetExternalWork(a.restart->external_work);
   }
   PetscCall(PetscLogStagePop());
-  PetscFunctionReturn(PETSC_SUCCESS);
-}
-
-// Initial velocities, and for the Newmark family the accelerations that satisfy the equations of
-// motion at t = 0 (a linear problem, solved by the same Newton solver in one iteration).
-PetscErrorCode InitialiseMotion(Analysis &a)
-{
-  PetscFunctionBeginUser;
-  PetscCall(a.assembler.SetInitialVelocities(0.0));
-  if (IsMidpointScheme(a.scheme_kind)) PetscFunctionReturn(PETSC_SUCCESS);
-  SNESConvergedReason reason;
-  PetscCall(a.assembler.BeginInitialAcceleration(0.0));
-  PetscCall(VecZeroEntries(a.increments));
-  PetscCall(SNESSolve(a.snes, nullptr, a.increments));
-  PetscCall(SNESGetConvergedReason(a.snes, &reason));
-  PetscCheck(reason > 0, a.comm, PETSC_ERR_NOT_CONVERGED,
-             "the initial accelerations could not be computed (%s): is every node with a DOF free given mass or stiffness?", SNESConvergedReasons[reason]);
-  PetscCall(a.assembler.SetIncrements(a.increments));
-  PetscCall(a.assembler.CommitInitialAcceleration());
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
@@ -210,24 +185,25 @@ PetscErrorCode WriteHistory(Analysis &a, const StepRecord &record, double strain
 {
   std::vector<ProbeSample> probes;
   PetscFunctionBeginUser;
-  PetscCall(SampleProbes(a.comm, a.model, a.assembler, &probes));
+  const State &state = a.integrator.GetState();
+  PetscCall(SampleProbes(a.comm, a.model, a.map, state, &probes));
   std::vector<std::string> names  = {"time", "step", "step_size", "newton_iterations", "residual_norm", "strain_energy"};
   std::vector<double>      values = {record.time, (double)record.step, record.step_size, (double)record.newton_iterations, record.residual_norm, strain_energy};
-  if (a.dynamic) {
-    DynamicsDiagnostics d;
-    PetscCall(a.assembler.EvaluateDynamics(&d));
+  if (a.Dynamic()) {
+    Momenta d;
+    PetscCall(a.integrator.MomentaOfState(&d));
     *kinetic_energy    = d.kinetic_energy;
-    const double total = d.kinetic_energy + strain_energy;
+    const double total = d.kinetic_energy + strain_energy, work = a.integrator.ExternalWork();
     names.insert(names.end(), {"kinetic_energy", "total_energy", "external_work", "energy_balance", "linear_momentum_x", "linear_momentum_y",
                                "linear_momentum_z", "angular_momentum_x", "angular_momentum_y", "angular_momentum_z", "energy_correction"});
     values.insert(values.end(),
-                  {d.kinetic_energy, total, a.external_work, total - a.external_work, d.linear_momentum(0), d.linear_momentum(1), d.linear_momentum(2),
-                   d.angular_momentum(0), d.angular_momentum(1), d.angular_momentum(2), record.step == 0 ? 0.0 : a.assembler.EnergyCorrectionFactor()});
+                  {d.kinetic_energy, total, work, total - work, d.linear_momentum(0), d.linear_momentum(1), d.linear_momentum(2), d.angular_momentum(0),
+                   d.angular_momentum(1), d.angular_momentum(2), record.step == 0 ? 0.0 : a.integrator.EnergyCorrectionFactor()});
   }
   if (a.map.global_count.joints > 0) {
     std::vector<std::string> joint_names;
     std::vector<double>      joint_values;
-    PetscCall(a.assembler.JointHistory(&joint_names, &joint_values));
+    PetscCall(JointHistory(a.comm, a.model, a.map, state, &a.joint_history_names, &joint_names, &joint_values));
     names.insert(names.end(), joint_names.begin(), joint_names.end());
     values.insert(values.end(), joint_values.begin(), joint_values.end());
   }
@@ -241,8 +217,8 @@ PetscErrorCode WriteFrame(Analysis &a, int step, double time, double *strain_ene
   std::vector<ElementResults> results;
   OutputFrame                 frame;
   PetscFunctionBeginUser;
-  PetscCall(a.assembler.EvaluateResults(&results, strain_energy));
-  PetscCall(GatherFrame(a.comm, a.model, a.assembler, results, step, time, a.dynamic, &frame));
+  PetscCall(a.integrator.ElementResults(&results, strain_energy));
+  PetscCall(GatherFrame(a.comm, a.model, a.map, a.integrator.GetState(), results, step, time, a.Dynamic(), &frame));
   PetscCall(a.output.WriteFrame(frame));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
@@ -254,10 +230,7 @@ PetscErrorCode RecordStep(Analysis &a, const StepRecord &record, bool write_fram
   PetscFunctionBeginUser;
   PetscCall(PetscLogStagePush(a.stage_output));
   if (write_frame) PetscCall(WriteFrame(a, record.step, record.time, &strain_energy));
-  else {
-    std::vector<ElementResults> unused;
-    PetscCall(a.assembler.EvaluateResults(&unused, &strain_energy));
-  }
+  else PetscCall(a.integrator.StrainEnergy(&strain_energy));
   PetscCall(WriteHistory(a, record, strain_energy, &kinetic_energy));
   PetscCall(PetscLogStagePop());
   const bool last = record.time >= a.model.analysis.end_time * (1.0 - 1e-14);
@@ -266,7 +239,7 @@ PetscErrorCode RecordStep(Analysis &a, const StepRecord &record, bool write_fram
     const double      elapsed = MPI_Wtime() - a.wall_start;
     const double      left    = record.time > a.time_start ? elapsed * (a.model.analysis.end_time - record.time) / (record.time - a.time_start) : NAN;
     const std::string timing  = "wall " + FormatDuration(elapsed) + (last ? "" : ", left ~" + FormatDuration(left));
-    if (a.dynamic) {
+    if (a.Dynamic()) {
       PetscCall(PetscPrintf(a.comm, "step %6d  t = %-11.6g dt = %-10.4g newton %2d  |R| = %.3e  energy = %.10e  %s\n", record.step, record.time,
                             record.step_size, record.newton_iterations, record.residual_norm, kinetic_energy + strain_energy, timing.c_str()));
     } else {
@@ -291,7 +264,7 @@ PetscErrorCode WriteCheckpoint(Analysis &a, int step, double t, int last_written
   PetscFunctionBeginUser;
   run.step                = step;
   run.time                = t;
-  run.external_work       = a.external_work;
+  run.external_work       = a.integrator.ExternalWork();
   run.last_written        = last_written;
   run.history_rows        = a.history_rows;
   run.controller_step     = controller.CurrentStep();
@@ -304,7 +277,7 @@ PetscErrorCode WriteCheckpoint(Analysis &a, int step, double t, int last_written
   run.options             = a.options.options_database;
   run.output_file         = a.options.output_file;
   PetscCall(PetscLogStagePush(a.stage_output));
-  PetscCall(CheckpointWrite(a.comm, a.options.checkpoint_file, run, a.assembler));
+  PetscCall(CheckpointWrite(a.comm, a.options.checkpoint_file, run, a.integrator.GetState(), a.map));
   PetscCall(PetscLogStagePop());
   a.last_checkpoint_wall = WallClock(a.comm);
   PetscFunctionReturn(PETSC_SUCCESS);
@@ -338,21 +311,21 @@ PetscErrorCode CheckpointIfDue(Analysis &a, int step, double t, int last_written
 
 PetscErrorCode RunAnalysis(MPI_Comm comm, Model model, const RunOptions &options, const CheckpointRun *restart, RunEnd *end)
 {
-  const AnalysisSettings  &analysis = model.analysis;
-  Analysis                 a(comm, model, options, restart);
+  Analysis                 a(comm, options, restart);
   const StopSignalHandlers signals;
   PetscFunctionBeginUser;
   *end = RunEnd::Completed;
-  PetscCall(Setup(a));
+  PetscCall(Setup(a, std::move(model)));
+  const AnalysisSettings &analysis = a.model.analysis;
   if (!options.quiet)
     PetscCall(PetscPrintf(comm,
                           "msflex: %s analysis%s%s of '%s': %" PetscInt_FMT " nodes, %" PetscInt_FMT " elements, %" PetscInt_FMT " rigid bodies, %" PetscInt_FMT
                           " joints, %" PetscInt_FMT " unknowns; output %s\n",
-                          a.dynamic ? "dynamic" : "static", a.dynamic ? " with " : "", a.dynamic ? TimeSchemeName(a.scheme_kind) : "", model.input_file.c_str(),
-                          a.map.global_count.nodes, a.map.global_count.elements, a.map.global_count.rigid_bodies, a.map.global_count.joints, a.map.num_global,
-                          options.output_file.c_str()));
+                          AnalysisTypeName(analysis.type), a.Dynamic() ? " with " : "", a.Dynamic() ? TimeSchemeName(analysis.integrator) : "",
+                          a.input_file.c_str(), a.map.global_count.nodes, a.map.global_count.elements, a.map.global_count.rigid_bodies,
+                          a.map.global_count.joints, a.map.num_global, options.output_file.c_str()));
   if (!restart) {
-    if (a.dynamic) PetscCall(InitialiseMotion(a));
+    if (a.Dynamic()) PetscCall(a.integrator.InitialiseMotion(0.0));
     PetscCall(RecordStep(a, StepRecord{}, true));
   }
 
@@ -380,37 +353,16 @@ PetscErrorCode RunAnalysis(MPI_Comm comm, Model model, const RunOptions &options
     const double target = NextTarget(analysis, t);
     double       dt     = controller.Propose(t, target);
     for (;;) {
-      const TimeScheme scheme = MakeTimeScheme(a.scheme_kind, analysis.spectral_radius, dt);
-      PetscCall(PetscLogStagePush(a.stage_solve));
-      PetscCall(a.assembler.BeginStep(t, t + dt, a.dynamic ? &scheme : nullptr));
-      PetscCall(a.assembler.PredictIncrements(a.increments));
-      PetscCall(SNESSolve(a.snes, nullptr, a.increments));
-      PetscCall(a.assembler.SetIncrements(a.increments));
-      PetscCall(PetscLogStagePop());
-      SNESConvergedReason reason;
-      PetscInt            iterations;
-      PetscReal           residual_norm;
-      double              max_rotation = 0.0;
-      PetscCall(SNESGetConvergedReason(a.snes, &reason));
-      PetscCall(SNESGetIterationNumber(a.snes, &iterations));
-      PetscCall(SNESGetFunctionNorm(a.snes, &residual_norm));
-      if (reason > 0) PetscCall(a.assembler.MaxRotationIncrement(&max_rotation));
-      const bool rotation_too_large = max_rotation > analysis.max_rotation_increment;
-      if (reason > 0 && !rotation_too_large) {
-        if (a.dynamic) {
-          double work;
-          PetscCall(a.assembler.StepExternalWork(&work));
-          a.external_work += work;
-        }
-        if (a.map.global_count.joints > 0) PetscCall(a.assembler.EvaluateJointReactions(dt));
-        PetscCall(a.assembler.CommitStep());
+      StepOutcome outcome;
+      PetscCall(a.integrator.TryStep(t, dt, &outcome));
+      if (outcome.converged) {
         t = (t + dt >= target * (1.0 - 1e-14)) ? target : t + dt;
         ++step;
-        controller.Accept(dt, (int)iterations);
+        controller.Accept(dt, outcome.newton_iterations);
         const bool write_frame = (step % options.output_every == 0) || t >= analysis.end_time * (1.0 - 1e-14) ||
                                  std::find(analysis.output_times.begin(), analysis.output_times.end(), t) != analysis.output_times.end();
         if (write_frame) last_written = step;
-        PetscCall(RecordStep(a, {step, t, dt, (int)iterations, residual_norm}, write_frame));
+        PetscCall(RecordStep(a, {step, t, dt, outcome.newton_iterations, outcome.residual_norm}, write_frame));
         bool stop = false;
         PetscCall(CheckpointIfDue(a, step, t, last_written, controller, &stop));
         if (stop) {
@@ -420,16 +372,7 @@ PetscErrorCode RunAnalysis(MPI_Comm comm, Model model, const RunOptions &options
         }
         break;
       }
-      // Why, in words and naming where (element, node, joint), before the increments are dropped.
-      std::string why_text;
-      if (rotation_too_large) {
-        why_text = Format("a nodal rotation increment of %.4g rad exceeds max_rotation_increment = %.4g rad", max_rotation, analysis.max_rotation_increment);
-      } else {
-        PetscCall(NewtonDescribeFailure(a.snes, &a.newton_context, &why_text));
-        PetscCall(NewtonForgetFactorization(a.snes));
-      }
-      PetscCall(a.assembler.DiscardStep());
-      const char *why   = why_text.c_str();
+      const char *why   = outcome.why.c_str();
       const bool  retry = controller.Reject(dt);
       if (!options.quiet) PetscCall(PetscPrintf(comm, "step %5d  t = %-12.6g dt = %-10.4g rejected: %s; halving\n", step + 1, t + dt, dt, why));
       if (!retry) {
@@ -445,7 +388,7 @@ PetscErrorCode RunAnalysis(MPI_Comm comm, Model model, const RunOptions &options
         SETERRQ(comm, PETSC_ERR_NOT_CONVERGED,
                 "%s analysis stopped at t = %g after step %d: the step to t = %g failed (%s) and halving it would go below min_step = %g; the "
                 "results up to t = %g are in %s, a checkpoint of that state in %s",
-                a.dynamic ? "dynamic" : "static", t, step, t + dt, why, analysis.min_step, t, options.output_file.c_str(), options.checkpoint_file.c_str());
+                AnalysisTypeName(analysis.type), t, step, t + dt, why, analysis.min_step, t, options.output_file.c_str(), options.checkpoint_file.c_str());
       }
       dt = controller.Propose(t, target);
     }

@@ -1,10 +1,10 @@
-// The analysis driver: statics (load stepping in pseudo-time) and dynamics (time stepping with the
-// scheme named by analysis.integrator), one step loop with the step controller, Newton per step,
-// diagnostics and output.
+// The analysis driver: set-up (partition, unknowns, the distributed model), one step loop with the
+// step controller over the integrator's steps (integrators/integrator.hpp), output, checkpoints,
+// progress lines and stop signals. Statics steps a load factor (pseudo-time), dynamics time.
 #pragma once
 
 #include "model/model.hpp"
-#include "output/checkpoint.hpp"
+#include "state/checkpoint.hpp"
 
 #include <petscsys.h>
 

@@ -1,4 +1,4 @@
-#include "joints/joint_model.hpp"
+#include "model/joint_geometry.hpp"
 
 namespace msflex {
 
@@ -9,10 +9,10 @@ JointGeometry JointGeometryOf(const Joint &joint, const Vec3 &offset)
   g.offset           = offset;
   g.num_translations = joint.num_translations;
   for (int i = 0; i < 3; ++i) g.translation_axis[i] = joint.translation_axis[i];
-  g.rotation         = (JointRotation)joint.rotation;
+  g.rotation         = joint.rotation;
   g.rotation_axis[0] = joint.rotation_axis[0];
   g.rotation_axis[1] = joint.rotation_axis[1];
-  g.dependence       = (JointDependence)joint.dependence;
+  g.dependence       = joint.dependence;
   g.dependent_axis   = joint.dependent_axis;
   g.coefficient      = joint.coefficient;
   if (joint.dependence == Joint::Dependence::Table)

@@ -1,32 +1,46 @@
-#include "integrators/time_scheme.hpp"
+#include "schemes/time_scheme.hpp"
 
 #include <cmath>
 
 namespace msflex {
 
+namespace {
+const IntegratorInfo kIntegrators[] = {
+    {"newmark", TimeSchemeKind::Newmark, "trapezoidal Newmark on SO(3) (beta = 1/4, gamma = 1/2); conserves neither energy nor momenta in general"},
+    {"genalpha", TimeSchemeKind::GeneralizedAlpha, "Lie-group generalized-alpha with spectral radius rho_infinity (spectral_radius): damps high frequencies"},
+    {"mc", TimeSchemeKind::MomentumConserving, "mid-point momentum-conserving scheme (eq. 17): conserves linear and angular momentum"},
+    {"em", TimeSchemeKind::EnergyMomentum, "energy-momentum scheme (eq. 18-20): conserves energy and momenta, with joints in place"},
+};
+} // namespace
+
+const IntegratorInfo *Integrators(int *count)
+{
+  *count = (int)(sizeof(kIntegrators) / sizeof(kIntegrators[0]));
+  return kIntegrators;
+}
+
 bool TimeSchemeKindFromName(const std::string &name, TimeSchemeKind *kind)
 {
-  if (name == "newmark") *kind = TimeSchemeKind::Newmark;
-  else if (name == "genalpha") *kind = TimeSchemeKind::GeneralizedAlpha;
-  else if (name == "mc") *kind = TimeSchemeKind::MomentumConserving;
-  else if (name == "em") *kind = TimeSchemeKind::EnergyMomentum;
-  else return false;
-  return true;
+  for (const IntegratorInfo &info : kIntegrators)
+    if (name == info.name) {
+      *kind = info.kind;
+      return true;
+    }
+  return false;
 }
 
 const char *TimeSchemeName(TimeSchemeKind kind)
 {
-  switch (kind) {
-  case TimeSchemeKind::Newmark:
-    return "newmark";
-  case TimeSchemeKind::GeneralizedAlpha:
-    return "genalpha";
-  case TimeSchemeKind::MomentumConserving:
-    return "mc";
-  case TimeSchemeKind::EnergyMomentum:
-    return "em";
-  }
+  for (const IntegratorInfo &info : kIntegrators)
+    if (info.kind == kind) return info.name;
   return "?";
+}
+
+std::string IntegratorNameList()
+{
+  std::string list;
+  for (const IntegratorInfo &info : kIntegrators) list += (list.empty() ? "" : ", ") + std::string(info.name);
+  return list;
 }
 
 TimeScheme MakeTimeScheme(TimeSchemeKind kind, double spectral_radius, double dt)

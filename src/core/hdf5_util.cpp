@@ -1,4 +1,4 @@
-#include "output/hdf5_util.hpp"
+#include "core/hdf5_util.hpp"
 
 #include <algorithm>
 #include <numeric>

@@ -6,7 +6,7 @@
 // keeps the previous checkpoint.
 #pragma once
 
-#include "assembly/assembler.hpp"
+#include "state/state.hpp"
 
 #include <petscsys.h>
 
@@ -29,12 +29,12 @@ struct CheckpointRun {
   std::string output_file;                                         // the result file the run writes
 };
 
-// Writes `run` and the assembler's start-of-step state to `path` (through path + ".tmp"). Collective.
-PetscErrorCode CheckpointWrite(MPI_Comm comm, const std::string &path, const CheckpointRun &run, const Assembler &assembler);
+// Writes `run` and the start-of-step state to `path` (through path + ".tmp"). Collective.
+PetscErrorCode CheckpointWrite(MPI_Comm comm, const std::string &path, const CheckpointRun &run, const State &state, const DofMap &map);
 // Reads the run record (rank 0 reads, every rank receives it). Collective.
 PetscErrorCode CheckpointReadRun(MPI_Comm comm, const std::string &path, CheckpointRun *run);
-// Gives the assembler (set up for the checkpoint's model, on any number of ranks) the state of
-// its local nodes, joints and rigid bodies. Collective.
-PetscErrorCode CheckpointReadState(MPI_Comm comm, const std::string &path, Assembler *assembler);
+// Gives the state (created for the checkpoint's model, on any number of ranks) the start-of-step
+// state of its local nodes, joints and rigid bodies; slaves follow. Collective.
+PetscErrorCode CheckpointReadState(MPI_Comm comm, const std::string &path, const Model &model, const DofMap &map, State *state);
 
 } // namespace msflex

@@ -1,7 +1,7 @@
-#include "output/checkpoint.hpp"
+#include "state/checkpoint.hpp"
 
+#include "core/hdf5_util.hpp"
 #include "core/mpi_util.hpp"
-#include "output/hdf5_util.hpp"
 
 #include <cstdio>
 
@@ -69,10 +69,101 @@ PetscErrorCode ReadText(const std::string &label, hid_t parent, const char *name
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
+// The start-of-step state in records of fixed size: node: position (3), tracked rotation
+// quaternion w x y z (4), translational velocity, acceleration and pseudo-acceleration (9), the
+// same for the rotation in the body frame (9); joint: released coordinates (6), the free rotation's
+// C_n row-major (9); rigid body: motion of its centre of mass (9). Only start-of-step values are
+// kept: everything else (current configuration, slave placement, loads, the time scheme's
+// coefficients) follows from them and the time at the next step, so a restarted run repeats the
+// original one to the last bit.
+constexpr int kNodeStateSize = 25, kJointStateSize = 15, kRigidBodyStateSize = 9;
+
+struct StateRecords {
+  std::vector<int>    numbers; // in the whole model
+  std::vector<double> values;
+};
+
+void PutVec3(const Vec3 &v, double *out)
+{
+  for (int i = 0; i < 3; ++i) out[i] = v(i);
+}
+
+Vec3 GetVec3(const double *in) { return Vec3(in[0], in[1], in[2]); }
+
+void PutMotion(const MotionState &motion, double *out)
+{
+  PutVec3(motion.velocity, out);
+  PutVec3(motion.acceleration, out + 3);
+  PutVec3(motion.pseudo_acceleration, out + 6);
+}
+
+MotionState GetMotion(const double *in) { return {GetVec3(in), GetVec3(in + 3), GetVec3(in + 6)}; }
+
+// The records of what this rank owns, with their numbers in the whole model.
+void ExportState(const State &state, const DofMap &map, int rank, StateRecords *nodes, StateRecords *joints, StateRecords *bodies)
+{
+  *nodes = *joints = *bodies = StateRecords{};
+  for (PetscInt l = 0; l < map.num_owned_nodes; ++l) {
+    const NodeState &s = state.nodes[l];
+    double           record[kNodeStateSize];
+    PutVec3(s.position_start, record);
+    record[3] = s.rotation_start.w, record[4] = s.rotation_start.x, record[5] = s.rotation_start.y, record[6] = s.rotation_start.z;
+    PutMotion(s.translation_motion, record + 7);
+    PutMotion(s.rotation_motion, record + 16);
+    nodes->numbers.push_back(map.global_nodes[map.local_nodes[l]]);
+    nodes->values.insert(nodes->values.end(), record, record + kNodeStateSize);
+  }
+  for (const JointState &J : state.joints) {
+    if (map.joint_rank[J.joint] != rank) continue;
+    double record[kJointStateSize];
+    for (int c = 0; c < kJointMaxReleased; ++c) record[c] = J.start.q[c];
+    for (int i = 0; i < 3; ++i)
+      for (int k = 0; k < 3; ++k) record[kJointMaxReleased + 3 * i + k] = J.start.free_rotation_start(i, k);
+    joints->numbers.push_back(map.global_joints[J.joint]);
+    joints->values.insert(joints->values.end(), record, record + kJointStateSize);
+  }
+  for (const RigidBodyState &body : state.bodies) {
+    double record[kRigidBodyStateSize];
+    PutMotion(body.centre_of_mass, record);
+    bodies->numbers.push_back(body.global_index);
+    bodies->values.insert(bodies->values.end(), record, record + kRigidBodyStateSize);
+  }
+}
+
+// Takes the records of every local node and joint and of the rank's rigid bodies, in state order.
+PetscErrorCode ImportState(const std::vector<double> &nodes, const std::vector<double> &joints, const std::vector<double> &bodies, State *state)
+{
+  PetscFunctionBeginUser;
+  PetscCheck(nodes.size() == kNodeStateSize * state->nodes.size() && joints.size() == kJointStateSize * state->joints.size() &&
+                 bodies.size() == kRigidBodyStateSize * state->bodies.size(),
+             PETSC_COMM_SELF, PETSC_ERR_ARG_SIZ, "state records do not match the local nodes, joints and rigid bodies");
+  for (size_t l = 0; l < state->nodes.size(); ++l) {
+    const double *record = &nodes[kNodeStateSize * l];
+    NodeState    &s      = state->nodes[l];
+    s.position_start     = GetVec3(record);
+    s.rotation_start     = Quaternion{record[3], record[4], record[5], record[6]};
+    s.translation_motion = GetMotion(record + 7);
+    s.rotation_motion    = GetMotion(record + 16);
+    s.displacement_increment.setZero();
+    s.rotation_increment.setZero();
+    StateUpdateNode(StaticStep(0.0, 0.0), &s);
+  }
+  for (size_t j = 0; j < state->joints.size(); ++j) {
+    const double *record = &joints[kJointStateSize * j];
+    JointState   &J      = state->joints[j];
+    for (int c = 0; c < kJointMaxReleased; ++c) J.start.q[c] = record[c], J.increment[c] = 0.0;
+    for (int i = 0; i < 3; ++i)
+      for (int k = 0; k < 3; ++k) J.start.free_rotation_start(i, k) = record[kJointMaxReleased + 3 * i + k];
+  }
+  for (size_t b = 0; b < state->bodies.size(); ++b) state->bodies[b].centre_of_mass = GetMotion(&bodies[kRigidBodyStateSize * b]);
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
 } // namespace
 
-PetscErrorCode CheckpointWrite(MPI_Comm comm, const std::string &path, const CheckpointRun &run, const Assembler &assembler)
+PetscErrorCode CheckpointWrite(MPI_Comm comm, const std::string &path, const CheckpointRun &run, const State &state, const DofMap &map)
 {
+  PetscMPIInt       rank;
   const std::string temporary = path + ".tmp";
   PetscFunctionBeginUser;
   // Rank 0: the run record.
@@ -97,16 +188,16 @@ PetscErrorCode CheckpointWrite(MPI_Comm comm, const std::string &path, const Che
     PetscFunctionReturn(PETSC_SUCCESS);
   }));
   // Every rank: the state records it owns, collectively.
-  Assembler::StateRecords nodes, joints, bodies;
-  assembler.ExportState(&nodes, &joints, &bodies);
+  StateRecords nodes, joints, bodies;
+  PetscCallMPI(MPI_Comm_rank(comm, &rank));
+  ExportState(state, map, rank, &nodes, &joints, &bodies);
   PetscCall(RunCollective(comm, [&]() -> PetscErrorCode {
     H5Id file;
     PetscFunctionBeginUser;
     PetscCall(OpenFileCollective(comm, temporary, &file));
-    PetscCall(WriteRowsCollective(temporary, file, "nodes", (hsize_t)run.num_nodes, Assembler::kNodeStateSize, nodes.numbers, nodes.values));
-    PetscCall(WriteRowsCollective(temporary, file, "joints", (hsize_t)run.num_joints, Assembler::kJointStateSize, joints.numbers, joints.values));
-    PetscCall(
-        WriteRowsCollective(temporary, file, "rigid_bodies", (hsize_t)run.num_rigid_bodies, Assembler::kRigidBodyStateSize, bodies.numbers, bodies.values));
+    PetscCall(WriteRowsCollective(temporary, file, "nodes", (hsize_t)run.num_nodes, kNodeStateSize, nodes.numbers, nodes.values));
+    PetscCall(WriteRowsCollective(temporary, file, "joints", (hsize_t)run.num_joints, kJointStateSize, joints.numbers, joints.values));
+    PetscCall(WriteRowsCollective(temporary, file, "rigid_bodies", (hsize_t)run.num_rigid_bodies, kRigidBodyStateSize, bodies.numbers, bodies.values));
     PetscCallHDF5At(temporary, H5Fclose(file.Release()));
     PetscFunctionReturn(PETSC_SUCCESS);
   }));
@@ -149,22 +240,26 @@ PetscErrorCode CheckpointReadRun(MPI_Comm comm, const std::string &path, Checkpo
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
-PetscErrorCode CheckpointReadState(MPI_Comm comm, const std::string &path, Assembler *assembler)
+PetscErrorCode CheckpointReadState(MPI_Comm comm, const std::string &path, const Model &model, const DofMap &map, State *state)
 {
   std::vector<int>    node_numbers, joint_numbers, body_numbers;
   std::vector<double> nodes, joints, bodies;
   PetscFunctionBeginUser;
-  assembler->StateNumbers(&node_numbers, &joint_numbers, &body_numbers);
+  // The numbers of what this rank needs: every local node and joint, its own rigid bodies.
+  for (size_t l = 0; l < state->nodes.size(); ++l) node_numbers.push_back(map.global_nodes[map.local_nodes[l]]);
+  for (const JointState &J : state->joints) joint_numbers.push_back(map.global_joints[J.joint]);
+  for (const RigidBodyState &body : state->bodies) body_numbers.push_back(body.global_index);
   PetscCall(RunCollective(comm, [&]() -> PetscErrorCode {
     H5Id file;
     PetscFunctionBeginUser;
     PetscCallHDF5At(path, file = H5Fopen(path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT));
-    PetscCall(ReadRows(path, file, "nodes", Assembler::kNodeStateSize, node_numbers, &nodes));
-    PetscCall(ReadRows(path, file, "joints", Assembler::kJointStateSize, joint_numbers, &joints));
-    PetscCall(ReadRows(path, file, "rigid_bodies", Assembler::kRigidBodyStateSize, body_numbers, &bodies));
+    PetscCall(ReadRows(path, file, "nodes", kNodeStateSize, node_numbers, &nodes));
+    PetscCall(ReadRows(path, file, "joints", kJointStateSize, joint_numbers, &joints));
+    PetscCall(ReadRows(path, file, "rigid_bodies", kRigidBodyStateSize, body_numbers, &bodies));
     PetscFunctionReturn(PETSC_SUCCESS);
   }));
-  PetscCall(assembler->ImportState(nodes, joints, bodies));
+  PetscCall(ImportState(nodes, joints, bodies, state));
+  StateUpdateSlaves(model, state);
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 

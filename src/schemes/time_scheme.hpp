@@ -43,9 +43,19 @@ struct TimeScheme {
   double VelocityCoefficient() const;
 };
 
-// Parses "newmark", "genalpha", "mc", "em"; false for anything else.
+// The registry of integrators: the one place that names them, read by the input reader, the
+// options, -help and the documentation test.
+struct IntegratorInfo {
+  const char    *name;
+  TimeSchemeKind kind;
+  const char    *description;
+};
+const IntegratorInfo *Integrators(int *count);
+// Parses a registered name; false for anything else.
 bool        TimeSchemeKindFromName(const std::string &name, TimeSchemeKind *kind);
 const char *TimeSchemeName(TimeSchemeKind kind);
+// "newmark, genalpha, mc, em": the registered names, for messages.
+std::string IntegratorNameList();
 TimeScheme  MakeTimeScheme(TimeSchemeKind kind, double spectral_radius, double dt);
 
 // Kinematic state of one vector DOF group (translation, or rotation in the material frame) at the

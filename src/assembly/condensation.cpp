@@ -1,0 +1,233 @@
+// Condensation of slave nodes at assembly (Muñoz, Jelenić & Crisfield 2003, eq. 5–8): a slave's
+// spin residual g goes to its master and its joint's released coordinates through N^T, its
+// stiffness through N^T K N, plus the joint's geometric stiffness d(N^T g)/d(theta_m, q). Chains
+// compose: every local node carries an expansion (rows, columns) into the global unknowns it
+// depends on (DofMap::node_unknowns):
+//   independent node: rows = I on its free DOFs, columns = blockdiag(I, H(omega))
+//   slave node:       rows = N_m rows_master (+) N_q,  columns = N_m columns_master (+) N_q
+// where N_m (6x6) and N_q (6xk) are the master and released-coordinate parts of N, restricted to
+// the coordinates that are not driven. The rows use the joints' rows map (the conserving map of
+// the mid-point schemes), the columns N itself (state/state.hpp, StateUpdateSlaves).
+#include "assembly/assembler.hpp"
+
+#include <algorithm>
+#include <cstring>
+
+namespace msflex {
+
+void Assembler::IndependentExpansion(int l, double *rows, double *columns) const
+{
+  const NodeState               &s    = state_->nodes[l];
+  const std::array<PetscInt, 6> &dofs = map_->node_dofs[map_->local_nodes[l]];
+  // In the initial-acceleration problem the unknowns are the accelerations themselves: no H.
+  const Mat3 H      = state_->equations.InitialAcceleration() ? Mat3::Identity() : s.rotation_tangent;
+  const int  m      = (int)map_->node_unknowns[map_->local_nodes[l]].size();
+  int        column = 0;
+  for (int i = 0; i < 6 * m; ++i) rows[i] = columns[i] = 0.0;
+  for (int d = 0; d < 6; ++d) {
+    if (dofs[d] < 0) continue;
+    rows[d * m + column] = 1.0;
+    if (d < 3) columns[d * m + column] = 1.0;
+    else
+      for (int i = 0; i < 3; ++i) columns[(3 + i) * m + column] = H(i, d - 3);
+    ++column;
+  }
+}
+
+void Assembler::NodeExpansion(int l, const double **rows, const double **columns, double *scratch_rows, double *scratch_columns) const
+{
+  if (IsSlave(l)) {
+    *rows    = expansion_rows_[l].data();
+    *columns = expansion_columns_[l].data();
+    return;
+  }
+  IndependentExpansion(l, scratch_rows, scratch_columns);
+  *rows    = scratch_rows;
+  *columns = scratch_columns;
+}
+
+void Assembler::UpdateExpansions()
+{
+  double master_rows[6 * 6 * kJointMaxReleased], master_columns[6 * 6 * kJointMaxReleased];
+  for (size_t j = 0; j < state_->joints.size(); ++j) {
+    const JointState  &J      = state_->joints[j];
+    const Joint       &joint  = model_->joints[J.joint];
+    const JointMatrix &N      = J.map;
+    const JointMatrix &N_rows = J.rows_map;
+    // Expansion: the master's (through N_m) followed by the free released coordinates (N_q).
+    const int            m        = (int)map_->node_unknowns[joint.slave].size();
+    std::vector<double> &rows     = expansion_rows_[J.local_slave];
+    std::vector<double> &columns  = expansion_columns_[J.local_slave];
+    int                  m_master = 0;
+    std::fill(rows.begin(), rows.end(), 0.0);
+    std::fill(columns.begin(), columns.end(), 0.0);
+    if (J.local_master >= 0) {
+      const double *mr, *mc;
+      NodeExpansion(J.local_master, &mr, &mc, master_rows, master_columns);
+      m_master = (int)map_->node_unknowns[joint.master].size();
+      for (int i = 0; i < 6; ++i)
+        for (int col = 0; col < m_master; ++col) {
+          double r = 0.0, c = 0.0;
+          for (int k = 0; k < 6; ++k) r += N_rows(i, k) * mr[k * m_master + col], c += N(i, k) * mc[k * m_master + col];
+          rows[i * m + col]    = r;
+          columns[i * m + col] = c;
+        }
+    }
+    int column = m_master;
+    for (int c = 0; c < JointNumCoordinates(J.geometry); ++c) {
+      if (joint_slots_[j][c] < 0) continue;
+      for (int i = 0; i < 6; ++i) rows[i * m + column] = N_rows(i, 6 + c), columns[i * m + column] = N(i, 6 + c);
+      ++column;
+    }
+  }
+}
+
+PetscErrorCode Assembler::AddNodeResidual(Vec residual, int l, const double *g)
+{
+  PetscFunctionBeginUser;
+  const int        node = map_->local_nodes[l];
+  const NodeState &s    = state_->nodes[l];
+  for (int d = 0; d < 6; ++d) {
+    local_force_squares_ += g[d] * g[d];
+    if (map_->constraints[node][d].kind == Support::Kind::Prescribed)
+      prescribed_work_ += g[d] * (d < 3 ? s.displacement_increment(d) : s.tangent_scaled_increment(d - 3));
+  }
+  if (!IsSlave(l)) {
+    PetscCall(VecSetValues(residual, 6, map_->node_dofs[node].data(), g, ADD_VALUES));
+    PetscFunctionReturn(PETSC_SUCCESS);
+  }
+  slave_residual_[l] += Eigen::Map<const Vec6>(g);
+  const std::vector<PetscInt> &unknowns = map_->node_unknowns[node];
+  const int                    m        = (int)unknowns.size();
+  const double                *rows     = expansion_rows_[l].data();
+  double                      *values   = expansion_scratch_.data();
+  for (int col = 0; col < m; ++col) {
+    values[col] = 0.0;
+    for (int i = 0; i < 6; ++i) values[col] += rows[i * m + col] * g[i];
+  }
+  PetscCall(VecSetValues(residual, m, unknowns.data(), values, ADD_VALUES));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode Assembler::AddNodeBlock(Mat jacobian, int l, const Mat6 &block)
+{
+  PetscFunctionBeginUser;
+  const int node = map_->local_nodes[l];
+  if (!IsSlave(l)) {
+    // Columns from spins to the node's unknowns: d theta = H(omega) d omega (accelerations: I).
+    Mat6 columns = block;
+    if (!state_->equations.InitialAcceleration()) columns.rightCols<3>() = (block.rightCols<3>() * state_->nodes[l].rotation_tangent).eval();
+    PetscCall(MatSetValues(jacobian, 6, map_->node_dofs[node].data(), 6, map_->node_dofs[node].data(), columns.data(), ADD_VALUES));
+    PetscFunctionReturn(PETSC_SUCCESS);
+  }
+  const std::vector<PetscInt> &unknowns = map_->node_unknowns[node];
+  const int                    m        = (int)unknowns.size();
+  const double                *rows = expansion_rows_[l].data(), *columns = expansion_columns_[l].data();
+  double                      *values = expansion_scratch_.data();
+  for (int a = 0; a < m; ++a)
+    for (int b = 0; b < m; ++b) {
+      double v = 0.0;
+      for (int i = 0; i < 6; ++i)
+        for (int j = 0; j < 6; ++j) v += rows[i * m + a] * block(i, j) * columns[j * m + b];
+      values[a * m + b] = v;
+    }
+  PetscCall(MatSetValues(jacobian, m, unknowns.data(), m, unknowns.data(), values, ADD_VALUES));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode Assembler::AddExpandedMatrix(Mat jacobian, int num_nodes, const int *local_nodes, const double *K)
+{
+  const int              nd = 6 * num_nodes;
+  double                 scratch_rows[kBeamMaxNodes][36], scratch_columns[kBeamMaxNodes][36];
+  const double          *rows[kBeamMaxNodes], *columns[kBeamMaxNodes];
+  int                    offset[kBeamMaxNodes + 1] = {0};
+  std::vector<PetscInt> &indices                   = expanded_indices_scratch_;
+  PetscFunctionBeginUser;
+  indices.clear();
+  for (int a = 0; a < num_nodes; ++a) {
+    const int l = local_nodes[a];
+    NodeExpansion(l, &rows[a], &columns[a], scratch_rows[a], scratch_columns[a]);
+    const std::vector<PetscInt> &unknowns = map_->node_unknowns[map_->local_nodes[l]];
+    indices.insert(indices.end(), unknowns.begin(), unknowns.end());
+    offset[a + 1] = (int)indices.size();
+  }
+  const int M = (int)indices.size();
+  if ((int)expansion_scratch_.size() < M * M) expansion_scratch_.resize(M * M);
+  double *values = expansion_scratch_.data();
+  for (int a = 0; a < num_nodes; ++a) {
+    const int ma = offset[a + 1] - offset[a];
+    for (int b = 0; b < num_nodes; ++b) {
+      const int mb = offset[b + 1] - offset[b];
+      for (int p = 0; p < ma; ++p)
+        for (int r = 0; r < mb; ++r) {
+          double v = 0.0;
+          for (int i = 0; i < 6; ++i) {
+            double Kc = 0.0;
+            for (int j = 0; j < 6; ++j) Kc += K[(6 * a + i) * nd + 6 * b + j] * columns[b][j * mb + r];
+            v += rows[a][i * ma + p] * Kc;
+          }
+          values[(offset[a] + p) * M + offset[b] + r] = v;
+        }
+    }
+  }
+  PetscCall(MatSetValues(jacobian, M, indices.data(), M, indices.data(), values, ADD_VALUES));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode Assembler::AddJointGeometricStiffness(Mat jacobian)
+{
+  double master_rows[6 * 6 * kJointMaxReleased], master_columns[6 * 6 * kJointMaxReleased];
+  PetscFunctionBeginUser;
+  // Slaves deepest first: each passes N_m^T g on to its master before the master is processed.
+  for (size_t j = state_->joints.size(); j-- > 0;) {
+    const JointState &J     = state_->joints[j];
+    const Joint      &joint = model_->joints[J.joint];
+    const Vec6        g     = slave_residual_[J.local_slave];
+    if (g.isZero(0.0)) continue;
+    Mat3 R_m = Mat3::Identity();
+    if (J.local_master >= 0) R_m = state_->nodes[J.local_master].rotation;
+    JointCoordinates q = J.start;
+    for (int c = 0; c < kJointMaxReleased; ++c) q.q[c] += J.increment[c];
+    JointSquare G;
+    JointGeometricStiffness(J.geometry, q, R_m, g, &G);
+    // Rows: the master's rows for (x_m, theta_m), identity for the free coordinates; columns alike.
+    const int                    k        = JointNumCoordinates(J.geometry);
+    const std::vector<PetscInt> &unknowns = map_->node_unknowns[joint.slave];
+    const int                    m        = (int)unknowns.size();
+    const int                    m_master = J.local_master >= 0 ? (int)map_->node_unknowns[joint.master].size() : 0;
+    // R, C ((6 + k) x m), G C and the block (m x m) live in preallocated scratch: no allocation per joint.
+    using RowMajorMap   = Eigen::Map<Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>>;
+    double     *scratch = joint_geometric_scratch_.data();
+    RowMajorMap R(scratch, 6 + k, m), C(scratch + (6 + k) * m, 6 + k, m), GC(scratch + 2 * (6 + k) * m, 6 + k, m), block(scratch + 3 * (6 + k) * m, m, m);
+    R.setZero();
+    C.setZero();
+    if (J.local_master >= 0) {
+      const double *mr, *mc;
+      NodeExpansion(J.local_master, &mr, &mc, master_rows, master_columns);
+      for (int i = 0; i < 6; ++i)
+        for (int col = 0; col < m_master; ++col) R(i, col) = mr[i * m_master + col], C(i, col) = mc[i * m_master + col];
+      if (IsSlave(J.local_master)) slave_residual_[J.local_master] += J.map.leftCols<6>().transpose() * g;
+    }
+    int column = m_master;
+    for (int c = 0; c < k; ++c) {
+      if (joint_slots_[j][c] < 0) continue;
+      R(6 + c, column) = C(6 + c, column) = 1.0;
+      ++column;
+    }
+    GC.noalias()    = G.topLeftCorner(6 + k, 6 + k) * C;
+    block.noalias() = R.transpose() * GC;
+    PetscCall(MatSetValues(jacobian, m, unknowns.data(), m, unknowns.data(), block.data(), ADD_VALUES));
+  }
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+void Assembler::PropagateSlaveResiduals()
+{
+  for (size_t j = state_->joints.size(); j-- > 0;) {
+    const JointState &J = state_->joints[j];
+    if (J.local_master >= 0 && IsSlave(J.local_master))
+      slave_residual_[J.local_master] += J.rows_map.leftCols<6>().transpose() * slave_residual_[J.local_slave];
+  }
+}
+
+} // namespace msflex

@@ -1,0 +1,51 @@
+// The mechanical system a rank holds: its State, the force contributors acting on it and the
+// assembler that condenses and inserts them. Built on the rank's part of the model (or the whole
+// model) from what only the whole model can give (the matrix pattern, nodal masses).
+#pragma once
+
+#include "assembly/assembler.hpp"
+#include "contributors/beam_contributor.hpp"
+#include "contributors/inertia_contributor.hpp"
+#include "contributors/load_contributor.hpp"
+#include "contributors/rigid_body_contributor.hpp"
+#include "state/state.hpp"
+
+#include <vector>
+
+namespace msflex {
+
+// What the set-up needs from the whole model before it is restricted to the rank's part: the
+// exact matrix pattern of the owned rows and the nodal masses (both see elements assembled on
+// other ranks). Not collective.
+PetscErrorCode MechanicalSystemPrepare(const Model &whole_model, const DofMap &whole_map, MatrixPattern *pattern, NodalMass *nodal_mass);
+
+class MechanicalSystem {
+public:
+  MechanicalSystem()                                    = default;
+  MechanicalSystem(const MechanicalSystem &)            = delete;
+  MechanicalSystem &operator=(const MechanicalSystem &) = delete;
+
+  // The model and map must outlive the system. Collective.
+  PetscErrorCode Setup(MPI_Comm comm, const Model &model, const DofMap &map, MatrixPattern pattern, NodalMass nodal_mass);
+
+  Assembler             &GetAssembler() { return assembler_; }
+  const Assembler       &GetAssembler() const { return assembler_; }
+  State                 &GetState() { return state_; }
+  const State           &GetState() const { return state_; }
+  const BeamContributor &Beams() const { return beams_; }
+  // Kinetic energy and momenta of the start-of-step state (collective).
+  PetscErrorCode Momenta(msflex::Momenta *momenta);
+  // Element results and strain energy of the current configuration (collective).
+  PetscErrorCode ElementResults(std::vector<msflex::ElementResults> *results, double *strain_energy);
+
+private:
+  MPI_Comm             comm_ = MPI_COMM_NULL;
+  State                state_;
+  BeamContributor      beams_;
+  InertiaContributor   inertia_;
+  LoadContributor      loads_;
+  RigidBodyContributor rigid_bodies_;
+  Assembler            assembler_;
+};
+
+} // namespace msflex

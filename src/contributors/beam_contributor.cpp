@@ -1,0 +1,170 @@
+#include "contributors/beam_contributor.hpp"
+
+#include "core/errors.hpp"
+
+#include <cmath>
+
+namespace msflex {
+
+PetscErrorCode BeamElementReferenceOf(const Model &model, int e, BeamElementReference *ref)
+{
+  const BeamElement &element = model.elements[e];
+  Vec3               positions[kBeamMaxNodes];
+  PetscFunctionBeginUser;
+  for (int a = 0; a <= element.order; ++a) positions[a] = model.nodes[element.nodes[a]].position;
+  const BeamKernelStatus status = BeamElementSetup(element.order + 1, positions, element.reference_triads.data(), ref);
+  const Beam            &beam   = model.beams[element.beam];
+  MSFLEX_INPUT_CHECK(status == BeamKernelStatus::Ok, beam.mark, "beam '%s': an element is degenerate (zero length or reference triads turning by pi or more)",
+                     beam.name.c_str());
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode BeamContributor::Setup(const Model &model, const DofMap &map)
+{
+  PetscFunctionBeginUser;
+  model_ = &model;
+  map_   = &map;
+  sections_.clear();
+  for (const Section &s : model.sections) sections_.push_back({Vec3(s.EA, s.GA2, s.GA3), Vec3(s.GJ, s.EI2, s.EI3)});
+  references_.resize(map.local_elements.size());
+  for (size_t k = 0; k < map.local_elements.size(); ++k) PetscCall(BeamElementReferenceOf(model, map.local_elements[k], &references_[k]));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+void BeamContributor::Configuration(const State &state, size_t k, Vec3 *positions, Mat3 *triads) const
+{
+  const BeamElement &element = model_->elements[map_->local_elements[k]];
+  for (int a = 0; a <= element.order; ++a) {
+    const NodeState &s = state.nodes[map_->node_to_local[element.nodes[a]]];
+    positions[a]       = s.position;
+    triads[a]          = s.rotation * element.reference_triads[a];
+  }
+}
+
+void BeamContributor::StartConfiguration(const State &state, size_t k, Vec3 *positions, Mat3 *triads) const
+{
+  const BeamElement &element = model_->elements[map_->local_elements[k]];
+  for (int a = 0; a <= element.order; ++a) {
+    const NodeState &s = state.nodes[map_->node_to_local[element.nodes[a]]];
+    positions[a]       = s.position_start;
+    triads[a]          = QuaternionToMatrix(s.rotation_start) * element.reference_triads[a];
+  }
+}
+
+// Statics and the Newmark family: r and K at t_{n+1}. Mid-point family: the mid-point forces and
+// em's correction with the pieces of beta; the tangent is approximated by K(q_{n+1})/2, the
+// mid-point forces moving half as fast as the end state (a preconditioner for the matrix-free
+// operator of integrators/newton.hpp). Initial-acceleration problem: the start state's forces,
+// which balance inertia and loads; no tangent (the unknowns are accelerations).
+void BeamContributor::AddElement(const State &state, size_t k, ElementContribution *out)
+{
+  const BeamElement          &element = model_->elements[map_->local_elements[k]];
+  const BeamElementReference &ref     = references_[k];
+  const BeamSectionStiffness &section = sections_[element.section];
+  const StepEquations        &eq      = state.equations;
+  const int                   n = element.order + 1, nd = 6 * n;
+  Vec3                        positions[kBeamMaxNodes];
+  Mat3                        triads[kBeamMaxNodes];
+  double                      force[kBeamMaxDofs];
+  Configuration(state, k, positions, triads);
+  const bool end_tangent = out->want_tangent && !eq.InitialAcceleration();
+  if (eq.Midpoint()) {
+    Vec3   positions_start[kBeamMaxNodes];
+    Mat3   triads_start[kBeamMaxNodes];
+    double correction[kBeamMaxDofs], energy_start, energy_end;
+    StartConfiguration(state, k, positions_start, triads_start);
+    if (BeamMidpointInternalForces(ref, section, positions_start, triads_start, positions, triads, force, correction, &energy_start, &energy_end) !=
+        BeamKernelStatus::Ok) {
+      out->evaluable = false;
+      return;
+    }
+    double work = 0.0;
+    for (int a = 0; a < n; ++a) {
+      const NodeState &s = state.nodes[map_->node_to_local[element.nodes[a]]];
+      const Vec3      &u = s.displacement_increment, &alpha = s.tangent_scaled_increment;
+      const double     node_work = u.dot(Vec3(&force[6 * a])) + alpha.dot(Vec3(&force[6 * a + 3]));
+      work += node_work;
+      out->work_scale += std::abs(node_work);
+      out->correction_work += u.dot(Vec3(&correction[6 * a])) + alpha.dot(Vec3(&correction[6 * a + 3]));
+    }
+    out->work_mismatch += (energy_end - energy_start) - work;
+    for (int i = 0; i < nd; ++i) out->residual[i] += force[i], out->correction[i] += correction[i];
+    if (end_tangent) {
+      double K[kBeamMaxDofs * kBeamMaxDofs];
+      if (BeamInternalForces(ref, section, positions, triads, force, K, nullptr, nullptr) != BeamKernelStatus::Ok) {
+        out->evaluable = false;
+        return;
+      }
+      for (int i = 0; i < nd * nd; ++i) out->tangent[i] += 0.5 * K[i];
+    }
+    return;
+  }
+  double K[kBeamMaxDofs * kBeamMaxDofs];
+  if (BeamInternalForces(ref, section, positions, triads, force, end_tangent ? K : nullptr, nullptr, nullptr) != BeamKernelStatus::Ok) {
+    out->evaluable = false;
+    return;
+  }
+  for (int i = 0; i < nd; ++i) out->residual[i] += force[i];
+  if (end_tangent)
+    for (int i = 0; i < nd * nd; ++i) out->tangent[i] += K[i];
+}
+
+void BeamContributor::AddStoredEnergy(const State &state, double *energy) const
+{
+  std::vector<ElementResults> unused;
+  double                      strain_energy = 0.0;
+  Results(state, &unused, &strain_energy);
+  *energy += strain_energy;
+}
+
+bool BeamContributor::Results(const State &state, std::vector<ElementResults> *results, double *strain_energy) const
+{
+  bool all_ok    = true;
+  *strain_energy = 0.0;
+  results->resize(references_.size());
+  for (size_t k = 0; k < references_.size(); ++k) {
+    const BeamElement &element = model_->elements[map_->local_elements[k]];
+    Vec3               positions[kBeamMaxNodes];
+    Mat3               triads[kBeamMaxNodes];
+    Configuration(state, k, positions, triads);
+    double           r[kBeamMaxDofs], energy = 0.0;
+    BeamGaussResults gauss;
+    ElementResults  &out = (*results)[k];
+    out                  = {Vec3::Zero(), Vec3::Zero(), Vec3::Zero(), Vec3::Zero()};
+    if (BeamInternalForces(references_[k], sections_[element.section], positions, triads, r, nullptr, &energy, &gauss) != BeamKernelStatus::Ok) {
+      all_ok = false;
+      continue;
+    }
+    *strain_energy += energy;
+    const int ng = references_[k].num_gauss;
+    for (int g = 0; g < ng; ++g) {
+      out.strain += gauss.strain[g] / ng;
+      out.curvature += gauss.curvature[g] / ng;
+      out.force += gauss.force[g] / ng;
+      out.moment += gauss.moment[g] / ng;
+    }
+  }
+  return all_ok;
+}
+
+bool BeamContributor::EndPointTangent(const State &state, size_t k, double *residual, double *tangent) const
+{
+  const BeamElement &element = model_->elements[map_->local_elements[k]];
+  Vec3               positions[kBeamMaxNodes];
+  Mat3               triads[kBeamMaxNodes];
+  Configuration(state, k, positions, triads);
+  return BeamInternalForces(references_[k], sections_[element.section], positions, triads, residual, tangent, nullptr, nullptr) == BeamKernelStatus::Ok;
+}
+
+double BeamContributor::LocalStiffnessSquares() const
+{
+  double squares = 0.0;
+  for (size_t k = 0; k < references_.size(); ++k) {
+    const BeamSectionStiffness &c = sections_[model_->elements[map_->local_elements[k]].section];
+    const double                L = references_[k].length;
+    squares += c.axial_shear.squaredNorm() + c.torsion_bending.squaredNorm() / (L * L);
+  }
+  return squares;
+}
+
+} // namespace msflex

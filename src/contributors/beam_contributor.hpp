@@ -1,0 +1,58 @@
+// The beam elements' internal forces (elements/beam.hpp): at t_{n+1} in statics and the Newmark
+// family, the mid-point forces of eq. (17)-(19) in the mid-point family with em's correction
+// vector and its share of beta (eq. 20); none in the initial-acceleration problem, where the
+// configuration is the start state (whose internal forces are evaluated, but have no tangent).
+// Also the element results of the output (strains and stress resultants) and the strain energy.
+#pragma once
+
+#include "contributors/contributor.hpp"
+#include "dofs/dof_map.hpp"
+#include "model/model.hpp"
+
+#include <petscsys.h>
+
+#include <vector>
+
+namespace msflex {
+
+// Per-element mean (over the Gauss points) of strains and stress resultants, section frame.
+struct ElementResults {
+  Vec3 strain, curvature, force, moment;
+};
+
+class BeamContributor : public ForceContributor {
+public:
+  // Reference data of every local element (a degenerate element is an input error).
+  PetscErrorCode Setup(const Model &model, const DofMap &map);
+  const char    *Name() const override { return "beam elements"; }
+
+  bool ActsOnElements() const override { return true; }
+  void AddElement(const State &state, size_t k, ElementContribution *out) override;
+  void AddStoredEnergy(const State &state, double *energy) const override;
+
+  // Element results for the local elements and their strain energy; false when an element cannot
+  // be evaluated.
+  bool Results(const State &state, std::vector<ElementResults> *results, double *strain_energy) const;
+  // The end-point tangent of element k (spin form), for diagnostics; false when it cannot be evaluated.
+  bool EndPointTangent(const State &state, size_t k, double *residual, double *tangent) const;
+
+  const std::vector<BeamElementReference> &References() const { return references_; }
+  // Residual level at which the internal forces are lost in round-off: 100 eps times the norm of
+  // the local sections' stiffness (EA, GA, GJ/L, EI/L per element); summed over ranks by the caller.
+  double LocalStiffnessSquares() const;
+
+  // Current (or start-of-step) nodal positions and section triads of local element k.
+  void Configuration(const State &state, size_t k, Vec3 *positions, Mat3 *triads) const;
+  void StartConfiguration(const State &state, size_t k, Vec3 *positions, Mat3 *triads) const;
+
+private:
+  const Model                      *model_ = nullptr;
+  const DofMap                     *map_   = nullptr;
+  std::vector<BeamElementReference> references_; // per local element
+  std::vector<BeamSectionStiffness> sections_;   // per section
+};
+
+// Reference data of element e of a model (shared by the set-up of beams and nodal masses).
+PetscErrorCode BeamElementReferenceOf(const Model &model, int e, BeamElementReference *ref);
+
+} // namespace msflex

@@ -1,0 +1,77 @@
+// The integrator of one analysis: it owns the mechanical system (the State, the force
+// contributors, the assembler) and the Newton solver, and takes the steps (of time, or of the load factor in statics) that the
+// driver (app/run_analysis.hpp) proposes under its step control.
+//
+// Statics: r(x_{t+dt}) = 0 by Newton from the last equilibrium. Dynamics: the scheme named by
+// analysis.integrator (schemes/time_scheme.hpp), Newton on the step's increments from a
+// constant-velocity predictor; the Newmark family first solves for the initial accelerations.
+#pragma once
+
+#include "assembly/mechanical_system.hpp"
+#include "integrators/newton.hpp"
+
+#include <petscsnes.h>
+
+#include <string>
+#include <vector>
+
+namespace msflex {
+
+// How one attempt at a step ended.
+struct StepOutcome {
+  bool        converged         = false;
+  int         newton_iterations = 0;
+  double      residual_norm     = 0.0;
+  std::string why; // when not converged: why, in words, naming where (element, node, joint)
+};
+
+class Integrator {
+public:
+  Integrator()                              = default;
+  Integrator(const Integrator &)            = delete;
+  Integrator &operator=(const Integrator &) = delete;
+  ~Integrator();
+
+  // Set-up on the rank's part of the model (dofs/dof_map.hpp, DofMapRestrictToLocal); `pattern`
+  // and `nodal_mass` were computed on the whole model. The model and map must outlive the
+  // integrator. Collective.
+  PetscErrorCode Setup(MPI_Comm comm, const Model &model, const DofMap &map, MatrixPattern pattern, NodalMass nodal_mass, PetscLogStage assembly_stage);
+
+  // Initial velocities, and for the Newmark family the accelerations that satisfy the equations of
+  // motion at t (a linear problem, solved by the same Newton solver in one iteration). Collective.
+  PetscErrorCode InitialiseMotion(double t);
+  // One attempt at the step t -> t + dt. Converged (and the nodal rotation increments within
+  // max_rotation_increment): the external work is accumulated, the joint reactions are
+  // evaluated and the step is committed; otherwise the state is back at t and outcome->why says
+  // why. Collective.
+  PetscErrorCode TryStep(double t, double dt, StepOutcome *outcome);
+
+  // Results view (collective): element results and strain energy of the current state, momenta
+  // of the start-of-step state.
+  PetscErrorCode ElementResults(std::vector<msflex::ElementResults> *results, double *strain_energy);
+  PetscErrorCode StrainEnergy(double *strain_energy);
+  PetscErrorCode MomentaOfState(Momenta *momenta);
+
+  bool          Dynamic() const { return dynamic_; }
+  double        ExternalWork() const { return external_work_; }
+  void          SetExternalWork(double work) { external_work_ = work; }
+  double        EnergyCorrectionFactor() const { return system_.GetAssembler().EnergyCorrectionFactor(); }
+  const State  &GetState() const { return system_.GetState(); }
+  State        *MutableState() { return &system_.GetState(); }
+  const Model  &GetModel() const { return *model_; }
+  const DofMap &Map() const { return *map_; }
+
+private:
+  MPI_Comm         comm_    = MPI_COMM_NULL;
+  const Model     *model_   = nullptr;
+  const DofMap    *map_     = nullptr;
+  bool             dynamic_ = false;
+  MechanicalSystem system_;
+  NewtonContext    newton_context_;
+  SNES             snes_          = nullptr;
+  Vec              increments_    = nullptr;
+  double           external_work_ = 0.0; // accumulated work of the external loads (dynamics)
+  PetscLogStage    solve_stage_   = -1;
+};
+
+} // namespace msflex
