@@ -1,6 +1,9 @@
 // Beam kernel: analytic tangent against central finite differences of the residual in spin
 // variables, objectivity (strains unchanged by a superposed rigid motion), the residual as the
 // gradient of the strain energy, and the stress-free reference configuration.
+// Mid-point (mc/em) forces: momentum conservation, time reversal, the exact tangents K_mc and
+// K_corr with respect to the end of the step against central differences, r_{n+1} against the
+// end-point kernel, and em's beta and its linearisation.
 // Cases: 2- and 3-node elements; straight and curved-and-twisted references; deformed states
 // with large rigid rotation plus bending, shear, torsion and stretch.
 #include "elements/beam.hpp"
