@@ -16,15 +16,18 @@ PetscErrorCode SettingsFromOptions(MPI_Comm comm, Model *model, RunOptions *opti
   std::vector<PetscReal> output_times(1024);
   PetscInt               num_output_times = (PetscInt)output_times.size();
   PetscBool              output_times_set = PETSC_FALSE;
-  char                   type[32], integrator[32];
+  char                   type[32], integrator[32], em_correction[32];
   PetscFunctionBeginUser;
   PetscCall(PetscStrncpy(type, AnalysisTypeName(a.type), sizeof(type)));
   PetscCall(PetscStrncpy(integrator, TimeSchemeName(a.integrator), sizeof(integrator)));
+  PetscCall(PetscStrncpy(em_correction, EnergyCorrectionName(a.em_correction), sizeof(em_correction))); // default: the input's
   const std::string type_list = AnalysisTypeNameList(), integrator_list = IntegratorNameList();
   PetscOptionsBegin(comm, "analysis_", "Analysis settings (defaults: the input's analysis section)", "msflex");
   PetscCall(PetscOptionsString("-type", type_list.c_str(), "", type, type, sizeof(type), nullptr));
   PetscCall(PetscOptionsString("-integrator", integrator_list.c_str(), "", integrator, integrator, sizeof(integrator), nullptr));
   PetscCall(PetscOptionsReal("-spectral_radius", "rho_infinity of genalpha", "", a.spectral_radius, &a.spectral_radius, nullptr));
+  PetscCall(PetscOptionsString("-em_correction", "em's correction vector: resultants (N_d, M_d) or forces (N_d, 0)", "", em_correction, em_correction,
+                               sizeof(em_correction), nullptr));
   PetscCall(PetscOptionsReal("-end_time", "Final (pseudo-)time", "", a.end_time, &a.end_time, nullptr));
   PetscCall(PetscOptionsReal("-initial_step", "First step size", "", a.initial_step, &a.initial_step, nullptr));
   PetscCall(PetscOptionsReal("-min_step", "Smallest step before giving up", "", a.min_step, &a.min_step, nullptr));
@@ -44,6 +47,8 @@ PetscErrorCode SettingsFromOptions(MPI_Comm comm, Model *model, RunOptions *opti
   PetscCheck(AnalysisTypeFromName(type, &a.type), comm, PETSC_ERR_USER_INPUT, "option -analysis_type must be one of %s, got '%s'", type_list.c_str(), type);
   PetscCheck(TimeSchemeKindFromName(integrator, &a.integrator), comm, PETSC_ERR_USER_INPUT, "option -analysis_integrator must be one of %s, got '%s'",
              integrator_list.c_str(), integrator);
+  PetscCheck(EnergyCorrectionFromName(em_correction, &a.em_correction), comm, PETSC_ERR_USER_INPUT,
+             "option -analysis_em_correction must be resultants or forces, got '%s'", em_correction);
   const bool made_static = input_type != AnalysisType::Static && a.type == AnalysisType::Static;
   if (made_static) { // the reader checked the input for its own (dynamic) analysis only
     InputError error;

@@ -326,10 +326,12 @@ void MidpointTangent(const BeamElementReference &ref, const int *others, const M
 template <int NN>
 BeamKernelStatus MidpointForces(const BeamElementReference &ref, const BeamSectionStiffness &section, const Vec3 *positions_start, const Mat3 *triads_start,
                                 const Vec3 *positions, const Mat3 *triads, double *force_mc, double *force_correction, double *tangent_mc,
-                                double *tangent_correction, double *end_residual_out, double *energy_start_out, double *energy_end_out)
+                                double *tangent_correction, double *end_residual_out, double *energy_start_out, double *energy_end_out,
+                                EnergyCorrection correction)
 {
-  const int c = ref.reference_node;
-  Vec3      rho_n[NN], psi_n[NN], rho_1[NN], psi_1[NN], rho_m[NN], psi_m[NN];
+  const int  c                  = ref.reference_node;
+  const bool correction_moments = correction == EnergyCorrection::Resultants; // (N_d, M_d), else (N_d, 0)
+  Vec3       rho_n[NN], psi_n[NN], rho_1[NN], psi_1[NN], rho_m[NN], psi_m[NN];
   if (!LocalCoordinates(NN, c, positions_start, triads_start, rho_n, psi_n)) return BeamKernelStatus::RotationTooLarge;
   if (!LocalCoordinates(NN, c, positions, triads, rho_1, psi_1)) return BeamKernelStatus::RotationTooLarge;
   int others[NN - 1];
@@ -361,7 +363,7 @@ BeamKernelStatus MidpointForces(const BeamElementReference &ref, const BeamSecti
     const Vec3               N_n = CN.cwiseProduct(eps_n), M_n = CM.cwiseProduct(kap_n), N_1 = CN.cwiseProduct(eps_1), M_1 = CM.cwiseProduct(kap_1);
     energy_n += 0.5 * wJ * (eps_n.dot(N_n) + kap_n.dot(M_n));
     energy_1 += 0.5 * wJ * (eps_1.dot(N_1) + kap_1.dot(M_1));
-    const Vec3 N_mid = 0.5 * (N_n + N_1), M_mid = 0.5 * (M_n + M_1), N_d = N_1 - N_n, M_d = M_1 - M_n;
+    const Vec3 N_mid = 0.5 * (N_n + N_1), M_mid = 0.5 * (M_n + M_1), N_d = N_1 - N_n, M_d = correction_moments ? Vec3(M_1 - M_n) : Vec3::Zero();
     // D(q_mid): dGamma = A dPsi + E^T drho',  dK = B dPsi + H^T dPsi'
     const auto [Psi, dPsi, drho] = InterpolateAtGauss(ref, gp, rho_m, psi_m);
     const RotationSeries series  = EvaluateRotationSeries(Psi.squaredNorm());
@@ -388,23 +390,24 @@ BeamKernelStatus MidpointForces(const BeamElementReference &ref, const BeamSecti
     if (!want_tangent) continue;
     // Material part D(q_mid)^T C D(q_{n+1}), shared by both outputs (s = 1/2 for mc, 1 for corr).
     const Mat3 ECN = E * CN.asDiagonal(), ACN = A.transpose() * CN.asDiagonal(), BCM = B.transpose() * CM.asDiagonal(), HCM = H * CM.asDiagonal();
-    const Mat3 rr = ECN * E1.transpose(), rp = ECN * A1, pr = ACN * E1.transpose(), pp = ACN * A1 + BCM * B1;
+    const Mat3 rr = ECN * E1.transpose(), rp = ECN * A1, pr = ACN * E1.transpose();
     const Mat3 pd = BCM * H1.transpose(), dp = HCM * B1, dd = HCM * H1.transpose();
     // Geometric part G(q_mid, S)/2 for S_mid (mc) and S_d (corr).
-    auto fill = [&](MidpointGaussBlocks *G, double s, const Vec3 &N, const Vec3 &M) {
+    // `moments` = 0 drops the variation of the bending and torsion stresses (the (N_d, 0) correction).
+    auto fill = [&](MidpointGaussBlocks *G, double s, const Vec3 &N, const Vec3 &M, double moments) {
       const Mat3 P = RodriguesApplyJacobian(Fe, Psi, N), Q = RodriguesApplyJacobian(Fh, Psi, M);
       const Mat3 Sg = RodriguesTransposeApplyHessian(Fe, Psi, drho, N) + RodriguesTransposeApplyHessian(Fh, Psi, dPsi, M);
       G->wJ         = wJ;
       G->rr         = s * rr;
       G->rp         = s * rp + 0.5 * P;
       G->pr         = s * pr + 0.5 * P.transpose();
-      G->pp         = s * pp + 0.5 * Sg;
-      G->pd         = s * pd + 0.5 * Q.transpose();
-      G->dp         = s * dp + 0.5 * Q;
-      G->dd         = s * dd;
+      G->pp         = s * (ACN * A1 + moments * (BCM * B1)) + 0.5 * Sg;
+      G->pd         = s * moments * pd + 0.5 * Q.transpose();
+      G->dp         = s * moments * dp + 0.5 * Q;
+      G->dd         = s * moments * dd;
     };
-    if (tangent_mc) fill(&blocks_mc[gp], 0.5, N_mid, M_mid);
-    if (tangent_correction) fill(&blocks_corr[gp], 1.0, N_d, M_d);
+    if (tangent_mc) fill(&blocks_mc[gp], 0.5, N_mid, M_mid, 1.0);
+    if (tangent_correction) fill(&blocks_corr[gp], 1.0, N_d, M_d, correction_moments ? 1.0 : 0.0);
   }
   if (energy_start_out) *energy_start_out = energy_n;
   if (energy_end_out) *energy_end_out = energy_1;
@@ -458,13 +461,13 @@ BeamKernelStatus MidpointForces(const BeamElementReference &ref, const BeamSecti
 BeamKernelStatus BeamMidpointInternalForces(const BeamElementReference &ref, const BeamSectionStiffness &section, const Vec3 *positions_start,
                                             const Mat3 *triads_start, const Vec3 *positions, const Mat3 *triads, double *force_mc, double *force_correction,
                                             double *tangent_mc, double *tangent_correction, double *end_residual, double *strain_energy_start,
-                                            double *strain_energy_end)
+                                            double *strain_energy_end, EnergyCorrection correction)
 {
   if (ref.num_nodes == 2)
     return MidpointForces<2>(ref, section, positions_start, triads_start, positions, triads, force_mc, force_correction, tangent_mc, tangent_correction,
-                             end_residual, strain_energy_start, strain_energy_end);
+                             end_residual, strain_energy_start, strain_energy_end, correction);
   return MidpointForces<3>(ref, section, positions_start, triads_start, positions, triads, force_mc, force_correction, tangent_mc, tangent_correction,
-                           end_residual, strain_energy_start, strain_energy_end);
+                           end_residual, strain_energy_start, strain_energy_end, correction);
 }
 
 BeamKernelStatus BeamMidpointInternalForces(const BeamElementReference &ref, const BeamSectionStiffness &section, const Vec3 *positions_start,

@@ -456,8 +456,9 @@ void ReadAnalysis(const YAML::Node *mapping, const ReaderContext &context, Analy
 {
   if (mapping == nullptr || mapping->IsNull()) return;
   const MappingReader entry(*mapping, "'analysis'",
-                            {"type", "integrator", "spectral_radius", "end_time", "initial_step", "min_step", "max_step", "growth_factor", "easy_iterations",
-                             "easy_steps_to_grow", "max_rotation_increment", "max_newton_iterations", "newton_rtol", "newton_atol", "output_times"});
+                            {"type", "integrator", "spectral_radius", "em_correction", "end_time", "initial_step", "min_step", "max_step", "growth_factor",
+                             "easy_iterations", "easy_steps_to_grow", "max_rotation_increment", "max_newton_iterations", "newton_rtol", "newton_atol",
+                             "output_times"});
   analysis.mark = context.MarkOf(entry.Mark());
   if (const YAML::Node *value = entry.Find("type")) {
     const std::string type = ReadString(*value, "type");
@@ -469,6 +470,11 @@ void ReadAnalysis(const YAML::Node *mapping, const ReaderContext &context, Analy
     const std::string integrator = ReadString(*value, "integrator");
     if (!TimeSchemeKindFromName(integrator, &analysis.integrator))
       FailAt(value->Mark(), "unknown integrator " + Quote(integrator) + " in 'analysis'; expected one of " + IntegratorNameList());
+  }
+  if (const YAML::Node *value = entry.Find("em_correction")) {
+    const std::string correction = ReadString(*value, "em_correction");
+    if (!EnergyCorrectionFromName(correction, &analysis.em_correction))
+      FailAt(value->Mark(), "unknown em_correction " + Quote(correction) + " in 'analysis'; expected resultants or forces");
   }
   analysis.spectral_radius = entry.Number("spectral_radius", analysis.spectral_radius);
   if (analysis.spectral_radius < 0.0 || analysis.spectral_radius > 1.0)
