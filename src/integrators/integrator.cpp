@@ -24,7 +24,8 @@ PetscErrorCode Integrator::Setup(MPI_Comm comm, const Model &model, const DofMap
   PetscCall(system_.Setup(comm, model, map, std::move(pattern), std::move(nodal_mass)));
   newton_context_.assembler      = &system_.GetAssembler();
   newton_context_.assembly_stage = assembly_stage;
-  PetscCall(NewtonSolverCreate(comm, model.analysis, dynamic_ && IsMidpointScheme(model.analysis.integrator), &newton_context_, &snes_));
+  const bool em                  = dynamic_ && model.analysis.integrator == TimeSchemeKind::EnergyMomentum;
+  PetscCall(NewtonSolverCreate(comm, model.analysis, em ? NewtonOperator::AssembledWithRankOne : NewtonOperator::Assembled, &newton_context_, &snes_));
   PetscCall(VecDuplicate(system_.GetAssembler().SolutionTemplate(), &increments_));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
@@ -43,6 +44,8 @@ PetscErrorCode Integrator::InitialiseMotion(double t)
   PetscCheck(reason > 0, comm_, PETSC_ERR_NOT_CONVERGED,
              "the initial accelerations could not be computed (%s): is every node with a DOF free given mass or stiffness?", SNESConvergedReasons[reason]);
   PetscCall(assembler.SetIncrements(increments_));
+  // The reactions at t (the trapezoidal work of the first step starts from them).
+  PetscCall(assembler.StoreReactions());
   StateCommitInitialAcceleration(&system_.GetState());
   PetscFunctionReturn(PETSC_SUCCESS);
 }
@@ -58,7 +61,9 @@ PetscErrorCode Integrator::TryStep(double t, double dt, StepOutcome *outcome)
   PetscFunctionBeginUser;
   *outcome = StepOutcome{};
   PetscCall(PetscLogStagePush(solve_stage_));
-  const StepEquations equations = dynamic_ ? DynamicStep(MakeTimeScheme(analysis.integrator, analysis.spectral_radius, dt), t) : StaticStep(t, t + dt);
+  TimeScheme scheme             = MakeTimeScheme(analysis.integrator, analysis.spectral_radius, dt);
+  scheme.energy_correction      = analysis.em_correction;
+  const StepEquations equations = dynamic_ ? DynamicStep(scheme, t) : StaticStep(t, t + dt);
   PetscCall(assembler.BeginStep(equations));
   PetscCall(assembler.PredictIncrements(increments_));
   PetscCall(SNESSolve(snes_, nullptr, increments_));
