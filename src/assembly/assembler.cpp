@@ -388,14 +388,14 @@ void Assembler::EvaluateElement(size_t k, bool want_tangent, ElementContribution
     c->AddElement(*state_, k, out);
     if (!out->evaluable) return;
   }
-  if (state_->equations.InitialAcceleration()) inertia_->DropMasslessElementRows(*state_, k, out);
+  if (state_->equations.InitialAcceleration() && !mass_matrix_only_) inertia_->DropMasslessElementRows(*state_, k, out);
 }
 
 void Assembler::EvaluateNode(int l, bool want_tangent, NodeContribution *out)
 {
   out->Clear(want_tangent);
   for (ForceContributor *c : node_contributors_) c->AddNode(*state_, l, out);
-  if (state_->equations.InitialAcceleration()) inertia_->SetMasslessNodeEquations(*state_, l, out);
+  if (state_->equations.InitialAcceleration() && !mass_matrix_only_) inertia_->SetMasslessNodeEquations(*state_, l, out);
 }
 
 void Assembler::Add(const NodeBlock &block, const double *residual, const double *tangent)
@@ -534,6 +534,18 @@ PetscErrorCode Assembler::AssembleJacobian(Mat jacobian, PetscBool *geometry_ok)
   PetscCall(MatAssemblyBegin(jacobian, MAT_FINAL_ASSEMBLY));
   PetscCall(MatAssemblyEnd(jacobian, MAT_FINAL_ASSEMBLY));
   PetscCall(PetscLogEventEnd(event_jacobian, 0, 0, 0, 0));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode Assembler::AssembleMassMatrix(Mat mass, PetscBool *geometry_ok)
+{
+  PetscFunctionBeginUser;
+  PetscCheck(state_->equations.InitialAcceleration(), PETSC_COMM_SELF, PETSC_ERR_ARG_WRONGSTATE,
+             "the mass matrix is the tangent of the initial-acceleration problem: begin that step first");
+  mass_matrix_only_         = true;
+  const PetscErrorCode code = AssembleJacobian(mass, geometry_ok);
+  mass_matrix_only_         = false;
+  PetscCall(code);
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 

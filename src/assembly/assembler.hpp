@@ -62,6 +62,10 @@ public:
   // Tangent at the current unknowns (see the contributors for what is exact: in the mid-point
   // family the beams' part is approximate).
   PetscErrorCode AssembleJacobian(Mat jacobian, PetscBool *geometry_ok);
+  // The condensed mass matrix (eigenanalysis): the tangent of the initial-acceleration problem
+  // (the step's equations must be it) without its "acceleration = 0" rows of massless groups, so
+  // that a massless DOF keeps a zero row. Into the assembler's own matrix, as AssembleJacobian.
+  PetscErrorCode AssembleMassMatrix(Mat mass, PetscBool *geometry_ok);
 
   // Magnitude of the forces in the last residual (see newton.hpp). Collective.
   PetscErrorCode ForceScale(double *scale);
@@ -165,9 +169,10 @@ private:
   bool block_trouble_  = false;
 
   double roundoff_force_level_ = 0.0;
-  double local_force_squares_  = 0.0; // sum of squares of every node vector added in the last residual
-  double prescribed_work_      = 0.0; // work of the reactions on prescribed DOFs over the increments (local)
-  double energy_correction_    = 0.0; // em's beta of the last residual
+  double local_force_squares_  = 0.0;   // sum of squares of every node vector added in the last residual
+  double prescribed_work_      = 0.0;   // work of the reactions on prescribed DOFs over the increments (local)
+  double energy_correction_    = 0.0;   // em's beta of the last residual
+  bool   mass_matrix_only_     = false; // AssembleMassMatrix: no equations for massless groups
 
   Mat                   jacobian_           = nullptr;
   Vec                   solution_template_  = nullptr;

@@ -52,14 +52,17 @@ public:
   PetscErrorCode StrainEnergy(double *strain_energy);
   PetscErrorCode MomentaOfState(Momenta *momenta);
 
-  bool          Dynamic() const { return dynamic_; }
-  double        ExternalWork() const { return external_work_; }
-  void          SetExternalWork(double work) { external_work_ = work; }
-  double        EnergyCorrectionFactor() const { return system_.GetAssembler().EnergyCorrectionFactor(); }
-  const State  &GetState() const { return system_.GetState(); }
-  State        *MutableState() { return &system_.GetState(); }
-  const Model  &GetModel() const { return *model_; }
-  const DofMap &Map() const { return *map_; }
+  bool         Dynamic() const { return dynamic_; }
+  double       ExternalWork() const { return external_work_; }
+  void         SetExternalWork(double work) { external_work_ = work; }
+  double       EnergyCorrectionFactor() const { return system_.GetAssembler().EnergyCorrectionFactor(); }
+  const State &GetState() const { return system_.GetState(); }
+  State       *MutableState() { return &system_.GetState(); }
+  const Model &GetModel() const { return *model_; }
+  // The mechanical system, for what linearises it about the current state (path following,
+  // stability, eigenanalysis).
+  MechanicalSystem &System() { return system_; }
+  const DofMap     &Map() const { return *map_; }
 
 private:
   MPI_Comm         comm_    = MPI_COMM_NULL;
