@@ -62,7 +62,9 @@ public:
   // The mechanical system, for what linearises it about the current state (path following,
   // stability, eigenanalysis).
   MechanicalSystem &System() { return system_; }
-  const DofMap     &Map() const { return *map_; }
+  // The increments of the last converged step (Newton's solution).
+  Vec           LastIncrements() const { return increments_; }
+  const DofMap &Map() const { return *map_; }
 
 private:
   MPI_Comm         comm_    = MPI_COMM_NULL;

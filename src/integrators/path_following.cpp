@@ -15,6 +15,9 @@ namespace {
 // asymmetry: at a converged equilibrium under conservative loads the spin-form tangent is
 // symmetric up to the residual.
 constexpr double kSymmetryTolerance = 1e-8;
+// A load step whose increment differs from the path tangent's prediction by more than this many
+// times the prediction, at both ends, has jumped to another branch.
+constexpr double kJumpDeviation = 2.0;
 
 } // namespace
 
@@ -25,6 +28,8 @@ const char *CriticalPointName(CriticalPointKind kind)
     return "limit point";
   case CriticalPointKind::Bifurcation:
     return "bifurcation point";
+  case CriticalPointKind::Jump:
+    return "snap-through";
   default:
     return "no critical point";
   }
@@ -34,7 +39,9 @@ PathFollower::~PathFollower()
 {
   MatDestroy(&tangent_);
   KSPDestroy(&ksp_);
-  for (Vec *v : {&x_, &residual_, &q_, &dx_R_, &dx_F_, &dx_, &trial_, &work_, &weights_, &scale_, &mode_, &path_tangent_, &previous_increment_}) VecDestroy(v);
+  for (Vec *v :
+       {&x_, &residual_, &q_, &dx_R_, &dx_F_, &dx_, &trial_, &work_, &weights_, &scale_, &mode_, &path_tangent_, &previous_increment_, &previous_tangent_})
+    VecDestroy(v);
 }
 
 PetscErrorCode PathFollower::Setup(MPI_Comm comm, Integrator *integrator)
@@ -48,7 +55,8 @@ PetscErrorCode PathFollower::Setup(MPI_Comm comm, Integrator *integrator)
   control_             = model_->analysis.control;
   stability_           = model_->analysis.stability;
   Assembler &assembler = integrator->System().GetAssembler();
-  for (Vec *v : {&x_, &residual_, &q_, &dx_R_, &dx_F_, &dx_, &trial_, &work_, &weights_, &scale_, &mode_, &path_tangent_, &previous_increment_})
+  for (Vec *v :
+       {&x_, &residual_, &q_, &dx_R_, &dx_F_, &dx_, &trial_, &work_, &weights_, &scale_, &mode_, &path_tangent_, &previous_increment_, &previous_tangent_})
     PetscCall(VecDuplicate(assembler.SolutionTemplate(), v));
   PetscCall(MatDuplicate(assembler.Jacobian(), MAT_DO_NOT_COPY_VALUES, &tangent_));
   double length;
@@ -211,6 +219,31 @@ PetscErrorCode PathFollower::DetectCriticalPoint(const PathPoint &previous)
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
+PetscErrorCode PathFollower::DetectJump(double dt)
+{
+  // The step's increment against dt times the path tangent at either end: on a continuous path
+  // one of them predicts it to O(dt); after a jump both are far off.
+  double deviation[2];
+  Vec    x = integrator_->LastIncrements();
+  PetscFunctionBeginUser;
+  for (int end = 0; end < 2; ++end) {
+    double predicted = 0, error = 0;
+    PetscCall(VecWAXPY(dx_, -dt, end == 0 ? previous_tangent_ : path_tangent_, x));
+    PetscCall(WeightedDot(dx_, dx_, &error));
+    PetscCall(VecCopy(end == 0 ? previous_tangent_ : path_tangent_, trial_));
+    PetscCall(WeightedDot(trial_, trial_, &predicted));
+    deviation[end] = predicted > 0 ? std::sqrt(error / predicted) / dt : INFINITY;
+  }
+  if (std::min(deviation[0], deviation[1]) > kJumpDeviation && last_critical_.kind == CriticalPointKind::None) {
+    last_critical_             = CriticalPoint{};
+    last_critical_.kind        = CriticalPointKind::Jump;
+    last_critical_.step        = steps_;
+    last_critical_.load_factor = point_.load_factor;
+    critical_points_.push_back(last_critical_);
+  }
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
 PetscErrorCode PathFollower::LoadFactorRate()
 {
   PetscFunctionBeginUser;
@@ -239,10 +272,13 @@ PetscErrorCode PathFollower::TryStep(double t, double dt, StepOutcome *outcome)
   if (control_ == PathControl::ArcLength) PetscCall(TryArcLengthStep(t, dt, outcome));
   else if (control_ == PathControl::Displacement) PetscCall(TryDisplacementStep(t, dt, outcome));
   else {
+    const bool had_tangent = tangent_ready_;
+    if (had_tangent) PetscCall(VecCopy(path_tangent_, previous_tangent_));
     PetscCall(integrator_->TryStep(t, dt, outcome));
     if (outcome->converged) {
       ++steps_;
       PetscCall(Linearize(t + dt, t + dt, dt));
+      if (had_tangent && tangent_ready_ && stability_) PetscCall(DetectJump(dt));
     }
   }
   PetscFunctionReturn(PETSC_SUCCESS);

@@ -38,7 +38,9 @@
 
 namespace msflex {
 
-enum class CriticalPointKind { None = 0, Limit = 1, Bifurcation = 2 };
+// Jump: a load-controlled step that converged on another branch of the path, having passed a
+// limit point (a snap-through); the path in between is not followed.
+enum class CriticalPointKind { None = 0, Limit = 1, Bifurcation = 2, Jump = 3 };
 const char *CriticalPointName(CriticalPointKind kind);
 
 // What the path says at one equilibrium.
@@ -83,7 +85,7 @@ public:
 
   // History series of a static analysis: load_factor and, with stability on, negative_pivots,
   // determinant_sign, lowest_eigenvalue, stiffness_parameter, critical_point (0 none, 1 limit,
-  // 2 bifurcation) and critical_load_factor (NaN when none). The names never change during a run.
+  // 2 bifurcation, 3 snap-through) and critical_load_factor (NaN when none). The names never change during a run.
   void HistoryColumns(std::vector<std::string> *names, std::vector<double> *values) const;
   // For the progress line: "lambda = ..., neg. pivots ..." and the critical point passed, if any.
   std::string ProgressNote() const;
@@ -98,6 +100,8 @@ private:
   PetscErrorCode DetectCriticalPoint(const PathPoint &previous);
   // point_.load_factor_rate from the path tangent at the last equilibrium.
   PetscErrorCode LoadFactorRate();
+  // After a load-controlled step of size dt: whether it jumped to another branch.
+  PetscErrorCode DetectJump(double dt);
   // The bordered Newton iterations from the predictor (x_, dlambda) to convergence. Collective.
   PetscErrorCode Correct(double dl, double displacement_target, double *dlambda, StepOutcome *outcome);
   PetscErrorCode TryArcLengthStep(double t, double dt, StepOutcome *outcome);
@@ -117,7 +121,7 @@ private:
   TangentFactor factor_;
   KSP           ksp_ = nullptr; // the corrector's linear solver (prefix path_)
   Vec           x_ = nullptr, residual_ = nullptr, q_ = nullptr, dx_R_ = nullptr, dx_F_ = nullptr, dx_ = nullptr, trial_ = nullptr, work_ = nullptr;
-  Vec           weights_ = nullptr, scale_ = nullptr, mode_ = nullptr, path_tangent_ = nullptr, previous_increment_ = nullptr;
+  Vec           weights_ = nullptr, scale_ = nullptr, mode_ = nullptr, path_tangent_ = nullptr, previous_increment_ = nullptr, previous_tangent_ = nullptr;
 
   PathPoint                  point_;  // the last equilibrium
   std::vector<PathPoint>     recent_; // the last three, oldest first
