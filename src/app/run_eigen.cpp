@@ -136,7 +136,7 @@ PetscErrorCode RunEigenAnalysis(MPI_Comm comm, const Model &model, const DofMap 
     PetscCall(VecPointwiseMult(shape, shape, direction));
     PetscCall(VecNorm(shape, NORM_INFINITY, &largest));
     PetscCheck(largest > 0, comm, PETSC_ERR_USER_INPUT, "buckling analysis: the loads do not deform the structure (no loads?)");
-    PetscCall(GeometricStiffness(system, model, lambda, direction, 1e-4 * length / largest, B));
+    PetscCall(GeometricStiffness(system, model, map, lambda, direction, 1e-4 * length / largest, B));
     PetscCall(SolveBucklingModes(K, B, a.eigenvalues, &pairs));
     PetscCall(VecDestroy(&residual));
     PetscCall(VecDestroy(&q));

@@ -27,6 +27,25 @@ PetscErrorCode CopyAssembled(Assembler &assembler, PetscBool ok, Mat target, con
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
+// Zero increments of every DOF and joint coordinate, also of those a support prescribes or a drive
+// moves: the configuration stays at the start of the step whatever the step's end time.
+PetscErrorCode HoldConfiguration(MechanicalSystem &system, const Model &model, const DofMap &map)
+{
+  Assembler &assembler = system.GetAssembler();
+  State     &state     = system.GetState();
+  Vec        zero;
+  PetscFunctionBeginUser;
+  for (NodeState &node : state.nodes) node.displacement_increment.setZero(), node.rotation_increment.setZero();
+  for (JointState &joint : state.joints)
+    for (double &increment : joint.increment) increment = 0.0;
+  PetscCall(VecDuplicate(assembler.SolutionTemplate(), &zero));
+  PetscCall(VecZeroEntries(zero));
+  PetscCall(assembler.SetIncrements(zero)); // updates the nodes, the slaves and the expansions
+  PetscCall(VecDestroy(&zero));
+  (void)model, (void)map;
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
 } // namespace
 
 PetscErrorCode StaticResidual(MechanicalSystem &system, double lambda_n, double lambda, Vec x, Vec residual, PetscBool *ok, double *force_scale)
@@ -81,35 +100,50 @@ PetscErrorCode MassMatrix(MechanicalSystem &system, double lambda, Mat M)
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
-PetscErrorCode GeometricStiffness(MechanicalSystem &system, const Model &model, double lambda, Vec direction, double eps, Mat K_sigma)
+PetscErrorCode GeometricStiffness(MechanicalSystem &system, const Model &model, const DofMap &map, double lambda, Vec direction, double eps, Mat K_sigma)
 {
-  Assembler  &assembler = system.GetAssembler();
-  State      &state     = system.GetState();
-  const State committed = state;
-  Vec         x;
-  PetscBool   ok;
+  Assembler                                 &assembler = system.GetAssembler();
+  BeamContributor                           &beams     = system.Beams();
+  State                                     &state     = system.GetState();
+  const State                                committed = state;
+  std::vector<BeamContributor::GaussStrains> strains[2];
+  Vec                                        x;
+  PetscBool                                  ok = PETSC_TRUE;
   PetscFunctionBeginUser;
   PetscCall(VecDuplicate(direction, &x));
+  // The strain rate along the path, e' = (e(+eps u') - e(-eps u')) / (2 eps): each perturbed state
+  // is made the start of a step, so that its strains are those of its configuration.
   for (int side = 0; side < 2; ++side) {
     const double s = side == 0 ? eps : -eps;
-    // The perturbed state becomes the start of a step, so the tangent about it has omega = 0.
     PetscCall(VecCopy(direction, x));
     PetscCall(VecScale(x, s));
     PetscCall(SetStaticState(assembler, lambda, lambda + s, x));
     StateCommitStep(model, &state);
     PetscCall(SetStaticState(assembler, lambda + s, lambda + s, nullptr));
-    PetscCall(assembler.AssembleJacobian(assembler.Jacobian(), &ok));
+    if (!beams.GaussStrainsOf(state, &strains[side])) ok = PETSC_FALSE;
     state = committed;
-    if (side == 0) PetscCall(CopyAssembled(assembler, ok, K_sigma, "geometric stiffness"));
-    else {
-      PetscBool all_ok;
-      PetscCall(MPIU_Allreduce(&ok, &all_ok, 1, MPIU_BOOL, MPI_LAND, PetscObjectComm((PetscObject)K_sigma)));
-      PetscCheck(all_ok, PetscObjectComm((PetscObject)K_sigma), PETSC_ERR_PLIB, "an element cannot be evaluated at the state of the geometric stiffness");
-      PetscCall(MatAXPY(K_sigma, -1.0, assembler.Jacobian(), SAME_NONZERO_PATTERN));
-    }
   }
-  PetscCall(MatScale(K_sigma, 0.5 / eps));
   PetscCall(VecDestroy(&x));
+  PetscBool all_ok;
+  PetscCall(MPIU_Allreduce(&ok, &all_ok, 1, MPIU_BOOL, MPI_LAND, PetscObjectComm((PetscObject)K_sigma)));
+  PetscCheck(all_ok, PetscObjectComm((PetscObject)K_sigma), PETSC_ERR_PLIB, "an element cannot be evaluated at the perturbed states of the buckling analysis");
+  for (size_t k = 0; k < strains[0].size(); ++k)
+    for (int g = 0; g < kBeamMaxGauss; ++g) {
+      strains[0][k].strain[g]    = (strains[0][k].strain[g] - strains[1][k].strain[g]) / (2.0 * eps);
+      strains[0][k].curvature[g] = (strains[0][k].curvature[g] - strains[1][k].curvature[g]) / (2.0 * eps);
+    }
+  // K(x; loads at lambda) and K(x; prestrain e', loads at lambda + 1), both in the configuration x
+  // (prescribed DOFs and drives held where they are): their difference is linear in the stresses
+  // and loads, so it is K_sigma exactly.
+  PetscCall(EquilibriumTangent(system, lambda, K_sigma));
+  beams.AddPrestrain(strains[0]);
+  PetscCall(assembler.BeginStep(StaticStep(lambda, lambda + 1.0)));
+  PetscCall(HoldConfiguration(system, model, map));
+  PetscCall(assembler.AssembleJacobian(assembler.Jacobian(), &ok));
+  beams.ClearPrestrain();
+  PetscCall(MPIU_Allreduce(&ok, &all_ok, 1, MPIU_BOOL, MPI_LAND, PetscObjectComm((PetscObject)K_sigma)));
+  PetscCheck(all_ok, PetscObjectComm((PetscObject)K_sigma), PETSC_ERR_PLIB, "an element cannot be evaluated with the prestress of the buckling analysis");
+  PetscCall(MatAYPX(K_sigma, -1.0, assembler.Jacobian(), SAME_NONZERO_PATTERN));
   PetscCall(SetStaticState(assembler, lambda, lambda, nullptr));
   PetscFunctionReturn(PETSC_SUCCESS);
 }

@@ -9,9 +9,16 @@
 //   K                   the tangent at the committed state (omega = 0: H = I), loads at lambda
 //   M                   the condensed mass matrix (tangent of the initial-acceleration problem,
 //                       massless DOFs with zero rows)
-//   K_sigma = dK/ds     the rate of K along a path direction u (a state s u + the loads at
-//                       lambda + s): (K(+eps) - K(-eps)) / (2 eps), each tangent taken at omega = 0
-//                       about its perturbed state, so no H(omega) terms enter
+//   K_sigma             the geometric stiffness of linearised buckling: the rate of the tangent
+//                       with the stresses and loads along a path direction u (increments per unit
+//                       load factor), in the configuration x itself. The strain rate e' of every
+//                       Gauss point is the central difference of the strains of the states x +- eps u
+//                       (objective strains: no frame terms); then K_sigma = K(x; prestrain e',
+//                       loads at lambda + 1) - K(x; loads at lambda), which is exact because the
+//                       tangent at a fixed configuration is linear in the stresses and loads. The
+//                       configuration's own rate (the "initial displacement" terms, large where
+//                       the shear or axial stiffness is) is left out, as in classical linearised
+//                       buckling.
 //
 // Every function leaves the system's state at the committed configuration, but the step's
 // equations and increments changed: begin a step before solving again.
@@ -34,7 +41,7 @@ PetscErrorCode EquilibriumTangent(MechanicalSystem &system, double lambda, Mat K
 PetscErrorCode MassMatrix(MechanicalSystem &system, double lambda, Mat M);
 // K_sigma along the direction `direction` (increments per unit load factor, e.g. K^{-1} q) by a
 // central difference with the step eps; copied into K_sigma. Collective.
-PetscErrorCode GeometricStiffness(MechanicalSystem &system, const Model &model, double lambda, Vec direction, double eps, Mat K_sigma);
+PetscErrorCode GeometricStiffness(MechanicalSystem &system, const Model &model, const DofMap &map, double lambda, Vec direction, double eps, Mat K_sigma);
 
 // Weights of the unknowns in path norms: 1 for translations and length-type joint coordinates,
 // length^2 for rotations and angle-type joint coordinates. Collective.

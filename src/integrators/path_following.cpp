@@ -29,7 +29,7 @@ const char *CriticalPointName(CriticalPointKind kind)
   case CriticalPointKind::Bifurcation:
     return "bifurcation point";
   case CriticalPointKind::Jump:
-    return "snap-through";
+    return "jump to another branch";
   default:
     return "no critical point";
   }
@@ -219,20 +219,20 @@ PetscErrorCode PathFollower::DetectCriticalPoint(const PathPoint &previous)
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
-PetscErrorCode PathFollower::DetectJump(double dt)
+PetscErrorCode PathFollower::DetectJump(double dt, double previous_rate, Vec x)
 {
-  // The step's increment against dt times the path tangent at either end: on a continuous path
-  // one of them predicts it to O(dt); after a jump both are far off.
+  // The step's increment x against the path tangent's prediction dt (d lambda / dt) K^{-1} q at
+  // either end: on a continuous path one of them predicts it to O(dt); after a jump both are far off.
   double deviation[2];
-  Vec    x = integrator_->LastIncrements();
   PetscFunctionBeginUser;
   for (int end = 0; end < 2; ++end) {
-    double predicted = 0, error = 0;
-    PetscCall(VecWAXPY(dx_, -dt, end == 0 ? previous_tangent_ : path_tangent_, x));
+    const Vec    tangent   = end == 0 ? previous_tangent_ : path_tangent_;
+    const double scale     = dt * (end == 0 ? previous_rate : point_.load_factor_rate);
+    double       predicted = 0, error = 0;
+    PetscCall(VecWAXPY(dx_, -scale, tangent, x));
     PetscCall(WeightedDot(dx_, dx_, &error));
-    PetscCall(VecCopy(end == 0 ? previous_tangent_ : path_tangent_, trial_));
-    PetscCall(WeightedDot(trial_, trial_, &predicted));
-    deviation[end] = predicted > 0 ? std::sqrt(error / predicted) / dt : INFINITY;
+    PetscCall(WeightedDot(tangent, tangent, &predicted));
+    deviation[end] = predicted > 0 && scale != 0 ? std::sqrt(error / predicted) / std::abs(scale) : INFINITY;
   }
   if (std::min(deviation[0], deviation[1]) > kJumpDeviation && last_critical_.kind == CriticalPointKind::None) {
     last_critical_             = CriticalPoint{};
@@ -278,7 +278,7 @@ PetscErrorCode PathFollower::TryStep(double t, double dt, StepOutcome *outcome)
     if (outcome->converged) {
       ++steps_;
       PetscCall(Linearize(t + dt, t + dt, dt));
-      if (had_tangent && tangent_ready_ && stability_) PetscCall(DetectJump(dt));
+      if (had_tangent && tangent_ready_ && stability_) PetscCall(DetectJump(dt, 1.0, integrator_->LastIncrements()));
     }
   }
   PetscFunctionReturn(PETSC_SUCCESS);
@@ -356,10 +356,13 @@ PetscErrorCode PathFollower::TryDisplacementStep(double t, double dt, StepOutcom
     StateDiscardStep(*model_, &state);
     PetscFunctionReturn(PETSC_SUCCESS);
   }
+  const double previous_rate = point_.load_factor_rate;
+  PetscCall(VecCopy(path_tangent_, previous_tangent_));
   PetscCall(Commit(dt, dlambda, outcome));
   if (outcome->converged) {
     control_value_ = target;
     PetscCall(Linearize(t + dt, point_.load_factor + dlambda, dlambda));
+    if (tangent_ready_ && stability_) PetscCall(DetectJump(dt, previous_rate, previous_increment_));
   }
   PetscFunctionReturn(PETSC_SUCCESS);
 }

@@ -38,8 +38,9 @@
 
 namespace msflex {
 
-// Jump: a load-controlled step that converged on another branch of the path, having passed a
-// limit point (a snap-through); the path in between is not followed.
+// Jump: a load- or displacement-controlled step that converged on another branch of the path,
+// having passed a limit point of its control (a snap-through, or a snap-back under displacement
+// control); the path in between is not followed.
 enum class CriticalPointKind { None = 0, Limit = 1, Bifurcation = 2, Jump = 3 };
 const char *CriticalPointName(CriticalPointKind kind);
 
@@ -100,8 +101,9 @@ private:
   PetscErrorCode DetectCriticalPoint(const PathPoint &previous);
   // point_.load_factor_rate from the path tangent at the last equilibrium.
   PetscErrorCode LoadFactorRate();
-  // After a load-controlled step of size dt: whether it jumped to another branch.
-  PetscErrorCode DetectJump(double dt);
+  // After a load- or displacement-controlled step of size dt with increments x: whether it jumped
+  // to another branch (previous_rate: d lambda / dt at the step's start).
+  PetscErrorCode DetectJump(double dt, double previous_rate, Vec x);
   // The bordered Newton iterations from the predictor (x_, dlambda) to convergence. Collective.
   PetscErrorCode Correct(double dl, double displacement_target, double *dlambda, StepOutcome *outcome);
   PetscErrorCode TryArcLengthStep(double t, double dt, StepOutcome *outcome);
