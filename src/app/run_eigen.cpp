@@ -153,8 +153,8 @@ PetscErrorCode RunEigenAnalysis(MPI_Comm comm, const Model &model, const DofMap 
   for (size_t k = 0; k < pairs.values.size(); ++k) {
     const int    number = (int)k + 1;
     const double value = pairs.values[k], error = pairs.backward_errors[k];
-    // A rigid mode (a mechanism's free motion) has lambda at round-off: 1e-8 of the shift's scale.
-    const bool               rigid  = !buckling && std::abs(value) <= 1e-6 * std::abs(pairs.shift);
+    // A rigid mode (a mechanism's free motion) has lambda at round-off.
+    const bool               rigid  = !buckling && std::abs(value) <= pairs.zero_level;
     const double             omega  = !buckling && value > 0 && !rigid ? std::sqrt(value) : 0.0;
     std::vector<std::string> names  = {"time", "step", "mode"};
     std::vector<double>      values = {(double)number, (double)number, (double)number};

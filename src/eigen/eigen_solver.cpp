@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <numeric>
 
 namespace msflex {
@@ -104,14 +105,14 @@ PetscErrorCode SolveModesAt(Mat K, Mat M, int count, double sigma, EigenPairs *p
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
-// min over the DOFs with mass of K_ii / M_ii: the Rayleigh quotient of a unit vector, an upper
-// bound of the lowest eigenvalue. Collective.
-PetscErrorCode DiagonalRatio(Mat K, Mat M, double *ratio)
+// min (or max) over the DOFs with mass of K_ii / M_ii: the Rayleigh quotient of a unit vector,
+// an upper bound of the lowest eigenvalue (a scale of the largest). Collective.
+PetscErrorCode DiagonalRatio(Mat K, Mat M, double *ratio, bool largest = false)
 {
   Vec                k, m;
   const PetscScalar *kv, *mv;
   PetscInt           n;
-  double             local = INFINITY;
+  double             local = largest ? 0.0 : INFINITY;
   PetscFunctionBeginUser;
   PetscCall(MatCreateVecs(K, &k, &m));
   PetscCall(MatGetDiagonal(K, k));
@@ -120,14 +121,19 @@ PetscErrorCode DiagonalRatio(Mat K, Mat M, double *ratio)
   PetscCall(VecGetArrayRead(k, &kv));
   PetscCall(VecGetArrayRead(m, &mv));
   for (PetscInt i = 0; i < n; ++i)
-    if (PetscRealPart(mv[i]) > 0 && PetscRealPart(kv[i]) > 0) local = std::min(local, PetscRealPart(kv[i]) / PetscRealPart(mv[i]));
+    if (PetscRealPart(mv[i]) > 0 && PetscRealPart(kv[i]) > 0) {
+      const double r = PetscRealPart(kv[i]) / PetscRealPart(mv[i]);
+      local          = largest ? std::max(local, r) : std::min(local, r);
+    }
   PetscCall(VecRestoreArrayRead(k, &kv));
   PetscCall(VecRestoreArrayRead(m, &mv));
   PetscCall(VecDestroy(&k));
   PetscCall(VecDestroy(&m));
-  PetscCall(MPIU_Allreduce(&local, ratio, 1, MPI_DOUBLE, MPI_MIN, PetscObjectComm((PetscObject)K)));
+  PetscCall(MPIU_Allreduce(&local, ratio, 1, MPI_DOUBLE, largest ? MPI_MAX : MPI_MIN, PetscObjectComm((PetscObject)K)));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
+
+PetscErrorCode SolveModes(Mat K, Mat M, int count, double shift, EigenPairs *pairs);
 
 } // namespace
 
@@ -161,6 +167,18 @@ PetscErrorCode EigenPairsDestroy(EigenPairs *pairs)
 
 PetscErrorCode SolveVibrationModes(Mat K, Mat M, int count, double shift, EigenPairs *pairs)
 {
+  double largest_ratio;
+  PetscFunctionBeginUser;
+  PetscCall(SolveModes(K, M, count, shift, pairs));
+  PetscCall(DiagonalRatio(K, M, &largest_ratio, true));
+  pairs->zero_level = std::max(1e-6 * std::abs(pairs->shift), 1e3 * std::numeric_limits<double>::epsilon() * largest_ratio);
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+namespace {
+
+PetscErrorCode SolveModes(Mat K, Mat M, int count, double shift, EigenPairs *pairs)
+{
   PetscBool target_option;
   PetscFunctionBeginUser;
   pairs->solves = 0;
@@ -190,6 +208,8 @@ PetscErrorCode SolveVibrationModes(Mat K, Mat M, int count, double shift, EigenP
   PetscCall(SolveModesAt(K, M, count, -1e-2 * first_elastic, pairs, nullptr));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
+
+} // namespace
 
 PetscErrorCode SolveBucklingModes(Mat K, Mat K_sigma, int count, EigenPairs *pairs)
 {

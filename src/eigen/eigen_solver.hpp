@@ -28,8 +28,11 @@ struct EigenPairs {
   std::vector<double> values;          // ascending (modes: lambda; buckling: mu)
   std::vector<double> backward_errors; // ||A x - lambda B x|| / ((||A|| + |lambda| ||B||) ||x||)
   std::vector<Vec>    vectors;         // owned by the caller (EigenPairsDestroy); B-normalised
-  double              shift  = 0.0;    // the shift of the final solve (modes)
-  int                 solves = 0;      // 1, or 2 when a first solve only estimated the spectrum
+  double              shift = 0.0;     // the shift of the final solve (modes)
+  // Modes: the magnitude below which an eigenvalue is zero within round-off, a rigid mode:
+  // max(1e-6 |shift|, 1e3 eps max_i K_ii / M_ii).
+  double zero_level = 0.0;
+  int    solves     = 0; // 1, or 2 when a first solve only estimated the spectrum
 };
 
 // SLEPc is initialised on first use, PETSc being initialised already; EigenFinalize ends it.
