@@ -185,10 +185,21 @@ PetscErrorCode PathFollower::DetectCriticalPoint(const PathPoint &previous)
   // At a limit point c = q^T K^{-1} q passes through infinity (q is not orthogonal to the
   // critical mode), so S = c_0 / c changes sign; at a bifurcation it keeps its sign.
   point.kind = previous.stiffness_parameter * point_.stiffness_parameter < 0 ? CriticalPointKind::Limit : CriticalPointKind::Bifurcation;
-  // Where the lowest eigenvalue passes zero, linearly in t, as a fraction of the step.
+  // Where the lowest eigenvalue passes zero, as a fraction of the step: on the parabola through
+  // the last three equilibria when it has a root in the step (mu is quadratic in lambda where the
+  // loads couple modes, as in lateral-torsional buckling), else on the line through the last two.
   const double mu0 = previous.lowest_eigenvalue, mu1 = point_.lowest_eigenvalue;
-  const double fraction = std::isfinite(mu0) && std::isfinite(mu1) && mu0 * mu1 < 0 ? mu0 / (mu0 - mu1) : 0.5;
-  point.load_factor     = previous.load_factor + fraction * (point_.load_factor - previous.load_factor);
+  double       fraction = std::isfinite(mu0) && std::isfinite(mu1) && mu0 * mu1 < 0 ? mu0 / (mu0 - mu1) : 0.5;
+  if (recent_.size() == 3 && std::isfinite(recent_[0].lowest_eigenvalue) && std::isfinite(mu0) && std::isfinite(mu1) && mu0 * mu1 < 0) {
+    // mu(s) = mu0 + s (mu1 - mu0) + c s (s - 1) with s = 0 at the previous point, s = 1 at this one.
+    const double h = point_.t - previous.t, s_first = (recent_[0].t - previous.t) / h;
+    const double line = mu0 + s_first * (mu1 - mu0), c = (recent_[0].lowest_eigenvalue - line) / (s_first * (s_first - 1.0));
+    const double a = c, b = mu1 - mu0 - c, discriminant = b * b - 4 * a * mu0;
+    if (a != 0.0 && discriminant >= 0.0)
+      for (double root : {(-b + std::sqrt(discriminant)) / (2 * a), (-b - std::sqrt(discriminant)) / (2 * a)})
+        if (root >= 0.0 && root <= 1.0) fraction = root;
+  }
+  point.load_factor = previous.load_factor + fraction * (point_.load_factor - previous.load_factor);
   // lambda(s), s in [0, 1] over the step: the cubic through both ends' values and rates.
   const double h = point_.t - previous.t, l0 = previous.load_factor, l1 = point_.load_factor;
   const double m0 = h * previous.load_factor_rate, m1 = h * point_.load_factor_rate;
