@@ -13,7 +13,7 @@ namespace {
 
 // Relative residual tolerance of the eigenpairs: the eigenvalues of a symmetric pencil are then
 // accurate to about its square.
-constexpr double kTolerance = 1e-10;
+constexpr double kTolerance = 1e-12;
 
 // A factorisation of the ST's operator by MUMPS Cholesky (K - sigma M, or K), direct.
 PetscErrorCode UseCholesky(EPS eps)
