@@ -5,7 +5,7 @@ and the eigenvalues of every eigenanalysis on 1 and --np ranks:
    cosh - cos - s (sinh - sin) to 1e-3 of the tip deflection;
  - free-free beam (free_free_modes.yaml): six rigid modes (|lambda| below the round-off level,
    flagged rigid_mode), then the 6 lowest bending frequencies to 1e-4;
- - a beam hinged by a revolute joint (pinned_free_modes.yaml): one rigid mode at zero (|lambda|
+ - a beam hinged by a revolute joint (input/hinged_beam_modes.yaml): one rigid mode at zero (|lambda|
    <= 1e-6 of the first elastic one), pinned-free bending in the hinge's plane and clamped-free
    bending out of it to 1e-4;
  - a pinned-pinned beam preloaded by a tension T and by a compression of half its Euler load
@@ -79,8 +79,8 @@ check.less("free-free: rigid modes first (0 = yes)", 0.0 if np.all(rigid[:6]) el
 compare("free-free", history["angular_frequency"][~rigid], bending(FREE_FREE, EI2) + bending(FREE_FREE, EI3), 1e-4)
 
 # Hinged beam: a mechanism with one rigid mode.
-path = run("pinned_free", f"{inputs}/pinned_free_modes.yaml", ranks=1)
-runs.append(("pinned_free", f"{inputs}/pinned_free_modes.yaml", ()))
+path = run("pinned_free", f"{args.source_dir}/input/hinged_beam_modes.yaml", ranks=1)
+runs.append(("pinned_free", f"{args.source_dir}/input/hinged_beam_modes.yaml", ()))
 history = mt.history(path)
 rigid = history["rigid_mode"] == 1
 values = history["eigenvalue"]
