@@ -394,14 +394,14 @@ void Assembler::EvaluateElement(size_t k, bool want_tangent, ElementContribution
     c->AddElement(*state_, k, out);
     if (!out->evaluable) return;
   }
-  if (state_->equations.InitialAcceleration()) inertia_->DropMasslessElementRows(*state_, k, out);
+  if (state_->equations.InitialAcceleration() && !mass_matrix_only_) inertia_->DropMasslessElementRows(*state_, k, out);
 }
 
 void Assembler::EvaluateNode(int l, bool want_tangent, NodeContribution *out)
 {
   out->Clear(want_tangent);
   for (ForceContributor *c : node_contributors_) c->AddNode(*state_, l, out);
-  if (state_->equations.InitialAcceleration()) inertia_->SetMasslessNodeEquations(*state_, l, out);
+  if (state_->equations.InitialAcceleration() && !mass_matrix_only_) inertia_->SetMasslessNodeEquations(*state_, l, out);
 }
 
 void Assembler::Add(const NodeBlock &block, const double *residual, const double *tangent)
@@ -635,6 +635,18 @@ PetscErrorCode Assembler::ApplyOperator(Vec x, Vec y)
     PetscCall(VecDot(rank_one_right_, x, &dot));
     PetscCall(VecAXPY(y, dot, rank_one_left_));
   }
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode Assembler::AssembleMassMatrix(Mat mass, PetscBool *geometry_ok)
+{
+  PetscFunctionBeginUser;
+  PetscCheck(state_->equations.InitialAcceleration(), PETSC_COMM_SELF, PETSC_ERR_ARG_WRONGSTATE,
+             "the mass matrix is the tangent of the initial-acceleration problem: begin that step first");
+  mass_matrix_only_         = true;
+  const PetscErrorCode code = AssembleJacobian(mass, geometry_ok);
+  mass_matrix_only_         = false;
+  PetscCall(code);
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 

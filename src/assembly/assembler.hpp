@@ -74,6 +74,10 @@ public:
     *b      = rank_one_right_;
     *active = rank_one_active_;
   }
+  // The condensed mass matrix (eigenanalysis): the tangent of the initial-acceleration problem
+  // (the step's equations must be it) without its "acceleration = 0" rows of massless groups, so
+  // that a massless DOF keeps a zero row. Into the assembler's own matrix, as AssembleJacobian.
+  PetscErrorCode AssembleMassMatrix(Mat mass, PetscBool *geometry_ok);
 
   // Magnitude of the forces in the last residual (see newton.hpp). Collective.
   PetscErrorCode ForceScale(double *scale);
@@ -192,6 +196,7 @@ private:
   double            local_force_squares_  = 0.0; // sum of squares of every node vector added in the last residual
   std::vector<Vec6> prescribed_residual_;        // per local node: the last residual's entries on prescribed DOFs (the reactions this rank assembled)
   double            energy_correction_ = 0.0;    // em's beta of the last residual
+  bool              mass_matrix_only_  = false;  // AssembleMassMatrix: no equations for massless groups
 
   Mat                   jacobian_            = nullptr;
   Mat                   correction_jacobian_ = nullptr; // em: K_corr, the pattern of jacobian_

@@ -181,6 +181,45 @@ bool BeamContributor::EndPointTangent(const State &state, size_t k, double *resi
   return BeamInternalForces(references_[k], sections_[element.section], positions, triads, residual, tangent, nullptr, nullptr) == BeamKernelStatus::Ok;
 }
 
+bool BeamContributor::GaussStrainsOf(const State &state, std::vector<GaussStrains> *strains) const
+{
+  bool         all_ok = true;
+  GaussStrains zero;
+  for (int g = 0; g < kBeamMaxGauss; ++g) zero.strain[g].setZero(), zero.curvature[g].setZero();
+  strains->assign(references_.size(), zero);
+  for (size_t k = 0; k < references_.size(); ++k) {
+    const BeamElement &element = model_->elements[map_->local_elements[k]];
+    Vec3               positions[kBeamMaxNodes];
+    Mat3               triads[kBeamMaxNodes];
+    double             r[kBeamMaxDofs];
+    BeamGaussResults   gauss;
+    Configuration(state, k, positions, triads);
+    if (BeamInternalForces(references_[k], sections_[element.section], positions, triads, r, nullptr, nullptr, &gauss) != BeamKernelStatus::Ok) {
+      all_ok = false;
+      continue;
+    }
+    for (int g = 0; g < references_[k].num_gauss; ++g) (*strains)[k].strain[g] = gauss.strain[g], (*strains)[k].curvature[g] = gauss.curvature[g];
+  }
+  return all_ok;
+}
+
+void BeamContributor::AddPrestrain(const std::vector<GaussStrains> &prestrain)
+{
+  if (unstrained_references_.empty()) unstrained_references_ = references_;
+  for (size_t k = 0; k < references_.size(); ++k)
+    for (int g = 0; g < references_[k].num_gauss; ++g) {
+      references_[k].strain0[g] -= prestrain[k].strain[g];
+      references_[k].curvature0[g] -= prestrain[k].curvature[g];
+    }
+}
+
+void BeamContributor::ClearPrestrain()
+{
+  if (unstrained_references_.empty()) return;
+  references_.swap(unstrained_references_);
+  unstrained_references_.clear();
+}
+
 double BeamContributor::LocalStiffnessSquares() const
 {
   double squares = 0.0;

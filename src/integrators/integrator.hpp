@@ -52,13 +52,18 @@ public:
   PetscErrorCode StrainEnergy(double *strain_energy);
   PetscErrorCode MomentaOfState(Momenta *momenta);
 
-  bool          Dynamic() const { return dynamic_; }
-  double        ExternalWork() const { return external_work_; }
-  void          SetExternalWork(double work) { external_work_ = work; }
-  double        EnergyCorrectionFactor() const { return system_.GetAssembler().EnergyCorrectionFactor(); }
-  const State  &GetState() const { return system_.GetState(); }
-  State        *MutableState() { return &system_.GetState(); }
-  const Model  &GetModel() const { return *model_; }
+  bool         Dynamic() const { return dynamic_; }
+  double       ExternalWork() const { return external_work_; }
+  void         SetExternalWork(double work) { external_work_ = work; }
+  double       EnergyCorrectionFactor() const { return system_.GetAssembler().EnergyCorrectionFactor(); }
+  const State &GetState() const { return system_.GetState(); }
+  State       *MutableState() { return &system_.GetState(); }
+  const Model &GetModel() const { return *model_; }
+  // The mechanical system, for what linearises it about the current state (path following,
+  // stability, eigenanalysis).
+  MechanicalSystem &System() { return system_; }
+  // The increments of the last converged step (Newton's solution).
+  Vec           LastIncrements() const { return increments_; }
   const DofMap &Map() const { return *map_; }
 
 private:

@@ -452,13 +452,74 @@ void ReadOutputTimes(const YAML::Node &value, AnalysisSettings &analysis)
   }
 }
 
+// Path following and stability in statics, eigenanalyses (docs/input.md, docs/stability.md).
+void ReadPathFollowing(const MappingReader &entry, const ReaderContext &context, AnalysisSettings &analysis)
+{
+  if (const YAML::Node *value = entry.Find("control")) {
+    const std::string control = ReadString(*value, "control");
+    if (!PathControlFromName(control, &analysis.control))
+      FailAt(value->Mark(), "unknown control " + Quote(control) + " in 'analysis'; expected one of " + PathControlNameList());
+  }
+  analysis.arc_length_psi     = entry.NonNegativeNumber("arc_length_psi", analysis.arc_length_psi);
+  analysis.desired_iterations = entry.Integer("desired_iterations", 1, analysis.desired_iterations);
+  analysis.max_steps          = entry.Integer("max_steps", 1, analysis.max_steps);
+  analysis.control_node       = entry.String("control_node", analysis.control_node);
+  analysis.control_joint      = entry.String("control_joint", analysis.control_joint);
+  if (const YAML::Node *value = entry.Find("control_dof")) {
+    const std::string name = ReadString(*value, "control_dof");
+    analysis.control_dof   = PathControlDofFromName(name);
+    if (analysis.control_dof < 0)
+      FailAt(value->Mark(), "unknown 'control_dof' " + Quote(name) + "; expected ux, uy, uz, rx, ry, rz (a node) or tx, ty, tz, rx, ry, rz (a joint)");
+  }
+  analysis.control_value = entry.Number("control_value", analysis.control_value);
+  if (analysis.control_value == 0.0) FailAt(entry.Required("control_value").Mark(), "'control_value' must not be zero");
+  analysis.stability   = entry.Bool("stability", analysis.stability);
+  analysis.eigenvalues = entry.Integer("eigenvalues", 1, analysis.eigenvalues);
+  analysis.shift       = entry.Has("shift") ? entry.Number("shift") : analysis.shift;
+  analysis.preload     = entry.Bool("preload", analysis.preload);
+  // Keys of displacement control without it, output times with arc length: not what was meant.
+  if (analysis.control != PathControl::Displacement)
+    for (const char *key : {"control_node", "control_joint", "control_dof", "control_value"})
+      if (entry.Has(key))
+        FailAt(entry.Required(key).Mark(), Quote(key) + " applies to 'control: displacement', but the control is " + PathControlName(analysis.control));
+  if (analysis.control == PathControl::ArcLength && !analysis.output_times.empty())
+    FailAt(entry.Required("output_times").Mark(), "'output_times' do not apply to 'control: arc_length', whose steps are lengths along the path");
+  const AnalysisProblem problem = PathControlProblem(context.model);
+  if (!problem.message.empty()) FailAt(entry.Has(problem.key) ? entry.Required(problem.key).Mark() : entry.Mark(), problem.message);
+}
+
 void ReadAnalysis(const YAML::Node *mapping, const ReaderContext &context, AnalysisSettings &analysis)
 {
   if (mapping == nullptr || mapping->IsNull()) return;
   const MappingReader entry(*mapping, "'analysis'",
-                            {"type", "integrator", "spectral_radius", "em_correction", "end_time", "initial_step", "min_step", "max_step", "growth_factor",
-                             "easy_iterations", "easy_steps_to_grow", "max_rotation_increment", "max_newton_iterations", "newton_rtol", "newton_atol",
-                             "output_times"});
+                            {"type",
+                             "integrator",
+                             "spectral_radius",
+                             "em_correction",
+                             "end_time",
+                             "initial_step",
+                             "min_step",
+                             "max_step",
+                             "growth_factor",
+                             "easy_iterations",
+                             "easy_steps_to_grow",
+                             "max_rotation_increment",
+                             "max_newton_iterations",
+                             "newton_rtol",
+                             "newton_atol",
+                             "output_times",
+                             "control",
+                             "arc_length_psi",
+                             "desired_iterations",
+                             "max_steps",
+                             "control_node",
+                             "control_joint",
+                             "control_dof",
+                             "control_value",
+                             "stability",
+                             "eigenvalues",
+                             "shift",
+                             "preload"});
   analysis.mark = context.MarkOf(entry.Mark());
   if (const YAML::Node *value = entry.Find("type")) {
     const std::string type = ReadString(*value, "type");
@@ -503,6 +564,7 @@ void ReadAnalysis(const YAML::Node *mapping, const ReaderContext &context, Analy
   analysis.newton_rtol           = entry.PositiveNumber("newton_rtol", analysis.newton_rtol);
   analysis.newton_atol           = entry.NonNegativeNumber("newton_atol", analysis.newton_atol);
   if (const YAML::Node *output_times = entry.Find("output_times")) ReadOutputTimes(*output_times, analysis);
+  ReadPathFollowing(entry, context, analysis);
 }
 
 // "input/rollup.yaml" -> "rollup.h5": results go to the working directory, named after the input.
@@ -600,7 +662,7 @@ Model ParseModel(const std::string &text, const std::string &file_label, MPI_Com
   for (const YAML::Node &item : ReadOptionalList(top.Find("probes"), "probes")) model.probes.push_back(ReadProbe(item, context));
   ReadAnalysis(top.Find("analysis"), context, model.analysis);
   ReadOutput(top.Find("output"), context, model.output);
-  if (model.analysis.type == AnalysisType::Static) CheckStaticMechanisms(model);
+  if (NeedsStaticStiffness(model.analysis.type, model.analysis.preload)) CheckStaticMechanisms(model);
   return std::move(context.model);
 }
 

@@ -11,6 +11,7 @@
 #include "schemes/time_scheme.hpp"
 
 #include <array>
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -195,7 +196,29 @@ struct AnalysisSettings {
   double              newton_rtol            = 1e-10;
   double              newton_atol            = 1e-50;
   std::vector<double> output_times; // steps are shortened to hit these exactly
-  SourceMark          mark;
+  // Path following in statics (docs/stability.md). control: what the steps advance (model/
+  // analysis_types.hpp). Arc length: psi weighs the load factor in the constraint (0:
+  // cylindrical), desired_iterations steer the arc length, max_steps bounds a path that never
+  // reaches end_time. Displacement control: the node DOF (ux..rz) or joint coordinate (tx..rz
+  // along/about the joint axes) named by control_node or control_joint and control_dof follows
+  // control_value * t.
+  PathControl control            = PathControl::Load;
+  double      arc_length_psi     = 0.0;
+  int         desired_iterations = 5;
+  int         max_steps          = 1000;
+  std::string control_node, control_joint;
+  int         control_dof   = -1; // 0..5: ux uy uz rx ry rz, or the joint's tx ty tz rx ry rz
+  double      control_value = 1.0;
+  // Per converged static step: the negative pivots and lowest eigenvalue of the tangent, critical
+  // points named (docs/stability.md).
+  bool stability = true;
+  // Eigenanalyses: how many eigenvalues, the shift of shift-and-invert for modes ((rad/s)^2;
+  // NaN: chosen automatically) and whether a static equilibrium under the loads at end_time is
+  // computed first (the modes or buckling loads about that preloaded state).
+  int        eigenvalues = 6;
+  double     shift       = std::numeric_limits<double>::quiet_NaN();
+  bool       preload     = false;
+  SourceMark mark;
 };
 
 struct OutputSettings {
