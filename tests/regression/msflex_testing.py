@@ -104,6 +104,12 @@ class Checker:
         print(f"{'ok  ' if ok else 'FAIL'} {label}: {value:.3e} (limit {limit:.1e})")
         self.failures += 0 if ok else 1
 
+    def true(self, label, condition):
+        """A yes/no check: passes when condition is True."""
+        ok = condition is True or (isinstance(condition, (bool, np.bool_)) and bool(condition))
+        print(f"{'ok  ' if ok else 'FAIL'} {label}")
+        self.failures += 0 if ok else 1
+
     def finish(self):
         if self.failures:
             raise SystemExit(f"{self.name}: {self.failures} check(s) failed")
