@@ -60,6 +60,54 @@ GaussInterpolation InterpolateAtGauss(const BeamElementReference &ref, int gp, c
   return g;
 }
 
+// The rotation series c_n(x) = sum_k (-x)^k/(2k+n)! (math/rotation.hpp) for the small relative
+// rotations inside an element, x <= kShortSeriesLimit: ten terms of each, summed by Horner's rule
+// with fixed coefficients (no branches, no loop-carried counters). The first omitted term is below
+// x^10/(20+n)! < 5e-25 for c_n and likewise for the derivatives; larger x falls back to
+// EvaluateRotationSeries. Only the functions a form needs are summed: [first, first + 3).
+constexpr double kShortSeriesLimit = 0.25;
+constexpr int    kShortSeriesTerms = 10;
+struct ShortSeriesCoefficients {
+  double c[5][kShortSeriesTerms], dc[5][kShortSeriesTerms], ddc[5][kShortSeriesTerms];
+  ShortSeriesCoefficients()
+  {
+    for (int n = 0; n < 5; ++n) {
+      // a_k = (-1)^k/(2k+n)!;  c = sum a_k x^k, c' = sum (k+1) a_{k+1} x^k, c'' = sum (k+2)(k+1) a_{k+2} x^k
+      double a[kShortSeriesTerms + 2];
+      for (int k = 0; k < kShortSeriesTerms + 2; ++k) {
+        double factorial = 1.0;
+        for (int m = 2; m <= 2 * k + n; ++m) factorial *= m;
+        a[k] = (k % 2 ? -1.0 : 1.0) / factorial;
+      }
+      for (int k = 0; k < kShortSeriesTerms; ++k) {
+        c[n][k]   = a[k];
+        dc[n][k]  = (k + 1) * a[k + 1];
+        ddc[n][k] = (k + 2) * (k + 1) * a[k + 2];
+      }
+    }
+  }
+};
+const ShortSeriesCoefficients kShortSeries;
+
+inline double Horner(const double *coefficient, double x)
+{
+  double value = coefficient[kShortSeriesTerms - 1];
+  for (int k = kShortSeriesTerms - 2; k >= 0; --k) value = value * x + coefficient[k];
+  return value;
+}
+
+RotationSeries ElementRotationSeries(double x, int first, bool second_derivatives)
+{
+  if (x > kShortSeriesLimit) return EvaluateRotationSeries(x);
+  RotationSeries s{};
+  for (int n = first; n < first + 3; ++n) {
+    s.c[n]  = Horner(kShortSeries.c[n], x);
+    s.dc[n] = Horner(kShortSeries.dc[n], x);
+    if (second_derivatives) s.ddc[n] = Horner(kShortSeries.ddc[n], x);
+  }
+  return s;
+}
+
 template <int NN> using NodalMatrix = Eigen::Matrix<double, 6 * NN, 6 * NN, Eigen::RowMajor>;
 
 // Closed forms of the Rodrigues-type operators F = I + alpha hat(p) + beta hat(p)^2 (math/rotation.hpp)
@@ -202,7 +250,7 @@ BeamKernelStatus InternalForces(const BeamElementReference &ref, const BeamSecti
     G.wJ                         = ref.weight_jacobian[gp];
     const auto [Psi, dPsi, drho] = InterpolateAtGauss(ref, gp, rho, psi);
     const double         x       = Psi.squaredNorm();
-    const RotationSeries series  = EvaluateRotationSeries(x);
+    const RotationSeries series  = ElementRotationSeries(x, 1, want_tangent); // c1..c3: exp and H
     const RodriguesForm  Fe      = ExpForm(series);
     const RodriguesForm  Fh      = TangentForm(series);
     const Vec3           eps     = FormTransposeTimes(Fe.alpha, Fe.beta, Psi, x, drho) - ref.strain0[gp];    // Gamma - Gamma_0
@@ -254,7 +302,7 @@ BeamKernelStatus InternalForces(const BeamElementReference &ref, const BeamSecti
   for (int a : others) {
     d[a]           = positions[a] - positions[c];
     const double x = psi[a].squaredNorm();
-    Finv[a]        = TangentInverseForm(EvaluateRotationSeries(x));
+    Finv[a]        = TangentInverseForm(ElementRotationSeries(x, 2, false)); // c2..c4; beta_xx unused here
     const Vec3 &f = fa[a] = L * g_rho[a];
     // m = L Hinv^T g_psi; -d x f - m = M_a^T g_rho - m
     const Vec3 &m = ma[a] = L * FormTransposeTimes(Finv[a].alpha, Finv[a].beta, psi[a], x, g_psi[a]);
