@@ -104,11 +104,33 @@ PetscErrorCode Assembler::Setup(MPI_Comm comm, const Model &model, const DofMap 
   PetscCall(MatSetType(jacobian_, MATAIJ));
   PetscCall(MatSetOptionsPrefix(jacobian_, "jacobian_"));
   PetscCall(MatSetFromOptions(jacobian_));
-  PetscCall(MatSeqAIJSetPreallocation(jacobian_, 0, pattern.diagonal_nonzeros.data()));
-  PetscCall(MatMPIAIJSetPreallocation(jacobian_, 0, pattern.diagonal_nonzeros.data(), 0, pattern.off_diagonal_nonzeros.data()));
-  // AIJ: the exact pattern itself, all zeros, in one pass (no element-by-element insertion).
-  PetscCall(MatSeqAIJSetPreallocationCSR(jacobian_, pattern.row_start.data(), pattern.columns.data(), nullptr));
-  PetscCall(MatMPIAIJSetPreallocationCSR(jacobian_, pattern.row_start.data(), pattern.columns.data(), nullptr));
+  // -jacobian_mat_type: AIJ (the default), BAIJ with block size 1 (the unknowns of a node are not
+  // a block of 6 once supports and joints remove some) and dense (small models). SBAIJ stores one
+  // triangle of a symmetric matrix, and the tangent is not symmetric (follower loads, joints,
+  // out of equilibrium); other types cannot be assembled into.
+  PetscBool is_aij, is_baij, is_dense;
+  MatType   type;
+  PetscCall(MatGetType(jacobian_, &type));
+  PetscCall(PetscObjectTypeCompareAny((PetscObject)jacobian_, &is_aij, MATSEQAIJ, MATMPIAIJ, ""));
+  PetscCall(PetscObjectTypeCompareAny((PetscObject)jacobian_, &is_baij, MATSEQBAIJ, MATMPIBAIJ, ""));
+  PetscCall(PetscObjectTypeCompareAny((PetscObject)jacobian_, &is_dense, MATSEQDENSE, MATMPIDENSE, ""));
+  PetscCheck(is_aij || is_baij || is_dense, comm, PETSC_ERR_USER_INPUT,
+             "bad option: -jacobian_mat_type %s is not supported (the tangent is not symmetric): use aij (the default), baij or dense", type);
+  PetscMPIInt ranks;
+  PetscCallMPI(MPI_Comm_size(comm, &ranks));
+  PetscCheck(!is_dense || ranks == 1, comm, PETSC_ERR_USER_INPUT,
+             "bad option: -jacobian_mat_type dense runs on one rank only (no parallel dense LU): use aij or baij");
+  if (is_aij) {
+    PetscCall(MatSeqAIJSetPreallocation(jacobian_, 0, pattern.diagonal_nonzeros.data()));
+    PetscCall(MatMPIAIJSetPreallocation(jacobian_, 0, pattern.diagonal_nonzeros.data(), 0, pattern.off_diagonal_nonzeros.data()));
+    // AIJ: the exact pattern itself, all zeros, in one pass (no element-by-element insertion).
+    PetscCall(MatSeqAIJSetPreallocationCSR(jacobian_, pattern.row_start.data(), pattern.columns.data(), nullptr));
+    PetscCall(MatMPIAIJSetPreallocationCSR(jacobian_, pattern.row_start.data(), pattern.columns.data(), nullptr));
+  } else if (is_baij) {
+    PetscCall(MatXAIJSetPreallocation(jacobian_, 1, pattern.diagonal_nonzeros.data(), pattern.off_diagonal_nonzeros.data(), nullptr, nullptr));
+  } else {
+    PetscCall(MatSetUp(jacobian_));
+  }
   pattern = MatrixPattern{};
   PetscCall(MatSetOption(jacobian_, MAT_NEW_NONZERO_ALLOCATION_ERR, PETSC_TRUE));
   PetscCall(MatCreateVecs(jacobian_, &solution_template_, nullptr));
