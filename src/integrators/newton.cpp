@@ -92,6 +92,9 @@ PetscErrorCode SafeguardedNewtonStep(SNESLineSearch linesearch, void *ctx)
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
+// How far above the residual's convergence threshold the step-size test may still stop Newton.
+constexpr double kStepTestResidualMargin = 1e4;
+
 PetscErrorCode ForceScaledConvergenceTest(SNES snes, PetscInt iteration, PetscReal xnorm, PetscReal step_norm, PetscReal fnorm, SNESConvergedReason *reason,
                                           void *ctx)
 {
@@ -99,13 +102,19 @@ PetscErrorCode ForceScaledConvergenceTest(SNES snes, PetscInt iteration, PetscRe
   PetscFunctionBeginUser;
   if (iteration == 0) context->line_search_trouble = NewtonContext::StepTrouble::None; // a new solve
   PetscCall(SNESConvergedDefault(snes, iteration, xnorm, step_norm, fnorm, reason, nullptr));
-  if (*reason != SNES_CONVERGED_ITERATING || iteration == 0) PetscFunctionReturn(PETSC_SUCCESS);
+  if (iteration == 0) PetscFunctionReturn(PETSC_SUCCESS);
+  if (*reason != SNES_CONVERGED_ITERATING && *reason != SNES_CONVERGED_SNORM_RELATIVE) PetscFunctionReturn(PETSC_SUCCESS);
   PetscReal atol, rtol, stol;
   PetscInt  max_iterations, max_evaluations;
   double    force_scale;
   PetscCall(SNESGetTolerances(snes, &atol, &rtol, &stol, &max_iterations, &max_evaluations));
   PetscCall(context->assembler->ForceScale(&force_scale));
-  if (fnorm <= rtol * force_scale || fnorm <= context->assembler->RoundoffForceLevel()) *reason = SNES_CONVERGED_FNORM_RELATIVE;
+  const double needed = std::max((double)rtol * force_scale, context->assembler->RoundoffForceLevel());
+  if (fnorm <= needed) *reason = SNES_CONVERGED_FNORM_RELATIVE;
+  // The step-size test (a relative update below stol) means the iterate is at round-off only when
+  // the residual is near its floor too: far above it (a singular tangent, whose updates are
+  // round-off in the null space) it is no convergence.
+  else if (*reason == SNES_CONVERGED_SNORM_RELATIVE && fnorm > kStepTestResidualMargin * needed) *reason = SNES_CONVERGED_ITERATING;
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 

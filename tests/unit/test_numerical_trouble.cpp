@@ -334,6 +334,7 @@ TEST(NumericalTrouble, NanTangentBehindTheLineSearchIsNamedAtItsRow)
 // The same NaN factored by MUMPS: the factorisation fails, and the row is named.
 TEST(NumericalTrouble, NanTangentInTheFactorisationIsNamedAtItsRow)
 {
+  ScopedOptions   options{{"-pc_factor_mat_solver_type", "mumps"}}; // MUMPS' own account (on one rank a banded tangent defaults to PETSc LU)
   Problem         p;
   PoisonedTangent poison;
   ASSERT_EQ(Build(kArm, nullptr, &p), PETSC_SUCCESS);
@@ -349,7 +350,8 @@ TEST(NumericalTrouble, NanTangentInTheFactorisationIsNamedAtItsRow)
 // rotations, MUMPS stops with INFOG(1) = -10, and the first such unknown is named.
 TEST(NumericalTrouble, SingularTangentNamesTheUnknownNothingResists)
 {
-  Problem p;
+  ScopedOptions options{{"-pc_factor_mat_solver_type", "mumps"}}; // MUMPS' own account (on one rank a banded tangent defaults to PETSc LU)
+  Problem       p;
   ASSERT_EQ(Build(
                 kArm,
                 [](Model &m) {
@@ -384,7 +386,8 @@ TEST(NumericalTrouble, SingularTangentNamesTheUnknownNothingResists)
 // absurd and Newton runs out of iterations, and the message says so from the history.
 TEST(NumericalTrouble, FreeBeamStaticsIsReportedSingular)
 {
-  Problem p;
+  ScopedOptions options{{"-pc_factor_mat_solver_type", "mumps"}}; // MUMPS' own account (on one rank a banded tangent defaults to PETSc LU)
+  Problem       p;
   ASSERT_EQ(Build(
                 kArm, [](Model &m) { m.supports.clear(); }, &p),
             PETSC_SUCCESS);
