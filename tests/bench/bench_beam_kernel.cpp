@@ -65,13 +65,17 @@ int main(int argc, char **argv)
   const BeamSectionStiffness section{Vec3(1e4, 3e3, 5e3), Vec3(700, 400, 900)};
   double                     checksum = 0.0;
   std::printf("%6s %-24s %10s %10s\n", "nodes", "call", "median_us", "min_us");
+  // Optional: only one element size and call (for counting instructions): [rounds] [nodes] [0|1 tangent]
+  const int only_nodes = argc > 2 ? std::atoi(argv[2]) : 0, only_tangent = argc > 3 ? std::atoi(argv[3]) : -1;
   for (int nn = 2; nn <= 3; ++nn) {
+    if (only_nodes && nn != only_nodes) continue;
     Configuration reference, deformed;
     MakeElement(nn, &reference, &deformed);
     BeamElementReference ref;
     if (BeamElementSetup(nn, reference.positions, reference.triads, &ref) != BeamKernelStatus::Ok) return 1;
     double residual[kBeamMaxDofs], tangent[kBeamMaxDofs * kBeamMaxDofs], energy = 0.0;
     for (int with_tangent = 0; with_tangent < 2; ++with_tangent) {
+      if (only_tangent >= 0 && with_tangent != only_tangent) continue;
       std::vector<double> per_call;
       for (int round = 0; round < rounds; ++round) {
         const double start = ThreadSeconds();
