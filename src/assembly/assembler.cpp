@@ -22,8 +22,8 @@ int ElementIndices(const BeamElement &element, const DofMap &map, PetscInt *indi
   return 6 * num_nodes;
 }
 // The round-off floor of the residual from the nodal coordinates. An element's strains come from
-// differences of positions x_a - x_c of magnitude |x| <= R (the model's largest reference
-// coordinate plus its extent, which bounds where a node can go), each rounded to eps R, divided by
+// differences of positions x_a - x_c of magnitude |x| ~ R (the model's largest reference
+// coordinate), each rounded to eps R, divided by
 // the element length h: a stress error of |C_N| eps R / h per element, independent from element
 // to element, so the residual's norm cannot drop below about eps sqrt(sum_e (|C_N| R / h_e)^2),
 // which grows like N^1.5 with the element count N. Newton stops there instead of iterating on
@@ -33,7 +33,7 @@ double LocalPositionRoundoffSquares(const Model &model, const DofMap &map)
   Vec3 lower = Vec3::Constant(std::numeric_limits<double>::max()), upper = -lower;
   for (const Node &node : model.nodes) lower = lower.cwiseMin(node.position), upper = upper.cwiseMax(node.position);
   if (model.nodes.empty()) return 0.0;
-  const double reach   = std::max(lower.cwiseAbs().maxCoeff(), upper.cwiseAbs().maxCoeff()) + (upper - lower).norm();
+  const double reach   = std::max(lower.cwiseAbs().maxCoeff(), upper.cwiseAbs().maxCoeff());
   double       squares = 0.0;
   for (const int e : map.local_elements) {
     const BeamElement &element = model.elements[e];

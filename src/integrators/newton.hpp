@@ -16,10 +16,10 @@
 //    magnitude R over element lengths h_e, which grows like N^1.5), so iterations per step do not
 //    grow with the element count. PETSc's step-size test (stol) stops Newton only while |R| is
 //    within 1e4 of that threshold (far above it the updates are round-off of a singular tangent).
-//  - LU chosen by structure: on one rank, PETSc's LU in RCM order when the tangent is banded under
-//    RCM (mean squared row envelope <= 60^2: chains, slender frames), else MUMPS (3D networks,
-//    several ranks); a dense -jacobian_mat_type uses LAPACK's LU. The symbolic factorisation is
-//    reused while the matrix pattern is unchanged. -pc_factor_mat_solver_type overrides.
+//  - MUMPS LU; with -newton_solver_by_structure the LU is chosen by structure: on one rank,
+//    PETSc's LU in RCM order when the tangent is banded under RCM (mean squared row envelope
+//    <= 60^2: chains, slender frames), else MUMPS. A dense -jacobian_mat_type uses LAPACK's LU.
+//    The symbolic factorisation is reused while the matrix pattern is unchanged.
 //  - The tangent is exact in every scheme (assembly/assembler.hpp). In em it has a rank-one term
 //    (beta of eq. 20 couples every element): the operator is a shell applying the assembled
 //    tangent plus that term, and GMRES on the LU of the assembled tangent solves each Newton step

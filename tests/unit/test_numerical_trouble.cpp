@@ -334,7 +334,6 @@ TEST(NumericalTrouble, NanTangentBehindTheLineSearchIsNamedAtItsRow)
 // The same NaN factored by MUMPS: the factorisation fails, and the row is named.
 TEST(NumericalTrouble, NanTangentInTheFactorisationIsNamedAtItsRow)
 {
-  ScopedOptions   options{{"-pc_factor_mat_solver_type", "mumps"}}; // MUMPS' own account (on one rank a banded tangent defaults to PETSc LU)
   Problem         p;
   PoisonedTangent poison;
   ASSERT_EQ(Build(kArm, nullptr, &p), PETSC_SUCCESS);
@@ -350,8 +349,7 @@ TEST(NumericalTrouble, NanTangentInTheFactorisationIsNamedAtItsRow)
 // rotations, MUMPS stops with INFOG(1) = -10, and the first such unknown is named.
 TEST(NumericalTrouble, SingularTangentNamesTheUnknownNothingResists)
 {
-  ScopedOptions options{{"-pc_factor_mat_solver_type", "mumps"}}; // MUMPS' own account (on one rank a banded tangent defaults to PETSc LU)
-  Problem       p;
+  Problem p;
   ASSERT_EQ(Build(
                 kArm,
                 [](Model &m) {
@@ -386,8 +384,7 @@ TEST(NumericalTrouble, SingularTangentNamesTheUnknownNothingResists)
 // absurd and Newton runs out of iterations, and the message says so from the history.
 TEST(NumericalTrouble, FreeBeamStaticsIsReportedSingular)
 {
-  ScopedOptions options{{"-pc_factor_mat_solver_type", "mumps"}}; // MUMPS' own account (on one rank a banded tangent defaults to PETSc LU)
-  Problem       p;
+  Problem p;
   ASSERT_EQ(Build(
                 kArm, [](Model &m) { m.supports.clear(); }, &p),
             PETSC_SUCCESS);
