@@ -21,6 +21,30 @@ int ElementIndices(const BeamElement &element, const DofMap &map, PetscInt *indi
     for (int d = 0; d < 6; ++d) indices[6 * a + d] = map.node_dofs[element.nodes[a]][d];
   return 6 * num_nodes;
 }
+// The round-off floor of the residual from the nodal coordinates. An element's strains come from
+// differences of positions x_a - x_c of magnitude |x| ~ R (the model's largest reference
+// coordinate), each rounded to eps R, divided by
+// the element length h: a stress error of |C_N| eps R / h per element, independent from element
+// to element, so the residual's norm cannot drop below about eps sqrt(sum_e (|C_N| R / h_e)^2),
+// which grows like N^1.5 with the element count N. Newton stops there instead of iterating on
+// round-off (ForceScaledConvergenceTest in integrators/newton.cpp). Returns the local sum.
+double LocalPositionRoundoffSquares(const Model &model, const DofMap &map)
+{
+  Vec3 lower = Vec3::Constant(std::numeric_limits<double>::max()), upper = -lower;
+  for (const Node &node : model.nodes) lower = lower.cwiseMin(node.position), upper = upper.cwiseMax(node.position);
+  if (model.nodes.empty()) return 0.0;
+  const double reach   = std::max(lower.cwiseAbs().maxCoeff(), upper.cwiseAbs().maxCoeff());
+  double       squares = 0.0;
+  for (const int e : map.local_elements) {
+    const BeamElement &element = model.elements[e];
+    const Section     &section = model.sections[element.section];
+    const double       h       = (model.nodes[element.nodes[element.order]].position - model.nodes[element.nodes[0]].position).norm();
+    if (!(h > 0.0)) continue;
+    const double axial_shear = std::sqrt(section.EA * section.EA + section.GA2 * section.GA2 + section.GA3 * section.GA3);
+    squares += std::pow(axial_shear * reach / h, 2);
+  }
+  return squares;
+}
 } // namespace
 
 Assembler::~Assembler()
@@ -62,7 +86,9 @@ PetscErrorCode Assembler::Setup(MPI_Comm comm, const Model &model, const DofMap 
 
   double global_stiffness_squares, stiffness_squares = beams->LocalStiffnessSquares();
   PetscCall(MPIU_Allreduce(&stiffness_squares, &global_stiffness_squares, 1, MPI_DOUBLE, MPI_SUM, comm));
-  roundoff_force_level_ = 100.0 * std::numeric_limits<double>::epsilon() * std::sqrt(global_stiffness_squares);
+  double global_position_squares, position_squares = LocalPositionRoundoffSquares(model, map);
+  PetscCall(MPIU_Allreduce(&position_squares, &global_position_squares, 1, MPI_DOUBLE, MPI_SUM, comm));
+  roundoff_force_level_ = std::numeric_limits<double>::epsilon() * std::sqrt(1e4 * global_stiffness_squares + global_position_squares);
 
   element_force_scratch_.assign(kBeamMaxDofs * map.local_elements.size(), 0.0);
   element_correction_scratch_.assign(kBeamMaxDofs * map.local_elements.size(), 0.0);
@@ -78,11 +104,33 @@ PetscErrorCode Assembler::Setup(MPI_Comm comm, const Model &model, const DofMap 
   PetscCall(MatSetType(jacobian_, MATAIJ));
   PetscCall(MatSetOptionsPrefix(jacobian_, "jacobian_"));
   PetscCall(MatSetFromOptions(jacobian_));
-  PetscCall(MatSeqAIJSetPreallocation(jacobian_, 0, pattern.diagonal_nonzeros.data()));
-  PetscCall(MatMPIAIJSetPreallocation(jacobian_, 0, pattern.diagonal_nonzeros.data(), 0, pattern.off_diagonal_nonzeros.data()));
-  // AIJ: the exact pattern itself, all zeros, in one pass (no element-by-element insertion).
-  PetscCall(MatSeqAIJSetPreallocationCSR(jacobian_, pattern.row_start.data(), pattern.columns.data(), nullptr));
-  PetscCall(MatMPIAIJSetPreallocationCSR(jacobian_, pattern.row_start.data(), pattern.columns.data(), nullptr));
+  // -jacobian_mat_type: AIJ (the default), BAIJ with block size 1 (the unknowns of a node are not
+  // a block of 6 once supports and joints remove some) and dense (small models). SBAIJ stores one
+  // triangle of a symmetric matrix, and the tangent is not symmetric (follower loads, joints,
+  // out of equilibrium); other types cannot be assembled into.
+  PetscBool is_aij, is_baij, is_dense;
+  MatType   type;
+  PetscCall(MatGetType(jacobian_, &type));
+  PetscCall(PetscObjectTypeCompareAny((PetscObject)jacobian_, &is_aij, MATSEQAIJ, MATMPIAIJ, ""));
+  PetscCall(PetscObjectTypeCompareAny((PetscObject)jacobian_, &is_baij, MATSEQBAIJ, MATMPIBAIJ, ""));
+  PetscCall(PetscObjectTypeCompareAny((PetscObject)jacobian_, &is_dense, MATSEQDENSE, MATMPIDENSE, ""));
+  PetscCheck(is_aij || is_baij || is_dense, comm, PETSC_ERR_USER_INPUT,
+             "bad option: -jacobian_mat_type %s is not supported (the tangent is not symmetric): use aij (the default), baij or dense", type);
+  PetscMPIInt ranks;
+  PetscCallMPI(MPI_Comm_size(comm, &ranks));
+  PetscCheck(!is_dense || ranks == 1, comm, PETSC_ERR_USER_INPUT,
+             "bad option: -jacobian_mat_type dense runs on one rank only (no parallel dense LU): use aij or baij");
+  if (is_aij) {
+    PetscCall(MatSeqAIJSetPreallocation(jacobian_, 0, pattern.diagonal_nonzeros.data()));
+    PetscCall(MatMPIAIJSetPreallocation(jacobian_, 0, pattern.diagonal_nonzeros.data(), 0, pattern.off_diagonal_nonzeros.data()));
+    // AIJ: the exact pattern itself, all zeros, in one pass (no element-by-element insertion).
+    PetscCall(MatSeqAIJSetPreallocationCSR(jacobian_, pattern.row_start.data(), pattern.columns.data(), nullptr));
+    PetscCall(MatMPIAIJSetPreallocationCSR(jacobian_, pattern.row_start.data(), pattern.columns.data(), nullptr));
+  } else if (is_baij) {
+    PetscCall(MatXAIJSetPreallocation(jacobian_, 1, pattern.diagonal_nonzeros.data(), pattern.off_diagonal_nonzeros.data(), nullptr, nullptr));
+  } else {
+    PetscCall(MatSetUp(jacobian_));
+  }
   pattern = MatrixPattern{};
   PetscCall(MatSetOption(jacobian_, MAT_NEW_NONZERO_ALLOCATION_ERR, PETSC_TRUE));
   PetscCall(MatCreateVecs(jacobian_, &solution_template_, nullptr));

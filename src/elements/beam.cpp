@@ -60,22 +60,170 @@ GaussInterpolation InterpolateAtGauss(const BeamElementReference &ref, int gp, c
   return g;
 }
 
+// The rotation series c_n(x) = sum_k (-x)^k/(2k+n)! (math/rotation.hpp) for the small relative
+// rotations inside an element, x <= kShortSeriesLimit: ten terms of each, summed by Horner's rule
+// with fixed coefficients (no branches, no loop-carried counters). The first omitted term is below
+// x^10/(20+n)! < 5e-25 for c_n and likewise for the derivatives; larger x falls back to
+// EvaluateRotationSeries. Only the functions a form needs are summed: [first, first + 3).
+constexpr double kShortSeriesLimit = 0.25;
+constexpr int    kShortSeriesTerms = 10;
+struct ShortSeriesCoefficients {
+  double c[5][kShortSeriesTerms], dc[5][kShortSeriesTerms], ddc[5][kShortSeriesTerms];
+  ShortSeriesCoefficients()
+  {
+    for (int n = 0; n < 5; ++n) {
+      // a_k = (-1)^k/(2k+n)!;  c = sum a_k x^k, c' = sum (k+1) a_{k+1} x^k, c'' = sum (k+2)(k+1) a_{k+2} x^k
+      double a[kShortSeriesTerms + 2];
+      for (int k = 0; k < kShortSeriesTerms + 2; ++k) {
+        double factorial = 1.0;
+        for (int m = 2; m <= 2 * k + n; ++m) factorial *= m;
+        a[k] = (k % 2 ? -1.0 : 1.0) / factorial;
+      }
+      for (int k = 0; k < kShortSeriesTerms; ++k) {
+        c[n][k]   = a[k];
+        dc[n][k]  = (k + 1) * a[k + 1];
+        ddc[n][k] = (k + 2) * (k + 1) * a[k + 2];
+      }
+    }
+  }
+};
+const ShortSeriesCoefficients kShortSeries;
+
+inline double Horner(const double *coefficient, double x)
+{
+  double value = coefficient[kShortSeriesTerms - 1];
+  for (int k = kShortSeriesTerms - 2; k >= 0; --k) value = value * x + coefficient[k];
+  return value;
+}
+
+RotationSeries ElementRotationSeries(double x, int first, bool second_derivatives)
+{
+  if (x > kShortSeriesLimit) return EvaluateRotationSeries(x);
+  RotationSeries s{};
+  for (int n = first; n < first + 3; ++n) {
+    s.c[n]  = Horner(kShortSeries.c[n], x);
+    s.dc[n] = Horner(kShortSeries.dc[n], x);
+    if (second_derivatives) s.ddc[n] = Horner(kShortSeries.ddc[n], x);
+  }
+  return s;
+}
+
 template <int NN> using NodalMatrix = Eigen::Matrix<double, 6 * NN, 6 * NN, Eigen::RowMajor>;
+
+// Closed forms of the Rodrigues-type operators F = I + alpha hat(p) + beta hat(p)^2 (math/rotation.hpp)
+// written out for the end-point kernel, which calls them on every element of every Newton
+// iteration: hat(p)^2 = p p^T - x I (x = |p|^2), so F and its products need no 3x3 matrix product,
+// and one vector u per operand carries every derivative term of the Jacobian (below).
+
+// F^T v = v - alpha p x v + beta (p (p.v) - x v)
+inline Vec3 FormTransposeTimes(double alpha, double beta, const Vec3 &p, double x, const Vec3 &v)
+{
+  return v - alpha * p.cross(v) + beta * (p.dot(v) * p - x * v);
+}
+
+// F v = v + alpha p x v + beta (p (p.v) - x v)
+inline Vec3 FormTimes(double alpha, double beta, const Vec3 &p, double x, const Vec3 &v) { return v + alpha * p.cross(v) + beta * (p.dot(v) * p - x * v); }
+
+inline Mat3 FormMatrix(double alpha, double beta, const Vec3 &p, double x)
+{
+  const double ap0 = alpha * p(0), ap1 = alpha * p(1), ap2 = alpha * p(2);
+  const double b01 = beta * p(0) * p(1), b02 = beta * p(0) * p(2), b12 = beta * p(1) * p(2);
+  Mat3         F;
+  F << 1.0 + beta * (p(0) * p(0) - x), -ap2 + b01, ap1 + b02, ap2 + b01, 1.0 + beta * (p(1) * p(1) - x), -ap0 + b12, -ap1 + b02, ap0 + b12,
+      1.0 + beta * (p(2) * p(2) - x);
+  return F;
+}
+
+// J = d(F^T a)/dp = alpha hat(a) + beta (p.a) I + beta p a^T + u p^T with
+// u = -2 alpha_x (p x a) - 2 beta a + 2 beta_x p x (p x a)  (RodriguesTransposeApplyJacobian regrouped).
+// d(F a)/dp is the same with alpha, alpha_x negated.
+inline Vec3 JacobianShift(double alpha_x, double beta, double beta_x, const Vec3 &p, const Vec3 &a)
+{
+  const Vec3 pxa = p.cross(a);
+  return -2.0 * alpha_x * pxa - 2.0 * beta * a + 2.0 * beta_x * p.cross(pxa);
+}
+
+inline Mat3 JacobianMatrix(double alpha, double beta, const Vec3 &p, const Vec3 &a, const Vec3 &u)
+{
+  const double pa = beta * p.dot(a);
+  Mat3         J;
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j) J(i, j) = beta * p(i) * a(j) + u(i) * p(j);
+  J(0, 0) += pa, J(1, 1) += pa, J(2, 2) += pa;
+  J(0, 1) -= alpha * a(2), J(1, 0) += alpha * a(2);
+  J(0, 2) += alpha * a(1), J(2, 0) -= alpha * a(1);
+  J(1, 2) -= alpha * a(0), J(2, 1) += alpha * a(0);
+  return J;
+}
+
+// J^T n without forming J: alpha (n x a) + beta (p.a) n + beta (p.n) a + (u.n) p
+inline Vec3 JacobianTransposeTimes(double alpha, double beta, const Vec3 &p, const Vec3 &a, const Vec3 &u, const Vec3 &n)
+{
+  return alpha * n.cross(a) + beta * (p.dot(a) * n + p.dot(n) * a) + u.dot(n) * p;
+}
+
+// rows of M times hat(d) (row_i x d), and hat(d) times the columns of M (d x column_j)
+inline Mat3 TimesSkew(const Mat3 &M, const Vec3 &d)
+{
+  Mat3 R;
+  for (int i = 0; i < 3; ++i) R.row(i) = M.row(i).transpose().cross(d).transpose();
+  return R;
+}
+inline Mat3 SkewTimes(const Vec3 &d, const Mat3 &M)
+{
+  Mat3 R;
+  for (int j = 0; j < 3; ++j) R.col(j) = d.cross(M.col(j));
+  return R;
+}
+
+inline Mat3 Mul(const Mat3 &a, const Mat3 &b) { return a.lazyProduct(b); }
+inline Mat3 MulT(const Mat3 &a, const Mat3 &b) { return a.lazyProduct(b.transpose()); } // a b^T
+inline Mat3 TMul(const Mat3 &a, const Mat3 &b) { return a.transpose().lazyProduct(b); } // a^T b
 
 // Per Gauss point, the 3x3 products from which every block of the local stiffness is a scalar
 // combination (I_a, I'_a are the shape functions and derivatives at the point):
 //   local gradient   g_rho_a = wJ I'_a E N,   g_psi_a = wJ [I_a (A^T N + B^T M) + I'_a H M]
 //   material blocks  d(Gamma, K)/d(rho_a, psi_a) = [[I'_a E^T, I_a A], [0, I_a B + I'_a H^T]]
 //   geometric blocks (rho_a, psi_b): I'_a I_b P;  (psi_a, psi_b): I_a I_b (Sg + Sk) + I'_a I_b Q + I_a I'_b Q^T
-// with P = d(E N)/dPsi, Q = d(H M)/dPsi. The sums shared by every (a, b) pair are formed once per point.
+// with P = d(E N)/dPsi, Q = d(H M)/dPsi, Sg + Sk = d(A^T N + B^T M)/dPsi at fixed N, M. The sums
+// shared by every (a, b) pair are formed once per point; the local stiffness is symmetric
+// (a Hessian), so (psi_a, rho_b) is the transpose of (rho_b, psi_a).
 struct GaussProducts {
   double wJ;
-  Vec3   EN, AN_BM, HM; // E N, A^T N + B^T M, H M
-  Mat3   ECE, HCH;      // E C_N E^T, H C_M H^T
-  Mat3   ECA_P;         // E C_N A + P
-  Mat3   ACA_BCB_S;     // A^T C_N A + B^T C_M B + Sg + Sk
-  Mat3   BCH_QT;        // B^T C_M H^T + Q^T
+  Mat3   ECE, HCH;  // E C_N E^T, H C_M H^T
+  Mat3   ECA_P;     // E C_N A + P
+  Mat3   ACA_BCB_S; // A^T C_N A + B^T C_M B + Sg + Sk
+  Mat3   BCH_QT;    // B^T C_M H^T + Q^T
 };
+
+// Sg + Sk = d^2/dPsi^2 [N.E^T drho' + M.H^T Psi'] at fixed N, M: the Hessian of m.F^T a of
+// RodriguesTransposeApplyHessian, summed over the two terms before the matrix is formed:
+//   sum over (F, a, m) of  p w^T + w p^T + beta (m a^T + a m^T) + k p p^T + s I,
+//   w = -2 alpha_x (a x m) + 2 beta_x grad g,  k = -4 alpha_xx h + 4 beta_xx g,
+//   s = -2 alpha_x h - 2 beta (m.a) + 2 beta_x g,  h = p.(a x m),  g = (p.m)(p.a) - x (m.a).
+inline Mat3 StressHessian(const RodriguesForm &Fe, const RodriguesForm &Fh, const Vec3 &p, double x, const Vec3 &drho, const Vec3 &N, const Vec3 &dPsi,
+                          const Vec3 &M)
+{
+  Vec3   w = Vec3::Zero();
+  double k = 0.0, s = 0.0;
+  auto   add = [&](const RodriguesForm &f, const Vec3 &a, const Vec3 &m) {
+    const Vec3   c = a.cross(m);
+    const double h = p.dot(c), ma = m.dot(a), pm = p.dot(m), pa = p.dot(a);
+    const double g  = pm * pa - x * ma;
+    const Vec3   gg = pa * m + pm * a - 2.0 * ma * p;
+    w += -2.0 * f.alpha_x * c + 2.0 * f.beta_x * gg;
+    k += -4.0 * f.alpha_xx * h + 4.0 * f.beta_xx * g;
+    s += -2.0 * f.alpha_x * h - 2.0 * f.beta * ma + 2.0 * f.beta_x * g;
+  };
+  add(Fe, drho, N);
+  add(Fh, dPsi, M);
+  Mat3 S;
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j)
+      S(i, j) = p(i) * w(j) + w(i) * p(j) + k * p(i) * p(j) + Fe.beta * (N(i) * drho(j) + drho(i) * N(j)) + Fh.beta * (M(i) * dPsi(j) + dPsi(i) * M(j));
+  S(0, 0) += s, S(1, 1) += s, S(2, 2) += s;
+  return S;
+}
 
 template <int NN>
 BeamKernelStatus InternalForces(const BeamElementReference &ref, const BeamSectionStiffness &section, const Vec3 *positions, const Mat3 *triads,
@@ -101,13 +249,12 @@ BeamKernelStatus InternalForces(const BeamElementReference &ref, const BeamSecti
     GaussProducts &G             = gauss[gp];
     G.wJ                         = ref.weight_jacobian[gp];
     const auto [Psi, dPsi, drho] = InterpolateAtGauss(ref, gp, rho, psi);
-    const RotationSeries series  = EvaluateRotationSeries(Psi.squaredNorm());
+    const double         x       = Psi.squaredNorm();
+    const RotationSeries series  = ElementRotationSeries(x, 1, want_tangent); // c1..c3: exp and H
     const RodriguesForm  Fe      = ExpForm(series);
     const RodriguesForm  Fh      = TangentForm(series);
-    const Mat3           E       = RodriguesMatrix(Fe, Psi);
-    const Mat3           H       = RodriguesMatrix(Fh, Psi);
-    const Vec3           eps     = E.transpose() * drho - ref.strain0[gp];    // Gamma - Gamma_0
-    const Vec3           kap     = H.transpose() * dPsi - ref.curvature0[gp]; // K - K_0
+    const Vec3           eps     = FormTransposeTimes(Fe.alpha, Fe.beta, Psi, x, drho) - ref.strain0[gp];    // Gamma - Gamma_0
+    const Vec3           kap     = FormTransposeTimes(Fh.alpha, Fh.beta, Psi, x, dPsi) - ref.curvature0[gp]; // K - K_0
     const Vec3           N       = CN.cwiseProduct(eps);
     const Vec3           M       = CM.cwiseProduct(kap);
     energy += 0.5 * G.wJ * (eps.dot(N) + kap.dot(M));
@@ -117,95 +264,106 @@ BeamKernelStatus InternalForces(const BeamElementReference &ref, const BeamSecti
       results->force[gp]     = N;
       results->moment[gp]    = M;
     }
-    // dGamma = A dPsi + E^T drho',  dK = B dPsi + H^T dPsi'
-    const Mat3 A = RodriguesTransposeApplyJacobian(Fe, Psi, drho);
-    const Mat3 B = RodriguesTransposeApplyJacobian(Fh, Psi, dPsi);
-    G.EN         = E * N;
-    G.AN_BM      = A.transpose() * N + B.transpose() * M;
-    G.HM         = H * M;
+    // dGamma = A dPsi + E^T drho',  dK = B dPsi + H^T dPsi'  (A, B: JacobianMatrix with ua, ub)
+    const Vec3 ua    = JacobianShift(Fe.alpha_x, Fe.beta, Fe.beta_x, Psi, drho);
+    const Vec3 ub    = JacobianShift(Fh.alpha_x, Fh.beta, Fh.beta_x, Psi, dPsi);
+    const Vec3 EN    = FormTimes(Fe.alpha, Fe.beta, Psi, x, N);
+    const Vec3 HM    = FormTimes(Fh.alpha, Fh.beta, Psi, x, M);
+    const Vec3 AN_BM = JacobianTransposeTimes(Fe.alpha, Fe.beta, Psi, drho, ua, N) + JacobianTransposeTimes(Fh.alpha, Fh.beta, Psi, dPsi, ub, M);
     for (int a : others) {
-      g_rho[a] += G.wJ * dI[a] * G.EN;
-      g_psi[a] += G.wJ * (I[a] * G.AN_BM + dI[a] * G.HM);
+      g_rho[a] += G.wJ * dI[a] * EN;
+      g_psi[a] += G.wJ * (I[a] * AN_BM + dI[a] * HM);
     }
     if (!want_tangent) continue;
-    const Mat3 ECN = E * CN.asDiagonal(), ACN = A.transpose() * CN.asDiagonal();
-    const Mat3 BCM = B.transpose() * CM.asDiagonal(), HCM = H * CM.asDiagonal();
-    const Mat3 ECA = ECN * A, ACA = ACN * A, BCB = BCM * B, BCH = BCM * H.transpose();
-    const Mat3 P = RodriguesApplyJacobian(Fe, Psi, N), Q = RodriguesApplyJacobian(Fh, Psi, M);
-    const Mat3 S = RodriguesTransposeApplyHessian(Fe, Psi, drho, N) + RodriguesTransposeApplyHessian(Fh, Psi, dPsi, M);
-    G.ECE        = ECN * E.transpose();
-    G.HCH        = HCM * H.transpose();
-    G.ECA_P      = ECA + P;
-    G.ACA_BCB_S  = ACA + BCB + S;
-    G.BCH_QT     = BCH + Q.transpose();
+    const Mat3 E = FormMatrix(Fe.alpha, Fe.beta, Psi, x), H = FormMatrix(Fh.alpha, Fh.beta, Psi, x);
+    const Mat3 A = JacobianMatrix(Fe.alpha, Fe.beta, Psi, drho, ua), B = JacobianMatrix(Fh.alpha, Fh.beta, Psi, dPsi, ub);
+    // P = d(E N)/dPsi, Q = d(H M)/dPsi: the Jacobians of F a with alpha negated.
+    const Mat3 P   = JacobianMatrix(-Fe.alpha, Fe.beta, Psi, N, JacobianShift(-Fe.alpha_x, Fe.beta, Fe.beta_x, Psi, N));
+    const Mat3 Q   = JacobianMatrix(-Fh.alpha, Fh.beta, Psi, M, JacobianShift(-Fh.alpha_x, Fh.beta, Fh.beta_x, Psi, M));
+    const Mat3 ECN = E * CN.asDiagonal(), HCM = H * CM.asDiagonal();
+    const Mat3 CA = CN.asDiagonal() * A, CB = CM.asDiagonal() * B;
+    G.ECE       = MulT(ECN, E);
+    G.HCH       = MulT(HCM, H);
+    G.ECA_P     = Mul(ECN, A) + P;
+    G.ACA_BCB_S = TMul(A, CA) + TMul(B, CB) + StressHessian(Fe, Fh, Psi, x, drho, N, dPsi, M);
+    G.BCH_QT    = TMul(CB, H.transpose()) + Q.transpose();
   }
   if (energy_out) *energy_out = energy;
 
   // Chain rule to nodal (x, theta), with d_a = x_a - x_c, L = Lambda_c:
   //   delta rho_a = L^T (dx_a - dx_c) + M_a dtheta_c,  M_a = L^T hat(d_a)
   //   delta psi_a = P_a (dtheta_a - dtheta_c),         P_a = Hinv(psi_a) L^T
-  const Mat3                                  &L  = triads[c];
-  const Mat3                                   LT = L.transpose();
-  Mat3                                         Pm[NN], Mm[NN];
+  const Mat3                                  &L = triads[c];
+  Mat3                                         Pm[NN];
   RodriguesForm                                Finv[NN];
-  Vec3                                         fa[NN], ma[NN]; // nodal force L g_rho_a and moment P_a^T g_psi_a
+  Vec3                                         fa[NN], ma[NN], d[NN]; // nodal force L g_rho_a and moment P_a^T g_psi_a
   Eigen::Map<Eigen::Matrix<double, 6 * NN, 1>> residual(residual_out);
   residual.setZero();
   for (int a : others) {
-    Finv[a]       = TangentInverseForm(EvaluateRotationSeries(psi[a].squaredNorm()));
-    Pm[a]         = RodriguesMatrix(Finv[a], psi[a]) * LT;
-    Mm[a]         = LT * Skew(positions[a] - positions[c]);
+    d[a]           = positions[a] - positions[c];
+    const double x = psi[a].squaredNorm();
+    Finv[a]        = TangentInverseForm(ElementRotationSeries(x, 2, false)); // c2..c4; beta_xx unused here
     const Vec3 &f = fa[a] = L * g_rho[a];
-    const Vec3 &m = ma[a] = Pm[a].transpose() * g_psi[a];
+    // m = L Hinv^T g_psi; -d x f - m = M_a^T g_rho - m
+    const Vec3 &m = ma[a] = L * FormTransposeTimes(Finv[a].alpha, Finv[a].beta, psi[a], x, g_psi[a]);
     residual.template segment<3>(6 * a) += f;
     residual.template segment<3>(6 * a + 3) += m;
     residual.template segment<3>(6 * c) -= f;
-    residual.template segment<3>(6 * c + 3) += Mm[a].transpose() * g_rho[a] - m;
+    residual.template segment<3>(6 * c + 3) -= d[a].cross(f) + m;
+    if (want_tangent) Pm[a] = MulT(FormMatrix(Finv[a].alpha, Finv[a].beta, psi[a], x), L);
   }
   if (!want_tangent) return BeamKernelStatus::Ok;
 
-  Eigen::Map<NodalMatrix<NN>> K(tangent_out);
-  K.setZero();
+  // Per pair (a, b) of non-reference nodes, with the local blocks Krr, Krp, Kpr = Krp(b, a)^T, Kpp:
+  //   Nxx = L Krr L^T, Nxt = L Krp P_b, Ntx = P_a^T Kpr L^T = Nxt(b, a)^T, Ntt = P_a^T Kpp P_b,
+  // and the rank-3 part of the map (M_b on dtheta_c), by M_b = L^T hat(d_b):
+  //   L Krr M_b = Nxx hat(d_b),  P_a^T Kpr M_b = Ntx hat(d_b),  M_a^T Krr L^T = -hat(d_a) Nxx,
+  //   M_a^T Krp P_b = -hat(d_a) Nxt,  M_a^T Krr M_b = -hat(d_a) Nxx hat(d_b).
+  Mat3 Nxx[NN][NN], Nxt[NN][NN], Ntt[NN][NN];
   for (int a : others) {
     for (int b : others) {
-      // Local stiffness blocks of (a, b), summed over the Gauss points.
-      Mat3 Krr = Mat3::Zero(), Krp = Mat3::Zero(), Kpr = Mat3::Zero(), Kpp = Mat3::Zero();
+      Mat3 Krr = Mat3::Zero(), Krp = Mat3::Zero(), Kpp = Mat3::Zero();
       for (int gp = 0; gp < ref.num_gauss; ++gp) {
         const GaussProducts &G  = gauss[gp];
         const double        *I  = ref.shape[gp];
         const double        *dI = ref.shape_derivative[gp];
         Krr += (G.wJ * dI[a] * dI[b]) * G.ECE;
         Krp += (G.wJ * dI[a] * I[b]) * G.ECA_P;
-        Kpr += (G.wJ * I[a] * dI[b]) * G.ECA_P.transpose();
         Kpp += G.wJ * (I[a] * I[b] * G.ACA_BCB_S + I[a] * dI[b] * G.BCH_QT + dI[a] * I[b] * G.BCH_QT.transpose() + dI[a] * dI[b] * G.HCH);
       }
-      const Mat3 PaT  = Pm[a].transpose();
-      const Mat3 LKrr = L * Krr, LKrp = L * Krp, PKpr = PaT * Kpr, PKpp = PaT * Kpp;
-      const Mat3 Nxx = LKrr * LT, Nxt = LKrp * Pm[b], Ntx = PKpr * LT, Ntt = PKpp * Pm[b];
-      // The rank-3 part of the map (M_b on dtheta_c) adds to the columns and rows of theta_c.
-      const Mat3 Cx = LKrr * Mm[b], Ct = PKpr * Mm[b];
-      const Mat3 MaT = Mm[a].transpose();
-      const Mat3 Rx = MaT * Krr * LT, Rt = MaT * Krp * Pm[b], Ecc = MaT * Krr * Mm[b];
-      auto       add = [&K](int row, int column, const Mat3 &block) { K.template block<3, 3>(row, column) += block; };
-      const int  ax = 6 * a, at = 6 * a + 3, bx = 6 * b, bt = 6 * b + 3, cx = 6 * c, ct = 6 * c + 3;
-      add(ax, bx, Nxx), add(ax, bt, Nxt), add(at, bx, Ntx), add(at, bt, Ntt);
-      add(ax, cx, -Nxx), add(ax, ct, Cx - Nxt), add(at, cx, -Ntx), add(at, ct, Ct - Ntt);
-      add(cx, bx, -Nxx), add(cx, bt, -Nxt), add(ct, bx, Rx - Ntx), add(ct, bt, Rt - Ntt);
-      add(cx, cx, Nxx), add(cx, ct, Nxt - Cx), add(ct, cx, Ntx - Rx), add(ct, ct, Ntt - Ct - Rt + Ecc);
+      Nxx[a][b] = MulT(Mul(L, Krr), L);
+      Nxt[a][b] = Mul(Mul(L, Krp), Pm[b]);
+      Ntt[a][b] = TMul(Pm[a], Mul(Kpp, Pm[b]));
+    }
+  }
+  Eigen::Map<NodalMatrix<NN>> K(tangent_out);
+  K.setZero();
+  auto add = [&K](int row, int column, const Mat3 &block) { K.template block<3, 3>(row, column) += block; };
+  for (int a : others) {
+    for (int b : others) {
+      const Mat3 &xx = Nxx[a][b], &xt = Nxt[a][b], &tt = Ntt[a][b];
+      const Mat3  tx = Nxt[b][a].transpose();
+      const Mat3  Cx = TimesSkew(xx, d[b]), Ct = TimesSkew(tx, d[b]);
+      const Mat3  Rx = -SkewTimes(d[a], xx), Rt = -SkewTimes(d[a], xt), Ecc = -SkewTimes(d[a], Cx);
+      const int   ax = 6 * a, at = 6 * a + 3, bx = 6 * b, bt = 6 * b + 3, cx = 6 * c, ct = 6 * c + 3;
+      add(ax, bx, xx), add(ax, bt, xt), add(at, bx, tx), add(at, bt, tt);
+      add(ax, cx, -xx), add(ax, ct, Cx - xt), add(at, cx, -tx), add(at, ct, Ct - tt);
+      add(cx, bx, -xx), add(cx, bt, -xt), add(ct, bx, Rx - tx), add(ct, bt, Rt - tt);
+      add(cx, cx, xx), add(cx, ct, xt - Cx), add(ct, cx, tx - Rx), add(ct, ct, tt - Ct - Rt + Ecc);
     }
   }
   // Terms from the configuration dependence of the map at fixed local gradient g:
   //   f_a = L g_rho_a, m_a = P_a^T g_psi_a, G_a = L d(Hinv^T g_psi)/dpsi P_a.
   for (int a : others) {
     const Vec3 &f = fa[a], &m = ma[a];
-    const Mat3  Ga = L * RodriguesTransposeApplyJacobian(Finv[a], psi[a], g_psi[a]) * Pm[a];
-    const Vec3  d  = positions[a] - positions[c];
+    const Vec3  u  = JacobianShift(Finv[a].alpha_x, Finv[a].beta, Finv[a].beta_x, psi[a], g_psi[a]);
+    const Mat3  Ga = Mul(Mul(L, JacobianMatrix(Finv[a].alpha, Finv[a].beta, psi[a], g_psi[a], u)), Pm[a]);
     const Mat3  hf = Skew(f), hm = Skew(m);
     K.template block<3, 3>(6 * a, 6 * c + 3) -= hf;
     K.template block<3, 3>(6 * c, 6 * c + 3) += hf;
     K.template block<3, 3>(6 * c + 3, 6 * a) += hf;
     K.template block<3, 3>(6 * c + 3, 6 * c) -= hf;
-    K.template block<3, 3>(6 * c + 3, 6 * c + 3) += Skew(d) * hf + hm + Ga;
+    K.template block<3, 3>(6 * c + 3, 6 * c + 3) += SkewTimes(d[a], hf) + hm + Ga;
     K.template block<3, 3>(6 * a + 3, 6 * c + 3) -= hm + Ga;
     K.template block<3, 3>(6 * a + 3, 6 * a + 3) += Ga;
     K.template block<3, 3>(6 * c + 3, 6 * a + 3) -= Ga;

@@ -11,9 +11,15 @@
 //    external forces (the norm of all element and load contributions before they cancel): the
 //    relative test of PETSc measured against the force level as well, so a small load increment
 //    on a heavily loaded structure does not ask for a residual below round-off; and when |R| is
-//    below the round-off level of the internal forces, 100 eps |stiffness| (a structure at rest
-//    driven by a prescribed motion has almost no force level to measure against).
-//  - MUMPS LU; the symbolic factorisation is reused while the matrix pattern is unchanged.
+//    below the round-off floor of the internal forces, eps sqrt(sum_e (100 |C|)^2 + (|C_N| R/h_e)^2)
+//    (Assembler::RoundoffForceLevel: the stiffness, and the rounding of nodal coordinates of
+//    magnitude R over element lengths h_e, which grows like N^1.5), so iterations per step do not
+//    grow with the element count. PETSc's step-size test (stol) stops Newton only while |R| is
+//    within 1e4 of that threshold (far above it the updates are round-off of a singular tangent).
+//  - MUMPS LU; with -newton_solver_by_structure the LU is chosen by structure: on one rank,
+//    PETSc's LU in RCM order when the tangent is banded under RCM (mean squared row envelope
+//    <= 60^2: chains, slender frames), else MUMPS. A dense -jacobian_mat_type uses LAPACK's LU.
+//    The symbolic factorisation is reused while the matrix pattern is unchanged.
 //  - The tangent is exact in every scheme (assembly/assembler.hpp). In em it has a rank-one term
 //    (beta of eq. 20 couples every element): the operator is a shell applying the assembled
 //    tangent plus that term, and GMRES on the LU of the assembled tangent solves each Newton step

@@ -30,7 +30,24 @@ PetscErrorCode Asymmetry(Mat K, double *asymmetry)
 
 } // namespace
 
-PetscErrorCode TangentFactor::Factor(Mat K, double symmetry_tolerance, TangentInertia *inertia)
+PetscErrorCode TangentFactor::Factor(Mat tangent, double symmetry_tolerance, TangentInertia *inertia)
+{
+  PetscBool is_aij;
+  Mat       K = tangent, converted = nullptr;
+  PetscFunctionBeginUser;
+  // MUMPS counts pivots of AIJ matrices only (a BAIJ or dense -jacobian_mat_type is converted).
+  PetscCall(PetscObjectTypeCompareAny((PetscObject)tangent, &is_aij, MATSEQAIJ, MATMPIAIJ, ""));
+  if (!is_aij) {
+    PetscCall(MatConvert(tangent, MATAIJ, MAT_INITIAL_MATRIX, &converted));
+    K = converted;
+  }
+  const PetscErrorCode code = FactorAij(K, symmetry_tolerance, inertia);
+  PetscCall(MatDestroy(&converted));
+  PetscCall(code);
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode TangentFactor::FactorAij(Mat K, double symmetry_tolerance, TangentInertia *inertia)
 {
   MatFactorInfo info;
   IS            row_order, column_order;

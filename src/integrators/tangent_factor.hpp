@@ -45,8 +45,9 @@ public:
   PetscErrorCode LowestEigenvalue(Vec D, Vec mode, double *mu);
 
 private:
-  Mat factor_  = nullptr;
-  Vec work_[2] = {nullptr, nullptr};
+  PetscErrorCode FactorAij(Mat K, double symmetry_tolerance, TangentInertia *inertia);
+  Mat            factor_  = nullptr;
+  Vec            work_[2] = {nullptr, nullptr};
 };
 
 } // namespace msflex
