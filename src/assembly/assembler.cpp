@@ -1,4 +1,5 @@
 #include "assembly/assembler.hpp"
+#include "core/errors.hpp"
 
 #include "contributors/beam_contributor.hpp"
 #include "contributors/inertia_contributor.hpp"
@@ -77,7 +78,7 @@ PetscErrorCode Assembler::Setup(MPI_Comm comm, const Model &model, const DofMap 
   PetscCall(MatSetSizes(jacobian_, map.num_owned, map.num_owned, map.num_global, map.num_global));
   PetscCall(MatSetType(jacobian_, MATAIJ));
   PetscCall(MatSetOptionsPrefix(jacobian_, "jacobian_"));
-  PetscCall(MatSetFromOptions(jacobian_));
+  MSFLEX_CALL_READING_OPTIONS(PetscObjectComm((PetscObject)jacobian_), MatSetFromOptions(jacobian_));
   PetscCall(MatSeqAIJSetPreallocation(jacobian_, 0, pattern.diagonal_nonzeros.data()));
   PetscCall(MatMPIAIJSetPreallocation(jacobian_, 0, pattern.diagonal_nonzeros.data(), 0, pattern.off_diagonal_nonzeros.data()));
   // AIJ: the exact pattern itself, all zeros, in one pass (no element-by-element insertion).

@@ -1,4 +1,5 @@
 #include "integrators/newton.hpp"
+#include "core/errors.hpp"
 
 #include "core/format.hpp"
 
@@ -182,7 +183,7 @@ PetscErrorCode NewtonSolverCreate(MPI_Comm comm, const AnalysisSettings &analysi
   PetscCall(KSPGetPC(ksp, &pc));
   PetscCall(PCSetType(pc, PCLU));
   PetscCall(PCFactorSetMatSolverType(pc, MATSOLVERMUMPS));
-  PetscCall(SNESSetFromOptions(*snes));
+  MSFLEX_CALL_READING_OPTIONS(PetscObjectComm((PetscObject)*snes), SNESSetFromOptions(*snes));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
