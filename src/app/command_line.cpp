@@ -1,8 +1,11 @@
 #include "app/command_line.hpp"
 
+#include "core/errors.hpp"
 #include "model/analysis_types.hpp"
 #include "model/joint_kinds.hpp"
 #include "schemes/time_scheme.hpp"
+
+#include <petscsnes.h>
 
 #include <algorithm>
 #include <cctype>
@@ -196,6 +199,33 @@ PetscErrorCode CheckMsflexOptionsUsed(MPI_Comm comm)
   }
   PetscCall(PetscOptionsLeftRestore(nullptr, &count, &names, &values));
   PetscCheck(message.empty(), comm, PETSC_ERR_USER_INPUT, "%s (msflex -h lists the options)", message.c_str());
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode CheckSolverOptions(MPI_Comm comm)
+{
+  SNES snes;
+  KSP  ksp, path_ksp;
+  PC   pc;
+  Mat  jacobian;
+  PetscFunctionBeginUser;
+  // The defaults of src/integrators/newton.cpp, so that only what the options change is tried.
+  PetscCall(SNESCreate(comm, &snes));
+  PetscCall(SNESGetKSP(snes, &ksp));
+  PetscCall(KSPSetType(ksp, KSPPREONLY));
+  PetscCall(KSPGetPC(ksp, &pc));
+  PetscCall(PCSetType(pc, PCLU));
+  MSFLEX_CALL_READING_OPTIONS(comm, SNESSetFromOptions(snes));
+  PetscCall(SNESDestroy(&snes));
+  PetscCall(MatCreate(comm, &jacobian));
+  PetscCall(MatSetSizes(jacobian, PETSC_DECIDE, PETSC_DECIDE, 1, 1));
+  PetscCall(MatSetOptionsPrefix(jacobian, "jacobian_"));
+  MSFLEX_CALL_READING_OPTIONS(comm, MatSetFromOptions(jacobian));
+  PetscCall(MatDestroy(&jacobian));
+  PetscCall(KSPCreate(comm, &path_ksp));
+  PetscCall(KSPSetOptionsPrefix(path_ksp, "path_"));
+  MSFLEX_CALL_READING_OPTIONS(comm, KSPSetFromOptions(path_ksp));
+  PetscCall(KSPDestroy(&path_ksp));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 

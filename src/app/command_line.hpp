@@ -43,6 +43,11 @@ std::string HelpText();
 // msflex's is an error (PETSC_ERR_USER_INPUT) naming the nearest msflex option. Collective.
 PetscErrorCode CheckMsflexOptionsUsed(MPI_Comm comm);
 
+// Before anything is written: the values of the solver options that PETSc objects read (-snes_*,
+// -ksp_*, -pc_*, -jacobian_mat_*, -path_ksp_*, -path_pc_*), tried on throw-away objects, so that a
+// bad one is one line and exit 1 before a result file exists. Collective.
+PetscErrorCode CheckSolverOptions(MPI_Comm comm);
+
 // The end of a run: one warning line on rank 0 for every option nothing read. Collective.
 PetscErrorCode WarnOptionsLeft(MPI_Comm comm);
 

@@ -84,6 +84,7 @@ static PetscErrorCode RunMsflex(int argc, char **argv, RunEnd *end)
   // Every msflex option is read by now (-partitioner is in the list): a misspelt one is an error
   // before anything runs.
   PetscCall(CheckMsflexOptionsUsed(comm));
+  PetscCall(CheckSolverOptions(comm));
   options.restart_file = restart;
   PetscCall(RunAnalysis(comm, std::move(model), options, restart.empty() ? nullptr : &run, end));
   PetscFunctionReturn(PETSC_SUCCESS);
