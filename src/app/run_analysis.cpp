@@ -1,6 +1,7 @@
 #include "app/run_analysis.hpp"
 
 #include "app/run_eigen.hpp"
+#include "app/run_summary.hpp"
 #include "core/errors.hpp"
 #include "core/format.hpp"
 #include "integrators/integrator.hpp"
@@ -83,8 +84,10 @@ struct Analysis {
   std::string          input_file_absolute, input_text, input_file; // for checkpoints (the text only on rank 0)
   // Wall clock (rank 0's, broadcast) and simulated time when this process started stepping, and
   // of the last checkpoint.
-  double wall_start = 0.0, time_start = 0.0, last_checkpoint_wall = 0.0;
-  double initial_energy = 0.0; // total energy of the first row (dynamics)
+  double     wall_start = 0.0, time_start = 0.0, last_checkpoint_wall = 0.0;
+  double     initial_energy = 0.0; // total energy of the first row (dynamics)
+  RunSummary summary;              // what the run printed at its end (-quiet: nothing)
+  double     run_wall_start = MPI_Wtime();
   // -log_view stages: Setup, Partition, Output (the integrator adds LinearSolve and Assembly).
   PetscLogStage stage_setup, stage_partition, stage_output, stage_assembly;
 
@@ -131,7 +134,7 @@ PetscErrorCode Setup(Analysis &a, Model whole)
   }
   PetscCall(PetscLogStagePush(a.stage_setup));
   PetscCall(PetscLogStagePush(a.stage_partition));
-  PetscCall(PartitionerTypeFromOptions(a.comm, &partitioner));
+  MSFLEX_CALL_READING_OPTIONS(a.comm, PartitionerTypeFromOptions(a.comm, &partitioner));
   PetscCall(PartitionNodes(a.comm, whole, partitioner, &node_rank));
   PetscCall(PetscLogStagePop());
   PetscCall(PetscLogEventBegin(event_dof_map, 0, 0, 0, 0));
@@ -208,6 +211,7 @@ PetscErrorCode WriteHistory(Analysis &a, const StepRecord &record, double strain
     // What the scheme itself dissipates (or creates): the external work less the change of energy,
     // with the work taken by the scheme's own quadrature (Assembler::StepExternalWork).
     const double dissipation = work - (total - a.initial_energy);
+    a.summary.Energy(total - work, total);
     names.insert(names.end(),
                  {"kinetic_energy", "total_energy", "external_work", "energy_balance", "algorithmic_dissipation", "linear_momentum_x", "linear_momentum_y",
                   "linear_momentum_z", "angular_momentum_x", "angular_momentum_y", "angular_momentum_z", "energy_correction"});
@@ -382,6 +386,7 @@ PetscErrorCode RunAnalysis(MPI_Comm comm, Model model, const RunOptions &options
       StepOutcome outcome;
       if (a.Static()) PetscCall(a.path.TryStep(t, dt, &outcome));
       else PetscCall(a.integrator.TryStep(t, dt, &outcome));
+      a.summary.Attempt(outcome);
       if (outcome.converged) {
         t = (t + dt >= target * (1.0 - 1e-14)) ? target : t + dt;
         ++step;
@@ -394,6 +399,7 @@ PetscErrorCode RunAnalysis(MPI_Comm comm, Model model, const RunOptions &options
         PetscCall(CheckpointIfDue(a, step, t, last_written, controller, &stop));
         if (stop) {
           PetscCall(a.output.Close());
+          if (!options.quiet) PetscCall(a.summary.Print(comm, a.run_wall_start, a.Dynamic()));
           *end = RunEnd::StoppedBySignal;
           PetscFunctionReturn(PETSC_SUCCESS);
         }
@@ -412,6 +418,7 @@ PetscErrorCode RunAnalysis(MPI_Comm comm, Model model, const RunOptions &options
         }
         PetscCall(WriteCheckpoint(a, step, t, last_written, controller));
         PetscCall(a.output.Close());
+        if (!options.quiet) PetscCall(a.summary.Print(comm, a.run_wall_start, a.Dynamic()));
         const std::string advice = a.Static() ? a.path.StopAdvice() : std::string();
         SETERRQ(comm, PETSC_ERR_NOT_CONVERGED,
                 "%s analysis stopped at t = %g after step %d: the step to t = %g failed (%s) and halving it would go below min_step = %g%s; the "
@@ -427,6 +434,7 @@ PetscErrorCode RunAnalysis(MPI_Comm comm, Model model, const RunOptions &options
     PetscCall(PetscPrintf(comm, "msflex: stopped after max_steps = %d steps at load factor %g without reaching end_time = %g\n", analysis.max_steps,
                           a.path.LoadFactor(), analysis.end_time));
   if (!options.quiet) PetscCall(PetscPrintf(comm, "msflex: completed %d steps to t = %g; results in %s\n", step, t, options.output_file.c_str()));
+  if (!options.quiet) PetscCall(a.summary.Print(comm, a.run_wall_start, a.Dynamic()));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 

@@ -1,5 +1,6 @@
 #include "app/settings.hpp"
 
+#include "app/command_line.hpp"
 #include "io/input_reader.hpp"
 
 #include <algorithm>
@@ -29,39 +30,37 @@ PetscErrorCode SettingsFromOptions(MPI_Comm comm, Model *model, RunOptions *opti
   PetscCall(PetscStrncpy(em_correction, EnergyCorrectionName(a.em_correction), sizeof(em_correction))); // default: the input's
   const std::string type_list = AnalysisTypeNameList(), integrator_list = IntegratorNameList(), control_list = PathControlNameList();
   PetscOptionsBegin(comm, "analysis_", "Analysis settings (defaults: the input's analysis section)", "msflex");
-  PetscCall(PetscOptionsString("-type", type_list.c_str(), "", type, type, sizeof(type), nullptr));
-  PetscCall(PetscOptionsString("-integrator", integrator_list.c_str(), "", integrator, integrator, sizeof(integrator), nullptr));
-  PetscCall(PetscOptionsReal("-spectral_radius", "rho_infinity of genalpha", "", a.spectral_radius, &a.spectral_radius, nullptr));
-  PetscCall(PetscOptionsString("-em_correction", "em's correction vector: resultants (N_d, M_d) or forces (N_d, 0)", "", em_correction, em_correction,
-                               sizeof(em_correction), nullptr));
-  PetscCall(PetscOptionsReal("-end_time", "Final (pseudo-)time", "", a.end_time, &a.end_time, nullptr));
-  PetscCall(PetscOptionsReal("-initial_step", "First step size", "", a.initial_step, &a.initial_step, nullptr));
-  PetscCall(PetscOptionsReal("-min_step", "Smallest step before giving up", "", a.min_step, &a.min_step, nullptr));
-  PetscCall(PetscOptionsReal("-max_step", "Largest step", "", a.max_step, &a.max_step, nullptr));
-  PetscCall(PetscOptionsReal("-growth_factor", "Step growth after easy steps", "", a.growth_factor, &a.growth_factor, nullptr));
-  PetscCall(PetscOptionsInt("-easy_iterations", "Newton iterations of an easy step", "", easy_iterations, &easy_iterations, nullptr));
-  PetscCall(PetscOptionsInt("-easy_steps_to_grow", "Easy steps in a row before growing", "", easy_steps, &easy_steps, nullptr));
-  PetscCall(PetscOptionsInt("-max_newton_iterations", "Newton iterations per step", "", max_newton, &max_newton, nullptr));
+  PetscCall(PetscOptionsString("-type", OptionDescription("-analysis_type"), "", type, type, sizeof(type), nullptr));
+  PetscCall(PetscOptionsString("-integrator", OptionDescription("-analysis_integrator"), "", integrator, integrator, sizeof(integrator), nullptr));
+  PetscCall(PetscOptionsReal("-spectral_radius", OptionDescription("-analysis_spectral_radius"), "", a.spectral_radius, &a.spectral_radius, nullptr));
   PetscCall(
-      PetscOptionsReal("-max_rotation_increment", "Largest nodal rotation per step, rad", "", a.max_rotation_increment, &a.max_rotation_increment, nullptr));
-  PetscCall(PetscOptionsReal("-newton_rtol", "Newton relative residual tolerance", "", a.newton_rtol, &a.newton_rtol, nullptr));
-  PetscCall(PetscOptionsReal("-newton_atol", "Newton absolute residual tolerance", "", a.newton_atol, &a.newton_atol, nullptr));
+      PetscOptionsString("-em_correction", OptionDescription("-analysis_em_correction"), "", em_correction, em_correction, sizeof(em_correction), nullptr));
+  PetscCall(PetscOptionsReal("-end_time", OptionDescription("-analysis_end_time"), "", a.end_time, &a.end_time, nullptr));
+  PetscCall(PetscOptionsReal("-initial_step", OptionDescription("-analysis_initial_step"), "", a.initial_step, &a.initial_step, nullptr));
+  PetscCall(PetscOptionsReal("-min_step", OptionDescription("-analysis_min_step"), "", a.min_step, &a.min_step, nullptr));
+  PetscCall(PetscOptionsReal("-max_step", OptionDescription("-analysis_max_step"), "", a.max_step, &a.max_step, nullptr));
+  PetscCall(PetscOptionsReal("-growth_factor", OptionDescription("-analysis_growth_factor"), "", a.growth_factor, &a.growth_factor, nullptr));
+  PetscCall(PetscOptionsInt("-easy_iterations", OptionDescription("-analysis_easy_iterations"), "", easy_iterations, &easy_iterations, nullptr));
+  PetscCall(PetscOptionsInt("-easy_steps_to_grow", OptionDescription("-analysis_easy_steps_to_grow"), "", easy_steps, &easy_steps, nullptr));
+  PetscCall(PetscOptionsInt("-max_newton_iterations", OptionDescription("-analysis_max_newton_iterations"), "", max_newton, &max_newton, nullptr));
+  PetscCall(PetscOptionsReal("-max_rotation_increment", OptionDescription("-analysis_max_rotation_increment"), "", a.max_rotation_increment,
+                             &a.max_rotation_increment, nullptr));
+  PetscCall(PetscOptionsReal("-newton_rtol", OptionDescription("-analysis_newton_rtol"), "", a.newton_rtol, &a.newton_rtol, nullptr));
+  PetscCall(PetscOptionsReal("-newton_atol", OptionDescription("-analysis_newton_atol"), "", a.newton_atol, &a.newton_atol, nullptr));
+  PetscCall(PetscOptionsRealArray("-output_times", OptionDescription("-analysis_output_times"), "", output_times.data(), &num_output_times, &output_times_set));
+  PetscCall(PetscOptionsString("-control", OptionDescription("-analysis_control"), "", control, control, sizeof(control), nullptr));
+  PetscCall(PetscOptionsReal("-arc_length_psi", OptionDescription("-analysis_arc_length_psi"), "", a.arc_length_psi, &a.arc_length_psi, nullptr));
+  PetscCall(PetscOptionsInt("-desired_iterations", OptionDescription("-analysis_desired_iterations"), "", desired_iterations, &desired_iterations, nullptr));
+  PetscCall(PetscOptionsInt("-max_steps", OptionDescription("-analysis_max_steps"), "", max_steps, &max_steps, nullptr));
+  PetscCall(PetscOptionsString("-control_node", OptionDescription("-analysis_control_node"), "", control_node, control_node, sizeof(control_node), nullptr));
   PetscCall(
-      PetscOptionsRealArray("-output_times", "Times the steps must land on (comma separated)", "", output_times.data(), &num_output_times, &output_times_set));
-  PetscCall(PetscOptionsString("-control", control_list.c_str(), "", control, control, sizeof(control), nullptr));
-  PetscCall(PetscOptionsReal("-arc_length_psi", "Weight of the load factor in the arc-length constraint (0: cylindrical)", "", a.arc_length_psi,
-                             &a.arc_length_psi, nullptr));
-  PetscCall(PetscOptionsInt("-desired_iterations", "Corrector iterations the arc length aims at", "", desired_iterations, &desired_iterations, nullptr));
-  PetscCall(PetscOptionsInt("-max_steps", "Steps before an arc-length run stops", "", max_steps, &max_steps, nullptr));
-  PetscCall(PetscOptionsString("-control_node", "Node of displacement control", "", control_node, control_node, sizeof(control_node), nullptr));
-  PetscCall(PetscOptionsString("-control_joint", "Joint of displacement control", "", control_joint, control_joint, sizeof(control_joint), nullptr));
-  PetscCall(PetscOptionsString("-control_dof", "DOF (ux..rz) or joint coordinate (tx..rz) of displacement control", "", control_dof, control_dof,
-                               sizeof(control_dof), nullptr));
-  PetscCall(PetscOptionsReal("-control_value", "Controlled coordinate per unit pseudo-time", "", a.control_value, &a.control_value, nullptr));
-  PetscCall(PetscOptionsBool("-stability", "Negative pivots and critical points of the static path", "", stability, &stability, nullptr));
-  PetscCall(PetscOptionsInt("-eigenvalues", "Eigenvalues of a modes or buckling analysis", "", eigenvalues, &eigenvalues, nullptr));
-  PetscCall(PetscOptionsReal("-shift", "Shift of shift-and-invert for modes, (rad/s)^2", "", shift, &shift, &shift_set));
-  PetscCall(PetscOptionsBool("-preload", "Eigenanalysis about the static equilibrium at end_time", "", preload, &preload, nullptr));
+      PetscOptionsString("-control_joint", OptionDescription("-analysis_control_joint"), "", control_joint, control_joint, sizeof(control_joint), nullptr));
+  PetscCall(PetscOptionsString("-control_dof", OptionDescription("-analysis_control_dof"), "", control_dof, control_dof, sizeof(control_dof), nullptr));
+  PetscCall(PetscOptionsReal("-control_value", OptionDescription("-analysis_control_value"), "", a.control_value, &a.control_value, nullptr));
+  PetscCall(PetscOptionsBool("-stability", OptionDescription("-analysis_stability"), "", stability, &stability, nullptr));
+  PetscCall(PetscOptionsInt("-eigenvalues", OptionDescription("-analysis_eigenvalues"), "", eigenvalues, &eigenvalues, nullptr));
+  PetscCall(PetscOptionsReal("-shift", OptionDescription("-analysis_shift"), "", shift, &shift, &shift_set));
+  PetscCall(PetscOptionsBool("-preload", OptionDescription("-analysis_preload"), "", preload, &preload, nullptr));
   PetscOptionsEnd();
   const AnalysisType input_type    = a.type;
   const bool         input_preload = a.preload;
@@ -142,16 +141,18 @@ PetscErrorCode SettingsFromOptions(MPI_Comm comm, Model *model, RunOptions *opti
   PetscInt every = model->output.every; // default: the input's output.every
   PetscCall(PetscStrncpy(file, model->output.file.c_str(), sizeof(file)));
   PetscOptionsBegin(comm, "output_", "Output settings", "msflex");
-  PetscCall(PetscOptionsString("-file", "HDF5 result file", "", file, file, sizeof(file), nullptr));
-  PetscCall(PetscOptionsInt("-every", "Write every n-th converged step", "", every, &every, nullptr));
-  PetscCall(PetscOptionsBool("-overwrite", "Replace an existing result file", "", options->output_overwrite, &options->output_overwrite, nullptr));
+  PetscCall(PetscOptionsString("-file", OptionDescription("-output_file"), "", file, file, sizeof(file), nullptr));
+  PetscCall(PetscOptionsInt("-every", OptionDescription("-output_every"), "", every, &every, nullptr));
+  PetscCall(PetscOptionsBool("-overwrite", OptionDescription("-output_overwrite"), "", options->output_overwrite, &options->output_overwrite, nullptr));
   PetscOptionsEnd();
   PetscCheck(every >= 1, comm, PETSC_ERR_USER_INPUT, "option -output_every must be >= 1, got %" PetscInt_FMT, every);
-  options->output_file  = file;
-  options->output_every = every;
-  PetscCall(PetscOptionsGetBool(nullptr, nullptr, "-quiet", &options->quiet, nullptr));
+  options->output_file    = file;
+  options->output_every   = every;
   options->progress_every = model->output.progress_every; // default: the input's output.progress_every
-  PetscCall(PetscOptionsGetInt(nullptr, nullptr, "-progress_every", &options->progress_every, nullptr));
+  PetscOptionsBegin(comm, nullptr, "Progress", "msflex");
+  PetscCall(PetscOptionsBool("-quiet", OptionDescription("-quiet"), "", options->quiet, &options->quiet, nullptr));
+  PetscCall(PetscOptionsInt("-progress_every", OptionDescription("-progress_every"), "", options->progress_every, &options->progress_every, nullptr));
+  PetscOptionsEnd();
   PetscCheck(options->progress_every >= 1, comm, PETSC_ERR_USER_INPUT, "option -progress_every must be >= 1, got %" PetscInt_FMT, options->progress_every);
 
   // Checkpoints; defaults: the input's output.checkpoint, the file next to the output file.
@@ -165,10 +166,10 @@ PetscErrorCode SettingsFromOptions(MPI_Comm comm, Model *model, RunOptions *opti
   options->checkpoint_every     = model->output.checkpoint_every;
   options->checkpoint_wall_time = model->output.checkpoint_wall_time;
   PetscOptionsBegin(comm, "checkpoint_", "Checkpoints for restarts", "msflex");
-  PetscCall(PetscOptionsInt("-every", "Converged steps between checkpoints (0: none)", "", options->checkpoint_every, &options->checkpoint_every, nullptr));
-  PetscCall(PetscOptionsReal("-wall_time", "Seconds of wall time between checkpoints (0: none)", "", options->checkpoint_wall_time,
-                             &options->checkpoint_wall_time, nullptr));
-  PetscCall(PetscOptionsString("-file", "Checkpoint file", "", checkpoint_file, checkpoint_file, sizeof(checkpoint_file), nullptr));
+  PetscCall(PetscOptionsInt("-every", OptionDescription("-checkpoint_every"), "", options->checkpoint_every, &options->checkpoint_every, nullptr));
+  PetscCall(
+      PetscOptionsReal("-wall_time", OptionDescription("-checkpoint_wall_time"), "", options->checkpoint_wall_time, &options->checkpoint_wall_time, nullptr));
+  PetscCall(PetscOptionsString("-file", OptionDescription("-checkpoint_file"), "", checkpoint_file, checkpoint_file, sizeof(checkpoint_file), nullptr));
   PetscOptionsEnd();
   PetscCheck(options->checkpoint_every >= 0, comm, PETSC_ERR_USER_INPUT, "option -checkpoint_every must be >= 0, got %" PetscInt_FMT,
              options->checkpoint_every);

@@ -1,4 +1,5 @@
 #include "assembly/assembler.hpp"
+#include "core/errors.hpp"
 
 #include "contributors/beam_contributor.hpp"
 #include "contributors/inertia_contributor.hpp"
@@ -103,7 +104,7 @@ PetscErrorCode Assembler::Setup(MPI_Comm comm, const Model &model, const DofMap 
   PetscCall(MatSetSizes(jacobian_, map.num_owned, map.num_owned, map.num_global, map.num_global));
   PetscCall(MatSetType(jacobian_, MATAIJ));
   PetscCall(MatSetOptionsPrefix(jacobian_, "jacobian_"));
-  PetscCall(MatSetFromOptions(jacobian_));
+  MSFLEX_CALL_READING_OPTIONS(PetscObjectComm((PetscObject)jacobian_), MatSetFromOptions(jacobian_));
   // -jacobian_mat_type: AIJ (the default), BAIJ with block size 1 (the unknowns of a node are not
   // a block of 6 once supports and joints remove some) and dense (small models). SBAIJ stores one
   // triangle of a symmetric matrix, and the tangent is not symmetric (follower loads, joints,

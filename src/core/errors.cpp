@@ -18,4 +18,16 @@ PetscErrorCode ErrorHandler(MPI_Comm comm, int line, const char *function, const
   return code;
 }
 
+PetscErrorCode OptionsError(MPI_Comm comm, PetscErrorCode status)
+{
+  char *specific = nullptr;
+  PetscFunctionBeginUser;
+  PetscCall(PetscErrorMessage(status, nullptr, &specific));
+  const char *message = specific && specific[0] ? specific : "unreadable value";
+  if (status == PETSC_ERR_USER_INPUT || status == PETSC_ERR_NOT_CONVERGED) SETERRQ(comm, status, "%s", message);
+  if (status == PETSC_ERR_MEM || status == PETSC_ERR_PLIB || status == PETSC_ERR_MPI || status == PETSC_ERR_SIG || status == PETSC_ERR_FP)
+    SETERRQ(comm, status, "%s", message);
+  SETERRQ(comm, PETSC_ERR_USER_INPUT, "bad option: %s", message);
+}
+
 } // namespace msflex

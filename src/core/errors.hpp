@@ -10,7 +10,22 @@
 #define MSFLEX_INPUT_CHECK(cond, mark, fmt, ...)                                                                                                               \
   PetscCheck(cond, PETSC_COMM_SELF, PETSC_ERR_USER_INPUT, "%s:%d: error: " fmt, (mark).file.c_str(), (mark).line, ##__VA_ARGS__)
 
+// A call that reads options (XSetFromOptions, PetscOptionsEnum, ...): an error in it is a bad
+// option value (an unknown -snes_type, -pc_type or -partitioner, a value that is not a number),
+// reported as one line "bad option: ..." with PETSC_ERR_USER_INPUT instead of a trace. Errors
+// that cannot come from a value (memory, MPI, signals, PETSc's own bugs) keep their code.
+#define MSFLEX_CALL_READING_OPTIONS(comm, call)                                                                                                                \
+  do {                                                                                                                                                         \
+    PetscCall(PetscPushErrorHandler(PetscReturnErrorHandler, nullptr));                                                                                        \
+    const PetscErrorCode msflex_options_status_ = (call);                                                                                                      \
+    PetscCall(PetscPopErrorHandler());                                                                                                                         \
+    if (msflex_options_status_ != PETSC_SUCCESS) PetscCall(msflex::OptionsError(comm, msflex_options_status_));                                                \
+  } while (0)
+
 namespace msflex {
+
+// Raises the error of a failed call made under MSFLEX_CALL_READING_OPTIONS again, with its message.
+PetscErrorCode OptionsError(MPI_Comm comm, PetscErrorCode status);
 
 // Error handler: one clean line for user errors (printed by rank 0 of PETSC_COMM_WORLD, since
 // user errors are detected identically on every rank), PETSc's trace-back otherwise.

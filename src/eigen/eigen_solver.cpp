@@ -1,4 +1,5 @@
 #include "eigen/eigen_solver.hpp"
+#include "core/errors.hpp"
 
 #include <slepceps.h>
 
@@ -81,7 +82,7 @@ PetscErrorCode SolveModesAt(Mat K, Mat M, int count, double sigma, EigenPairs *p
   PetscCall(EPSGetST(eps, &st));
   PetscCall(STSetType(st, STSINVERT));
   PetscCall(UseCholesky(eps));
-  PetscCall(EPSSetFromOptions(eps));
+  MSFLEX_CALL_READING_OPTIONS(PetscObjectComm((PetscObject)eps), EPSSetFromOptions(eps));
   PetscErrorCode code = PETSC_SUCCESS;
   if (failed) {
     PetscCall(PetscPushErrorHandler(PetscReturnErrorHandler, nullptr));
@@ -226,7 +227,7 @@ PetscErrorCode SolveBucklingModes(Mat K, Mat K_sigma, int count, EigenPairs *pai
   PetscCall(EPSSetTolerances(eps, kTolerance, PETSC_DEFAULT));
   PetscCall(EPSSetWhichEigenpairs(eps, EPS_LARGEST_REAL));
   PetscCall(UseCholesky(eps));
-  PetscCall(EPSSetFromOptions(eps));
+  MSFLEX_CALL_READING_OPTIONS(PetscObjectComm((PetscObject)eps), EPSSetFromOptions(eps));
   PetscCall(EPSSolve(eps));
   pairs->solves = 1;
   PetscCall(CollectPairs(

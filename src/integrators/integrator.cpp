@@ -72,8 +72,11 @@ PetscErrorCode Integrator::TryStep(double t, double dt, StepOutcome *outcome)
   PetscCall(SNESGetConvergedReason(snes_, &reason));
   PetscCall(SNESGetIterationNumber(snes_, &iterations));
   PetscCall(SNESGetFunctionNorm(snes_, &residual_norm));
+  PetscInt linear_iterations;
+  PetscCall(SNESGetLinearSolveIterations(snes_, &linear_iterations));
   outcome->newton_iterations = (int)iterations;
   outcome->residual_norm     = residual_norm;
+  outcome->linear_iterations = (int)linear_iterations;
   if (reason > 0) PetscCall(assembler.MaxRotationIncrement(&max_rotation));
   const bool rotation_too_large = max_rotation > analysis.max_rotation_increment;
   if (reason > 0 && !rotation_too_large) {
@@ -88,6 +91,7 @@ PetscErrorCode Integrator::TryStep(double t, double dt, StepOutcome *outcome)
     PetscFunctionReturn(PETSC_SUCCESS);
   }
   // Why, in words and naming where (element, node, joint), before the increments are dropped.
+  outcome->reason = rotation_too_large ? "max_rotation_increment" : SNESConvergedReasons[reason];
   if (rotation_too_large) {
     outcome->why = Format("a nodal rotation increment of %.4g rad exceeds max_rotation_increment = %.4g rad", max_rotation, analysis.max_rotation_increment);
   } else {

@@ -23,6 +23,10 @@ struct StepOutcome {
   int         newton_iterations = 0;
   double      residual_norm     = 0.0;
   std::string why; // when not converged: why, in words, naming where (element, node, joint)
+  // For the run's summary: Krylov iterations of the attempt, and when not converged a short tag
+  // (SNES's reason, e.g. DIVERGED_LINEAR_SOLVE, or max_rotation_increment).
+  int         linear_iterations = 0;
+  std::string reason;
 };
 
 class Integrator {

@@ -1,4 +1,5 @@
 #include "integrators/newton.hpp"
+#include "core/errors.hpp"
 
 #include "core/format.hpp"
 
@@ -258,7 +259,7 @@ PetscErrorCode NewtonSolverCreate(MPI_Comm comm, const AnalysisSettings &analysi
   PetscCall(PetscObjectTypeCompareAny((PetscObject)tangent, &dense, MATSEQDENSE, MATMPIDENSE, ""));
   if (by_structure || dense) PetscCall(ChooseDirectSolver(tangent, pc));
   else PetscCall(PCFactorSetMatSolverType(pc, MATSOLVERMUMPS));
-  PetscCall(SNESSetFromOptions(*snes));
+  MSFLEX_CALL_READING_OPTIONS(PetscObjectComm((PetscObject)*snes), SNESSetFromOptions(*snes));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 

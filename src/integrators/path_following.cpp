@@ -1,4 +1,5 @@
 #include "integrators/path_following.hpp"
+#include "core/errors.hpp"
 
 #include "core/format.hpp"
 #include "integrators/linearization.hpp"
@@ -69,7 +70,7 @@ PetscErrorCode PathFollower::Setup(MPI_Comm comm, Integrator *integrator)
   PetscCall(KSPGetPC(ksp_, &pc));
   PetscCall(PCSetType(pc, PCLU));
   PetscCall(PCFactorSetMatSolverType(pc, MATSOLVERMUMPS));
-  PetscCall(KSPSetFromOptions(ksp_));
+  MSFLEX_CALL_READING_OPTIONS(PetscObjectComm((PetscObject)ksp_), KSPSetFromOptions(ksp_));
   if (control_ == PathControl::Displacement) {
     // The controlled unknown: a free DOF of an independent node or a released joint coordinate
     // (the reader checked both), held by the rank that owns the node or the joint.

@@ -619,7 +619,7 @@ Model ParseModel(const std::string &text, const std::string &file_label, MPI_Com
   context.model.input_text = text;
   const MappingReader top(LoadSingleDocument(text), "the top-level mapping",
                           {"title", "mesh", "functions", "sections", "nodes", "beams", "rigid_bodies", "sets", "supports", "loads", "joints",
-                           "initial_conditions", "probes", "analysis", "output"});
+                           "initial_conditions", "probes", "analysis", "output", "expected"});
   // The model has no place for the title; it is validated here and kept in input_text.
   if (top.Has("title")) top.String("title");
   Model &model = context.model;
@@ -662,6 +662,7 @@ Model ParseModel(const std::string &text, const std::string &file_label, MPI_Com
   for (const YAML::Node &item : ReadOptionalList(top.Find("probes"), "probes")) model.probes.push_back(ReadProbe(item, context));
   ReadAnalysis(top.Find("analysis"), context, model.analysis);
   ReadOutput(top.Find("output"), context, model.output);
+  ReadExpected(top.Find("expected"), context);
   if (NeedsStaticStiffness(model.analysis.type, model.analysis.preload)) CheckStaticMechanisms(model);
   return std::move(context.model);
 }

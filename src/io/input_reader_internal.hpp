@@ -158,6 +158,10 @@ int MeshNodeRow(const ReaderContext &context, int node);
 // "lattice.h5: /nodes row 3: " for a node that came from the mesh file, else "".
 std::string MeshNodePrefix(const ReaderContext &context, int node);
 
+// Reads `expected` into Model::expected (input_expected.cpp): results an example must reproduce,
+// which the test suite checks against the result file and the solver ignores.
+void ReadExpected(const YAML::Node *list, ReaderContext &context);
+
 // Fails when a connected group of beams, or of rigid bodies outside every beam, is not held against
 // all six rigid-body motions by its supports and its joints to the ground, which would make the
 // static stiffness matrix singular; elements and joints between nodes connect groups

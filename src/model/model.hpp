@@ -176,6 +176,19 @@ struct Probe {
   SourceMark  mark;
 };
 
+// A result an example must reproduce (docs/input.md, expected): the solver ignores it; the test
+// suite compares it with the result file.
+struct ExpectedResult {
+  std::string series;            // a /history series
+  double      time = -1.0;       // the row at this time, or -1 with `statistic`
+  std::string statistic;         // max, min, final, range, max_abs
+  bool        has_value = false; // value +- tolerance
+  double      value = 0.0, tolerance = 0.0, relative_tolerance = 0.0;
+  bool        has_below = false, has_above = false;
+  double      below = 0.0, above = 0.0;
+  SourceMark  mark;
+};
+
 // Static analysis: the loads are multiplied by their functions of the pseudo-time t in
 // [0, end_time]; the default function is the ramp f(t) = t, so t is the load factor.
 // Dynamic analysis: t is time, the steps are time steps, and `integrator` selects the scheme.
@@ -249,6 +262,7 @@ struct Model {
   std::vector<RigidBody>        rigid_bodies;
   std::vector<InitialCondition> initial_conditions;
   std::vector<Joint>            joints;
+  std::vector<ExpectedResult>   expected;
   AnalysisSettings              analysis;
   OutputSettings                output;
 };

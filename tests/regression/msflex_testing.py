@@ -114,3 +114,65 @@ class Checker:
         if self.failures:
             raise SystemExit(f"{self.name}: {self.failures} check(s) failed")
         print(f"{self.name}: all checks passed")
+
+
+def expected_results(input_file):
+    """The `expected` entries of an input (docs/input.md, "expected"), as dicts."""
+    import yaml
+    with open(input_file) as f:
+        return yaml.safe_load(f).get("expected") or []
+
+
+def series_values(f, series):
+    """A series as postproc/msflex_h5.py names it (every /history/<name>; <probe>.position.x,
+    <probe>.rotation_angle, ...), or else any numeric dataset by its path, flattened."""
+    sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "postproc"))
+    import msflex_h5
+    with msflex_h5.HistoryFile(f.filename) as history:
+        if series in history.names():
+            return history.read(series)
+    if series in f:
+        return f[series][()].astype(float).ravel()
+    raise KeyError(f"no series {series!r} (postproc/msflex-history lists them) nor a dataset of that path")
+
+
+def check_expected(check, input_file, result_file, label, end_time=None):
+    """Checks the input's expected results against its result file. An entry at a time after
+    `end_time` (a run shortened by -analysis_end_time), or a statistic over the whole run when the
+    run was shortened, is skipped and said so. Returns (checked, skipped)."""
+    checked = skipped = 0
+    with h5py.File(result_file, "r") as f:
+        times = f["history/time"][()] if "history" in f and "time" in f["history"] else None
+        for entry in expected_results(input_file):
+            series = entry["series"]
+            where = f"t = {entry['time']}" if "time" in entry else entry["statistic"]
+            name = f"{label}: {series} ({where})"
+            if end_time is not None and ("statistic" in entry or entry["time"] > end_time * (1 + 1e-12)):
+                print(f"skip {name}: beyond the shortened run (end_time {end_time})")
+                skipped += 1
+                continue
+            try:
+                values = series_values(f, series)
+            except KeyError as error:
+                check.less(f"{name}: {error} (1 = missing)", 1.0, 0.5)
+                continue
+            if "time" in entry:
+                rows = np.nonzero(np.abs(times - entry["time"]) <= 1e-9 * max(1.0, abs(entry["time"])))[0]
+                if len(rows) != 1:
+                    check.less(f"{name}: history rows at that time - 1 (the steps must land on it: output_times)", abs(len(rows) - 1), 0.5)
+                    continue
+                value = values[rows[0]]
+            else:
+                # NaN marks rows without a value (e.g. critical_load_factor away from critical points).
+                value = {"final": lambda v: v[-1], "max": np.nanmax, "min": np.nanmin, "max_abs": lambda v: np.nanmax(np.abs(v)),
+                         "range": lambda v: np.nanmax(v) - np.nanmin(v)}[entry["statistic"]](values)
+            if "value" in entry:
+                allowed = entry["tolerance"] if "tolerance" in entry else entry["relative_tolerance"] * abs(entry["value"])
+                print(f"     {name} = {value:.10g}, expected {entry['value']:.10g}")
+                check.less(f"{name}: |value - {entry['value']:.10g}| (tolerance)", abs(value - entry["value"]), allowed * (1 + 1e-12) + 1e-300)
+            if "below" in entry:
+                check.less(f"{name} = {value:.6g}: value - below", value - entry["below"], 0.0)
+            if "above" in entry:
+                check.less(f"{name} = {value:.6g}: above - value", entry["above"] - value, 0.0)
+            checked += 1
+    return checked, skipped

@@ -1,0 +1,248 @@
+#include "app/command_line.hpp"
+
+#include "core/errors.hpp"
+#include "model/analysis_types.hpp"
+#include "model/joint_kinds.hpp"
+#include "schemes/time_scheme.hpp"
+
+#include <petscsnes.h>
+
+#include <algorithm>
+#include <cctype>
+#include <cstdlib>
+#include <cstring>
+#include <strings.h>
+#include <vector>
+
+namespace msflex {
+
+namespace {
+
+// The list: settings.cpp and partition.cpp read these names and take their descriptions from
+// here (OptionDescription), so an option read without an entry aborts every run.
+const OptionInfo kOptions[] = {
+    {"-analysis_type", "TYPE", "analysis type: static, dynamic, modes or buckling (msflex -h describes them)"},
+    {"-analysis_integrator", "NAME", "time integrator of a dynamic analysis: newmark, genalpha, mc or em"},
+    {"-analysis_spectral_radius", "R", "rho_infinity of genalpha, in [0, 1]"},
+    {"-analysis_em_correction", "resultants|forces", "em's correction vector: resultants (N_d, M_d) or forces (N_d, 0)"},
+    {"-analysis_end_time", "T", "final time (dynamics) or load factor (statics)"},
+    {"-analysis_initial_step", "DT", "first step size"},
+    {"-analysis_min_step", "DT", "smallest step before the run gives up"},
+    {"-analysis_max_step", "DT", "largest step"},
+    {"-analysis_growth_factor", "F", "step growth after easy steps, >= 1"},
+    {"-analysis_easy_iterations", "N", "Newton iterations of an easy step"},
+    {"-analysis_easy_steps_to_grow", "N", "easy steps in a row before the step grows"},
+    {"-analysis_max_newton_iterations", "N", "Newton iterations per step"},
+    {"-analysis_max_rotation_increment", "RAD", "largest nodal rotation per step, in (0, pi)"},
+    {"-analysis_newton_rtol", "TOL", "Newton relative residual tolerance"},
+    {"-analysis_newton_atol", "TOL", "Newton absolute residual tolerance"},
+    {"-analysis_output_times", "T1,T2,...", "times the steps must land on (replaces the input's list)"},
+    {"-analysis_control", "NAME", "path control of a static analysis: load, arc_length or displacement"},
+    {"-analysis_arc_length_psi", "PSI", "weight of the load factor in the arc-length constraint (0: cylindrical)"},
+    {"-analysis_desired_iterations", "N", "corrector iterations the arc length aims at"},
+    {"-analysis_max_steps", "N", "steps before an arc-length run stops"},
+    {"-analysis_control_node", "NODE", "node of displacement control"},
+    {"-analysis_control_joint", "JOINT", "joint of displacement control"},
+    {"-analysis_control_dof", "DOF", "DOF (ux..rz) or joint coordinate (tx..rz) of displacement control"},
+    {"-analysis_control_value", "V", "controlled coordinate per unit pseudo-time"},
+    {"-analysis_stability", "", "negative pivots and critical points of the static path"},
+    {"-analysis_eigenvalues", "N", "eigenvalues of a modes or buckling analysis"},
+    {"-analysis_shift", "S", "shift of shift-and-invert for modes, (rad/s)^2"},
+    {"-analysis_preload", "", "eigenanalysis about the static equilibrium at end_time"},
+    {"-output_file", "FILE.h5", "result file (default: the input's output.file, or <input name>.h5)"},
+    {"-output_every", "N", "write a frame every N-th converged step"},
+    {"-output_overwrite", "", "replace an existing result file"},
+    {"-progress_every", "N", "a progress line every N steps"},
+    {"-quiet", "", "no progress lines and no summary"},
+    {"-checkpoint_every", "N", "converged steps between checkpoints (0: none)"},
+    {"-checkpoint_wall_time", "S", "seconds of wall time between checkpoints (0: none)"},
+    {"-checkpoint_file", "FILE", "checkpoint file (default: <output>.ckpt.h5)"},
+    {"-partitioner", "metis|simple", "node partitioning over MPI ranks (default: metis on more than one rank)"},
+};
+
+// Options read by PETSc only in PetscFinalize, after the check of what is left: not unused.
+const char *const kReadAtFinalize[] = {"log_view",    "log_view_memory", "log_view_gpu_time", "log_all",      "log_trace",    "memory_view",
+                                       "malloc_dump", "malloc_view",     "options_view",      "options_left", "objects_dump", "citations"};
+
+// msflex's prefixes, as normalised names (no dash, '_' for '-').
+const char *const kPrefixes[] = {"analysis_", "output_", "checkpoint_", "partition", "progress", "quiet", "restart"};
+
+std::string Normalise(const std::string &name)
+{
+  size_t start = 0;
+  while (start < name.size() && name[start] == '-') ++start;
+  std::string out = name.substr(start);
+  for (char &c : out) c = c == '-' ? '_' : (char)std::tolower((unsigned char)c);
+  return out;
+}
+
+// The name as the user typed it: PETSc stores "-name" as "name" and "--name" as "-name".
+std::string Typed(const char *stored) { return std::string("-") + stored; }
+
+bool IsRestartOption(const std::string &normalised) { return normalised == "restart"; }
+
+// An msflex option spelt exactly (PETSc names are case-insensitive): read later in the run
+// (-partitioner, at set-up) or not at all by this kind of run; never a misspelling.
+bool IsListedOption(const std::string &typed)
+{
+  for (const OptionInfo &option : kOptions)
+    if (strcasecmp(option.name, typed.c_str()) == 0) return true;
+  return false;
+}
+
+bool ReadAtFinalize(const std::string &normalised)
+{
+  for (const char *name : kReadAtFinalize)
+    if (normalised == name) return true;
+  return false;
+}
+
+} // namespace
+
+const OptionInfo *MsflexOptions(int *count)
+{
+  *count = (int)(sizeof(kOptions) / sizeof(kOptions[0]));
+  return kOptions;
+}
+
+const char *OptionDescription(const char *name)
+{
+  for (const OptionInfo &option : kOptions)
+    if (std::strcmp(option.name, name) == 0) return option.description;
+  fprintf(stderr, "msflex: internal error: option %s is read but not in the option list (src/app/command_line.cpp)\n", name);
+  std::abort();
+}
+
+int OptionNameDistance(const std::string &a_name, const std::string &b_name)
+{
+  const std::string a = Normalise(a_name), b = Normalise(b_name);
+  const size_t      n = a.size(), m = b.size();
+  std::vector<int>  d((n + 1) * (m + 1));
+  auto              at = [m, &d](size_t i, size_t j) -> int              &{ return d[i * (m + 1) + j]; };
+  for (size_t i = 0; i <= n; ++i) at(i, 0) = (int)i;
+  for (size_t j = 0; j <= m; ++j) at(0, j) = (int)j;
+  for (size_t i = 1; i <= n; ++i)
+    for (size_t j = 1; j <= m; ++j) {
+      at(i, j) = std::min({at(i - 1, j) + 1, at(i, j - 1) + 1, at(i - 1, j - 1) + (a[i - 1] == b[j - 1] ? 0 : 1)});
+      if (i > 1 && j > 1 && a[i - 1] == b[j - 2] && a[i - 2] == b[j - 1]) at(i, j) = std::min(at(i, j), at(i - 2, j - 2) + 1);
+    }
+  return at(n, m);
+}
+
+const OptionInfo *NearestOption(const std::string &name, int *distance)
+{
+  const OptionInfo *best = nullptr;
+  *distance              = 1 << 30;
+  for (const OptionInfo &option : kOptions) {
+    const int d = OptionNameDistance(name, option.name);
+    if (d < *distance) {
+      *distance = d;
+      best      = &option;
+    }
+  }
+  return best;
+}
+
+bool LooksLikeMsflexOption(const std::string &name)
+{
+  const std::string normalised = Normalise(name);
+  for (const char *prefix : kPrefixes)
+    if (normalised.compare(0, std::strlen(prefix), prefix) == 0) return true;
+  int distance;
+  NearestOption(name, &distance);
+  return distance <= 2;
+}
+
+std::string HelpText()
+{
+  std::string text = "msflex: flexible mechanisms of geometrically exact beams.\n\n"
+                     "Usage: msflex INPUT.yaml [options]\n"
+                     "       msflex --restart CHECKPOINT.h5 [options]   continue a run from its checkpoint\n"
+                     "       msflex -h | --help                       this help\n"
+                     "       msflex --version                         the version and git commit\n"
+                     "       msflex INPUT.yaml -help                  run, listing every option as the run reads it (PETSc's too)\n\n"
+                     "msflex options (the input's values are the defaults; docs/options.md):\n";
+  for (const OptionInfo &option : kOptions) {
+    std::string left = std::string("  ") + option.name + (option.argument[0] ? std::string(" ") + option.argument : std::string());
+    left.resize(std::max<size_t>(left.size() + 1, 42), ' ');
+    text += left + option.description + "\n";
+  }
+  text += "A misspelt msflex option is an error; an option nothing reads is reported at the end of the run.\n"
+          "Solver options (-snes_*, -ksp_*, -pc_*, -eps_*) are PETSc's and SLEPc's; the default is Newton with line search and MUMPS LU.\n";
+  int  count;
+  auto column = [](const char *name, size_t width) { return std::string("  ") + name + std::string(width - std::min(width - 1, std::strlen(name)), ' '); };
+  text += "\nAnalysis types (analysis.type, -analysis_type):\n";
+  for (const AnalysisTypeInfo *info = AnalysisTypes(&count), *end = info + count; info != end; ++info)
+    text += column(info->name, 14) + info->description + "\n";
+  text += "Path controls of static analyses (analysis.control, -analysis_control):\n";
+  for (const PathControlInfo *info = PathControls(&count), *end = info + count; info != end; ++info) text += column(info->name, 14) + info->description + "\n";
+  text += "Integrators (analysis.integrator, -analysis_integrator):\n";
+  for (const IntegratorInfo *info = Integrators(&count), *end = info + count; info != end; ++info) text += column(info->name, 14) + info->description + "\n";
+  text += "Joint kinds (joints: type):\n";
+  for (const JointKindInfo *info = JointKinds(&count), *end = info + count; info != end; ++info) text += column(info->name, 14) + info->description + "\n";
+  return text;
+}
+
+PetscErrorCode CheckMsflexOptionsUsed(MPI_Comm comm)
+{
+  PetscInt    count;
+  char      **names, **values;
+  std::string message;
+  PetscFunctionBeginUser;
+  PetscCall(PetscOptionsLeftGet(nullptr, &count, &names, &values));
+  for (PetscInt i = 0; i < count; ++i) {
+    const std::string typed = Typed(names[i]);
+    if (IsRestartOption(Normalise(typed)) || IsListedOption(typed) || !LooksLikeMsflexOption(typed)) continue;
+    int               distance;
+    const OptionInfo *nearest = NearestOption(typed, &distance);
+    message += std::string(message.empty() ? "" : "; ") + "unknown option " + typed + "; did you mean " + nearest->name + "?";
+  }
+  PetscCall(PetscOptionsLeftRestore(nullptr, &count, &names, &values));
+  PetscCheck(message.empty(), comm, PETSC_ERR_USER_INPUT, "%s (msflex -h lists the options)", message.c_str());
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode CheckSolverOptions(MPI_Comm comm)
+{
+  SNES snes;
+  KSP  ksp, path_ksp;
+  PC   pc;
+  Mat  jacobian;
+  PetscFunctionBeginUser;
+  // The defaults of src/integrators/newton.cpp, so that only what the options change is tried.
+  PetscCall(SNESCreate(comm, &snes));
+  PetscCall(SNESGetKSP(snes, &ksp));
+  PetscCall(KSPSetType(ksp, KSPPREONLY));
+  PetscCall(KSPGetPC(ksp, &pc));
+  PetscCall(PCSetType(pc, PCLU));
+  MSFLEX_CALL_READING_OPTIONS(comm, SNESSetFromOptions(snes));
+  PetscCall(SNESDestroy(&snes));
+  PetscCall(MatCreate(comm, &jacobian));
+  PetscCall(MatSetSizes(jacobian, PETSC_DECIDE, PETSC_DECIDE, 1, 1));
+  PetscCall(MatSetOptionsPrefix(jacobian, "jacobian_"));
+  MSFLEX_CALL_READING_OPTIONS(comm, MatSetFromOptions(jacobian));
+  PetscCall(MatDestroy(&jacobian));
+  PetscCall(KSPCreate(comm, &path_ksp));
+  PetscCall(KSPSetOptionsPrefix(path_ksp, "path_"));
+  MSFLEX_CALL_READING_OPTIONS(comm, KSPSetFromOptions(path_ksp));
+  PetscCall(KSPDestroy(&path_ksp));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode WarnOptionsLeft(MPI_Comm comm)
+{
+  PetscInt count;
+  char   **names, **values;
+  PetscFunctionBeginUser;
+  PetscCall(PetscOptionsLeftGet(nullptr, &count, &names, &values));
+  for (PetscInt i = 0; i < count; ++i) {
+    const std::string typed = Typed(names[i]), normalised = Normalise(typed);
+    if (IsRestartOption(normalised) || ReadAtFinalize(normalised)) continue;
+    PetscCall(
+        PetscFPrintf(comm, PETSC_STDERR, "msflex: warning: option %s%s%s was not used\n", typed.c_str(), values[i] ? " " : "", values[i] ? values[i] : ""));
+  }
+  PetscCall(PetscOptionsLeftRestore(nullptr, &count, &names, &values));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+} // namespace msflex

@@ -1,0 +1,32 @@
+// The end-of-run summary (docs/options.md, "Summary"): steps, rejections by reason, Newton and
+// Krylov iterations, wall time per -log_view stage, CPU time, energy drift and peak memory,
+// printed by rank 0 unless -quiet.
+#pragma once
+
+#include "integrators/integrator.hpp"
+
+#include <petscsys.h>
+
+#include <map>
+#include <string>
+
+namespace msflex {
+
+class RunSummary {
+public:
+  // Every attempt at a step, converged or not.
+  void Attempt(const StepOutcome &outcome);
+  // Every history row of a dynamic analysis: energy_balance = total energy - external work.
+  void Energy(double energy_balance, double total_energy);
+  // Collective: times and memory are reduced over the ranks. `wall_start`: MPI_Wtime at the start
+  // of the run on this rank.
+  PetscErrorCode Print(MPI_Comm comm, double wall_start, bool dynamic) const;
+
+private:
+  long long                  accepted_ = 0, newton_accepted_ = 0, newton_all_ = 0, krylov_all_ = 0;
+  std::map<std::string, int> rejected_; // by reason
+  bool                       have_energy_   = false;
+  double                     balance_first_ = 0.0, balance_last_ = 0.0, max_drift_ = 0.0, max_total_ = 0.0;
+};
+
+} // namespace msflex

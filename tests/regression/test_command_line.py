@@ -1,0 +1,128 @@
+"""The command line (docs/options.md, "Checking options"), serially and on --np ranks:
+- a misspelt msflex option (the 18 misspellings that were once ignored silently) stops the run
+  before anything runs: exit 1, one line naming the nearest msflex option, no result file;
+- a bad value of a PETSc option read by a PETSc object (-snes_type, -ksp_type, -pc_type) or of
+  -partitioner: exit 1, one line 'msflex: bad option: ...', no PETSc trace;
+- an unused PETSc option is warned about at the end, one line, and the run completes;
+- -h and --help (also after the input file) print msflex's help, with the registries' analysis
+  types, integrators and joint kinds, and exit 0 without running; --version prints the version;
+- the end-of-run summary: its step and Newton counts equal the result file's history."""
+
+import os
+
+import h5py
+import numpy as np
+
+import msflex_testing as mt
+
+args = mt.parse_arguments(__doc__)
+check = mt.Checker("command line")
+bend = f"{args.source_dir}/input/bend45.yaml"
+top = f"{args.source_dir}/input/torque_free_top.yaml"
+output = f"{args.work_dir}/cli.h5"
+short_top = ["-analysis_end_time", "0.05"]
+
+
+def run(source, options, ranks, expect_success=False):
+    if os.path.exists(output):
+        os.remove(output)
+    command_input = [] if source is None else [source]
+    # run_msflex puts the input first; for runs without an input use the raw runner below.
+    if source is None:
+        import subprocess
+        command = ([args.mpiexec, "-n", str(ranks)] if ranks > 1 else []) + [args.msflex] + options
+        result = subprocess.run(command, capture_output=True, text=True, timeout=300)
+        return result.returncode, result.stdout, result.stderr
+    return mt.run_msflex(args, command_input[0], output, extra=options, np_ranks=ranks, expect_success=expect_success)
+
+
+# (options after the input, the input, the option the message must suggest)
+misspellings = [(["-ouput_file", "x.h5"], bend, "-output_file"),
+                (["-analysis_intgrator", "mc"], bend, "-analysis_integrator"),
+                (short_top + ["-analysis_intgrator", "mc"], top, "-analysis_integrator"),
+                (["-output_fiel", "x.h5"], bend, "-output_file"),
+                (["-outputfile", "x.h5"], bend, "-output_file"),
+                (["--output_file", "x.h5"], bend, "-output_file"),
+                (["-output_evry", "4"], bend, "-output_every"),
+                (["-output_overwite"], bend, "-output_overwrite"),
+                (["-quite"], bend, "-quiet"),
+                (["-analysis_end_tim", "0.5"], bend, "-analysis_end_time"),
+                (["-analysis_endtime", "0.5"], bend, "-analysis_end_time"),
+                (["-analysis-end-time", "0.5"], bend, "-analysis_end_time"),
+                (["-analysis_initial_stp", "0.05"], bend, "-analysis_initial_step"),
+                (["-analysis_newton_rtoll", "1e-6"], bend, "-analysis_newton_rtol"),
+                (short_top + ["-analysis_integrator", "genalpha", "-analysis_spectral_radious", "0.5"], top, "-analysis_spectral_radius"),
+                (["-analysis_max_rotation_incr", "0.1"], bend, "-analysis_max_rotation_increment"),
+                (["-progres_every", "4"], bend, "-progress_every"),
+                (["-checkpoint_evry", "2"], bend, "-checkpoint_every"),
+                (["-partitoner", "simple"], bend, "-partitioner")]
+for ranks in sorted({1, args.np}):
+    for options, source, nearest in misspellings:
+        code, stdout, stderr = run(source, options, ranks)
+        lines = [line for line in stderr.splitlines() if line.startswith("msflex:")]
+        label = f"np {ranks} {' '.join(options)}"
+        print(f"{label}: exit {code}: {lines[0] if lines else stderr.strip()[:200]}")
+        check.less(f"{label}: |exit status - 1|", abs(code - 1), 0.5)
+        check.less(f"{label}: |message lines - 1|", abs(len(lines) - 1), 0.5)
+        check.less(f"{label}: message names {nearest} (0 = yes)", 0.0 if lines and f"did you mean {nearest}?" in lines[0] else 1.0, 0.5)
+        check.less(f"{label}: steps run (progress lines)", sum(line.startswith("step ") for line in stdout.splitlines()), 0.5)
+        check.less(f"{label}: result file created (0 = no)", 1.0 if os.path.exists(output) else 0.0, 0.5)
+
+    for options, what in [(["-snes_type", "nonsense"], "SNES"), (["-ksp_type", "nonsense"], "KSP"), (["-pc_type", "nonsense"], "PC"),
+                          (["-partitioner", "nonsense"], "-partitioner")]:
+        code, _, stderr = run(bend, options, ranks)
+        # Under mpiexec, mpiexec adds its own report of the exit status; msflex's lines are its own.
+        lines = [line for line in stderr.splitlines() if line.strip() and (ranks == 1 or line.startswith("msflex:"))]
+        label = f"np {ranks} {' '.join(options)}"
+        print(f"{label}: exit {code}: {lines[0] if lines else ''}")
+        check.less(f"{label}: |exit status - 1|", abs(code - 1), 0.5)
+        check.less(f"{label}: |stderr lines - 1|", abs(len(lines) - 1), 0.5)
+        check.less(f"{label}: one 'bad option' line naming the value (0 = yes)",
+                   0.0 if lines and lines[0].startswith("msflex: bad option: ") and "nonsense" in lines[0] and what in lines[0] else 1.0, 0.5)
+        check.less(f"{label}: PETSc trace-back lines", stderr.count("PETSC ERROR"), 0.5)
+
+    code, _, stderr = run(bend, ["-snes_monitr"], ranks, expect_success=True)
+    warnings = [line for line in stderr.splitlines() if line.startswith("msflex: warning:")]
+    print(f"np {ranks} -snes_monitr: exit {code}: {warnings}")
+    check.less(f"np {ranks} unused PETSc option: exit status", code, 0.5)
+    check.less(f"np {ranks} unused PETSc option: |warning lines - 1|", abs(len(warnings) - 1), 0.5)
+    check.less(f"np {ranks} unused PETSc option: warning names it (0 = yes)", 0.0 if warnings and "-snes_monitr" in warnings[0] else 1.0, 0.5)
+
+    for options, source in [(["-h"], None), (["--help"], None), (["-h"], bend), (["--help"], bend)]:
+        code, stdout, stderr = run(source, options, ranks)
+        label = f"np {ranks} {'INPUT ' if source else ''}{' '.join(options)}"
+        print(f"{label}: exit {code}, {len(stdout.splitlines())} lines")
+        check.less(f"{label}: exit status", code, 0.5)
+        for word in ["Usage: msflex INPUT.yaml", "-output_file", "-analysis_end_time", "Integrators", "genalpha", "Joint kinds", "revolute", "screw", "buckling"]:
+            check.less(f"{label}: help lacks '{word}' (0 = has it)", 0.0 if word in stdout else 1.0, 0.5)
+        check.less(f"{label}: help printed once (copies - 1)", abs(stdout.count("Usage: msflex") - 1), 0.5)
+        check.less(f"{label}: steps run (progress lines)", sum(line.startswith("step ") for line in stdout.splitlines()), 0.5)
+        check.less(f"{label}: result file created (0 = no)", 1.0 if os.path.exists(output) else 0.0, 0.5)
+
+    code, stdout, _ = run(None, ["--version"], ranks)
+    print(f"np {ranks} --version: exit {code}: {stdout.strip()}")
+    check.less(f"np {ranks} --version: exit status", code, 0.5)
+    check.less(f"np {ranks} --version: one line 'msflex VERSION (git HASH)' (0 = yes)",
+               0.0 if len(stdout.splitlines()) == 1 and stdout.startswith("msflex ") and "(git " in stdout else 1.0, 0.5)
+
+    # The summary against the result file.
+    code, stdout, _ = run(top, short_top + ["-analysis_initial_step", "0.01"], ranks, expect_success=True)
+    summary = stdout[stdout.index("msflex: summary"):] if "msflex: summary" in stdout else ""
+    print(summary)
+    with h5py.File(output, "r") as f:
+        steps = len(f["history/time"]) - 1
+        newton = int(np.sum(f["history/newton_iterations"][()]))
+        balance = f["history/energy_balance"][()]
+    check.less(f"np {ranks} summary printed (0 = yes)", 0.0 if summary else 1.0, 0.5)
+    check.less(f"np {ranks} summary: steps = history rows - 1 ({steps}) (0 = yes)",
+               0.0 if f"steps              {steps} accepted, 0 rejected" in summary else 1.0, 0.5)
+    check.less(f"np {ranks} summary: Newton iterations = sum of the history's ({newton}) (0 = yes)",
+               0.0 if f"Newton iterations  {newton} in accepted steps" in summary else 1.0, 0.5)
+    for word in ["Krylov iterations", "energy drift", "wall time", "LinearSolve", "Output", "CPU time", "peak memory"]:
+        check.less(f"np {ranks} summary lacks '{word}' (0 = has it)", 0.0 if word in summary else 1.0, 0.5)
+    drift = float(summary.split("energy drift")[1].split()[0]) if "energy drift" in summary else np.inf
+    check.less(f"np {ranks} summary: |energy drift - history's| ({balance[-1] - balance[0]:.4g})", abs(drift - (balance[-1] - balance[0])),
+               1e-3 * abs(balance[-1] - balance[0]) + 1e-12)
+    code, stdout, _ = run(top, short_top + ["-quiet"], ranks, expect_success=True)
+    check.less(f"np {ranks} -quiet: summary lines", stdout.count("summary"), 0.5)
+check.finish()
