@@ -74,7 +74,7 @@ const Entry kDatasets[] = {
 
 // The fixed history series.
 const Entry kHistory[] = {
-    {"", "time", "TIME", "time; in statics the pseudo-time, the load factor under the default ramp"},
+    {"", "time", "TIME", "time"},
     {"", "step", "1", "converged step number"},
     {"", "step_size", "TIME", "the step that reached this row (0 in the first row)"},
     {"", "newton_iterations", "1", "Newton iterations of the step"},
