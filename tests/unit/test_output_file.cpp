@@ -799,7 +799,9 @@ TEST_F(OutputFileTest, ReopenKeepsTheCheckpointedRowsAndFramesAndGoesOn)
         ASSERT_EQ(out.WriteFrame(IsRoot() ? FrameOfStep(row) : OutputFrame{}), PETSC_SUCCESS);
       }
       ASSERT_EQ(out.AppendHistory(kHistoryNames, HistoryRow(row), {ProbeOfRow(row)}), PETSC_SUCCESS);
-      if (row == 9) ASSERT_EQ(out.Flush(), PETSC_SUCCESS); // the checkpoint: step 9, 10 rows, last frame 5
+      if (row == 9) { // the checkpoint: step 9, 10 rows, last frame 5
+        ASSERT_EQ(out.Flush(), PETSC_SUCCESS);
+      }
     }
     ASSERT_EQ(out.Close(), PETSC_SUCCESS);
   }
