@@ -28,6 +28,7 @@ static std::string HelpText()
                      "  -output_file FILE.h5    result file (default: the input's output.file, or <input name>.h5)\n"
                      "  -output_every N         write every N-th step\n"
                      "  -output_overwrite       replace an existing result file\n"
+                     "  -output_flush_interval S  flush the result file every S seconds of wall time (default 10; 0: every step)\n"
                      "  -partitioner metis|simple  node partitioning over MPI ranks (default: metis on more than one rank)\n"
                      "  -progress_every N       a progress line every N steps\n"
                      "  -quiet                  no progress lines\n"
