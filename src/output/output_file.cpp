@@ -1009,7 +1009,10 @@ PetscErrorCode OutputFile::Impl::Resume(int last_step, long long history_rows)
   std::vector<std::string> names;
   PetscFunctionBeginUser;
   PetscCheck(std::filesystem::exists(path), PETSC_COMM_SELF, PETSC_ERR_USER_INPUT, "output file '%s' of the run to continue does not exist", path.c_str());
-  PetscCallHDF5(file = H5Fopen(path.c_str(), H5F_ACC_RDWR, H5P_DEFAULT));
+  H5Id access;
+  PetscCallHDF5(access = H5Pcreate(H5P_FILE_ACCESS));
+  PetscCallHDF5(H5Pset_libver_bounds(access, H5F_LIBVER_V18, H5F_LIBVER_V18)); // as in Create
+  PetscCallHDF5(file = H5Fopen(path.c_str(), H5F_ACC_RDWR, access));
   // The sizes of the mesh, from its datasets (0 for tables a file does not have).
   const auto rows_of = [&](const char *name, hsize_t *rows) -> PetscErrorCode {
     H5Id    dataset, space;
@@ -1037,13 +1040,15 @@ PetscErrorCode OutputFile::Impl::Resume(int last_step, long long history_rows)
     const htri_t exists = H5Aexists(file, "analysis_type");
     PetscCallHDF5(exists);
     if (exists) {
-      H5Id  attribute, type;
-      char *text = nullptr;
-      PetscCall(CreateStringType(&type));
+      // A fixed-length string (WriteStringAttribute), read in its own type.
+      H5Id attribute, type;
       PetscCallHDF5(attribute = H5Aopen(file, "analysis_type", H5P_DEFAULT));
-      PetscCallHDF5(H5Aread(attribute, type, &text));
-      dynamic = text && std::string(text) == "dynamic";
-      H5free_memory(text);
+      PetscCallHDF5(type = H5Aget_type(attribute));
+      PetscCheck(H5Tget_class(type) == H5T_STRING && H5Tis_variable_str(type) == 0, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED,
+                 "output file '%s': the attribute analysis_type is not a fixed-length string", path.c_str());
+      std::string text(H5Tget_size(type), '\0');
+      PetscCallHDF5(H5Aread(attribute, type, text.data()));
+      dynamic = std::string(text.c_str()) == "dynamic";
     }
   }
   // Frames up to the checkpoint stay; later ones (written after it) go.

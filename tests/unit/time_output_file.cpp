@@ -137,7 +137,7 @@ int main(int argc, char **argv)
   std::string       item;
   PetscCall(PetscPrintf(PETSC_COMM_WORLD, "%8s %6s %18s %18s\n", "frames", "every", "ms per frame", "ms per history row"));
   while (std::getline(list, item, ',')) {
-    const int frames = std::stoi(item);
+    const int frames    = std::stoi(item);
     double    per_frame = 0, per_row = 0;
     PetscCall(TimeRun(base + ".h5", frames, (int)every, &per_frame, &per_row));
     PetscCall(PetscPrintf(PETSC_COMM_WORLD, "%8d %6d %18.4f %18.4f\n", frames, (int)every, 1e3 * per_frame, 1e3 * per_row));
