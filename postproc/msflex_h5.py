@@ -2,7 +2,8 @@
 
 A series is one column of the history: every /history/<name> dataset, and per probe
 <probe>.position.x|y|z, <probe>.displacement.x|y|z, <probe>.rotation.w|x|y|z and
-<probe>.rotation_angle. All series of a file have one value per history row.
+<probe>.rotation_angle. All series of a file have one value per history row. Each carries the
+`unit` and `description` attributes of its dataset (files of older msflex versions have none).
 """
 
 import difflib
@@ -63,13 +64,42 @@ class HistoryFile:
         """All series of the file: history series (time first), then probe series."""
         return list(self._series)
 
-    def read(self, name):
-        """The values of series `name` as a 1-D float array; UsageError if there is none."""
+    def is_static(self):
+        """Whether the file holds a static analysis (its time is the load factor)."""
+        kind = self._file.attrs.get("analysis_type")
+        if kind is None:  # older files: dynamics writes kinetic_energy
+            return "kinetic_energy" not in self._file.get("history", {})
+        return (kind.decode() if isinstance(kind, bytes) else str(kind)) == "static"
+
+    def quantity(self, name):
+        """(unit, description) of series `name`; unit None when the file does not say."""
+        self._check(name)
+        path, column = self._series[name]
+        attributes = self._file[path].attrs
+        unit, description = attributes.get("unit"), attributes.get("description")
+        unit = unit.decode() if isinstance(unit, bytes) else unit
+        description = (description.decode() if isinstance(description, bytes) else description) or ""
+        if column is not None:
+            description += f", {name.rsplit('.', 1)[-1]}"
+        return unit, description
+
+    def label(self, name):
+        """Axis label of series `name`: its name, or 'load factor' for the time of a static
+        analysis, with the unit in brackets (none for a dimensionless series)."""
+        unit, _ = self.quantity(name)
+        shown = "load factor" if name == "time" and self.is_static() else name
+        return shown if unit in (None, "", "1") else f"{shown} [{unit}]"
+
+    def _check(self, name):
         if name not in self._series:
             close = difflib.get_close_matches(name, self._series, n=5, cutoff=0.6)
             hint = f"; did you mean: {', '.join(close)}" if close else ""
             raise UsageError(f"no series '{name}' in {self._file.filename}{hint}"
                              f" (list them with: msflex-history {self._file.filename})")
+
+    def read(self, name):
+        """The values of series `name` as a 1-D float array; UsageError if there is none."""
+        self._check(name)
         path, column = self._series[name]
         dataset = self._file[path]
         return (dataset[:] if column is None else dataset[:, column]).astype(float)

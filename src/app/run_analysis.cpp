@@ -157,6 +157,7 @@ PetscErrorCode Setup(Analysis &a, Model whole)
     continue_output = std::filesystem::exists(a.options.output_file, no_throw_exists) ? 1 : 0;
   }
   PetscCallMPI(MPI_Bcast(&continue_output, 1, MPI_INT, 0, a.comm));
+  a.output.SetFlushInterval(a.options.output_flush_interval);
   if (continue_output) {
     PetscCall(a.output.Reopen(a.comm, a.options.output_file, a.restart->last_written, a.restart->history_rows));
     a.history_rows = a.restart->history_rows;
@@ -297,6 +298,7 @@ PetscErrorCode WriteCheckpoint(Analysis &a, int step, double t, int last_written
   run.options             = a.options.options_database;
   run.output_file         = a.options.output_file;
   PetscCall(PetscLogStagePush(a.stage_output));
+  PetscCall(a.output.Flush()); // the result file holds run.history_rows rows, which a restart keeps
   PetscCall(CheckpointWrite(a.comm, a.options.checkpoint_file, run, a.integrator.GetState(), a.map));
   PetscCall(PetscLogStagePop());
   a.last_checkpoint_wall = WallClock(a.comm);

@@ -14,10 +14,11 @@ namespace msflex {
 
 struct RunOptions {
   std::string output_file;
-  PetscBool   output_overwrite = PETSC_FALSE;
-  PetscInt    output_every     = 1;
-  PetscBool   quiet            = PETSC_FALSE;
-  PetscInt    progress_every   = 1;
+  PetscBool   output_overwrite      = PETSC_FALSE;
+  PetscInt    output_every          = 1;
+  PetscReal   output_flush_interval = 10.0; // wall-time seconds between flushes of the result file (0: every step); set from output.flush_interval
+  PetscBool   quiet                 = PETSC_FALSE;
+  PetscInt    progress_every        = 1;
   // Checkpoints (docs/options.md): every n converged steps, every so many seconds of wall time
   // (0: never), and always on SIGTERM or SIGUSR1, into checkpoint_file.
   PetscInt    checkpoint_every     = 0;

@@ -140,12 +140,17 @@ PetscErrorCode SettingsFromOptions(MPI_Comm comm, Model *model, RunOptions *opti
   char     file[PETSC_MAX_PATH_LEN];
   PetscInt every = model->output.every; // default: the input's output.every
   PetscCall(PetscStrncpy(file, model->output.file.c_str(), sizeof(file)));
+  options->output_flush_interval = model->output.flush_interval; // default: the input's output.flush_interval
   PetscOptionsBegin(comm, "output_", "Output settings", "msflex");
   PetscCall(PetscOptionsString("-file", OptionDescription("-output_file"), "", file, file, sizeof(file), nullptr));
   PetscCall(PetscOptionsInt("-every", OptionDescription("-output_every"), "", every, &every, nullptr));
   PetscCall(PetscOptionsBool("-overwrite", OptionDescription("-output_overwrite"), "", options->output_overwrite, &options->output_overwrite, nullptr));
+  PetscCall(PetscOptionsReal("-flush_interval", OptionDescription("-output_flush_interval"), "", options->output_flush_interval, &options->output_flush_interval,
+                             nullptr));
   PetscOptionsEnd();
   PetscCheck(every >= 1, comm, PETSC_ERR_USER_INPUT, "option -output_every must be >= 1, got %" PetscInt_FMT, every);
+  PetscCheck(std::isfinite(options->output_flush_interval) && options->output_flush_interval >= 0, comm, PETSC_ERR_USER_INPUT,
+             "option -output_flush_interval must be >= 0 seconds, got %g", (double)options->output_flush_interval);
   options->output_file    = file;
   options->output_every   = every;
   options->progress_every = model->output.progress_every; // default: the input's output.progress_every

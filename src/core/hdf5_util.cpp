@@ -43,35 +43,45 @@ PetscErrorCode OpenFileCollective(MPI_Comm comm, const std::string &path, H5Id *
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
-PetscErrorCode CreateCollectiveTransfer(const std::string &label, H5Id *transfer)
+PetscErrorCode CreateCollectiveTransfer(const std::string &label, hid_t object, H5Id *transfer)
 {
+  H5Id file, access;
   PetscFunctionBeginUser;
+  PetscCallHDF5At(label, file = H5Iget_file_id(object));
+  PetscCallHDF5At(label, access = H5Fget_access_plist(file));
+  const hid_t driver = H5Pget_driver(access);
+  PetscCallHDF5At(label, driver);
   PetscCallHDF5At(label, *transfer = H5Pcreate(H5P_DATASET_XFER));
-  PetscCallHDF5At(label, H5Pset_dxpl_mpio(*transfer, H5FD_MPIO_COLLECTIVE));
+  if (driver == H5FD_MPIO) PetscCallHDF5At(label, H5Pset_dxpl_mpio(*transfer, H5FD_MPIO_COLLECTIVE));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
 PetscErrorCode WriteRowsCollective(const std::string &label, hid_t parent, const char *name, hsize_t n_rows, hsize_t columns, const std::vector<int> &rows,
-                                   const std::vector<double> &data)
+                                   const std::vector<double> &data, hid_t transfer, H5Id *dataset_out)
 {
   const hsize_t             dims[2] = {n_rows, columns};
   const hsize_t             count   = rows.size();
   const std::vector<size_t> order   = FileOrder(rows);
   std::vector<double>       sorted(count * columns);
-  H5Id                      space, dataset, memory_space, transfer;
+  H5Id                      space, dataset, memory_space, own_transfer;
   double                    dummy = 0;
 
   PetscFunctionBeginUser;
   PetscCallHDF5At(label, space = H5Screate_simple(2, dims, nullptr));
   PetscCallHDF5At(label, dataset = H5Dcreate2(parent, name, H5T_IEEE_F64LE, space, H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT));
-  if (n_rows * columns == 0) PetscFunctionReturn(PETSC_SUCCESS); // the same on every rank
-  for (size_t k = 0; k < count; ++k) std::copy_n(&data[order[k] * columns], columns, &sorted[k * columns]);
-  PetscCall(SelectRows(label, space, columns, rows, order));
-  const hsize_t memory_size = count > 0 ? count * columns : 1;
-  PetscCallHDF5At(label, memory_space = H5Screate_simple(1, &memory_size, nullptr));
-  if (count == 0) PetscCallHDF5At(label, H5Sselect_none(memory_space));
-  PetscCall(CreateCollectiveTransfer(label, &transfer));
-  PetscCallHDF5At(label, H5Dwrite(dataset, H5T_NATIVE_DOUBLE, memory_space, space, transfer, count > 0 ? sorted.data() : &dummy));
+  if (n_rows * columns > 0) { // the same on every rank
+    for (size_t k = 0; k < count; ++k) std::copy_n(&data[order[k] * columns], columns, &sorted[k * columns]);
+    PetscCall(SelectRows(label, space, columns, rows, order));
+    const hsize_t memory_size = count > 0 ? count * columns : 1;
+    PetscCallHDF5At(label, memory_space = H5Screate_simple(1, &memory_size, nullptr));
+    if (count == 0) PetscCallHDF5At(label, H5Sselect_none(memory_space));
+    if (transfer < 0) {
+      PetscCall(CreateCollectiveTransfer(label, dataset, &own_transfer));
+      transfer = own_transfer;
+    }
+    PetscCallHDF5At(label, H5Dwrite(dataset, H5T_NATIVE_DOUBLE, memory_space, space, transfer, count > 0 ? sorted.data() : &dummy));
+  }
+  if (dataset_out) *dataset_out = dataset.Release();
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 

@@ -109,14 +109,17 @@ template <class Work> PetscErrorCode RunCollective(MPI_Comm comm, Work &&work)
 // Collective.
 PetscErrorCode OpenFileCollective(MPI_Comm comm, const std::string &path, H5Id *file);
 
-// A dataset transfer property list for collective MPI-IO transfers.
-PetscErrorCode CreateCollectiveTransfer(const std::string &label, H5Id *transfer);
+// A dataset transfer property list for collective MPI-IO transfers to the file holding `object`,
+// or the default list when that file is not open through MPI-IO (one rank: the POSIX driver).
+PetscErrorCode CreateCollectiveTransfer(const std::string &label, hid_t object, H5Id *transfer);
 
 // Creates the float64 dataset `name` (n_rows x columns) under `parent` collectively; each rank
 // writes `data` (rows.size() x columns, any order) to its `rows`; every row is written by at most
-// one rank. `label` names the file in messages.
+// one rank. `label` names the file in messages. `transfer`: a list from CreateCollectiveTransfer
+// made once for many writes (default: one made here); `dataset`, when given, receives the open
+// dataset (for its attributes, without looking it up again).
 PetscErrorCode WriteRowsCollective(const std::string &label, hid_t parent, const char *name, hsize_t n_rows, hsize_t columns, const std::vector<int> &rows,
-                                   const std::vector<double> &data);
+                                   const std::vector<double> &data, hid_t transfer = H5I_INVALID_HID, H5Id *dataset = nullptr);
 
 // Reads `rows` (any order, each at most once) of the float64 dataset `name` (n x columns) under
 // `parent` into *data (rows.size() x columns, in the order of `rows`). Independent (not collective).

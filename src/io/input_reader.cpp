@@ -579,11 +579,12 @@ void ReadOutput(const YAML::Node *mapping, const ReaderContext &context, OutputS
 {
   output.file = DefaultOutputFile(context.model.input_file);
   if (mapping == nullptr || mapping->IsNull()) return;
-  const MappingReader entry(*mapping, "'output'", {"file", "every", "progress_every", "checkpoint"});
+  const MappingReader entry(*mapping, "'output'", {"file", "every", "progress_every", "flush_interval", "checkpoint"});
   output.mark           = context.MarkOf(entry.Mark());
   output.file           = entry.String("file", output.file);
   output.every          = entry.Integer("every", 1, output.every);
   output.progress_every = entry.Integer("progress_every", 1, output.progress_every);
+  output.flush_interval = entry.NonNegativeNumber("flush_interval", output.flush_interval);
   if (const YAML::Node *checkpoint = entry.Find("checkpoint")) {
     const MappingReader settings(*checkpoint, "'output: checkpoint'", {"every", "wall_time", "file"});
     output.checkpoint_every     = settings.Integer("every", 0, output.checkpoint_every);

@@ -238,6 +238,9 @@ struct OutputSettings {
   std::string file;               // HDF5 output; default: input file name with .h5, in the working directory
   int         every          = 1; // write every n-th converged step (the last step is always written)
   int         progress_every = 1; // a progress line every n-th converged step
+  // Wall-time seconds between flushes of buffered history rows to the file (0: every step); a
+  // killed run loses at most this much (docs/output.md).
+  double flush_interval = 10.0;
   // Checkpoints for restarts (docs/options.md): every n converged steps and/or every so many
   // seconds of wall time (0: never); file default: the output file with .ckpt.h5.
   int         checkpoint_every     = 0;

@@ -5,8 +5,15 @@
 // element rows it holds (OutputFrame::distributed) or, for a frame that is not distributed, rank 0
 // writes every row and the arrays passed on other ranks are ignored. The mesh, /input, history and
 // probes are taken from rank 0 (other ranks may pass empty arrays); after Open no rank keeps any
-// per-node or per-element table. The file is flushed after every frame and history row, so a
-// killed run leaves a readable file holding every completed step.
+// per-node or per-element table.
+//
+// Cost and safety: history rows are kept in memory and written in blocks, every series extended
+// once per block; frames are written when they come. Flush writes the buffered rows, makes the
+// file consistent on disk (H5Fflush) and appends the frames written since the last flush to the
+// XDMF sidecar (constant cost per frame; the sidecar is a complete XDMF file at every moment and
+// lists only flushed frames). Flushes happen at Close, when Flush is called (checkpoints), and,
+// from WriteFrame and AppendHistory, once `flush_interval` seconds of wall time have passed since
+// the last one: a killed run loses at most that much of its results.
 #pragma once
 
 #include <petscsys.h>
@@ -29,6 +36,22 @@ struct OutputMesh {
   std::vector<int>         joint_master, joint_slave;
   std::vector<double>      joint_axes, joint_offset;
   std::vector<int>         node_rank; // n_nodes: the MPI rank owning each node (the partition)
+  // "static" or "dynamic" (the unit of time in /history: the load factor, or s); empty: static.
+  std::string analysis_type;
+  // Rigid bodies (empty when there are none): name, node index, mass, inertia about the centre of
+  // mass (x 9, row-major) and offset of the centre of mass from the node (x 3) at the reference
+  // configuration; principal moments (x 3, ascending), principal axes (x 9: three unit vectors,
+  // right-handed) and the semi-axes of the uniform solid ellipsoid of the same mass and inertia
+  // (x 3), which scale the axes drawn per frame.
+  std::vector<std::string> body_names;
+  std::vector<int>         body_node;
+  std::vector<double>      body_mass, body_inertia, body_offset, body_principal_moments, body_principal_axes, body_semi_axes;
+  // Ground markers (empty when there are none): one per joint to the ground (at the slave's
+  // reference position, the joint's axes) and per fully fixed support node (at the node, the
+  // global axes): name (joint or node), kind ("joint" or "support"), position (x 3), axes a1, a2,
+  // a3 (x 9, one after the other).
+  std::vector<std::string> ground_names, ground_kinds;
+  std::vector<double>      ground_position, ground_axes;
 };
 
 struct OutputFrame {
@@ -52,6 +75,16 @@ struct OutputFrame {
   // Distributed frames: the current section triad (axes e1 = beam axis, e2, e3, each 3 numbers)
   // at the first node of every segment of the element rows, in order (9 per segment).
   std::vector<double> segment_triads;
+  // Rigid bodies, rows of /mesh/body_*: per row the centre of mass (3), the principal axes in their
+  // current orientation scaled by the semi-axes (9: axis 1, axis 2, axis 3) and the rotation
+  // quaternion (4, w x y z). Distributed frame: body_rows names this rank's rows; otherwise rank 0
+  // holds every row in order. No rows on any rank: the frame has no rigid-body data.
+  std::vector<int>    body_rows;
+  std::vector<double> body_center, body_axes, body_rotation;
+  // Joints, rows of /mesh/joint_*, likewise: the marker position (the slave node's position, 3) and
+  // the joint axes a1 a2 a3 in their current orientation (master rotation times reference axes, 9).
+  std::vector<int>    joint_rows;
+  std::vector<double> joint_position, joint_axes;
 };
 
 struct ProbeSample {
@@ -70,28 +103,44 @@ public:
   ~OutputFile();
 
   // Creates `path` (an existing file is an error unless overwrite) and its sidecar
-  // `path` with the extension replaced by .xmf. Writes /input and /mesh.
+  // `path` with the extension replaced by .xmf. Writes /input, /mesh and the provenance
+  // attributes of the root group (version, git commit, command line, options, ranks, start time).
   PetscErrorCode Open(MPI_Comm comm, const std::string &path, bool overwrite, const std::string &input_file, const std::string &input_text,
                       const OutputMesh &mesh);
   // Continues the result file of an interrupted run (a restart): keeps the frames up to step
   // `last_step` and the first `history_rows` rows of the history and probe series, drops the
   // rest, rewrites the sidecar, and opens the file as Open does.
   PetscErrorCode Reopen(MPI_Comm comm, const std::string &path, int last_step, long long history_rows);
-  // Writes /frames/<step> and rewrites the .xmf sidecar to list every frame written so far.
+  // Writes /frames/<step>; the sidecar lists it from the next flush on.
   PetscErrorCode WriteFrame(const OutputFrame &frame);
   // Appends one row to /history (one extensible 1-D dataset per name; the set of names must be
-  // the same on every call, "time" first) and one sample per probe to /probes/<name>/...
+  // the same on every call, "time" first) and one sample per probe to /probes/<name>/..., in
+  // memory until the next flush.
   PetscErrorCode AppendHistory(const std::vector<std::string> &names, const std::vector<double> &values, const std::vector<ProbeSample> &probes);
+  // Writes the buffered history rows, makes the file consistent on disk and lists the new frames
+  // in the sidecar. Does nothing when nothing was written since the last flush.
+  PetscErrorCode Flush();
+  // Flushes and closes.
   PetscErrorCode Close();
+
+  // Wall-time seconds between automatic flushes (default 10; 0 flushes at every frame and row).
+  // The same value on every rank. May be called before Open or at any time.
+  void   SetFlushInterval(double seconds) { flush_interval_ = seconds; }
+  double FlushInterval() const { return flush_interval_; }
+  // Number of history rows written so far, including the buffered ones.
+  long long HistoryRows() const;
 
   const std::string &Path() const { return path_; }
 
 private:
   struct Impl;
   template <class RootWork> PetscErrorCode OpenWith(MPI_Comm comm, const std::string &path, RootWork &&root_work);
-  Impl                                    *impl_ = nullptr;
-  MPI_Comm                                 comm_ = MPI_COMM_NULL;
-  std::string                              path_;
+  // Flushes when the flush interval has passed since the last flush (rank 0's clock). Collective.
+  PetscErrorCode FlushIfDue();
+  Impl          *impl_           = nullptr;
+  double         flush_interval_ = 10.0;
+  MPI_Comm       comm_           = MPI_COMM_NULL;
+  std::string    path_;
 };
 
 } // namespace msflex

@@ -2,16 +2,82 @@
 
 #include "model/joint_geometry.hpp"
 
-#include <algorithm>
-#include <cstring>
-
+#include <Eigen/Eigenvalues>
 #include <H5pubconf.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
 
 #ifndef H5_HAVE_PARALLEL
 #error "msflex needs the MPI build of HDF5 (Debian: libhdf5-openmpi-dev)"
 #endif
 
 namespace msflex {
+
+// Principal moments (ascending) and axes (columns, right-handed) of a rigid body's inertia about
+// its centre of mass, and the semi-axes a_k of the uniform solid ellipsoid of the same mass and
+// inertia: I_k = m (a_i^2 + a_j^2) / 5 for {i, j, k} = {1, 2, 3}, so a_k^2 = 5 (I_i + I_j - I_k) / (2 m)
+// (0 where round-off makes it negative). The axes drawn per frame are R (a_k e_k).
+BodyPrincipalAxes RigidBodyPrincipalAxes(const RigidBody &body)
+{
+  BodyPrincipalAxes                         principal;
+  const Eigen::SelfAdjointEigenSolver<Mat3> solver(0.5 * (body.inertia + body.inertia.transpose()));
+  principal.moments = solver.eigenvalues();
+  principal.axes    = solver.eigenvectors();
+  // A sign that does not depend on the solver: each axis's largest component positive, then the
+  // third axis turned to make the triad right-handed.
+  for (int k = 0; k < 3; ++k) {
+    Eigen::Index largest;
+    principal.axes.col(k).cwiseAbs().maxCoeff(&largest);
+    if (principal.axes(largest, k) < 0) principal.axes.col(k) *= -1.0;
+  }
+  if (principal.axes.determinant() < 0) principal.axes.col(2) *= -1.0;
+  const double trace = principal.moments.sum();
+  for (int k = 0; k < 3; ++k) principal.semi_axes(k) = body.mass > 0 ? std::sqrt(std::max(0.0, 2.5 * (trace - 2.0 * principal.moments(k)) / body.mass)) : 0.0;
+  return principal;
+}
+
+// The rigid bodies: what they are (mass, inertia, where) and their principal axes.
+static void AddRigidBodiesToMesh(const Model &model, OutputMesh *mesh)
+{
+  for (const RigidBody &body : model.rigid_bodies) {
+    const BodyPrincipalAxes principal = RigidBodyPrincipalAxes(body);
+    mesh->body_names.push_back(model.nodes[body.node].name);
+    mesh->body_node.push_back(body.node);
+    mesh->body_mass.push_back(body.mass);
+    for (int i = 0; i < 3; ++i) {
+      for (int j = 0; j < 3; ++j) mesh->body_inertia.push_back(body.inertia(i, j));
+      mesh->body_offset.push_back(body.offset(i));
+      mesh->body_principal_moments.push_back(principal.moments(i));
+      mesh->body_semi_axes.push_back(principal.semi_axes(i));
+    }
+    for (int k = 0; k < 3; ++k)
+      for (int i = 0; i < 3; ++i) mesh->body_principal_axes.push_back(principal.axes(i, k));
+  }
+}
+
+// The ground markers: each joint to the ground (at its slave's reference position, the joint
+// axes) and each node whose six DOFs are fixed (the global axes).
+static void AddGroundToMesh(const Model &model, OutputMesh *mesh)
+{
+  const auto add = [&](const std::string &name, const char *kind, const Vec3 &position, const Mat3 &axes) {
+    mesh->ground_names.push_back(name);
+    mesh->ground_kinds.push_back(kind);
+    for (int i = 0; i < 3; ++i) mesh->ground_position.push_back(position(i));
+    for (int k = 0; k < 3; ++k)
+      for (int i = 0; i < 3; ++i) mesh->ground_axes.push_back(axes(i, k));
+  };
+  for (const Joint &joint : model.joints)
+    if (joint.master < 0) add(joint.name, "joint", model.nodes[joint.slave].position, joint.axes);
+  std::vector<int> fixed_dofs(model.nodes.size(), 0); // bit k: DOF k fixed by some support
+  for (const Support &support : model.supports)
+    for (const int node : support.nodes)
+      for (int k = 0; k < 6; ++k)
+        if (support.kind[k] == Support::Kind::Fixed) fixed_dofs[node] |= 1 << k;
+  for (size_t n = 0; n < model.nodes.size(); ++n)
+    if (fixed_dofs[n] == 0x3f) add(model.nodes[n].name, "support", model.nodes[n].position, Mat3::Identity());
+}
 
 void BuildOutputMesh(const Model &model, OutputMesh *mesh)
 {
@@ -41,6 +107,9 @@ void BuildOutputMesh(const Model &model, OutputMesh *mesh)
     const Vec3 offset = JointReferenceOffset(model, joint);
     for (int i = 0; i < 3; ++i) mesh->joint_offset.push_back(offset(i));
   }
+  mesh->analysis_type = AnalysisTypeName(model.analysis.type);
+  AddRigidBodiesToMesh(model, mesh);
+  AddGroundToMesh(model, mesh);
 }
 
 // Position (3), displacement (3), quaternion (4), tracked rotation angle (1), velocity (3) and
@@ -74,10 +143,50 @@ static void AppendNodeRecord(const double *in, bool with_velocities, OutputFrame
   }
 }
 
+// The rigid bodies of the State (those on this rank's owned nodes): centre of mass x + R c,
+// principal axes R (a_k e_k) and the node's rotation quaternion (rows: the bodies' numbers in the
+// whole model).
+static void AppendRigidBodyRows(const Model &model, const State &state, OutputFrame *frame)
+{
+  for (const RigidBodyState &B : state.bodies) {
+    const NodeState        &node      = state.nodes[B.local_node];
+    const BodyPrincipalAxes principal = RigidBodyPrincipalAxes(model.rigid_bodies[B.body]);
+    const Vec3              center    = node.position + node.rotation * B.offset;
+    const Quaternion        q         = NodeStateCurrentQuaternion(node);
+    frame->body_rows.push_back(B.global_index);
+    for (int i = 0; i < 3; ++i) frame->body_center.push_back(center(i));
+    for (int k = 0; k < 3; ++k) {
+      const Vec3 axis = node.rotation * (principal.semi_axes(k) * principal.axes.col(k));
+      for (int i = 0; i < 3; ++i) frame->body_axes.push_back(axis(i));
+    }
+    frame->body_rotation.insert(frame->body_rotation.end(), {q.w, q.x, q.y, q.z});
+  }
+}
+
+// The joints of the State this rank owns (those of its slave nodes): the slave node's position and
+// the joint axes carried by the master, R_master a_k (the reference axes for a joint to the ground).
+static void AppendJointRows(MPI_Comm comm, const Model &model, const DofMap &map, const State &state, OutputFrame *frame)
+{
+  PetscMPIInt rank;
+  MPI_Comm_rank(comm, &rank);
+  for (const JointState &J : state.joints) {
+    if (map.joint_rank[J.joint] != rank) continue;
+    const Joint &joint  = model.joints[J.joint];
+    const Vec3  &slave  = state.nodes[J.local_slave].position;
+    const Mat3   master = J.local_master < 0 ? Mat3::Identity() : state.nodes[J.local_master].rotation;
+    frame->joint_rows.push_back(map.global_joints[J.joint]);
+    for (int i = 0; i < 3; ++i) frame->joint_position.push_back(slave(i));
+    for (int k = 0; k < 3; ++k) {
+      const Vec3 axis = master * joint.axes.col(k);
+      for (int i = 0; i < 3; ++i) frame->joint_axes.push_back(axis(i));
+    }
+  }
+}
+
 // A distributed frame: each rank holds the rows of the nodes and elements it owns, which the
 // output file writes collectively (parallel HDF5). No communication here.
-PetscErrorCode GatherFrame(MPI_Comm, const Model &model, const DofMap &map, const State &state, const std::vector<ElementResults> &element_results, int step,
-                           double time, bool with_velocities, OutputFrame *frame)
+PetscErrorCode GatherFrame(MPI_Comm comm, const Model &model, const DofMap &map, const State &state, const std::vector<ElementResults> &element_results,
+                           int step, double time, bool with_velocities, OutputFrame *frame)
 {
   PetscFunctionBeginUser;
   const std::vector<NodeState> &nodes = state.nodes;
@@ -108,6 +217,8 @@ PetscErrorCode GatherFrame(MPI_Comm, const Model &model, const DofMap &map, cons
     for (int i = 0; i < 3; ++i) frame->element_resultants.push_back(r.force(i));
     for (int i = 0; i < 3; ++i) frame->element_resultants.push_back(r.moment(i));
   }
+  AppendRigidBodyRows(model, state, frame);
+  AppendJointRows(comm, model, map, state, frame);
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 

@@ -2,9 +2,11 @@
 
 Opens an msflex .xmf sidecar with one of ParaView's XDMF readers, reads every time step and
 writes what ParaView sees into a .npz file, without judging it: the reader's time step values, and
-per time step the point coordinates, the cells (type and point ids) and every point and cell array
+per time step and per grid (beams, bodies, joints, ground: the leaves of the reader's output, in
+order) the point coordinates, the cells (type and point ids) and every point and cell array
 (values as a tuples x components array, with the number of components and tuples as VTK reports
-them). test_paraview.py compares these numbers with the HDF5 file read by h5py.
+them), and the block names the reader gives. test_paraview.py compares these numbers with the
+HDF5 file read by h5py.
 
   pvpython paraview_read.py RESULT.xmf OUT.npz --reader XDMFReader|Xdmf3ReaderS
 """
@@ -32,7 +34,7 @@ if args.reader == "XDMFReader":
 else:
     reader = getattr(simple, args.reader)(FileName=[xmf])
 reader.UpdatePipelineInformation()
-times = np.array(reader.TimestepValues, dtype=float)
+times = np.array(reader.TimestepValues, dtype=float).reshape(-1)
 
 result = {"times": times}
 
@@ -49,25 +51,44 @@ def array_entries(prefix, data):
     return names
 
 
+def leaves(data, name=""):
+    """(block name, data set) of every leaf of a composite data set, in order."""
+    if not data.IsA("vtkCompositeDataSet"):
+        return [(name, data)]
+    found = []
+    iterator = data.NewIterator()
+    iterator.SetSkipEmptyNodes(False)
+    iterator.InitTraversal()
+    while not iterator.IsDoneWithTraversal():
+        leaf = iterator.GetCurrentDataObject()
+        metadata = iterator.GetCurrentMetaData()
+        label = metadata.Get(data.NAME()) if metadata and metadata.Has(data.NAME()) else ""
+        if leaf is not None:
+            found.append((label, leaf))
+        iterator.GoToNextItem()
+    return found
+
+
 for step, time in enumerate(times):
     reader.UpdatePipeline(time)
-    grid = servermanager.Fetch(reader)
-    if grid.IsA("vtkMultiBlockDataSet"):  # not expected for a single temporal collection
-        raise SystemExit(f"{args.reader}: a multiblock data set at t = {time}, expected one grid")
+    blocks = leaves(servermanager.Fetch(reader))
     key = f"step{step}"
-    result[f"{key}.class"] = np.array(grid.GetClassName())
-    result[f"{key}.points"] = vtk_to_numpy(grid.GetPoints().GetData()).astype(float).reshape(-1, 3)
-    cell_types, cell_points = [], []
-    for cell in range(grid.GetNumberOfCells()):
-        ids = grid.GetCell(cell).GetPointIds()
-        cell_types.append(grid.GetCellType(cell))
-        cell_points.append([ids.GetId(k) for k in range(ids.GetNumberOfIds())])
-    result[f"{key}.cell_types"] = np.array(cell_types, dtype=int)
-    lengths = {len(p) for p in cell_points}
-    result[f"{key}.cells"] = np.array(cell_points, dtype=int) if len(lengths) <= 1 else np.array([], dtype=int)
-    result[f"{key}.cell_sizes"] = np.array([len(p) for p in cell_points], dtype=int)
-    result[f"{key}.point_arrays"] = np.array(array_entries(f"{key}.point", grid.GetPointData()))
-    result[f"{key}.cell_arrays"] = np.array(array_entries(f"{key}.cell", grid.GetCellData()))
+    result[f"{key}.blocks"] = np.array([label for label, _ in blocks])
+    for index, (_, grid) in enumerate(blocks):
+        prefix = f"{key}.block{index}"
+        points = grid.GetPoints()
+        result[f"{prefix}.points"] = vtk_to_numpy(points.GetData()).astype(float).reshape(-1, 3) if points else np.zeros((0, 3))
+        cell_types, cell_points = [], []
+        for cell in range(grid.GetNumberOfCells()):
+            ids = grid.GetCell(cell).GetPointIds()
+            cell_types.append(grid.GetCellType(cell))
+            cell_points.append([ids.GetId(k) for k in range(ids.GetNumberOfIds())])
+        result[f"{prefix}.cell_types"] = np.array(cell_types, dtype=int)
+        lengths = {len(p) for p in cell_points}
+        result[f"{prefix}.cells"] = np.array(cell_points, dtype=int) if len(lengths) <= 1 else np.array([], dtype=int)
+        result[f"{prefix}.cell_sizes"] = np.array([len(p) for p in cell_points], dtype=int)
+        result[f"{prefix}.point_arrays"] = np.array(array_entries(f"{prefix}.point", grid.GetPointData()))
+        result[f"{prefix}.cell_arrays"] = np.array(array_entries(f"{prefix}.cell", grid.GetCellData()))
 
 np.savez(args.output, **result)
 print(f"{args.reader}: {len(times)} time steps written to {args.output}")

@@ -1,20 +1,28 @@
 """ParaView reads what msflex writes, and postproc/render-paraview renders it.
 
-Runs input/flying_spaghetti.yaml (em, dt = 0.01) to t = 7.5 with a frame every 50 steps (with the
-input's output_times 2.5, 5, 7.5: 16 frames), then opens the .xmf sidecar with ParaView's two XDMF
-readers (XDMFReader and Xdmf3ReaderS) in pvpython (paraview_read.py, which dumps what ParaView
-sees into a .npz file) and compares with the HDF5 file read by h5py:
- - time steps: one per /frames group, with the frames' `time` attributes (1e-12 relative);
- - per time step: n_nodes points at the frame's `position`, n_segments 2-node poly-line cells with
-   the point ids of /mesh/segments; point arrays displacement (3 components), rotation (4),
-   velocity (3) and angular_velocity (3), and cell arrays force, moment and the section triad
-   section_e1, section_e2, section_e3 (3 each), with n_nodes and n_segments tuples, and no other
-   arrays;
- - values: every array at every time step equals its dataset (cell arrays: segment_force,
-   segment_moment, segment_e1..e3) to 1e-12 relative to the dataset's largest magnitude.
-Then renders two PNGs with postproc/render-paraview (last frame coloured by displacement; t = 2.5
-in grey with the section triads) and checks that each has the requested size and is not blank, and
-that the triads put red, green and blue pixels into the second."""
+Two runs: input/flying_spaghetti.yaml (em, dt = 0.01) to t = 7.5 with a frame every 50 steps (with
+the input's output_times 2.5, 5, 7.5: 16 frames), beams only; and input/driven_screw.yaml to
+t = 0.3 (a frame every step), with a rigid body, four joints and two joints to the ground. Each
+.xmf sidecar is opened with ParaView's two XDMF readers (XDMFReader and Xdmf3ReaderS) in pvpython
+(paraview_read.py, which dumps what ParaView sees into a .npz file) and compared with the HDF5 file
+read by h5py:
+ - time steps: one per /frames group, at the frames' `time` attributes;
+ - per time step, the grids in order: beams, then bodies, joints and ground when the model has
+   them (XDMFReader names its blocks so; a single grid comes alone);
+ - beams: n_nodes points at the frame's `position`, n_segments 2-node poly-line cells with the point
+   ids of /mesh/segments; point arrays displacement [m], rotation (4 components), velocity [m/s],
+   angular_velocity [rad/s], cell arrays force [N], moment [N m] and section_e1..e3, and no others;
+ - bodies: a vertex at each centre of mass (`body_center`) with axis_1..3 [m] (`body_axis_1..3`),
+   rotation (`body_rotation`), semi_axes [m] and mass [kg] (/mesh/body_semi_axes, body_mass) and
+   the body index; joints: a vertex at each slave node (`joint_position`) with a1..a3 (`joint_a1..3`)
+   and the joint index; ground: a vertex at each /mesh/ground_position with a1..a3 (/mesh/ground_a1..3);
+ - values: every array at every time step equals its dataset, difference 0.
+Then renders PNGs with postproc/render-paraview (the spaghetti's last frame coloured by
+displacement; t = 2.5 in grey with the section triads; the driven screw with its body, joints and
+ground) and checks that each has the requested size and is not blank, that the triads put red,
+green and blue pixels into the second and the joint axes (magenta), body (orange) and ground
+(brown) show in the third; and a movie of the driven screw (--movie, every 4th frame): the PNG
+series and an .mp4 file made by ffmpeg."""
 
 import os
 import shutil
@@ -36,81 +44,117 @@ pvpython = shutil.which("pvpython")
 if not pvpython:
     raise SystemExit("pvpython not found: scripts/setup installs it (Debian package paraview)")
 
-output = os.path.join(args.work_dir, "flying_spaghetti.h5")
-xmf = os.path.splitext(output)[0] + ".xmf"
-mt.run_msflex(args, f"{args.source_dir}/input/flying_spaghetti.yaml", output,
+spaghetti = os.path.join(args.work_dir, "flying_spaghetti.h5")
+mt.run_msflex(args, f"{args.source_dir}/input/flying_spaghetti.yaml", spaghetti,
               extra=["-analysis_end_time", "7.5", "-output_every", "50", "-quiet"])
-
-# What the HDF5 file holds, per frame: the XDMF name of each array and its dataset.
-POINT_ARRAYS = {"displacement": "displacement", "rotation": "rotation", "velocity": "velocity",
-                "angular_velocity": "angular_velocity"}
-CELL_ARRAYS = {"force": "segment_force", "moment": "segment_moment", "section_e1": "segment_e1", "section_e2": "segment_e2",
-               "section_e3": "segment_e3"}
-COMPONENTS = {"displacement": 3, "rotation": 4, "velocity": 3, "angular_velocity": 3, "force": 3, "moment": 3, "section_e1": 3,
-              "section_e2": 3, "section_e3": 3}
-with h5py.File(output, "r") as f:
-    segments = f["mesh/segments"][()]
-    n_nodes = f["mesh/node_coordinates"].shape[0]
-    frames = [f["frames"][name] for name in sorted(f["frames"])]
-    h5_times = np.array([float(frame.attrs["time"]) for frame in frames])
-    h5_data = [{name: frame[dataset][()] for name, dataset in {**POINT_ARRAYS, **CELL_ARRAYS, "position": "position"}.items()}
-               for frame in frames]
-n_segments = len(segments)
-print(f"HDF5: {len(h5_times)} frames, t = {h5_times[0]:g} .. {h5_times[-1]:g}, {n_nodes} nodes, {n_segments} segments")
-check.less("16 frames written (|frames - 16|)", abs(len(h5_times) - 16), 0.5)
+screw = os.path.join(args.work_dir, "driven_screw.h5")
+mt.run_msflex(args, f"{args.source_dir}/input/driven_screw.yaml", screw, extra=["-analysis_end_time", "0.3", "-quiet"])
 
 
-def relative_difference(paraview, hdf5):
-    """max |paraview - hdf5| / max |hdf5|, or inf when the shapes differ."""
+def expected_grids(path):
+    """Per frame, per grid kind: points, cells (None: one vertex per point), point and cell arrays
+    (XDMF name -> values), all from the HDF5 file."""
+    with h5py.File(path, "r") as f:
+        mesh = f["mesh"]
+        frames = [f["frames"][name] for name in sorted(f["frames"])]
+        times = np.array([float(frame.attrs["time"]) for frame in frames])
+        result = []
+        for frame in frames:
+            grids = {"beams": {"points": frame["position"][()], "cells": mesh["segments"][()],
+                               "point": {"displacement [m]": frame["displacement"][()], "rotation": frame["rotation"][()],
+                                         "velocity [m/s]": frame["velocity"][()], "angular_velocity [rad/s]": frame["angular_velocity"][()]},
+                               "cell": {"force [N]": frame["segment_force"][()], "moment [N m]": frame["segment_moment"][()],
+                                        **{f"section_e{k}": frame[f"segment_e{k}"][()] for k in (1, 2, 3)}}}}
+            if "body_names" in mesh:
+                n = len(mesh["body_names"])
+                grids["bodies"] = {"points": frame["body_center"][()], "cells": None, "cell": {},
+                                   "point": {**{f"axis_{k} [m]": frame[f"body_axis_{k}"][()] for k in (1, 2, 3)},
+                                             "rotation": frame["body_rotation"][()], "semi_axes [m]": mesh["body_semi_axes"][()],
+                                             "mass [kg]": mesh["body_mass"][()].reshape(n, 1), "body": np.arange(n).reshape(n, 1)}}
+            if "joint_names" in mesh:
+                n = len(mesh["joint_names"])
+                grids["joints"] = {"points": frame["joint_position"][()], "cells": None, "cell": {},
+                                   "point": {**{f"a{k}": frame[f"joint_a{k}"][()] for k in (1, 2, 3)}, "joint": np.arange(n).reshape(n, 1)}}
+            if "ground_names" in mesh:
+                grids["ground"] = {"points": mesh["ground_position"][()], "cells": None, "cell": {},
+                                   "point": {f"a{k}": mesh[f"ground_a{k}"][()] for k in (1, 2, 3)}}
+            result.append(grids)
+    return times, result
+
+
+def difference(paraview, hdf5):
+    """max |paraview - hdf5|, or inf when the shapes differ."""
     if paraview.shape != hdf5.shape:
         print(f"     shape {paraview.shape} in ParaView, {hdf5.shape} in HDF5")
         return np.inf
-    return np.abs(paraview - hdf5).max() / max(np.abs(hdf5).max(), 1e-300)
+    return float(np.abs(paraview - hdf5).max()) if paraview.size else 0.0
 
 
-for reader in ("XDMFReader", "Xdmf3ReaderS"):
-    dump = os.path.join(args.work_dir, f"{reader}.npz")
-    result = subprocess.run([pvpython, os.path.join(here, "paraview_read.py"), xmf, dump, "--reader", reader],
-                            capture_output=True, text=True, timeout=300)
-    if result.returncode != 0 or not os.path.isfile(dump):
-        sys.stderr.write(result.stdout + result.stderr[-4000:])
-        raise SystemExit(f"pvpython paraview_read.py failed ({result.returncode}) with {reader}")
-    pv = np.load(dump)
-    times = pv["times"]
-    check.less(f"{reader}: |time steps - frames|", abs(len(times) - len(h5_times)), 0.5)
-    if len(times) != len(h5_times):
-        continue
-    check.less(f"{reader}: max |time - frame time| / max(1, |t|)",
-               np.max(np.abs(times - h5_times) / np.maximum(1.0, np.abs(h5_times))), 1e-12)
-    worst = {name: 0.0 for name in ["points", "cells", "array set", "shape"] + list(COMPONENTS)}
-    for step, frame in enumerate(h5_data):
-        key = f"step{step}"
-        worst["points"] = max(worst["points"], relative_difference(pv[f"{key}.points"], frame["position"]))
-        # VTK_POLY_LINE (4) cells of two points each, with the point ids of /mesh/segments.
-        cells_ok = (np.all(pv[f"{key}.cell_types"] == 4) and np.all(pv[f"{key}.cell_sizes"] == 2)
-                    and pv[f"{key}.cells"].shape == segments.shape and np.array_equal(pv[f"{key}.cells"], segments))
-        worst["cells"] = max(worst["cells"], 0.0 if cells_ok else 1.0)
-        names_ok = (sorted(pv[f"{key}.point_arrays"].tolist()) == sorted(POINT_ARRAYS)
-                    and sorted(pv[f"{key}.cell_arrays"].tolist()) == sorted(CELL_ARRAYS))
-        worst["array set"] = max(worst["array set"], 0.0 if names_ok else 1.0)
-        if not names_ok:
-            print(f"     {key}: point arrays {pv[f'{key}.point_arrays']}, cell arrays {pv[f'{key}.cell_arrays']}")
+def compare(name, h5, expected_kinds):
+    times_h5, frames = expected_grids(h5)
+    xmf = os.path.splitext(h5)[0] + ".xmf"
+    print(f"{name}: {len(times_h5)} frames, t = {times_h5[0]:g} .. {times_h5[-1]:g}, grids {', '.join(frames[0])}")
+    check.less(f"{name}: grids {expected_kinds} in the file (1 = not)", float(list(frames[0]) != expected_kinds), 0.5)
+    for reader in ("XDMFReader", "Xdmf3ReaderS"):
+        dump = os.path.join(args.work_dir, f"{name}.{reader}.npz")
+        result = subprocess.run([pvpython, os.path.join(here, "paraview_read.py"), xmf, dump, "--reader", reader],
+                                capture_output=True, text=True, timeout=600)
+        if result.returncode != 0 or not os.path.isfile(dump):
+            sys.stderr.write(result.stdout + result.stderr[-4000:])
+            raise SystemExit(f"pvpython paraview_read.py failed ({result.returncode}) with {reader}")
+        pv = np.load(dump)
+        times = pv["times"]
+        check.less(f"{name}, {reader}: |time steps - frames|", abs(len(times) - len(times_h5)), 0.5)
+        if len(times) != len(times_h5):
             continue
-        for name, components in COMPONENTS.items():
-            where = "point" if name in POINT_ARRAYS else "cell"
-            tuples = n_nodes if where == "point" else n_segments
-            shape_ok = tuple(pv[f"{key}.{where}.{name}.shape"]) == (tuples, components)
-            worst["shape"] = max(worst["shape"], 0.0 if shape_ok else 1.0)
-            worst[name] = max(worst[name], relative_difference(pv[f"{key}.{where}.{name}"], frame[name]))
-    steps = len(h5_data)
-    check.less(f"{reader}: points vs position, max relative difference over {steps} steps", worst["points"], 1e-12)
-    check.less(f"{reader}: cells not the 2-point poly-lines of /mesh/segments (steps failing)", worst["cells"], 0.5)
-    check.less(f"{reader}: array names differ from {sorted(POINT_ARRAYS)} + {sorted(CELL_ARRAYS)} (steps failing)",
-               worst["array set"], 0.5)
-    check.less(f"{reader}: (tuples, components) differ from (n_nodes|n_segments, 3|4) (steps failing)", worst["shape"], 0.5)
-    for name in COMPONENTS:
-        dataset = POINT_ARRAYS.get(name) or CELL_ARRAYS[name]
-        check.less(f"{reader}: {name} vs {dataset}, max relative difference over {steps} steps", worst[name], 1e-12)
+        check.less(f"{name}, {reader}: max |time - frame time|", float(np.abs(times - times_h5).max()), 1e-300)
+        worst = {"grids": 0.0, "names": 0.0, "points": 0.0, "cells": 0.0, "array set": 0.0, "values": 0.0}
+        worst_by_grid = {kind: 0.0 for kind in expected_kinds}
+        for step, grids in enumerate(frames):
+            key = f"step{step}"
+            blocks = pv[f"{key}.blocks"].tolist()
+            worst["grids"] = max(worst["grids"], float(len(blocks) != len(grids)))
+            if reader == "XDMFReader" and len(grids) > 1:  # a single grid comes alone, not as a named block
+                worst["names"] = max(worst["names"], float(blocks != list(grids)))
+            if len(blocks) != len(grids):
+                print(f"     {key}: blocks {blocks}")
+                continue
+            for index, (kind, grid) in enumerate(grids.items()):
+                prefix = f"{key}.block{index}"
+                worst["points"] = max(worst["points"], difference(pv[f"{prefix}.points"], grid["points"]))
+                n = len(grid["points"])
+                if grid["cells"] is None:  # one vertex cell (VTK_VERTEX 1 or VTK_POLY_VERTEX 2) per point
+                    cells_ok = (np.all(np.isin(pv[f"{prefix}.cell_types"], (1, 2))) and pv[f"{prefix}.cells"].shape == (n, 1)
+                                and np.array_equal(pv[f"{prefix}.cells"][:, 0], np.arange(n)))
+                else:  # VTK_POLY_LINE (4) cells of two points each, with the point ids of /mesh/segments
+                    cells_ok = (np.all(pv[f"{prefix}.cell_types"] == 4) and pv[f"{prefix}.cells"].shape == grid["cells"].shape
+                                and np.array_equal(pv[f"{prefix}.cells"], grid["cells"]))
+                worst["cells"] = max(worst["cells"], 0.0 if cells_ok else 1.0)
+                names_ok = (sorted(pv[f"{prefix}.point_arrays"].tolist()) == sorted(grid["point"])
+                            and sorted(pv[f"{prefix}.cell_arrays"].tolist()) == sorted(grid["cell"]))
+                worst["array set"] = max(worst["array set"], 0.0 if names_ok else 1.0)
+                if not names_ok:
+                    print(f"     {key} {kind}: point arrays {pv[f'{prefix}.point_arrays']}, cell arrays {pv[f'{prefix}.cell_arrays']}")
+                    continue
+                for where in ("point", "cell"):
+                    for array, values in grid[where].items():
+                        d = difference(pv[f"{prefix}.{where}.{array}"], values.reshape(len(values), -1).astype(float))
+                        worst["values"] = max(worst["values"], d)
+                        worst_by_grid[kind] = max(worst_by_grid[kind], d)
+        steps = len(frames)
+        check.less(f"{name}, {reader}: grids missing or extra (steps failing)", worst["grids"], 0.5)
+        if reader == "XDMFReader" and len(frames[0]) > 1:
+            check.less(f"{name}, {reader}: block names differ from {list(frames[0])} (steps failing)", worst["names"], 0.5)
+        check.less(f"{name}, {reader}: points vs positions, max difference over {steps} steps", worst["points"], 1e-300)
+        check.less(f"{name}, {reader}: cells not poly-lines of /mesh/segments or one vertex per point (steps failing)", worst["cells"], 0.5)
+        check.less(f"{name}, {reader}: array names differ from the HDF5 datasets' with units (steps failing)", worst["array set"], 0.5)
+        for kind, value in worst_by_grid.items():
+            check.less(f"{name}, {reader}: {kind} arrays vs their datasets, max difference over {steps} steps", value, 1e-300)
+
+
+compare("flying_spaghetti", spaghetti, ["beams"])
+compare("driven_screw", screw, ["beams", "bodies", "joints", "ground"])
+xmf = os.path.splitext(spaghetti)[0] + ".xmf"
 
 
 def render(png, *options):
@@ -149,6 +193,36 @@ r, g, b = image[:, :, 0], image[:, :, 1], image[:, :, 2]
 for colour, count in (("red", (r > 0.4) & (g < 0.2) & (b < 0.2)), ("green", (g > 0.3) & (r < 0.2) & (b < 0.2)),
                       ("blue", (b > 0.4) & (r < 0.2) & (g < 0.2))):
     check.less(f"triads.png: {colour} arrows drawn (50 / {colour} pixels)", 50.0 / max(count.sum(), 1), 1.0)
+
+# The driven screw: joint axes (magenta), the rigid body (orange) and the ground (brown) show.
+png = os.path.join(args.work_dir, "driven_screw.png")
+command = [sys.executable, render_paraview, os.path.splitext(screw)[0] + ".xmf", "-o", png, "--xvfb", "--size", "640", "480", "--inertia",
+           "--color", "none", "--zoom", "1.5"]
+result = subprocess.run(command, capture_output=True, text=True, timeout=600)
+if result.returncode != 0:
+    sys.stderr.write(result.stdout + result.stderr[-4000:])
+    raise SystemExit(f"render-paraview failed ({result.returncode}): {' '.join(command)}")
+image = matplotlib.image.imread(png)[:, :, :3]
+pixel_size_check("driven_screw.png", image, (640, 480))
+r, g, b = image[:, :, 0], image[:, :, 1], image[:, :, 2]
+for what, count in (("joint axes (magenta)", (r > 0.4) & (b > 0.4) & (g < 0.2)), ("rigid body (orange)", (r > 0.6) & (g > 0.3) & (g < 0.6) & (b < 0.2)),
+                    ("ground (brown)", (r > 0.15) & (r < 0.45) & (g > 0.1) & (g < 0.4) & (b < 0.3) & (r > b + 0.04))):
+    check.less(f"driven_screw.png: {what} drawn (30 / pixels)", 30.0 / max(count.sum(), 1), 1.0)
+
+# A movie of every 4th frame: the PNG series and an .mp4 by ffmpeg.
+movie = os.path.join(args.work_dir, "driven_screw.mp4")
+command = [sys.executable, render_paraview, os.path.splitext(screw)[0] + ".xmf", "--movie", movie, "--every", "4", "--xvfb", "--size", "320", "240"]
+result = subprocess.run(command, capture_output=True, text=True, timeout=900)
+if result.returncode != 0:
+    sys.stderr.write(result.stdout + result.stderr[-4000:])
+    raise SystemExit(f"render-paraview failed ({result.returncode}): {' '.join(command)}")
+with h5py.File(screw, "r") as f:
+    n_frames = len(f["frames"])
+expected_pngs = len(range(0, n_frames, 4)) + (0 if (n_frames - 1) % 4 == 0 else 1)
+pngs = sorted(p for p in os.listdir(os.path.join(args.work_dir, "driven_screw_frames")) if p.endswith(".png"))
+print(f"movie: {len(pngs)} PNGs of {n_frames} frames, {os.path.getsize(movie) if os.path.isfile(movie) else 0} bytes of mp4")
+check.less(f"movie: |PNGs - {expected_pngs}|", abs(len(pngs) - expected_pngs), 0.5)
+check.less("movie: an .mp4 file of at least 1 kB (1000 / bytes)", 1000.0 / max(os.path.getsize(movie) if os.path.isfile(movie) else 0, 1), 1.0)
 
 # A missing file fails at once, with one line, before ParaView starts.
 result = subprocess.run([sys.executable, render_paraview, os.path.join(args.work_dir, "missing.xmf"), "-o", png],

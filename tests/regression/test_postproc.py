@@ -1,8 +1,13 @@
 #!/usr/bin/env python3
 """Runs postproc/msflex-history, postproc/plot-history and postproc/msflex-modes on synthetic result
-files that follow docs/output.md (a history and one probe; modes; critical points). Run: python3 tests/regression/test_postproc.py"""
+files that follow docs/output.md (a history and one probe, with the units and descriptions msflex
+writes, of a static and of a dynamic analysis, and one of an older msflex without them; modes;
+critical points): the listing, CSV, the axis labels with units ("load factor" for a static
+analysis's time) and the errors. Run: python3 tests/regression/test_postproc.py"""
 
 import csv
+import importlib.machinery
+import importlib.util
 import io
 import os
 import subprocess
@@ -23,15 +28,41 @@ TIP_ROTATION = np.array([[1.0, 0.0, 0.0, 0.0], [0.9, 0.1, 0.2, 0.3], [0.5, 0.4, 
 TIP_ROTATION_ANGLE = np.array([0.0, 0.9, 2.1])
 
 
-def write_result_file(path):
+# Units and descriptions as msflex writes them (docs/output.md); time's depend on the analysis.
+UNITS = {"history/load_factor": ("1", "a load factor"), "history/newton_iterations": ("1", "Newton iterations of the step"),
+         "history/strain_energy": ("J", "strain energy of the beams"),
+         "probes/tip/position": ("m", "current position of the probed node"), "probes/tip/displacement": ("m", "displacement of the probed node"),
+         "probes/tip/rotation": ("1", "rotation of the probed node, unit quaternion (w, x, y, z)"),
+         "probes/tip/rotation_angle": ("rad", "tracked rotation angle of the probed node")}
+
+
+def write_result_file(path, analysis="static"):
+    """analysis: "static", "dynamic", or None for a file of an older msflex (no units)."""
     with h5py.File(path, "w") as f:
         f["history/time"] = TIME
         f["history/load_factor"] = LOAD_FACTOR
         f["history/newton_iterations"] = NEWTON_ITERATIONS
+        f["history/strain_energy"] = 2 * LOAD_FACTOR
         f["probes/tip/position"] = TIP_POSITION
         f["probes/tip/displacement"] = TIP_POSITION - TIP_POSITION[0]
         f["probes/tip/rotation"] = TIP_ROTATION
         f["probes/tip/rotation_angle"] = TIP_ROTATION_ANGLE
+        if analysis is None:
+            return
+        f.attrs["analysis_type"] = analysis
+        units = dict(UNITS, **{"history/time": ("s", "time") if analysis == "dynamic" else ("1", "load factor: the pseudo-time")})
+        for dataset, (unit, description) in units.items():
+            f[dataset].attrs["unit"] = unit
+            f[dataset].attrs["description"] = description
+
+
+def plot_history_module():
+    """postproc/plot-history as a module, for its plot() (the axes of the figure it draws)."""
+    loader = importlib.machinery.SourceFileLoader("plot_history", os.path.join(POSTPROC, "plot-history"))
+    spec = importlib.util.spec_from_loader("plot_history", loader)
+    module = importlib.util.module_from_spec(spec)
+    loader.exec_module(module)
+    return module
 
 
 def run(script, *arguments):
@@ -50,14 +81,57 @@ class PostprocTest(unittest.TestCase):
         self.directory.cleanup()
 
     def test_lists_every_series(self):
-        result = run("msflex-history", self.h5)
+        result = run("msflex-history", self.h5, "--names")
         self.assertEqual(result.returncode, 0, result.stderr)
         names = result.stdout.split()
-        self.assertEqual(names[:3], ["time", "load_factor", "newton_iterations"])
+        self.assertEqual(names[:4], ["time", "load_factor", "newton_iterations", "strain_energy"])
         for name in ["tip.position.x", "tip.position.z", "tip.displacement.y", "tip.rotation.w",
                      "tip.rotation.z", "tip.rotation_angle"]:
             self.assertIn(name, names)
-        self.assertEqual(len(names), 3 + 3 + 3 + 4 + 1)
+        self.assertEqual(len(names), 4 + 3 + 3 + 4 + 1)
+
+    def test_lists_units_and_descriptions(self):
+        result = run("msflex-history", self.h5)
+        self.assertEqual(result.returncode, 0, result.stderr)
+        rows = {line.split()[0]: line.split(None, 2)[1:] for line in result.stdout.splitlines()}
+        self.assertEqual(len(rows), 4 + 3 + 3 + 4 + 1)
+        self.assertEqual(rows["time"], ["[1]", "load factor: the pseudo-time"])
+        self.assertEqual(rows["strain_energy"], ["[J]", "strain energy of the beams"])
+        self.assertEqual(rows["tip.position.y"], ["[m]", "current position of the probed node, y"])
+        self.assertEqual(rows["tip.rotation_angle"], ["[rad]", "tracked rotation angle of the probed node"])
+        self.assertEqual(rows["tip.rotation.w"], ["[1]", "rotation of the probed node, unit quaternion (w, x, y, z), w"])
+        # A file without units (an older msflex) lists them as unknown.
+        write_result_file(self.h5, analysis=None)
+        result = run("msflex-history", self.h5)
+        self.assertEqual(result.returncode, 0, result.stderr)
+        self.assertEqual(result.stdout.splitlines()[0].split(), ["time", "[?]"])
+
+    def test_plot_axes_carry_names_and_units(self):
+        plot_history = plot_history_module()
+        sys.path.insert(0, POSTPROC)
+        import msflex_h5
+        # Statics: time is the load factor.
+        with msflex_h5.HistoryFile(self.h5) as history:
+            axes = plot_history.plot(history, "time", ["tip.position.z"], "t").axes[0]
+        self.assertEqual(axes.get_xlabel(), "load factor")
+        self.assertEqual(axes.get_ylabel(), "tip.position.z [m]")
+        # Two series of one unit: the unit on the axis, the series with theirs in the legend.
+        with msflex_h5.HistoryFile(self.h5) as history:
+            axes = plot_history.plot(history, "strain_energy", ["tip.position.x", "tip.displacement.y"], "t").axes[0]
+        self.assertEqual(axes.get_xlabel(), "strain_energy [J]")
+        self.assertEqual(axes.get_ylabel(), "value [m]")
+        self.assertEqual([text.get_text() for text in axes.get_legend().get_texts()], ["tip.position.x [m]", "tip.displacement.y [m]"])
+        # Different units: no unit on the axis; a dimensionless series has none.
+        with msflex_h5.HistoryFile(self.h5) as history:
+            axes = plot_history.plot(history, "time", ["tip.rotation_angle", "newton_iterations"], "t").axes[0]
+        self.assertEqual(axes.get_ylabel(), "value")
+        self.assertEqual([text.get_text() for text in axes.get_legend().get_texts()], ["tip.rotation_angle [rad]", "newton_iterations"])
+        # Dynamics: time in s.
+        write_result_file(self.h5, analysis="dynamic")
+        with msflex_h5.HistoryFile(self.h5) as history:
+            axes = plot_history.plot(history, "time", ["tip.rotation_angle"], "t").axes[0]
+        self.assertEqual(axes.get_xlabel(), "time [s]")
+        self.assertEqual(axes.get_ylabel(), "tip.rotation_angle [rad]")
 
     def test_prints_csv_with_time_first(self):
         result = run("msflex-history", self.h5, "load_factor", "tip.position.z",

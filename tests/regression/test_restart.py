@@ -184,7 +184,9 @@ interrupt(2, lambda p: p.send_signal(signal.SIGUSR1), "SIGUSR1 to mpirun, 2 rank
 
 # 4. SIGKILL: no chance to clean up, the file must still be readable up to the last whole step.
 output = f"{work}/killed.h5"
-process = subprocess.Popen(command(1, source, "-output_file", output, "-output_overwrite", "-progress_every", 1, *settings), stdout=subprocess.PIPE,
+# -output_flush_interval 0: the file is flushed after every step (by default every 10 s of wall time).
+process = subprocess.Popen(command(1, source, "-output_file", output, "-output_overwrite", "-progress_every", 1, "-output_flush_interval", 0, *settings),
+                           stdout=subprocess.PIPE,
                            stderr=subprocess.DEVNULL, text=True, env=env)
 for line in process.stdout:
     if line.startswith("step") and int(line.split()[1]) >= 80:

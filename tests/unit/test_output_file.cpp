@@ -1,14 +1,20 @@
-// OutputFile round trip: writes a tiny mesh, two frames and three history rows, then reads the
-// file back with the HDF5 C API. Runs on any number of ranks: as in the solver, only rank 0 passes
-// data, and only rank 0 reads the file back.
+// OutputFile round trip: writes a tiny mesh, frames and history rows, then reads the file back with
+// the HDF5 C API. Runs on any number of ranks: as in the solver, only rank 0 passes data (or each
+// rank its rows, for distributed frames), and only rank 0 reads the file back. Also: history rows
+// buffered and written in chunks, the flush semantics, the sidecar well-formed after every frame
+// and its cost per frame, rigid bodies, joints and ground, units and provenance.
 #include "output/output_file.hpp"
 
 #include <gtest/gtest.h>
 #include <hdf5.h>
+#include <msflex_version.hpp>
 #include <unistd.h>
 
+#include <cmath>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <sstream>
 
 namespace msflex {
@@ -137,6 +143,22 @@ template <class T> T ReadAttribute(hid_t file, const std::string &object, const 
   return value;
 }
 
+// A string attribute, written fixed-length (OutputFile::Impl::WriteStringAttribute): read in its own type.
+std::string ReadStringAttribute(hid_t file, const std::string &object, const char *name)
+{
+  const hid_t attribute = H5Aopen_by_name(file, object.c_str(), name, H5P_DEFAULT, H5P_DEFAULT);
+  EXPECT_GE(attribute, 0) << object << " has no attribute " << name;
+  if (attribute < 0) return "";
+  const hid_t type = H5Aget_type(attribute);
+  EXPECT_EQ(H5Tget_class(type), H5T_STRING) << object << ": " << name;
+  EXPECT_EQ(H5Tis_variable_str(type), 0) << object << ": " << name << " is not fixed-length";
+  std::string text(H5Tget_size(type), '\0');
+  EXPECT_GE(H5Aread(attribute, type, text.data()), 0);
+  H5Tclose(type);
+  H5Aclose(attribute);
+  return std::string(text.c_str());
+}
+
 std::string ReadText(const fs::path &path)
 {
   std::ifstream      in(path);
@@ -193,11 +215,7 @@ TEST_F(OutputFileTest, WritesMeshFramesHistoryAndSidecar)
 
   EXPECT_EQ(ReadStrings(file, "/input", &dims), std::vector<std::string>{"analysis: {type: static}\n"});
   EXPECT_EQ(dims, Shape{});
-  const hid_t string_type = CreateUtf8StringType();
-  char       *input_file  = ReadAttribute<char *>(file, "/input", "file", string_type);
-  EXPECT_STREQ(input_file, "tiny.yaml");
-  H5free_memory(input_file);
-  H5Tclose(string_type);
+  EXPECT_EQ(ReadStringAttribute(file, "/input", "file"), "tiny.yaml");
 
   const OutputMesh mesh = TinyMesh();
   EXPECT_EQ(ReadDoubles(file, "/mesh/node_coordinates", &dims), mesh.node_coordinates);
@@ -283,6 +301,539 @@ TEST_F(OutputFileTest, ExistingFileNeedsOverwrite)
   if (IsRoot()) {
     EXPECT_EQ(ReadText(xdmf_path()).find("<Grid Name=\"step"), std::string::npos);
   }
+}
+
+// ---- Rigid bodies, joints, ground ----------------------------------------------------------------
+
+// The tiny mesh with two rigid bodies (on root and tip), two joints (tip on the ground, mid on root)
+// and two ground markers; a dynamic analysis.
+OutputMesh MechanismMesh()
+{
+  OutputMesh mesh             = TinyMesh();
+  mesh.analysis_type          = "dynamic";
+  mesh.joint_names            = {"hinge", "slider"};
+  mesh.joint_types            = {"revolute", "prismatic"};
+  mesh.joint_master           = {-1, 0};
+  mesh.joint_slave            = {2, 1};
+  mesh.joint_axes             = Ramp(18, 0.5);
+  mesh.joint_offset           = {0, 0, 0, 0.5, 0.1, 0};
+  mesh.body_names             = {"root", "tip"};
+  mesh.body_node              = {0, 2};
+  mesh.body_mass              = {2.0, 3.0};
+  mesh.body_inertia           = Ramp(18, 1.0);
+  mesh.body_offset            = Ramp(6, 0.25);
+  mesh.body_principal_moments = Ramp(6, 4.0);
+  mesh.body_principal_axes    = Ramp(18, 5.0);
+  mesh.body_semi_axes         = Ramp(6, 6.0);
+  mesh.ground_names           = {"hinge", "root"};
+  mesh.ground_kinds           = {"joint", "support"};
+  mesh.ground_position        = Ramp(6, 7.0);
+  mesh.ground_axes            = Ramp(18, 8.0);
+  return mesh;
+}
+
+int WorldSize()
+{
+  int size;
+  MPI_Comm_size(PETSC_COMM_WORLD, &size);
+  return size;
+}
+
+int WorldRank()
+{
+  int rank;
+  MPI_Comm_rank(PETSC_COMM_WORLD, &rank);
+  return rank;
+}
+
+// A frame of the mechanism with distinct values in every array, bodies and joints included.
+OutputFrame MechanismFrame(int step)
+{
+  OutputFrame frame      = FrameOfStep(step);
+  frame.velocity         = Ramp(9, 100.0 * step + 70.0);
+  frame.angular_velocity = Ramp(9, 100.0 * step + 80.0);
+  frame.body_center      = Ramp(6, 1000.0 * step + 1.0);
+  frame.body_axes        = Ramp(18, 1000.0 * step + 10.0);
+  frame.body_rotation    = Ramp(8, 1000.0 * step + 30.0);
+  frame.joint_position   = Ramp(6, 1000.0 * step + 40.0);
+  frame.joint_axes       = Ramp(18, 1000.0 * step + 50.0);
+  return frame;
+}
+
+// The part of `whole` (rank 0's complete frame) that rank `rank` of `size` holds when every table's
+// rows are dealt out in turn: row i to rank i % size. Section triads: distinct values per segment.
+OutputFrame DistributedPart(const OutputFrame &whole, int rank, int size)
+{
+  OutputFrame part;
+  part.step        = whole.step;
+  part.time        = whole.time;
+  part.distributed = true;
+  const auto take  = [&](const std::vector<double> &from, size_t width, size_t rows, std::vector<double> *to, std::vector<int> *row_numbers) {
+    for (size_t i = 0; i < rows; ++i) {
+      if ((int)(i % size) != rank) continue;
+      to->insert(to->end(), &from[width * i], &from[width * i + width]);
+      if (row_numbers) row_numbers->push_back((int)i);
+    }
+  };
+  take(whole.position, 3, 3, &part.position, &part.node_rows);
+  take(whole.displacement, 3, 3, &part.displacement, nullptr);
+  take(whole.rotation, 4, 3, &part.rotation, nullptr);
+  take(whole.velocity, 3, 3, &part.velocity, nullptr);
+  take(whole.angular_velocity, 3, 3, &part.angular_velocity, nullptr);
+  take(whole.element_resultants, 6, 2, &part.element_resultants, &part.element_rows);
+  take(whole.element_strains, 6, 2, &part.element_strains, nullptr);
+  const int first_segment[2] = {0, 2}, segment_count[2] = {2, 1};
+  for (const int e : part.element_rows) {
+    part.element_first_segment.push_back(first_segment[e]);
+    part.element_segment_count.push_back(segment_count[e]);
+    for (int s = first_segment[e]; s < first_segment[e] + segment_count[e]; ++s)
+      for (int k = 0; k < 9; ++k) part.segment_triads.push_back(100.0 * whole.step + 10.0 * s + k);
+  }
+  take(whole.body_center, 3, 2, &part.body_center, &part.body_rows);
+  take(whole.body_axes, 9, 2, &part.body_axes, nullptr);
+  take(whole.body_rotation, 4, 2, &part.body_rotation, nullptr);
+  take(whole.joint_position, 3, 2, &part.joint_position, &part.joint_rows);
+  take(whole.joint_axes, 9, 2, &part.joint_axes, nullptr);
+  return part;
+}
+
+// Columns [3 part, 3 part + 3) of every row of 9: one of the three vectors of a table of triads.
+std::vector<double> Part(const std::vector<double> &rows_of_nine, int part)
+{
+  std::vector<double> out;
+  for (size_t r = 0; r + 9 <= rows_of_nine.size(); r += 9) out.insert(out.end(), &rows_of_nine[r + 3 * part], &rows_of_nine[r + 3 * part + 3]);
+  return out;
+}
+
+size_t CountOf(const std::string &text, const std::string &needle)
+{
+  size_t count = 0;
+  for (size_t at = text.find(needle); at != std::string::npos; at = text.find(needle, at + 1)) ++count;
+  return count;
+}
+
+// Whether `text` is well-formed XML as far as the sidecar needs: one root element, every element
+// closed in order, attribute values quoted, comments and the declaration closed. *why says what
+// is wrong.
+bool WellFormedXml(const std::string &text, std::string *why)
+{
+  std::vector<std::string> open;
+  bool                     root_seen = false;
+  for (size_t at = 0; at < text.size();) {
+    if (text[at] != '<') {
+      if (open.empty() && !std::isspace((unsigned char)text[at])) return *why = "text outside the root element at " + std::to_string(at), false;
+      ++at;
+      continue;
+    }
+    if (text.compare(at, 4, "<!--") == 0 || text.compare(at, 2, "<?") == 0) {
+      const char  *end   = text.compare(at, 4, "<!--") == 0 ? "-->" : "?>";
+      const size_t close = text.find(end, at);
+      if (close == std::string::npos) return *why = "unclosed comment or declaration", false;
+      at = close + std::strlen(end);
+      continue;
+    }
+    size_t close = at + 1;
+    char   quote = 0;
+    for (; close < text.size() && (quote || text[close] != '>'); ++close)
+      if (text[close] == '"' || text[close] == '\'') quote = quote == text[close] ? 0 : quote ? quote : text[close];
+    if (close >= text.size()) return *why = "unclosed tag at " + std::to_string(at), false;
+    const std::string tag = text.substr(at + 1, close - at - 1);
+    if (tag.empty()) return *why = "empty tag", false;
+    if (tag[0] == '/') {
+      const std::string name = tag.substr(1, tag.find_first_of(" \t\n", 1) - 1);
+      if (open.empty() || open.back() != name) return *why = "</" + name + "> closes " + (open.empty() ? "nothing" : "<" + open.back() + ">"), false;
+      open.pop_back();
+    } else {
+      if (open.empty() && root_seen) return *why = "a second root element", false;
+      root_seen = true;
+      if (tag.back() != '/') open.push_back(tag.substr(0, tag.find_first_of(" \t\n/")));
+    }
+    at = close + 1;
+  }
+  if (!open.empty()) return *why = "<" + open.back() + "> not closed", false;
+  if (!root_seen) return *why = "no root element", false;
+  return true;
+}
+
+// Rows of a 1-D or 2-D dataset in the file as it is on disk, read through a second, independent
+// handle (the POSIX driver) while the writer keeps its own open; -1 when the dataset is missing.
+long long RowsOnDisk(const fs::path &path, const char *dataset)
+{
+  const hid_t access = H5Pcreate(H5P_FILE_ACCESS);
+  H5Pset_fapl_sec2(access);
+  long long   rows = -1;
+  const hid_t file = H5Fopen(path.c_str(), H5F_ACC_RDONLY, access);
+  H5Pclose(access);
+  if (file < 0) return -2;
+  if (H5Lexists(file, "/history", H5P_DEFAULT) > 0 && H5Lexists(file, dataset, H5P_DEFAULT) > 0) {
+    const hid_t set   = H5Dopen2(file, dataset, H5P_DEFAULT);
+    const hid_t space = H5Dget_space(set);
+    hsize_t     dims[2];
+    H5Sget_simple_extent_dims(space, dims, nullptr);
+    rows = (long long)dims[0];
+    H5Sclose(space);
+    H5Dclose(set);
+  }
+  H5Fclose(file);
+  return rows;
+}
+
+TEST_F(OutputFileTest, HistoryIsBufferedAndWrittenInChunks)
+{
+  constexpr int kRows = 2500; // more than two chunks of 1024 rows
+  OutputFile    out;
+  out.SetFlushInterval(1e9); // only explicit flushes and Close
+  ASSERT_EQ(OpenTiny(&out, false), PETSC_SUCCESS);
+  for (int row = 0; row < kRows; ++row) {
+    ASSERT_EQ(out.AppendHistory(kHistoryNames, HistoryRow(row), {ProbeOfRow(row)}), PETSC_SUCCESS);
+    EXPECT_EQ(out.HistoryRows(), row + 1);
+    if (row == 6 || row == 1500) {
+      const long long before = IsRoot() ? RowsOnDisk(h5_path(), "/history/time") : 0;
+      ASSERT_EQ(out.Flush(), PETSC_SUCCESS);
+      const long long after = IsRoot() ? RowsOnDisk(h5_path(), "/history/time") : 0;
+      if (IsRoot()) {
+        EXPECT_EQ(before, row == 6 ? -1 : 7) << "rows are kept in memory until a flush";
+        EXPECT_EQ(after, row + 1) << "a flush writes every buffered row";
+      }
+    }
+  }
+  ASSERT_EQ(out.Close(), PETSC_SUCCESS);
+  if (!IsRoot()) return;
+  const hid_t file = H5Fopen(h5_path().c_str(), H5F_ACC_RDONLY, H5P_DEFAULT);
+  ASSERT_GE(file, 0);
+  std::vector<hsize_t> dims;
+  for (size_t i = 0; i < kHistoryNames.size(); ++i) {
+    std::vector<double> expected;
+    for (int row = 0; row < kRows; ++row) expected.push_back(HistoryRow(row)[i]);
+    EXPECT_EQ(ReadDoubles(file, "/history/" + kHistoryNames[i], &dims), expected) << kHistoryNames[i];
+  }
+  std::vector<double> position, angle;
+  for (int row = 0; row < kRows; ++row) {
+    const ProbeSample probe = ProbeOfRow(row);
+    position.insert(position.end(), probe.position, probe.position + 3);
+    angle.push_back(probe.rotation_angle);
+  }
+  EXPECT_EQ(ReadDoubles(file, "/probes/tip/position", &dims), position);
+  EXPECT_EQ(dims, (std::vector<hsize_t>{kRows, 3}));
+  EXPECT_EQ(ReadDoubles(file, "/probes/tip/rotation_angle", &dims), angle);
+  // Chunks of 1024 rows.
+  const hid_t dataset = H5Dopen2(file, "/history/time", H5P_DEFAULT), properties = H5Dget_create_plist(dataset);
+  hsize_t     chunk[1] = {0};
+  EXPECT_EQ(H5Pget_chunk(properties, 1, chunk), 1);
+  EXPECT_EQ(chunk[0], 1024u);
+  H5Pclose(properties);
+  H5Dclose(dataset);
+  EXPECT_GE(H5Fclose(file), 0);
+}
+
+TEST_F(OutputFileTest, FlushIntervalZeroWritesEveryRowAndATimedFlushComesWhenDue)
+{
+  OutputFile out;
+  out.SetFlushInterval(0.0);
+  ASSERT_EQ(OpenTiny(&out, false), PETSC_SUCCESS);
+  for (int row = 0; row < 3; ++row) {
+    ASSERT_EQ(out.AppendHistory(kHistoryNames, HistoryRow(row), {ProbeOfRow(row)}), PETSC_SUCCESS);
+    if (IsRoot()) {
+      EXPECT_EQ(RowsOnDisk(h5_path(), "/history/time"), row + 1);
+    }
+  }
+  // One second between flushes: a row right after a flush stays in memory, one after a second does not.
+  out.SetFlushInterval(1.0);
+  ASSERT_EQ(out.Flush(), PETSC_SUCCESS);
+  ASSERT_EQ(out.AppendHistory(kHistoryNames, HistoryRow(3), {ProbeOfRow(3)}), PETSC_SUCCESS);
+  if (IsRoot()) {
+    EXPECT_EQ(RowsOnDisk(h5_path(), "/history/time"), 3);
+  }
+  usleep(1100000);
+  ASSERT_EQ(out.AppendHistory(kHistoryNames, HistoryRow(4), {ProbeOfRow(4)}), PETSC_SUCCESS);
+  if (IsRoot()) {
+    EXPECT_EQ(RowsOnDisk(h5_path(), "/history/time"), 5);
+  }
+  ASSERT_EQ(out.Close(), PETSC_SUCCESS);
+}
+
+TEST_F(OutputFileTest, SidecarIsWellFormedAfterEveryFrameAndListsFlushedFrames)
+{
+  OutputFile out;
+  out.SetFlushInterval(1e9);
+  ASSERT_EQ(OpenTiny(&out, false), PETSC_SUCCESS);
+  std::string why;
+  if (IsRoot()) {
+    EXPECT_TRUE(WellFormedXml(ReadText(xdmf_path()), &why)) << why;
+  }
+  const std::string beams_grid = "<Grid Name=\"beams\" GridType=\"Uniform\">";
+  // Unflushed frames are not listed (the file does not hold them safely yet) ...
+  for (int step = 0; step < 3; ++step) ASSERT_EQ(out.WriteFrame(IsRoot() ? FrameOfStep(step) : OutputFrame{}), PETSC_SUCCESS);
+  if (IsRoot()) {
+    EXPECT_EQ(CountOf(ReadText(xdmf_path()), beams_grid), 0u);
+  }
+  ASSERT_EQ(out.Flush(), PETSC_SUCCESS);
+  // ... and with a flush at every frame the sidecar grows by one grid each time.
+  out.SetFlushInterval(0.0);
+  for (int step = 3; step < 9; ++step) {
+    ASSERT_EQ(out.WriteFrame(IsRoot() ? FrameOfStep(step) : OutputFrame{}), PETSC_SUCCESS);
+    if (!IsRoot()) continue;
+    const std::string xdmf = ReadText(xdmf_path());
+    EXPECT_TRUE(WellFormedXml(xdmf, &why)) << "after step " << step << ": " << why << "\n" << xdmf;
+    EXPECT_EQ(CountOf(xdmf, beams_grid), (size_t)step + 1);
+    EXPECT_EQ(CountOf(xdmf, "<xi:include"), 1u) << "one collection: the beams";
+    const std::string tail = "  </Information>\n</Xdmf>\n";
+    EXPECT_EQ(xdmf.substr(xdmf.size() - tail.size()), tail);
+    const char *times[] = {"0", "0.25", "0.5", "0.75", "1", "1.25", "1.5", "1.75", "2"}; // steps of 0.25, shortest decimals
+    EXPECT_NE(xdmf.find(std::string("<Time Value=\"") + times[step] + "\"/>"), std::string::npos) << times[step];
+  }
+  ASSERT_EQ(out.Close(), PETSC_SUCCESS);
+}
+
+// What a frame costs, sidecar included, in a run that flushes every 10 frames: the same for the
+// last 20 of 20 frames as for the last 20 of 400. Printed, not asserted (timings vary with the
+// machine's load); the sidecar's contents are checked. (Flushing after every frame makes HDF5's
+// H5Fflush itself slower as its metadata cache fills up; the timed flushes of a run are seconds
+// apart.)
+TEST_F(OutputFileTest, CostPerFrameDoesNotGrowWithTheFrameCount)
+{
+  double    seconds_per_frame[2] = {0, 0};
+  const int counts[2]            = {20, 400};
+  for (int run = 0; run < 2; ++run) {
+    OutputFile out;
+    out.SetFlushInterval(1e9);
+    ASSERT_EQ(OpenTiny(&out, true), PETSC_SUCCESS);
+    double started = MPI_Wtime();
+    for (int step = 0; step < counts[run]; ++step) {
+      if (step == counts[run] - 20) started = MPI_Wtime(); // the last 20 frames
+      ASSERT_EQ(out.WriteFrame(IsRoot() ? FrameOfStep(step) : OutputFrame{}), PETSC_SUCCESS);
+      if (step % 10 == 9) {
+        ASSERT_EQ(out.Flush(), PETSC_SUCCESS);
+      }
+    }
+    seconds_per_frame[run] = (MPI_Wtime() - started) / 20;
+    ASSERT_EQ(out.Close(), PETSC_SUCCESS);
+    if (IsRoot()) {
+      EXPECT_EQ(CountOf(ReadText(xdmf_path()), "<Grid Name=\"beams\" GridType=\"Uniform\">"), (size_t)counts[run]);
+    }
+  }
+  if (IsRoot())
+    std::printf("[ cost     ] frames %d..%d of %d: %.3f ms per frame; frames %d..%d of %d: %.3f ms per frame; ratio %.2f\n", counts[0] - 20, counts[0] - 1,
+                counts[0], 1e3 * seconds_per_frame[0], counts[1] - 20, counts[1] - 1, counts[1], 1e3 * seconds_per_frame[1],
+                seconds_per_frame[1] / seconds_per_frame[0]);
+}
+
+// Bodies, joints and ground markers, in frames held whole by rank 0 (steps 0, 1) or dealt out
+// over the ranks (step 2), and a frame without them (step 3).
+TEST_F(OutputFileTest, WritesRigidBodiesJointsAndGround)
+{
+  OutputFile out;
+  ASSERT_EQ(out.Open(PETSC_COMM_WORLD, h5_path().string(), false, "mechanism.yaml", "analysis: {type: dynamic}\n", IsRoot() ? MechanismMesh() : OutputMesh{}),
+            PETSC_SUCCESS);
+  for (int step = 0; step < 2; ++step) ASSERT_EQ(out.WriteFrame(IsRoot() ? MechanismFrame(step) : OutputFrame{}), PETSC_SUCCESS);
+  ASSERT_EQ(out.WriteFrame(DistributedPart(MechanismFrame(2), WorldRank(), WorldSize())), PETSC_SUCCESS);
+  OutputFrame bare = FrameOfStep(3);
+  bare.velocity = bare.angular_velocity = Ramp(9, 0.0);
+  ASSERT_EQ(out.WriteFrame(IsRoot() ? bare : OutputFrame{}), PETSC_SUCCESS);
+  ASSERT_EQ(out.Close(), PETSC_SUCCESS);
+  if (!IsRoot()) return;
+
+  const hid_t file = H5Fopen(h5_path().c_str(), H5F_ACC_RDONLY, H5P_DEFAULT);
+  ASSERT_GE(file, 0);
+  std::vector<hsize_t> dims;
+  using Shape           = std::vector<hsize_t>;
+  const OutputMesh mesh = MechanismMesh();
+  EXPECT_EQ(ReadStrings(file, "/mesh/body_names", &dims), mesh.body_names);
+  EXPECT_EQ(ReadInts(file, "/mesh/body_node", &dims), mesh.body_node);
+  EXPECT_EQ(ReadDoubles(file, "/mesh/body_mass", &dims), mesh.body_mass);
+  EXPECT_EQ(ReadDoubles(file, "/mesh/body_inertia", &dims), mesh.body_inertia);
+  EXPECT_EQ(dims, (Shape{2, 9}));
+  EXPECT_EQ(ReadDoubles(file, "/mesh/body_offset", &dims), mesh.body_offset);
+  EXPECT_EQ(ReadDoubles(file, "/mesh/body_principal_moments", &dims), mesh.body_principal_moments);
+  EXPECT_EQ(ReadDoubles(file, "/mesh/body_principal_axes", &dims), mesh.body_principal_axes);
+  EXPECT_EQ(ReadDoubles(file, "/mesh/body_semi_axes", &dims), mesh.body_semi_axes);
+  EXPECT_EQ(ReadInts(file, "/mesh/body_vertices", &dims), (std::vector<int>{0, 1}));
+  EXPECT_EQ(ReadInts(file, "/mesh/joint_vertices", &dims), (std::vector<int>{0, 1}));
+  EXPECT_EQ(ReadStrings(file, "/mesh/ground_names", &dims), mesh.ground_names);
+  EXPECT_EQ(ReadStrings(file, "/mesh/ground_kinds", &dims), mesh.ground_kinds);
+  EXPECT_EQ(ReadDoubles(file, "/mesh/ground_position", &dims), mesh.ground_position);
+  for (int axis = 0; axis < 3; ++axis)
+    EXPECT_EQ(ReadDoubles(file, "/mesh/ground_a" + std::to_string(axis + 1), &dims), Part(mesh.ground_axes, axis)) << "ground axis " << axis + 1;
+  for (int step = 0; step < 3; ++step) {
+    const OutputFrame expected = MechanismFrame(step);
+    const std::string group    = "/frames/00000" + std::to_string(step);
+    EXPECT_EQ(ReadDoubles(file, group + "/body_center", &dims), expected.body_center) << group;
+    EXPECT_EQ(dims, (Shape{2, 3}));
+    for (int axis = 0; axis < 3; ++axis) {
+      EXPECT_EQ(ReadDoubles(file, group + "/body_axis_" + std::to_string(axis + 1), &dims), Part(expected.body_axes, axis)) << group << " axis " << axis;
+      EXPECT_EQ(ReadDoubles(file, group + "/joint_a" + std::to_string(axis + 1), &dims), Part(expected.joint_axes, axis)) << group << " axis " << axis;
+    }
+    EXPECT_EQ(ReadDoubles(file, group + "/body_rotation", &dims), expected.body_rotation) << group;
+    EXPECT_EQ(dims, (Shape{2, 4}));
+    EXPECT_EQ(ReadDoubles(file, group + "/joint_position", &dims), expected.joint_position) << group;
+    EXPECT_EQ(ReadDoubles(file, group + "/position", &dims), expected.position) << group;
+    EXPECT_EQ(ReadDoubles(file, group + "/velocity", &dims), expected.velocity) << group;
+  }
+  EXPECT_EQ(H5Lexists(file, "/frames/000003/body_center", H5P_DEFAULT), 0) << "a frame without rigid-body rows has no rigid-body datasets";
+  EXPECT_EQ(H5Lexists(file, "/frames/000003/joint_position", H5P_DEFAULT), 0);
+  EXPECT_GE(H5Fclose(file), 0);
+
+  // The sidecar: four collections; bodies and joints in the first three frames, the ground in all.
+  const std::string xdmf = ReadText(xdmf_path());
+  std::string       why;
+  EXPECT_TRUE(WellFormedXml(xdmf, &why)) << why;
+  for (const char *kind : {"beams", "bodies", "joints", "ground"})
+    EXPECT_NE(xdmf.find(std::string("Grid[@Name='") + kind + "']"), std::string::npos) << "no collection of " << kind;
+  EXPECT_EQ(CountOf(xdmf, "<Grid Name=\"beams\" GridType=\"Uniform\">"), 4u);
+  EXPECT_EQ(CountOf(xdmf, "<Grid Name=\"bodies\" GridType=\"Uniform\">"), 3u);
+  EXPECT_EQ(CountOf(xdmf, "<Grid Name=\"joints\" GridType=\"Uniform\">"), 3u);
+  EXPECT_EQ(CountOf(xdmf, "<Grid Name=\"ground\" GridType=\"Uniform\">"), 4u);
+  for (const char *name : {"\"displacement [m]\"", "\"velocity [m/s]\"", "\"angular_velocity [rad/s]\"", "\"force [N]\"", "\"moment [N m]\"", "\"axis_1 [m]\"",
+                           "\"mass [kg]\"", "\"semi_axes [m]\"", "\"a1\"", "\"rotation\"", "\"section_e1\""})
+    EXPECT_NE(xdmf.find(std::string("Attribute Name=") + name), std::string::npos) << "no attribute " << name;
+  EXPECT_NE(xdmf.find(">output.h5:/frames/000002/body_axis_3<"), std::string::npos);
+  EXPECT_NE(xdmf.find(">output.h5:/mesh/ground_position<"), std::string::npos);
+}
+
+// Every dataset carries a unit and a description; the units follow the table in output_units.cpp.
+TEST_F(OutputFileTest, EveryDatasetHasAUnitAndADescription)
+{
+  OutputFile out;
+  ASSERT_EQ(out.Open(PETSC_COMM_WORLD, h5_path().string(), false, "mechanism.yaml", "analysis: {type: dynamic}\n", IsRoot() ? MechanismMesh() : OutputMesh{}),
+            PETSC_SUCCESS);
+  ASSERT_EQ(out.WriteFrame(DistributedPart(MechanismFrame(0), WorldRank(), WorldSize())), PETSC_SUCCESS);
+  const std::vector<std::string> names = {"time",          "kinetic_energy", "linear_momentum_x", "angular_momentum_z", "hinge.rx",
+                                          "hinge.rx_rate", "slider.tx",      "slider.force_y",    "slider.moment_z",    "residual_norm"};
+  ASSERT_EQ(out.AppendHistory(names, Ramp(names.size(), 0.0), {ProbeOfRow(0)}), PETSC_SUCCESS);
+  ASSERT_EQ(out.Close(), PETSC_SUCCESS);
+  if (!IsRoot()) return;
+  const hid_t file = H5Fopen(h5_path().c_str(), H5F_ACC_RDONLY, H5P_DEFAULT);
+  ASSERT_GE(file, 0);
+  // Every dataset in the file, by H5Ovisit.
+  std::vector<std::string> datasets;
+  const auto               visit = [](hid_t, const char *name, const H5O_info_t *info, void *found) -> herr_t {
+    if (info->type == H5O_TYPE_DATASET) static_cast<std::vector<std::string> *>(found)->push_back(std::string("/") + name);
+    return 0;
+  };
+  ASSERT_GE(H5Ovisit(file, H5_INDEX_NAME, H5_ITER_INC, visit, &datasets), 0);
+  EXPECT_GT(datasets.size(), 50u);
+  for (const std::string &dataset : datasets) {
+    EXPECT_GT(H5Aexists_by_name(file, dataset.c_str(), "unit", H5P_DEFAULT), 0) << dataset << " has no unit";
+    EXPECT_FALSE(ReadStringAttribute(file, dataset, "description").empty()) << dataset << " has no description";
+  }
+  const std::pair<const char *, const char *> units[] = {
+      {"/history/time", "s"},
+      {"/history/kinetic_energy", "J"},
+      {"/history/linear_momentum_x", "kg m/s"},
+      {"/history/angular_momentum_z", "kg m^2/s"},
+      {"/history/hinge.rx", "rad"},
+      {"/history/hinge.rx_rate", "rad/s"},
+      {"/history/slider.tx", "m"},
+      {"/history/slider.force_y", "N"},
+      {"/history/slider.moment_z", "N m"},
+      {"/history/residual_norm", "mixed"},
+      {"/probes/tip/position", "m"},
+      {"/probes/tip/rotation", "1"},
+      {"/probes/tip/rotation_angle", "rad"},
+      {"/mesh/node_coordinates", "m"},
+      {"/mesh/body_inertia", "kg m^2"},
+      {"/mesh/body_mass", "kg"},
+      {"/mesh/node_names", ""},
+      {"/frames/000000/position", "m"},
+      {"/frames/000000/velocity", "m/s"},
+      {"/frames/000000/angular_velocity", "rad/s"},
+      {"/frames/000000/element_resultants", "N, N, N, N m, N m, N m"},
+      {"/frames/000000/segment_moment", "N m"},
+      {"/frames/000000/body_axis_1", "m"},
+      {"/frames/000000/joint_a2", "1"},
+      {"/input", ""},
+  };
+  for (const auto &[dataset, unit] : units) EXPECT_EQ(ReadStringAttribute(file, dataset, "unit"), unit) << dataset;
+  EXPECT_GE(H5Fclose(file), 0);
+}
+
+TEST_F(OutputFileTest, StaticHistoryTimeIsTheDimensionlessLoadFactor)
+{
+  OutputFile out;
+  ASSERT_EQ(OpenTiny(&out, false), PETSC_SUCCESS);
+  const std::vector<std::string> names = {"time", "step_size", "j.tx_rate"};
+  ASSERT_EQ(out.AppendHistory(names, {0.0, 0.0, 0.0}, {}), PETSC_SUCCESS);
+  ASSERT_EQ(out.Close(), PETSC_SUCCESS);
+  if (!IsRoot()) return;
+  const hid_t file = H5Fopen(h5_path().c_str(), H5F_ACC_RDONLY, H5P_DEFAULT);
+  ASSERT_GE(file, 0);
+  EXPECT_EQ(ReadStringAttribute(file, "/history/time", "unit"), "1");
+  EXPECT_NE(ReadStringAttribute(file, "/history/time", "description").find("load factor"), std::string::npos);
+  EXPECT_EQ(ReadStringAttribute(file, "/history/step_size", "unit"), "1");
+  EXPECT_EQ(ReadStringAttribute(file, "/history/j.tx_rate", "unit"), "m");
+  EXPECT_EQ(ReadStringAttribute(file, "/", "analysis_type"), "static");
+  EXPECT_GE(H5Fclose(file), 0);
+}
+
+TEST_F(OutputFileTest, RootAttributesRecordProvenance)
+{
+  OutputFile out;
+  ASSERT_EQ(OpenTiny(&out, false), PETSC_SUCCESS);
+  ASSERT_EQ(out.Close(), PETSC_SUCCESS);
+  if (!IsRoot()) return;
+  const hid_t file = H5Fopen(h5_path().c_str(), H5F_ACC_RDONLY, H5P_DEFAULT);
+  ASSERT_GE(file, 0);
+  EXPECT_EQ(ReadStringAttribute(file, "/", "msflex_version"), MSFLEX_VERSION);
+  EXPECT_EQ(ReadStringAttribute(file, "/", "git_hash"), MSFLEX_GIT_HASH);
+  EXPECT_FALSE(ReadStringAttribute(file, "/", "git_hash").empty());
+  EXPECT_NE(ReadStringAttribute(file, "/", "command_line").find("test_output_file"), std::string::npos);
+  EXPECT_GT(H5Aexists(file, "options"), 0);
+  EXPECT_EQ(ReadAttribute<int>(file, "/", "ranks", H5T_NATIVE_INT), WorldSize());
+  // ISO 8601, UTC: 2024-05-01T12:34:56Z, and within a minute of now.
+  const std::string start = ReadStringAttribute(file, "/", "start_time");
+  ASSERT_EQ(start.size(), 20u) << start;
+  EXPECT_TRUE(start[4] == '-' && start[7] == '-' && start[10] == 'T' && start[13] == ':' && start[16] == ':' && start[19] == 'Z') << start;
+  std::tm written{};
+  ASSERT_NE(strptime(start.c_str(), "%Y-%m-%dT%H:%M:%SZ", &written), nullptr) << start;
+  EXPECT_LT(std::fabs(std::difftime(timegm(&written), std::time(nullptr))), 60.0) << start;
+  EXPECT_GE(H5Fclose(file), 0);
+}
+
+// A restart: the rows up to the checkpoint are kept, buffering goes on after them.
+TEST_F(OutputFileTest, ReopenKeepsTheCheckpointedRowsAndFramesAndGoesOn)
+{
+  {
+    OutputFile out;
+    out.SetFlushInterval(1e9);
+    ASSERT_EQ(OpenTiny(&out, false), PETSC_SUCCESS);
+    for (int row = 0; row < 15; ++row) {
+      if (row == 0 || row == 5 || row == 12) {
+        ASSERT_EQ(out.WriteFrame(IsRoot() ? FrameOfStep(row) : OutputFrame{}), PETSC_SUCCESS);
+      }
+      ASSERT_EQ(out.AppendHistory(kHistoryNames, HistoryRow(row), {ProbeOfRow(row)}), PETSC_SUCCESS);
+      if (row == 9) { // the checkpoint: step 9, 10 rows, last frame 5
+        ASSERT_EQ(out.Flush(), PETSC_SUCCESS);
+      }
+    }
+    ASSERT_EQ(out.Close(), PETSC_SUCCESS);
+  }
+  OutputFile out;
+  ASSERT_EQ(out.Reopen(PETSC_COMM_WORLD, h5_path().string(), 5, 10), PETSC_SUCCESS);
+  EXPECT_EQ(out.HistoryRows(), 10);
+  for (int row = 10; row < 13; ++row) {
+    if (row == 11) {
+      ASSERT_EQ(out.WriteFrame(IsRoot() ? FrameOfStep(row) : OutputFrame{}), PETSC_SUCCESS);
+    }
+    ASSERT_EQ(out.AppendHistory(kHistoryNames, HistoryRow(100 + row), {ProbeOfRow(100 + row)}), PETSC_SUCCESS);
+  }
+  ASSERT_EQ(out.Close(), PETSC_SUCCESS);
+  if (!IsRoot()) return;
+  const hid_t file = H5Fopen(h5_path().c_str(), H5F_ACC_RDONLY, H5P_DEFAULT);
+  ASSERT_GE(file, 0);
+  std::vector<hsize_t> dims;
+  std::vector<double>  expected;
+  for (int row = 0; row < 13; ++row) expected.push_back(HistoryRow(row < 10 ? row : 100 + row)[2]);
+  EXPECT_EQ(ReadDoubles(file, "/history/newton_iterations", &dims), expected);
+  EXPECT_EQ(ReadDoubles(file, "/probes/tip/rotation_angle", &dims).size(), 13u);
+  for (const char *frame : {"/frames/000000", "/frames/000005", "/frames/000011"}) EXPECT_GT(H5Lexists(file, frame, H5P_DEFAULT), 0) << frame;
+  EXPECT_EQ(H5Lexists(file, "/frames/000012", H5P_DEFAULT), 0) << "the frame after the checkpoint is dropped";
+  EXPECT_EQ(ReadStringAttribute(file, "/history/time", "unit"), "1");
+  EXPECT_GE(H5Fclose(file), 0);
+  const std::string xdmf = ReadText(xdmf_path());
+  std::string       why;
+  EXPECT_TRUE(WellFormedXml(xdmf, &why)) << why;
+  EXPECT_EQ(CountOf(xdmf, "<Grid Name=\"beams\" GridType=\"Uniform\">"), 3u);
+  EXPECT_EQ(xdmf.find("/frames/000012/"), std::string::npos);
 }
 
 } // namespace

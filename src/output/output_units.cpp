@@ -1,0 +1,181 @@
+#include "output/output_units.hpp"
+
+namespace msflex {
+
+namespace {
+
+struct Entry {
+  const char *group, *name, *unit, *description;
+};
+
+// Every dataset of the root (group ""), /mesh, /frames/<step> and /probes/<probe>. "TIME" in a unit stands for the unit
+// of time: s in dynamics, 1 (the load factor) in statics.
+const Entry kDatasets[] = {
+    {"", "input", "", "the input file's text (YAML), verbatim"},
+    {"mesh", "node_coordinates", "m", "reference position (x, y, z) of each node"},
+    {"mesh", "node_names", "", "node name; nodes generated inside a beam line are <beam>.<k>"},
+    {"mesh", "element_nodes", "1", "node indices of each element (end, middle, end for 3 nodes; 2-node elements padded with -1)"},
+    {"mesh", "element_order", "1", "element order: 1 (2 nodes) or 2 (3 nodes)"},
+    {"mesh", "element_beam", "1", "index into beam_names of the element's beam"},
+    {"mesh", "beam_names", "", "beam names from the input"},
+    {"mesh", "segments", "1", "node indices of the 2-node polyline segments drawn for the elements"},
+    {"mesh", "segment_element", "1", "element each segment belongs to"},
+    {"mesh", "node_rank", "1", "MPI rank that owned each node (the partition of this run)"},
+    {"mesh", "joint_names", "", "joint names from the input"},
+    {"mesh", "joint_types", "", "joint types from the input (revolute, screw, ...)"},
+    {"mesh", "joint_master", "1", "master node index of each joint; -1 is the ground"},
+    {"mesh", "joint_slave", "1", "slave node index of each joint"},
+    {"mesh", "joint_axes", "1", "joint axes a1, a2, a3 (3 components each) in global axes at the reference configuration"},
+    {"mesh", "joint_offset", "m", "slave minus master reference position (0 for a joint to the ground)"},
+    {"mesh", "joint_vertices", "1", "point index of each joint marker (the vertex cells of the XDMF joints grid)"},
+    {"mesh", "body_names", "", "rigid body name: the name of its node"},
+    {"mesh", "body_node", "1", "node index each rigid body is attached to"},
+    {"mesh", "body_mass", "kg", "mass of each rigid body"},
+    {"mesh", "body_inertia", "kg m^2", "inertia tensor about the centre of mass in global axes at the reference configuration (row-major, 9)"},
+    {"mesh", "body_offset", "m", "centre of mass minus node position at the reference configuration"},
+    {"mesh", "body_principal_moments", "kg m^2", "principal moments of inertia about the centre of mass, ascending"},
+    {"mesh", "body_principal_axes", "1", "principal axes (3 unit vectors, one after the other) at the reference configuration, right-handed"},
+    {"mesh", "body_semi_axes", "m", "semi-axes along the principal axes of the uniform solid ellipsoid of the same mass and inertia"},
+    {"mesh", "body_vertices", "1", "point index of each rigid body (the vertex cells of the XDMF bodies grid)"},
+    {"mesh", "ground_names", "", "what each ground marker stands for: a joint name (joint to the ground) or a node name (fully fixed support)"},
+    {"mesh", "ground_kinds", "", "kind of each ground marker: joint or support"},
+    {"mesh", "ground_position", "m", "position of each ground marker (fixed)"},
+    {"mesh", "ground_a1", "1", "first axis of each ground marker: the joint's a1, or x for a support"},
+    {"mesh", "ground_a2", "1", "second axis of each ground marker: the joint's a2, or y for a support"},
+    {"mesh", "ground_a3", "1", "third axis of each ground marker: the joint's a3, or z for a support"},
+    {"mesh", "ground_vertices", "1", "point index of each ground marker (the vertex cells of the XDMF ground grid)"},
+    {"frames", "position", "m", "current position of each node"},
+    {"frames", "displacement", "m", "current minus reference position of each node"},
+    {"frames", "rotation", "1", "rotation of each node from the reference configuration, unit quaternion (w, x, y, z)"},
+    {"frames", "element_resultants", "N, N, N, N m, N m, N m",
+     "section forces N1 N2 N3 and moments M1 M2 M3 in the section frame (1 = beam axis), mean over the element's Gauss points"},
+    {"frames", "element_strains", "1, 1, 1, 1/m, 1/m, 1/m", "strains Gamma - Gamma0 and curvatures K - K0 in the section frame, mean over the Gauss points"},
+    {"frames", "segment_force", "N", "section force N1 N2 N3 of the segment's element, section frame"},
+    {"frames", "segment_moment", "N m", "section moment M1 M2 M3 of the segment's element, section frame"},
+    {"frames", "segment_e1", "1", "current section axis e1 (the beam axis) at the segment's first node"},
+    {"frames", "segment_e2", "1", "current section axis e2 at the segment's first node"},
+    {"frames", "segment_e3", "1", "current section axis e3 at the segment's first node"},
+    {"frames", "velocity", "m/s", "velocity of each node"},
+    {"frames", "angular_velocity", "rad/s", "angular velocity of each node in global axes"},
+    {"frames", "body_center", "m", "current position of each rigid body's centre of mass"},
+    {"frames", "body_axis_1", "m", "first principal axis of each rigid body, current orientation, length the semi-axis body_semi_axes[0]"},
+    {"frames", "body_axis_2", "m", "second principal axis of each rigid body, current orientation, length the semi-axis body_semi_axes[1]"},
+    {"frames", "body_axis_3", "m", "third principal axis of each rigid body, current orientation, length the semi-axis body_semi_axes[2]"},
+    {"frames", "body_rotation", "1", "rotation of each rigid body (of its node) from the reference configuration, unit quaternion (w, x, y, z)"},
+    {"frames", "joint_position", "m", "current position of each joint marker: its slave node"},
+    {"frames", "joint_a1", "1", "joint axis a1 in its current orientation: master rotation times reference axis"},
+    {"frames", "joint_a2", "1", "joint axis a2 in its current orientation: master rotation times reference axis"},
+    {"frames", "joint_a3", "1", "joint axis a3 in its current orientation: master rotation times reference axis"},
+    {"probes", "position", "m", "current position of the probed node"},
+    {"probes", "displacement", "m", "displacement of the probed node"},
+    {"probes", "rotation", "1", "rotation of the probed node, unit quaternion (w, x, y, z)"},
+    {"probes", "rotation_angle", "rad", "tracked rotation angle 2 atan2(|q_v|, q_w) of the probed node, in [0, 2 pi]"},
+};
+
+// The fixed history series.
+const Entry kHistory[] = {
+    {"", "time", "TIME", "time"},
+    {"", "step", "1", "converged step number"},
+    {"", "step_size", "TIME", "the step that reached this row (0 in the first row)"},
+    {"", "newton_iterations", "1", "Newton iterations of the step"},
+    {"", "residual_norm", "mixed", "2-norm of the final residual of the step: forces (N) and moments (N m) together"},
+    {"", "strain_energy", "J", "strain energy of the beams"},
+    {"", "kinetic_energy", "J", "kinetic energy"},
+    {"", "total_energy", "J", "kinetic plus strain energy"},
+    {"", "external_work", "J", "work of the external loads since t = 0"},
+    {"", "energy_balance", "J", "total energy minus external work"},
+    {"", "linear_momentum_x", "kg m/s", "total linear momentum, x"},
+    {"", "linear_momentum_y", "kg m/s", "total linear momentum, y"},
+    {"", "linear_momentum_z", "kg m/s", "total linear momentum, z"},
+    {"", "angular_momentum_x", "kg m^2/s", "total angular momentum about the origin, x"},
+    {"", "angular_momentum_y", "kg m^2/s", "total angular momentum about the origin, y"},
+    {"", "angular_momentum_z", "kg m^2/s", "total angular momentum about the origin, z"},
+    {"", "energy_correction", "1", "the energy-momentum scheme's correction factor beta of the step (0 for the other schemes)"},
+    {"", "algorithmic_dissipation", "J", "external work less the change of total energy: what the time scheme itself dissipates"},
+    {"", "load_factor", "1", "load factor at which the loads are evaluated"},
+    {"", "negative_pivots", "1", "negative pivots of the tangent at the equilibrium (-1: the tangent is not symmetric)"},
+    {"", "determinant_sign", "1", "sign of the tangent's determinant (0: it could not be factored)"},
+    {"", "lowest_eigenvalue", "1", "eigenvalue of smallest magnitude of K phi = mu D phi, D = |diag K0|"},
+    {"", "stiffness_parameter", "1", "current stiffness parameter c0 / c: 1 at the start, 0 at a limit point"},
+    {"", "critical_point", "1", "critical point passed in the step: 1 limit, 2 bifurcation, 3 branch jump, 0 none"},
+    {"", "critical_load_factor", "1", "located load factor of that critical point (NaN: none)"},
+    {"", "mode", "1", "mode number of an eigenanalysis"},
+    {"", "eigenvalue", "mixed", "eigenvalue: omega^2 in (rad/s)^2 (modes), the load-factor increment (buckling)"},
+    {"", "backward_error", "1", "relative backward error of the eigenpair"},
+    {"", "angular_frequency", "rad/s", "angular frequency of the mode (0 for a rigid or unstable mode)"},
+    {"", "frequency", "Hz", "frequency of the mode"},
+    {"", "rigid_mode", "1", "1: a rigid mode (eigenvalue at round-off), else 0"},
+};
+
+// Joint series "<joint>.<suffix>". "TIME" as above; rates are per unit of time.
+const Entry kJointSeries[] = {
+    {"", "tx", "m", "released translation along the joint axis a1"},
+    {"", "ty", "m", "released translation along the joint axis a2"},
+    {"", "tz", "m", "released translation along the joint axis a3"},
+    {"", "rx", "rad", "released rotation about the joint axis a1"},
+    {"", "ry", "rad", "released rotation about the joint axis a2"},
+    {"", "rz", "rad", "released rotation about the joint axis a3"},
+    {"", "tx_rate", "m/TIME", "mean rate over the step of the translation along a1"},
+    {"", "ty_rate", "m/TIME", "mean rate over the step of the translation along a2"},
+    {"", "tz_rate", "m/TIME", "mean rate over the step of the translation along a3"},
+    {"", "rx_rate", "rad/TIME", "mean rate over the step of the rotation about a1"},
+    {"", "ry_rate", "rad/TIME", "mean rate over the step of the rotation about a2"},
+    {"", "rz_rate", "rad/TIME", "mean rate over the step of the rotation about a3"},
+    {"", "force_x", "N", "force the joint exerts on its slave, global x"},
+    {"", "force_y", "N", "force the joint exerts on its slave, global y"},
+    {"", "force_z", "N", "force the joint exerts on its slave, global z"},
+    {"", "moment_x", "N m", "moment the joint exerts on its slave about the slave node, global x"},
+    {"", "moment_y", "N m", "moment the joint exerts on its slave about the slave node, global y"},
+    {"", "moment_z", "N m", "moment the joint exerts on its slave about the slave node, global z"},
+};
+
+// Replaces TIME by the unit of time: "TIME" -> s | 1, "m/TIME" -> m/s | m.
+std::string TimeUnit(const char *unit, bool dynamic)
+{
+  const std::string text = unit;
+  const size_t      at   = text.find("TIME");
+  if (at == std::string::npos) return text;
+  if (dynamic) return text.substr(0, at) + "s";
+  return at == 0 ? "1" : text.substr(0, at - 1); // "m/TIME" -> "m": per unit load factor
+}
+
+Quantity Found(const Entry &entry, bool dynamic) { return {TimeUnit(entry.unit, dynamic), entry.description}; }
+
+} // namespace
+
+Quantity DatasetQuantity(const std::string &group, const std::string &name, bool dynamic)
+{
+  for (const Entry &entry : kDatasets)
+    if (group == entry.group && name == entry.name) return Found(entry, dynamic);
+  return {};
+}
+
+Quantity HistoryQuantity(const std::string &name, bool dynamic)
+{
+  for (const Entry &entry : kHistory)
+    if (name == entry.name) {
+      Quantity quantity = Found(entry, dynamic);
+      if (!dynamic && name == "time") quantity.description = "load factor: the pseudo-time of the static analysis (the load factor under the default ramp)";
+      return quantity;
+    }
+  const size_t dot = name.rfind('.');
+  if (dot != std::string::npos && dot > 0) {
+    const std::string joint = name.substr(0, dot), suffix = name.substr(dot + 1);
+    for (const Entry &entry : kJointSeries)
+      if (suffix == entry.name) {
+        Quantity quantity    = Found(entry, dynamic);
+        quantity.description = "joint " + joint + ": " + quantity.description;
+        if (!dynamic && suffix.size() > 5 && suffix.compare(suffix.size() - 5, 5, "_rate") == 0) quantity.description += ", per unit load factor";
+        return quantity;
+      }
+  }
+  return {"", "a series of unknown meaning"};
+}
+
+std::string NameWithUnit(const std::string &name, const std::string &unit)
+{
+  if (unit.empty() || unit == "1") return name;
+  return name + " [" + unit + "]";
+}
+
+} // namespace msflex

@@ -1,0 +1,140 @@
+"""The rigid bodies, joints and ground in the result file agree with the nodes and the model.
+
+Runs input/driven_screw.yaml (a rigid body, four joints, two of them to the ground) to t = 0.3,
+input/turning_arm_screw.yaml (a screw joint, a clamped base) to t = 0.2 and
+tests/regression/inputs/joint_mechanism.yaml to t = 0.2 (a rigid body with a full inertia tensor
+and an offset centre of mass, a driven revolute, universal, screw and prismatic joints), on --np
+ranks, and checks:
+ - the ground markers: the joints to the ground at their slave's reference position with the
+   joint's axes (driven screw: hinge at A, pivot at R, a1 = z), the fully fixed node with the global
+   axes (turning arm: base);
+ - the rigid body's mesh data: mass, inertia, principal moments (0.225, 0.225, 0.45) and the
+   semi-axes of the uniform solid ellipsoid of the same mass and inertia, a_k^2 = 5 (I_i + I_j - I_k) / (2 m);
+ - every frame: each joint marker at its slave node's position (difference 0) with the axes
+   R_master a_k (the reference axes for a joint to the ground) to 1e-12; the body's rotation equal
+   to its node's (difference 0), its centre of mass x + R c and its axes R a_k e_k (the principal
+   axes scaled by the semi-axes) to 1e-12;
+ - provenance and units in each file, and in that of tests/regression/inputs/joint_mechanism.yaml
+   run as an eigenanalysis (-analysis_type modes): the root attributes msflex_version, git_hash,
+   command_line (naming the input), options, ranks (= --np) and start_time; a `unit` and a
+   `description` attribute on every dataset, and every /history series known to the table of units
+   (no "a series of unknown meaning")."""
+
+import h5py
+import numpy as np
+
+import msflex_testing as mt
+
+args = mt.parse_arguments(__doc__)
+check = mt.Checker("mechanism output")
+
+
+def strings(dataset):
+    return [s.decode() if isinstance(s, bytes) else s for s in dataset[()]]
+
+
+def run(name, end_time, directory="input"):
+    output = f"{args.work_dir}/{name}.h5"
+    mt.run_msflex(args, f"{args.source_dir}/{directory}/{name}.yaml", output, extra=["-analysis_end_time", str(end_time), "-quiet"])
+    return output
+
+
+def check_units_and_provenance(label, path, input_name):
+    with h5py.File(path, "r") as f:
+        root = {key: f.attrs[key] for key in f.attrs}
+        text = {key: (value.decode() if isinstance(value, bytes) else str(value)) for key, value in root.items()}
+        missing = [key for key in ("msflex_version", "git_hash", "command_line", "options", "ranks", "start_time") if not text.get(key)]
+        check.less(f"{label}: provenance attributes missing ({missing})", float(len(missing)), 0.5)
+        check.less(f"{label}: command_line names the input (1 = not)", float(input_name not in text.get("command_line", "")), 0.5)
+        check.less(f"{label}: |ranks - np|", abs(float(root.get("ranks", -1)) - args.np), 0.5)
+        datasets = []
+        f.visititems(lambda name, item: datasets.append(name) if isinstance(item, h5py.Dataset) else None)
+        bare = [name for name in datasets if "unit" not in f[name].attrs or "description" not in f[name].attrs]
+        check.less(f"{label}: datasets without unit or description, of {len(datasets)} ({bare[:5]})", float(len(bare)), 0.5)
+        unknown = [name for name in f["history"] if "unknown" in str(f["history"][name].attrs.get("description", b""))]
+        check.less(f"{label}: history series of unknown unit ({unknown[:5]})", float(len(unknown)), 0.5)
+
+
+def check_frames(label, path):
+    with h5py.File(path, "r") as f:
+        mesh = f["mesh"]
+        slaves, masters = mesh["joint_slave"][()], mesh["joint_master"][()]
+        axes = mesh["joint_axes"][()].reshape(-1, 3, 3)  # [joint, k, component]: a_k
+        worst = {"joint position": 0.0, "joint axes": 0.0, "body rotation": 0.0, "body centre": 0.0, "body axes": 0.0}
+        for name in sorted(f["frames"]):
+            frame = f["frames"][name]
+            position, rotation = frame["position"][()], frame["rotation"][()]
+            worst["joint position"] = max(worst["joint position"], np.abs(frame["joint_position"][()] - position[slaves]).max())
+            for k in range(3):
+                expected = np.array([axes[j, k] if m < 0 else mt.quaternion_matrix(rotation[m]) @ axes[j, k] for j, m in enumerate(masters)])
+                worst["joint axes"] = max(worst["joint axes"], np.abs(frame[f"joint_a{k + 1}"][()] - expected).max())
+            if "body_names" not in mesh:
+                continue
+            nodes = mesh["body_node"][()]
+            worst["body rotation"] = max(worst["body rotation"], np.abs(frame["body_rotation"][()] - rotation[nodes]).max())
+            for b, node in enumerate(nodes):
+                R = mt.quaternion_matrix(rotation[node])
+                centre = position[node] + R @ mesh["body_offset"][b]
+                worst["body centre"] = max(worst["body centre"], np.abs(frame["body_center"][b] - centre).max())
+                principal = mesh["body_principal_axes"][b].reshape(3, 3)
+                for k in range(3):
+                    expected = mesh["body_semi_axes"][b, k] * (R @ principal[k])
+                    worst["body axes"] = max(worst["body axes"], np.abs(frame[f"body_axis_{k + 1}"][b] - expected).max())
+        frames = len(f["frames"])
+    limits = {"joint position": 1e-300, "joint axes": 1e-12, "body rotation": 1e-300, "body centre": 1e-12, "body axes": 1e-12}
+    for what, value in worst.items():
+        if what.startswith("body") and label == "turning_arm":
+            continue  # no rigid bodies
+        check.less(f"{label}: {what}, max difference over {frames} frames", value, limits[what])
+
+
+screw = run("driven_screw", 0.3)
+with h5py.File(screw, "r") as f:
+    mesh = f["mesh"]
+    check.less("driven screw: ground markers hinge and pivot, joints (1 = not)",
+               float(strings(mesh["ground_names"]) != ["hinge", "pivot"] or strings(mesh["ground_kinds"]) != ["joint", "joint"]), 0.5)
+    check.less("driven screw: ground at A and R", np.abs(mesh["ground_position"][()] - [[1.2, -1.2, 0], [0, 0, 0]]).max(), 1e-15)
+    check.less("driven screw: ground axis a1 = z", np.abs(mesh["ground_a1"][()] - [[0, 0, 1], [0, 0, 1]]).max(), 1e-15)
+    check.less("driven screw: the body at T, 40 kg (|mass - 40|)", abs(float(mesh["body_mass"][0]) - 40.0) + float(strings(mesh["body_names"]) != ["T"]), 1e-15)
+    moments = mesh["body_principal_moments"][0]
+    check.less("driven screw: principal moments (0.225, 0.225, 0.45)", np.abs(moments - [0.225, 0.225, 0.45]).max(), 1e-14)
+    total = moments.sum()
+    semi = np.sqrt(np.maximum(0.0, 2.5 * (total - 2 * moments) / 40.0))
+    check.less("driven screw: semi-axes sqrt(5 (I_i + I_j - I_k) / (2 m))", np.abs(mesh["body_semi_axes"][0] - semi).max(), 1e-15)
+    principal = mesh["body_principal_axes"][0].reshape(3, 3)
+    check.less("driven screw: principal axes orthonormal, right-handed", np.abs(principal @ principal.T - np.eye(3)).max()
+               + abs(np.linalg.det(principal) - 1.0), 1e-14)
+    check.less("driven screw: the axis of the largest moment is x", np.abs(np.abs(principal[2]) - [1, 0, 0]).max(), 1e-14)
+check_frames("driven_screw", screw)
+check_units_and_provenance("driven_screw", screw, "driven_screw.yaml")
+
+arm = run("turning_arm_screw", 0.2)
+with h5py.File(arm, "r") as f:
+    mesh = f["mesh"]
+    check.less("turning arm: one ground marker, the clamped base (1 = not)",
+               float(strings(mesh["ground_names"]) != ["base"] or strings(mesh["ground_kinds"]) != ["support"]), 0.5)
+    check.less("turning arm: ground at the base with the global axes",
+               np.abs(mesh["ground_position"][0]).max() + sum(np.abs(mesh[f"ground_a{k + 1}"][0] - np.eye(3)[k]).max() for k in range(3)), 1e-15)
+    check.less("turning arm: no rigid bodies (1 = some)", float("body_names" in mesh), 0.5)
+check_frames("turning_arm", arm)
+check_units_and_provenance("turning_arm", arm, "turning_arm_screw.yaml")
+
+mechanism = run("joint_mechanism", 0.2, "tests/regression/inputs")
+with h5py.File(mechanism, "r") as f:
+    mesh = f["mesh"]
+    inertia = mesh["body_inertia"][0].reshape(3, 3)
+    principal, moments, semi = mesh["body_principal_axes"][0].reshape(3, 3), mesh["body_principal_moments"][0], mesh["body_semi_axes"][0]
+    check.less("joint mechanism: inertia = sum I_k v_k v_k^T over the principal axes",
+               np.abs(sum(moments[k] * np.outer(principal[k], principal[k]) for k in range(3)) - inertia).max(), 1e-14)
+    check.less("joint mechanism: the offset of the centre of mass (0.2, -0.1, 0.15)", np.abs(mesh["body_offset"][0] - [0.2, -0.1, 0.15]).max(), 1e-15)
+    # The ellipsoid: I_k = m (a_i^2 + a_j^2) / 5.
+    a2 = semi**2
+    mass = float(mesh["body_mass"][0])
+    check.less("joint mechanism: I_k = m (a_i^2 + a_j^2) / 5", np.abs([mass * (a2.sum() - a2[k]) / 5 - moments[k] for k in range(3)]).max(), 1e-14)
+check_frames("joint_mechanism", mechanism)
+check_units_and_provenance("joint_mechanism", mechanism, "joint_mechanism.yaml")
+
+modes = f"{args.work_dir}/joint_mechanism_modes.h5"
+mt.run_msflex(args, f"{args.source_dir}/tests/regression/inputs/joint_mechanism.yaml", modes, extra=["-analysis_type", "modes", "-quiet"])
+check_units_and_provenance("joint_mechanism modes", modes, "joint_mechanism.yaml")
+check.finish()
