@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <vector>
 
 namespace msflex {
@@ -12,6 +13,9 @@ PetscErrorCode SettingsFromOptions(MPI_Comm comm, Model *model, RunOptions *opti
 {
   AnalysisSettings &a               = model->analysis;
   PetscInt          easy_iterations = a.easy_iterations, easy_steps = a.easy_steps_to_grow, max_newton = a.max_newton_iterations;
+  PetscInt          static_stage_steps = a.static_stage_steps;
+  PetscBool         static_stage       = a.static_stage ? PETSC_TRUE : PETSC_FALSE;
+  char              initial_velocities[32];
   // -analysis_output_times replaces the input's list; room for as many entries as anyone types.
   std::vector<PetscReal> output_times(1024);
   PetscInt               num_output_times = (PetscInt)output_times.size();
@@ -20,6 +24,7 @@ PetscErrorCode SettingsFromOptions(MPI_Comm comm, Model *model, RunOptions *opti
   PetscFunctionBeginUser;
   PetscCall(PetscStrncpy(type, AnalysisTypeName(a.type), sizeof(type)));
   PetscCall(PetscStrncpy(integrator, TimeSchemeName(a.integrator), sizeof(integrator)));
+  PetscCall(PetscStrncpy(initial_velocities, a.project_initial_velocities ? "projected" : "given", sizeof(initial_velocities)));
   const std::string type_list = AnalysisTypeNameList(), integrator_list = IntegratorNameList();
   PetscOptionsBegin(comm, "analysis_", "Analysis settings (defaults: the input's analysis section)", "msflex");
   PetscCall(PetscOptionsString("-type", type_list.c_str(), "", type, type, sizeof(type), nullptr));
@@ -39,7 +44,16 @@ PetscErrorCode SettingsFromOptions(MPI_Comm comm, Model *model, RunOptions *opti
   PetscCall(PetscOptionsReal("-newton_atol", "Newton absolute residual tolerance", "", a.newton_atol, &a.newton_atol, nullptr));
   PetscCall(
       PetscOptionsRealArray("-output_times", "Times the steps must land on (comma separated)", "", output_times.data(), &num_output_times, &output_times_set));
+  PetscCall(PetscOptionsBool("-static_stage", "Dynamic analyses: equilibrium under the loads at t = 0 first", "", static_stage, &static_stage, nullptr));
+  PetscCall(PetscOptionsInt("-static_stage_steps", "Load steps of the static stage at first", "", static_stage_steps, &static_stage_steps, nullptr));
+  PetscCall(PetscOptionsString("-initial_velocities", "projected, given", "", initial_velocities, initial_velocities, sizeof(initial_velocities), nullptr));
   PetscOptionsEnd();
+  PetscCheck(static_stage_steps >= 1, comm, PETSC_ERR_USER_INPUT, "option -analysis_static_stage_steps must be >= 1, got %" PetscInt_FMT, static_stage_steps);
+  PetscCheck(!strcmp(initial_velocities, "projected") || !strcmp(initial_velocities, "given"), comm, PETSC_ERR_USER_INPUT,
+             "option -analysis_initial_velocities must be projected or given, got '%s'", initial_velocities);
+  a.static_stage                = static_stage == PETSC_TRUE;
+  a.static_stage_steps          = (int)static_stage_steps;
+  a.project_initial_velocities  = !strcmp(initial_velocities, "projected");
   const AnalysisType input_type = a.type;
   PetscCheck(AnalysisTypeFromName(type, &a.type), comm, PETSC_ERR_USER_INPUT, "option -analysis_type must be one of %s, got '%s'", type_list.c_str(), type);
   PetscCheck(TimeSchemeKindFromName(integrator, &a.integrator), comm, PETSC_ERR_USER_INPUT, "option -analysis_integrator must be one of %s, got '%s'",

@@ -29,6 +29,7 @@ Assembler::~Assembler()
   VecDestroy(&solution_template_);
   VecDestroy(&ghosted_increments_);
   VecDestroy(&scratch_residual_);
+  VecDestroy(&last_increments_);
   VecScatterDestroy(&to_ghosted_);
   VecDestroy(&joint_output_);
 }
@@ -83,6 +84,16 @@ PetscErrorCode Assembler::Setup(MPI_Comm comm, const Model &model, const DofMap 
   PetscCall(MatSetOption(jacobian_, MAT_NEW_NONZERO_ALLOCATION_ERR, PETSC_TRUE));
   PetscCall(MatCreateVecs(jacobian_, &solution_template_, nullptr));
   PetscCall(VecDuplicate(solution_template_, &scratch_residual_));
+  PetscCall(VecDuplicate(solution_template_, &last_increments_));
+  coordinate_residual_.assign(state->joints.size(), std::array<double, kJointMaxReleased>{});
+  reaction_slot_.assign(state->nodes.size(), -1);
+  reaction_sums_.assign(model.probes.size(), Vec6::Zero());
+  for (size_t p = 0; p < model.probes.size(); ++p)
+    if (model.probes[p].kind == Probe::Kind::Reaction && model.probes[p].node >= 0) {
+      const int l = map.node_to_local[model.probes[p].node];
+      if (l >= 0) reaction_slot_[l] = (int)p;
+    }
+  state->probe_reactions.assign(model.probes.size(), Vec6::Zero());
   PetscCall(AttachRigidBodyModes());
   PetscCall(PetscLogEventBegin(event_csr_destinations, 0, 0, 0, 0));
   PetscCall(CreateCsrDestinations());
@@ -330,6 +341,99 @@ PetscErrorCode Assembler::BeginStep(const StepEquations &equations)
   StateBeginStep(*model_, *map_, equations, state_);
   UpdateExpansions();
   for (ForceContributor *c : contributors_) c->BeginStep(*state_);
+  massless_rows_.clear();
+  if (equations.InitialAcceleration()) PetscCall(FindMasslessUnknowns());
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode Assembler::FindMasslessUnknowns()
+{
+  Vec       row_max;
+  PetscBool ok;
+  PetscReal largest;
+  PetscInt  first, count = 0;
+  PetscFunctionBeginUser;
+  // The mass matrix is the tangent of the initial-acceleration problem (the accelerations enter
+  // linearly, so it does not depend on them). A zero row is an unknown no mass reaches; the mass
+  // matrix is symmetric, so its column is zero too and the other equations do not see it.
+  PetscCall(AssembleJacobian(jacobian_, &ok));
+  PetscCall(VecDuplicate(solution_template_, &row_max));
+  PetscCall(MatGetRowMaxAbs(jacobian_, row_max, nullptr));
+  PetscCall(VecMax(row_max, nullptr, &largest));
+  PetscCall(VecGetOwnershipRange(row_max, &first, nullptr));
+  const PetscScalar *values;
+  PetscCall(VecGetArrayRead(row_max, &values));
+  for (PetscInt i = 0; i < map_->num_owned; ++i)
+    if (!(PetscAbsScalar(values[i]) > 1e-14 * largest)) massless_rows_.push_back(first + i);
+  PetscCall(VecRestoreArrayRead(row_max, &values));
+  PetscCall(VecDestroy(&row_max));
+  const PetscInt local = (PetscInt)massless_rows_.size();
+  PetscCallMPI(MPIU_Allreduce(&local, &count, 1, MPIU_INT, MPI_SUM, comm_));
+  num_massless_unknowns_ = count;
+  (void)ok;
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode Assembler::SetMasslessResidualRows(Vec residual)
+{
+  PetscScalar       *r;
+  const PetscScalar *x;
+  PetscFunctionBeginUser;
+  if (massless_rows_.empty()) PetscFunctionReturn(PETSC_SUCCESS);
+  PetscCall(VecGetArray(residual, &r));
+  PetscCall(VecGetArrayRead(last_increments_, &x));
+  for (PetscInt row : massless_rows_) r[row - map_->first_owned] = x[row - map_->first_owned];
+  PetscCall(VecRestoreArrayRead(last_increments_, &x));
+  PetscCall(VecRestoreArray(residual, &r));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+void Assembler::AddCoordinate(int joint, int coordinate, double residual, double tangent)
+{
+  const PetscInt row  = map_->joint_dofs[state_->joints[joint].joint][coordinate];
+  PetscErrorCode code = PETSC_SUCCESS;
+  if (block_residual_) {
+    coordinate_residual_[joint][coordinate] += residual;
+    if (row >= 0) {
+      local_force_squares_ += residual * residual;
+      code = VecSetValue(block_residual_, row, residual, ADD_VALUES);
+    }
+  } else if (block_jacobian_ && row >= 0) {
+    code = MatSetValue(block_jacobian_, row, row, tangent, ADD_VALUES);
+  }
+  if (code != PETSC_SUCCESS) block_trouble_ = true;
+}
+
+PetscErrorCode Assembler::StepDissipation(double *dissipation)
+{
+  double local = 0.0;
+  PetscFunctionBeginUser;
+  for (const ForceContributor *c : contributors_) c->AddStepDissipation(*state_, &local);
+  PetscCall(MPIU_Allreduce(&local, dissipation, 1, MPI_DOUBLE, MPI_SUM, comm_));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode Assembler::EvaluateSupportReactions()
+{
+  PetscBool evaluable;
+  PetscFunctionBeginUser;
+  for (Vec6 &sum : reaction_sums_) sum.setZero();
+  collect_reactions_ = true;
+  PetscCall(AssembleResidual(scratch_residual_, &evaluable));
+  collect_reactions_ = false;
+  // Every rank holding a probe's node added its share; the sums of all ranks are the residual.
+  std::vector<double> local(6 * reaction_sums_.size()), global(6 * reaction_sums_.size());
+  for (size_t p = 0; p < reaction_sums_.size(); ++p)
+    for (int i = 0; i < 6; ++i) local[6 * p + i] = reaction_sums_[p](i);
+  PetscCall(MPIU_Allreduce(local.data(), global.data(), (PetscMPIInt)local.size(), MPI_DOUBLE, MPI_SUM, comm_));
+  for (size_t p = 0; p < reaction_sums_.size(); ++p) {
+    Vec6      reaction = Vec6::Zero();
+    const int node     = model_->probes[p].node;
+    if (model_->probes[p].kind == Probe::Kind::Reaction && node >= 0)
+      for (int d = 0; d < 6; ++d)
+        if (map_->constraints[node][d].kind != Support::Kind::Free) reaction(d) = global[6 * p + d];
+    state_->probe_reactions[p] = reaction;
+  }
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
@@ -359,6 +463,7 @@ PetscErrorCode Assembler::SetIncrements(Vec increments)
 {
   const PetscScalar *values;
   PetscFunctionBeginUser;
+  if (state_->equations.InitialAcceleration() && increments != last_increments_) PetscCall(VecCopy(increments, last_increments_));
   PetscCall(VecScatterBegin(to_ghosted_, increments, ghosted_increments_, INSERT_VALUES, SCATTER_FORWARD));
   PetscCall(VecScatterEnd(to_ghosted_, increments, ghosted_increments_, INSERT_VALUES, SCATTER_FORWARD));
   PetscCall(VecGetArrayRead(ghosted_increments_, &values));
@@ -454,6 +559,7 @@ PetscErrorCode Assembler::AssembleResidual(Vec residual, PetscBool *geometry_ok)
   // work over the increments counts as external work.
   prescribed_work_ = 0.0;
   for (Vec6 &g : slave_residual_) g.setZero();
+  for (auto &row : coordinate_residual_) row.fill(0.0);
   for (size_t k = 0; k < map.local_elements.size(); ++k) {
     const BeamElement &element_nodes = model_->elements[map.local_elements[k]];
     double            *f             = &element_force_scratch_[kBeamMaxDofs * k];
@@ -474,6 +580,7 @@ PetscErrorCode Assembler::AssembleResidual(Vec residual, PetscBool *geometry_ok)
   PetscCheck(!block_trouble_, PETSC_COMM_SELF, PETSC_ERR_PLIB, "a contributor's block could not be added to the residual");
   PetscCall(VecAssemblyBegin(residual));
   PetscCall(VecAssemblyEnd(residual));
+  if (state_->equations.InitialAcceleration()) PetscCall(SetMasslessResidualRows(residual));
   PetscCall(PetscLogEventEnd(event_residual, 0, 0, 0, 0));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
@@ -533,6 +640,11 @@ PetscErrorCode Assembler::AssembleJacobian(Mat jacobian, PetscBool *geometry_ok)
   if (!state_->equations.InitialAcceleration()) PetscCall(AddJointGeometricStiffness(jacobian));
   PetscCall(MatAssemblyBegin(jacobian, MAT_FINAL_ASSEMBLY));
   PetscCall(MatAssemblyEnd(jacobian, MAT_FINAL_ASSEMBLY));
+  if (state_->equations.InitialAcceleration()) {
+    // Massless unknowns: acceleration = 0 (the pattern is kept for the direct CSR assembly).
+    PetscCall(MatSetOption(jacobian, MAT_KEEP_NONZERO_PATTERN, PETSC_TRUE));
+    PetscCall(MatZeroRows(jacobian, (PetscInt)massless_rows_.size(), massless_rows_.data(), 1.0, nullptr, nullptr));
+  }
   PetscCall(PetscLogEventEnd(event_jacobian, 0, 0, 0, 0));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
@@ -565,9 +677,10 @@ PetscErrorCode Assembler::StepExternalWork(double *work)
   local += prescribed_work_;
   // Drives: the generalised reaction on a driven coordinate times its test increment.
   PropagateSlaveResiduals();
-  for (const JointState &J : state_->joints) {
-    const int c = model_->joints[J.joint].driven_coordinate;
-    if (c >= 0) local += J.rows_map.col(6 + c).dot(slave_residual_[J.local_slave]) * J.released_test[c];
+  for (size_t j = 0; j < state_->joints.size(); ++j) {
+    const JointState &J = state_->joints[j];
+    const int         c = model_->joints[J.joint].driven_coordinate;
+    if (c >= 0) local += (J.rows_map.col(6 + c).dot(slave_residual_[J.local_slave]) + coordinate_residual_[j][c]) * J.released_test[c];
   }
   PetscCall(MPIU_Allreduce(&local, work, 1, MPI_DOUBLE, MPI_SUM, comm_));
   PetscFunctionReturn(PETSC_SUCCESS);

@@ -100,6 +100,20 @@ public:
 
   // BlockSink: a free block of a contributor (rigid bodies, force elements).
   void Add(const NodeBlock &block, const double *residual, const double *tangent) override;
+  // BlockSink: a generalised force on a joint's released coordinate (force elements).
+  void AddCoordinate(int joint, int coordinate, double residual, double tangent) override;
+
+  // Energy dissipated by the dampers over the current increments (collective).
+  PetscErrorCode StepDissipation(double *dissipation);
+  // Called at the converged increments: the reaction of the supports at each node of a reaction
+  // probe (the node's residual on its fixed and prescribed DOFs, zero on its free ones; global
+  // axes), per model probe (zero for the other probes), into State::probe_reactions. Collective.
+  PetscErrorCode EvaluateSupportReactions();
+  // The unknowns of the initial-acceleration problem that no mass reaches (a zero row of the mass
+  // matrix: a massless rotation of a joint's node, a released coordinate that moves nothing with
+  // mass, a point mass's node without rotary inertia): their equation becomes acceleration = 0.
+  // Found when the initial-acceleration problem begins; the number found in the whole model.
+  PetscInt NumMasslessUnknowns() const { return num_massless_unknowns_; }
 
 private:
   // The element loop's evaluation of local element k by every element contributor.
@@ -132,6 +146,10 @@ private:
   // Slave residuals with what each slave passes on to its master along the chains (deepest first).
   void           PropagateSlaveResiduals();
   PetscErrorCode CreateCsrDestinations();
+  // The zero rows of the initial-acceleration problem's mass matrix (NumMasslessUnknowns).
+  PetscErrorCode FindMasslessUnknowns();
+  // Replaces the massless rows of the initial-acceleration problem by acceleration = 0.
+  PetscErrorCode SetMasslessResidualRows(Vec residual);
   // The six rigid-body modes in the unknowns (u = t + w x (X - centroid), omega = w at every
   // independent node, zero on joint coordinates), orthonormalised: the near-null space that
   // algebraic multigrid (-pc_type gamg) needs for beams.
@@ -163,6 +181,18 @@ private:
   Vec  block_residual_ = nullptr;
   Mat  block_jacobian_ = nullptr;
   bool block_trouble_  = false;
+
+  // Force elements on released coordinates: per local joint, what they added to each coordinate's
+  // row in the last residual (a driven coordinate's goes into the drive's work).
+  std::vector<std::array<double, kJointMaxReleased>> coordinate_residual_;
+  // Initial-acceleration problem: the owned rows without mass, and the unknowns of the last SetIncrements.
+  std::vector<PetscInt> massless_rows_;
+  PetscInt              num_massless_unknowns_ = 0;
+  Vec                   last_increments_       = nullptr;
+  // Reaction probes: per local node, its probe's slot (-1: none), and the sums being collected.
+  std::vector<int>  reaction_slot_;
+  std::vector<Vec6> reaction_sums_;
+  bool              collect_reactions_ = false;
 
   double roundoff_force_level_ = 0.0;
   double local_force_squares_  = 0.0; // sum of squares of every node vector added in the last residual

@@ -26,6 +26,28 @@ PetscErrorCode Integrator::Setup(MPI_Comm comm, const Model &model, const DofMap
   newton_context_.assembly_stage = assembly_stage;
   PetscCall(NewtonSolverCreate(comm, model.analysis, dynamic_ && IsMidpointScheme(model.analysis.integrator), &newton_context_, &snes_));
   PetscCall(VecDuplicate(system_.GetAssembler().SolutionTemplate(), &increments_));
+  for (const Probe &probe : model.probes) reaction_probes_ = reaction_probes_ || probe.kind == Probe::Kind::Reaction;
+  int local = reaction_probes_ ? 1 : 0, any; // every rank takes part in the reactions' reduction
+  PetscCallMPI(MPI_Allreduce(&local, &any, 1, MPI_INT, MPI_MAX, comm));
+  reaction_probes_ = any != 0;
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode Integrator::InitialiseConfiguration()
+{
+  PetscFunctionBeginUser;
+  StateSetInitialConfiguration(*model_, *map_, &system_.GetState());
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode Integrator::InitialiseStatics()
+{
+  PetscFunctionBeginUser;
+  system_.StartMotion();
+  if (reaction_probes_) {
+    PetscCall(system_.GetAssembler().BeginStep(StaticStep(0.0, 0.0)));
+    PetscCall(system_.GetAssembler().EvaluateSupportReactions());
+  }
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
@@ -34,7 +56,15 @@ PetscErrorCode Integrator::InitialiseMotion(double t)
   PetscFunctionBeginUser;
   Assembler &assembler = system_.GetAssembler();
   StateSetInitialVelocities(*model_, *map_, t, &system_.GetState());
-  if (IsMidpointScheme(model_->analysis.integrator)) PetscFunctionReturn(PETSC_SUCCESS);
+  StateSetCoordinateRates(*model_, t, &system_.GetState());
+  system_.StartMotion();
+  if (IsMidpointScheme(model_->analysis.integrator)) {
+    if (reaction_probes_) {
+      PetscCall(assembler.BeginStep(InitialAccelerationProblem(t)));
+      PetscCall(assembler.EvaluateSupportReactions());
+    }
+    PetscFunctionReturn(PETSC_SUCCESS);
+  }
   SNESConvergedReason reason;
   PetscCall(assembler.BeginStep(InitialAccelerationProblem(t)));
   PetscCall(VecZeroEntries(increments_));
@@ -43,11 +73,32 @@ PetscErrorCode Integrator::InitialiseMotion(double t)
   PetscCheck(reason > 0, comm_, PETSC_ERR_NOT_CONVERGED,
              "the initial accelerations could not be computed (%s): is every node with a DOF free given mass or stiffness?", SNESConvergedReasons[reason]);
   PetscCall(assembler.SetIncrements(increments_));
+  if (reaction_probes_) PetscCall(assembler.EvaluateSupportReactions());
+  if (assembler.NumMasslessUnknowns() > 0 && !quiet_)
+    PetscCall(PetscPrintf(comm_, "msflex: initial accelerations: %" PetscInt_FMT " unknown(s) without mass start with zero acceleration\n",
+                          assembler.NumMasslessUnknowns()));
   StateCommitInitialAcceleration(&system_.GetState());
+  system_.StartMotion();
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
 PetscErrorCode Integrator::TryStep(double t, double dt, StepOutcome *outcome)
+{
+  const AnalysisSettings &analysis = model_->analysis;
+  PetscFunctionBeginUser;
+  const StepEquations equations = dynamic_ ? DynamicStep(MakeTimeScheme(analysis.integrator, analysis.spectral_radius, dt), t) : StaticStep(t, t + dt);
+  PetscCall(TryEquations(equations, dt, outcome));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode Integrator::TryStaticStageStep(double t, double load_factor, double step, StepOutcome *outcome)
+{
+  PetscFunctionBeginUser;
+  PetscCall(TryEquations(StaticStageStep(t, load_factor + step), step, outcome));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode Integrator::TryEquations(const StepEquations &equations, double dt, StepOutcome *outcome)
 {
   const AnalysisSettings &analysis = model_->analysis;
   SNESConvergedReason     reason;
@@ -58,7 +109,6 @@ PetscErrorCode Integrator::TryStep(double t, double dt, StepOutcome *outcome)
   PetscFunctionBeginUser;
   *outcome = StepOutcome{};
   PetscCall(PetscLogStagePush(solve_stage_));
-  const StepEquations equations = dynamic_ ? DynamicStep(MakeTimeScheme(analysis.integrator, analysis.spectral_radius, dt), t) : StaticStep(t, t + dt);
   PetscCall(assembler.BeginStep(equations));
   PetscCall(assembler.PredictIncrements(increments_));
   PetscCall(SNESSolve(snes_, nullptr, increments_));
@@ -72,12 +122,16 @@ PetscErrorCode Integrator::TryStep(double t, double dt, StepOutcome *outcome)
   if (reason > 0) PetscCall(assembler.MaxRotationIncrement(&max_rotation));
   const bool rotation_too_large = max_rotation > analysis.max_rotation_increment;
   if (reason > 0 && !rotation_too_large) {
-    if (dynamic_) {
-      double work;
+    if (equations.Dynamic()) {
+      double work, dissipation;
       PetscCall(assembler.StepExternalWork(&work));
       external_work_ += work;
+      PetscCall(assembler.StepDissipation(&dissipation));
+      dissipated_energy_ += dissipation;
     }
     if (map_->global_count.joints > 0) PetscCall(assembler.EvaluateJointReactions(dt));
+    if (reaction_probes_) PetscCall(assembler.EvaluateSupportReactions());
+    system_.CommitStep();
     StateCommitStep(*model_, &system_.GetState());
     outcome->converged = true;
     PetscFunctionReturn(PETSC_SUCCESS);
