@@ -68,6 +68,7 @@ void StateCreate(const Model &model, const DofMap &map, State *state)
     local.offset       = body.offset;
     state->bodies.push_back(local);
   }
+  StateUpdateSlaves(model, state); // the joints' maps at the reference configuration
 }
 
 void StateUpdateNode(const StepEquations &equations, NodeState *s)
