@@ -31,6 +31,16 @@ namespace msflex {
 class BeamContributor;
 class InertiaContributor;
 
+// What the projection of the initial velocities did (Assembler::ProjectInitialVelocities).
+struct InitialVelocityReport {
+  PetscInt held   = 0;   // unknowns held at their given velocities (nodes' initial conditions, coordinates' rates)
+  PetscInt chosen = 0;   // unknowns chosen for the least strain rate
+  PetscInt at_rest = 0;  // unknowns that nothing determines, left at rest
+  double   strain_rate_before = 0.0, strain_rate_after = 0.0; // V^T K V of the beams, before and after (W)
+  double   slave_change = 0.0; // largest change of a slave's given velocity (m/s or rad/s)
+  PetscInt iterations   = 0;   // of the conjugate gradients
+};
+
 // The exact nonzero pattern of the owned rows (DofMapPreallocation), computed on the whole model
 // before it is restricted to the rank's part.
 struct MatrixPattern {
@@ -102,6 +112,18 @@ public:
   void Add(const NodeBlock &block, const double *residual, const double *tangent) override;
   // BlockSink: a generalised force on a joint's released coordinate (force elements).
   void AddCoordinate(int joint, int coordinate, double residual, double tangent) override;
+
+  // The initial velocities of a dynamic analysis at time t (docs/input.md, "initial_conditions"),
+  // into the State's motion: every node with an initial condition keeps it (a slave as closely as
+  // its joint allows, in the least-squares sense), drives and prescribed supports impose their
+  // rates, joint coordinates with an initial rate keep it, and every other velocity is chosen so
+  // that the beams start with the least strain rate, min V^T K V with K = sum B^T C B (the
+  // sections' material stiffness): what a beam attached to a driven joint does is then a rigid
+  // motion with it, and a closed loop's coordinates move consistently. Motions that nothing
+  // determines (no strain resists them, nothing given moves them) stay at rest: the minimum-norm
+  // correction of the given velocities, by conjugate gradients preconditioned with the LU of
+  // K + 1e-8 max(diag K) I (options prefix -velocity_projection_). Collective.
+  PetscErrorCode ProjectInitialVelocities(double t, InitialVelocityReport *report);
 
   // Energy dissipated by the dampers over the current increments (collective).
   PetscErrorCode StepDissipation(double *dissipation);

@@ -56,7 +56,18 @@ PetscErrorCode Integrator::InitialiseMotion(double t)
   PetscFunctionBeginUser;
   Assembler &assembler = system_.GetAssembler();
   StateSetInitialVelocities(*model_, *map_, t, &system_.GetState());
-  StateSetCoordinateRates(*model_, t, &system_.GetState());
+  if (model_->analysis.project_initial_velocities) {
+    InitialVelocityReport report;
+    PetscCall(assembler.ProjectInitialVelocities(t, &report));
+    if (!quiet_)
+      PetscCall(PetscPrintf(comm_,
+                            "msflex: initial velocities: %" PetscInt_FMT " unknown(s) held at given velocities, %" PetscInt_FMT
+                            " chosen for the least strain rate (V^T K V %.3e -> %.3e), %" PetscInt_FMT
+                            " at rest; largest change of a given velocity %.3g (slaves: the nearest their joints allow)\n",
+                            report.held, report.chosen, report.strain_rate_before, report.strain_rate_after, report.at_rest, report.slave_change));
+  } else {
+    StateSetCoordinateRates(*model_, t, &system_.GetState());
+  }
   system_.StartMotion();
   if (IsMidpointScheme(model_->analysis.integrator)) {
     if (reaction_probes_) {

@@ -7,13 +7,15 @@
 //   initial acceleration  the equations of motion at t with the configuration and velocities of
 //                         the start state; unknowns: the accelerations (xddot, wdot spatial),
 //                         stored where the increments are stored otherwise (state/state.hpp)
+//   initial velocity      the projection of the initial velocities (assembly/velocity_projection.cpp);
+//                         unknowns: the velocities (xdot, w spatial), stored like the accelerations
 #pragma once
 
 #include "schemes/time_scheme.hpp"
 
 namespace msflex {
 
-enum class StepProblem { Statics, Dynamics, InitialAcceleration };
+enum class StepProblem { Statics, Dynamics, InitialAcceleration, InitialVelocity };
 
 struct StepEquations {
   StepProblem problem = StepProblem::Statics;
@@ -25,9 +27,11 @@ struct StepEquations {
 
   bool Dynamic() const { return problem == StepProblem::Dynamics; }
   bool InitialAcceleration() const { return problem == StepProblem::InitialAcceleration; }
+  // The unknowns are rates (accelerations or velocities) at the start state, not increments.
+  bool RateUnknowns() const { return problem == StepProblem::InitialAcceleration || problem == StepProblem::InitialVelocity; }
   // The mid-point family: forces at the mid-point, loads averaged over the step.
   bool Midpoint() const { return Dynamic() && scheme.Midpoint(); }
-  bool Inertial() const { return problem != StepProblem::Statics; }
+  bool Inertial() const { return problem == StepProblem::Dynamics || problem == StepProblem::InitialAcceleration; }
   // Weights of a load's values at the start and at the end of the step: (1/2, 1/2) for the
   // mid-point family, (0, 1) otherwise (statics and the Newmark family hold at t_{n+1}; the
   // initial-acceleration problem at t, where both ends coincide).
@@ -41,6 +45,7 @@ struct StepEquations {
 inline StepEquations StaticStep(double t_start, double t_end) { return {StepProblem::Statics, TimeScheme{}, t_start, t_end}; }
 inline StepEquations DynamicStep(const TimeScheme &scheme, double t_start) { return {StepProblem::Dynamics, scheme, t_start, t_start + scheme.dt}; }
 inline StepEquations InitialAccelerationProblem(double t) { return {StepProblem::InitialAcceleration, TimeScheme{}, t, t}; }
+inline StepEquations InitialVelocityProblem(double t) { return {StepProblem::InitialVelocity, TimeScheme{}, t, t}; }
 // A step of the static stage: equilibrium at t with the loads scaled by `load_factor`.
 inline StepEquations StaticStageStep(double t, double load_factor) { return {StepProblem::Statics, TimeScheme{}, t, t, load_factor}; }
 

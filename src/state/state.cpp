@@ -73,7 +73,7 @@ void StateCreate(const Model &model, const DofMap &map, State *state)
 
 void StateUpdateNode(const StepEquations &equations, NodeState *s)
 {
-  if (equations.InitialAcceleration()) return;
+  if (equations.RateUnknowns()) return;
   NodeUpdateConfiguration(s);
   if (!equations.Dynamic()) return;
   s->translation_update = AdvanceMotion(equations.scheme, s->translation_motion, s->displacement_increment);
@@ -88,7 +88,7 @@ void StateBeginStep(const Model &model, const DofMap &map, const StepEquations &
 {
   state->equations     = equations;
   const double t_start = equations.t_start, t_end = equations.t_end;
-  const bool   accelerations = equations.InitialAcceleration();
+  const bool   accelerations = equations.InitialAcceleration(), velocities = equations.problem == StepProblem::InitialVelocity;
   for (size_t l = 0; l < state->nodes.size(); ++l) {
     const int  node = map.local_nodes[l];
     NodeState &s    = state->nodes[l];
@@ -97,7 +97,7 @@ void StateBeginStep(const Model &model, const DofMap &map, const StepEquations &
       if (c.kind == Support::Kind::Free) continue;
       double value = 0.0;
       if (c.kind == Support::Kind::Prescribed) {
-        if (accelerations) value = c.value * FunctionDerivative(model, c.function, t_end, 2);
+        if (accelerations || velocities) value = c.value * FunctionDerivative(model, c.function, t_end, accelerations ? 2 : 1);
         else if (d < 3) value = model.nodes[node].position(d) + c.value * FunctionValue(model, c.function, t_end) - s.position_start(d);
         else value = c.value * (FunctionValue(model, c.function, t_end) - FunctionValue(model, c.function, t_start));
       }
@@ -111,8 +111,8 @@ void StateBeginStep(const Model &model, const DofMap &map, const StepEquations &
     for (int c = 0; c < kJointMaxReleased; ++c) J.increment[c] = 0.0;
     if (joint.driven_coordinate < 0) continue;
     const int c    = joint.driven_coordinate;
-    J.increment[c] = accelerations ? joint.drive_value * FunctionDerivative(model, joint.drive_function, t_end, 2)
-                                   : joint.drive_value * FunctionValue(model, joint.drive_function, t_end) - J.start.q[c];
+    J.increment[c] = accelerations || velocities ? joint.drive_value * FunctionDerivative(model, joint.drive_function, t_end, accelerations ? 2 : 1)
+                                                 : joint.drive_value * FunctionValue(model, joint.drive_function, t_end) - J.start.q[c];
   }
   StateUpdateSlaves(model, state);
 }
@@ -120,7 +120,7 @@ void StateBeginStep(const Model &model, const DofMap &map, const StepEquations &
 void StateUpdateSlaves(const Model &model, State *state)
 {
   const StepEquations &equations     = state->equations;
-  const bool           accelerations = equations.InitialAcceleration();
+  const bool           accelerations = equations.RateUnknowns(); // accelerations or velocities: linear in N
   for (JointState &J : state->joints) {
     const Joint &joint = model.joints[J.joint];
     NodeState   &slave = state->nodes[J.local_slave];
