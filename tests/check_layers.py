@@ -27,6 +27,7 @@ ALLOWED = {
     "integrators": {"integrators", "assembly", "contributors", "state", "elements", "dofs", "parallel", "model", "joints", "schemes", "math",
                     "core"},
     "output": {"output", "contributors", "state", "elements", "dofs", "parallel", "model", "joints", "schemes", "math", "core"},
+    "eigen": {"eigen", "core"},
     "app": set(),  # the top: anything
 }
 KERNEL_LAYERS = {"math", "schemes", "elements", "joints", "model"}

@@ -40,6 +40,9 @@ static std::string HelpText()
   text += "\nAnalysis types (analysis.type, -analysis_type):\n";
   for (const AnalysisTypeInfo *info = AnalysisTypes(&count), *end = info + count; info != end; ++info)
     text += "  " + std::string(info->name) + std::string(12 - std::min<size_t>(11, std::string(info->name).size()), ' ') + info->description + "\n";
+  text += "Path controls of static analyses (analysis.control, -analysis_control):\n";
+  for (const PathControlInfo *info = PathControls(&count), *end = info + count; info != end; ++info)
+    text += "  " + std::string(info->name) + std::string(14 - std::min<size_t>(13, std::string(info->name).size()), ' ') + info->description + "\n";
   text += "Integrators (analysis.integrator, -analysis_integrator):\n";
   for (const IntegratorInfo *info = Integrators(&count), *end = info + count; info != end; ++info)
     text += "  " + std::string(info->name) + std::string(12 - std::min<size_t>(11, std::string(info->name).size()), ' ') + info->description + "\n";

@@ -1,8 +1,10 @@
 #include "app/run_analysis.hpp"
 
+#include "app/run_eigen.hpp"
 #include "core/errors.hpp"
 #include "core/format.hpp"
 #include "integrators/integrator.hpp"
+#include "integrators/path_following.hpp"
 #include "integrators/step_controller.hpp"
 #include "output/results.hpp"
 #include "parallel/partition.hpp"
@@ -73,6 +75,7 @@ struct Analysis {
   Model                model; // this rank's part of the model (the distributed model)
   DofMap               map;
   Integrator           integrator;
+  PathFollower         path; // statics: the control of the steps and the stability of the path
   OutputFile           output;
   JointHistoryNames    joint_history_names;
   HistoryGather        force_element_history;
@@ -82,11 +85,15 @@ struct Analysis {
   // Wall clock (rank 0's, broadcast) and simulated time when this process started stepping, and
   // of the last checkpoint.
   double wall_start = 0.0, time_start = 0.0, last_checkpoint_wall = 0.0;
+  double initial_energy = 0.0; // total energy of the first row (dynamics)
   // -log_view stages: Setup, Partition, Output (the integrator adds LinearSolve and Assembly).
   PetscLogStage stage_setup, stage_partition, stage_output, stage_assembly;
 
   Analysis(MPI_Comm c, const RunOptions &o, const CheckpointRun *r) : comm(c), options(o), restart(r) {}
   bool Dynamic() const { return model.analysis.type == AnalysisType::Dynamic; }
+  bool Static() const { return model.analysis.type == AnalysisType::Static; }
+  // Whether the steps have reached the end at (pseudo-)time t (arc length: the load factor).
+  bool Finished(double t) const { return Static() ? path.ReachedEnd(t) : t >= model.analysis.end_time * (1.0 - 1e-14); }
 };
 
 struct StepRecord {
@@ -167,6 +174,7 @@ PetscErrorCode Setup(Analysis &a, Model whole)
   PetscCall(PetscLogEventEnd(event_restrict, 0, 0, 0, 0));
   PetscCall(PetscLogEventBegin(event_integrator_setup, 0, 0, 0, 0));
   PetscCall(a.integrator.Setup(a.comm, a.model, a.map, std::move(pattern), std::move(nodal_mass), a.stage_assembly));
+  if (a.Static()) PetscCall(a.path.Setup(a.comm, &a.integrator));
   PetscCall(PetscLogEventEnd(event_integrator_setup, 0, 0, 0, 0));
   if (a.restart) {
     const DofMap::GlobalCount &count = a.map.global_count;
@@ -177,6 +185,7 @@ PetscErrorCode Setup(Analysis &a, Model whole)
     PetscCall(CheckpointReadState(a.comm, a.options.restart_file, a.model, a.map, a.integrator.MutableState()));
     a.integrator.SetExternalWork(a.restart->external_work);
     a.integrator.SetDissipatedEnergy(a.restart->dissipated_energy);
+    a.initial_energy = a.restart->initial_energy;
   }
   PetscCall(PetscLogStagePop());
   PetscFunctionReturn(PETSC_SUCCESS);
@@ -202,16 +211,23 @@ PetscErrorCode WriteHistory(Analysis &a, const StepRecord &record, double strain
     values.push_back(spring_energy);
   }
   *total_energy = strain_energy + spring_energy;
+  if (a.Static()) a.path.HistoryColumns(&names, &values);
   if (a.Dynamic()) {
     Momenta d;
     PetscCall(a.integrator.MomentaOfState(&d));
     *kinetic_energy    = d.kinetic_energy;
     *total_energy      = d.kinetic_energy + strain_energy + spring_energy;
     const double total = *total_energy, work = a.integrator.ExternalWork(), dissipated = a.integrator.DissipatedEnergy();
-    names.insert(names.end(), {"kinetic_energy", "total_energy", "external_work", "energy_balance", "linear_momentum_x", "linear_momentum_y",
-                               "linear_momentum_z", "angular_momentum_x", "angular_momentum_y", "angular_momentum_z", "energy_correction"});
+    if (record.step == 0 && !a.restart) a.initial_energy = total;
+    // What the scheme itself dissipates (or creates): the external work less the change of energy
+    // and the energy the dampers dissipated, with the work taken by the scheme's own quadrature
+    // (Assembler::StepExternalWork) and the dampers' dissipation by their own (StepDissipation).
+    const double dissipation = work - dissipated - (total - a.initial_energy);
+    names.insert(names.end(),
+                 {"kinetic_energy", "total_energy", "external_work", "energy_balance", "algorithmic_dissipation", "linear_momentum_x", "linear_momentum_y",
+                  "linear_momentum_z", "angular_momentum_x", "angular_momentum_y", "angular_momentum_z", "energy_correction"});
     values.insert(values.end(),
-                  {d.kinetic_energy, total, work, total - work + dissipated, d.linear_momentum(0), d.linear_momentum(1), d.linear_momentum(2),
+                  {d.kinetic_energy, total, work, total - work + dissipated, dissipation, d.linear_momentum(0), d.linear_momentum(1), d.linear_momentum(2),
                    d.angular_momentum(0), d.angular_momentum(1), d.angular_momentum(2), record.step == 0 ? 0.0 : a.integrator.EnergyCorrectionFactor()});
     if (force_elements) {
       names.push_back("dissipated_energy");
@@ -272,7 +288,7 @@ PetscErrorCode RecordStep(Analysis &a, const StepRecord &record, bool write_fram
   if (write_frame) PetscCall(WriteFrame(a, record.step, record.time, &strain_energy, &results));
   PetscCall(WriteHistory(a, record, strain_energy, results, &kinetic_energy, &total_energy));
   PetscCall(PetscLogStagePop());
-  const bool last = record.time >= a.model.analysis.end_time * (1.0 - 1e-14);
+  const bool last = a.Finished(record.time);
   if (!a.options.quiet && record.step > 0 && (record.step % a.options.progress_every == 0 || last)) {
     // Wall time of this process so far and the time left at the average rate since it started.
     const double      elapsed = MPI_Wtime() - a.wall_start;
@@ -282,8 +298,8 @@ PetscErrorCode RecordStep(Analysis &a, const StepRecord &record, bool write_fram
       PetscCall(PetscPrintf(a.comm, "step %6d  t = %-11.6g dt = %-10.4g newton %2d  |R| = %.3e  energy = %.10e  %s\n", record.step, record.time,
                             record.step_size, record.newton_iterations, record.residual_norm, total_energy, timing.c_str()));
     } else {
-      PetscCall(PetscPrintf(a.comm, "step %5d  t = %-12.6g dt = %-10.4g newton %2d  |R| = %.3e  strain energy = %.6e  %s\n", record.step, record.time,
-                            record.step_size, record.newton_iterations, record.residual_norm, strain_energy, timing.c_str()));
+      PetscCall(PetscPrintf(a.comm, "step %5d  t = %-12.6g dt = %-10.4g newton %2d  |R| = %.3e  strain energy = %.6e%s  %s\n", record.step, record.time,
+                            record.step_size, record.newton_iterations, record.residual_norm, strain_energy, a.path.ProgressNote().c_str(), timing.c_str()));
     }
   }
   PetscFunctionReturn(PETSC_SUCCESS);
@@ -305,6 +321,7 @@ PetscErrorCode WriteCheckpoint(Analysis &a, int step, double t, int last_written
   run.time                = t;
   run.external_work       = a.integrator.ExternalWork();
   run.dissipated_energy   = a.integrator.DissipatedEnergy();
+  run.initial_energy      = a.initial_energy;
   run.last_written        = last_written;
   run.history_rows        = a.history_rows;
   run.controller_step     = controller.CurrentStep();
@@ -412,6 +429,13 @@ PetscErrorCode RunAnalysis(MPI_Comm comm, Model model, const RunOptions &options
                           a.input_file.c_str(), a.map.global_count.nodes, a.map.global_count.elements, a.map.global_count.rigid_bodies,
                           a.map.global_count.joints, a.map.num_global, options.output_file.c_str()));
   a.integrator.SetQuiet(options.quiet);
+  if (IsEigenAnalysis(analysis.type)) {
+    PetscCall(RunEigenAnalysis(comm, a.model, a.map, a.integrator, a.output, options.quiet));
+    PetscCall(a.output.Close());
+    if (!options.quiet) PetscCall(PetscPrintf(comm, "msflex: results in %s\n", options.output_file.c_str()));
+    PetscFunctionReturn(PETSC_SUCCESS);
+  }
+  if (a.Static()) PetscCall(a.path.Start(restart ? restart->time : 0.0, restart != nullptr));
   if (!restart) {
     PetscCall(a.integrator.InitialiseConfiguration());
     if (a.Dynamic() && analysis.static_stage) PetscCall(RunStaticStage(a));
@@ -427,6 +451,8 @@ PetscErrorCode RunAnalysis(MPI_Comm comm, Model model, const RunOptions &options
   controller_settings.growth_factor      = analysis.growth_factor;
   controller_settings.easy_iterations    = analysis.easy_iterations;
   controller_settings.easy_steps_to_grow = analysis.easy_steps_to_grow;
+  const bool arc_length                  = a.Static() && analysis.control == PathControl::ArcLength;
+  if (arc_length) controller_settings.desired_iterations = analysis.desired_iterations;
   StepController controller(controller_settings);
 
   double t    = 0.0;
@@ -440,17 +466,19 @@ PetscErrorCode RunAnalysis(MPI_Comm comm, Model model, const RunOptions &options
   }
   a.wall_start = a.last_checkpoint_wall = WallClock(comm);
   a.time_start                          = t;
-  while (t < analysis.end_time * (1.0 - 1e-14)) {
-    const double target = NextTarget(analysis, t);
+  while (!a.Finished(t)) {
+    // Arc length has no target in t: it ends on the load factor.
+    const double target = arc_length ? INFINITY : NextTarget(analysis, t);
     double       dt     = controller.Propose(t, target);
     for (;;) {
       StepOutcome outcome;
-      PetscCall(a.integrator.TryStep(t, dt, &outcome));
+      if (a.Static()) PetscCall(a.path.TryStep(t, dt, &outcome));
+      else PetscCall(a.integrator.TryStep(t, dt, &outcome));
       if (outcome.converged) {
         t = (t + dt >= target * (1.0 - 1e-14)) ? target : t + dt;
         ++step;
         controller.Accept(dt, outcome.newton_iterations);
-        const bool write_frame = (step % options.output_every == 0) || t >= analysis.end_time * (1.0 - 1e-14) ||
+        const bool write_frame = (step % options.output_every == 0) || a.Finished(t) ||
                                  std::find(analysis.output_times.begin(), analysis.output_times.end(), t) != analysis.output_times.end();
         if (write_frame) last_written = step;
         PetscCall(RecordStep(a, {step, t, dt, outcome.newton_iterations, outcome.residual_norm}, write_frame));
@@ -476,15 +504,20 @@ PetscErrorCode RunAnalysis(MPI_Comm comm, Model model, const RunOptions &options
         }
         PetscCall(WriteCheckpoint(a, step, t, last_written, controller));
         PetscCall(a.output.Close());
+        const std::string advice = a.Static() ? a.path.StopAdvice() : std::string();
         SETERRQ(comm, PETSC_ERR_NOT_CONVERGED,
-                "%s analysis stopped at t = %g after step %d: the step to t = %g failed (%s) and halving it would go below min_step = %g; the "
+                "%s analysis stopped at t = %g after step %d: the step to t = %g failed (%s) and halving it would go below min_step = %g%s; the "
                 "results up to t = %g are in %s, a checkpoint of that state in %s",
-                AnalysisTypeName(analysis.type), t, step, t + dt, why, analysis.min_step, t, options.output_file.c_str(), options.checkpoint_file.c_str());
+                AnalysisTypeName(analysis.type), t, step, t + dt, why, analysis.min_step, advice.c_str(), t, options.output_file.c_str(),
+                options.checkpoint_file.c_str());
       }
       dt = controller.Propose(t, target);
     }
   }
   PetscCall(a.output.Close());
+  if (!options.quiet && arc_length && a.path.StoppedByMaxSteps())
+    PetscCall(PetscPrintf(comm, "msflex: stopped after max_steps = %d steps at load factor %g without reaching end_time = %g\n", analysis.max_steps,
+                          a.path.LoadFactor(), analysis.end_time));
   if (!options.quiet) PetscCall(PetscPrintf(comm, "msflex: completed %d steps to t = %g; results in %s\n", step, t, options.output_file.c_str()));
   PetscFunctionReturn(PETSC_SUCCESS);
 }

@@ -20,16 +20,25 @@ PetscErrorCode SettingsFromOptions(MPI_Comm comm, Model *model, RunOptions *opti
   std::vector<PetscReal> output_times(1024);
   PetscInt               num_output_times = (PetscInt)output_times.size();
   PetscBool              output_times_set = PETSC_FALSE;
-  char                   type[32], integrator[32];
+  char                   type[32], integrator[32], em_correction[32], control[32], control_node[256], control_joint[256], control_dof[8] = "";
+  PetscInt               desired_iterations = a.desired_iterations, max_steps = a.max_steps, eigenvalues = a.eigenvalues;
+  PetscBool              stability = a.stability ? PETSC_TRUE : PETSC_FALSE, preload = a.preload ? PETSC_TRUE : PETSC_FALSE, shift_set = PETSC_FALSE;
+  PetscReal              shift = a.shift;
   PetscFunctionBeginUser;
+  PetscCall(PetscStrncpy(control, PathControlName(a.control), sizeof(control)));
+  PetscCall(PetscStrncpy(control_node, a.control_node.c_str(), sizeof(control_node)));
+  PetscCall(PetscStrncpy(control_joint, a.control_joint.c_str(), sizeof(control_joint)));
   PetscCall(PetscStrncpy(type, AnalysisTypeName(a.type), sizeof(type)));
   PetscCall(PetscStrncpy(integrator, TimeSchemeName(a.integrator), sizeof(integrator)));
   PetscCall(PetscStrncpy(initial_velocities, a.project_initial_velocities ? "projected" : "given", sizeof(initial_velocities)));
-  const std::string type_list = AnalysisTypeNameList(), integrator_list = IntegratorNameList();
+  PetscCall(PetscStrncpy(em_correction, EnergyCorrectionName(a.em_correction), sizeof(em_correction))); // default: the input's
+  const std::string type_list = AnalysisTypeNameList(), integrator_list = IntegratorNameList(), control_list = PathControlNameList();
   PetscOptionsBegin(comm, "analysis_", "Analysis settings (defaults: the input's analysis section)", "msflex");
   PetscCall(PetscOptionsString("-type", type_list.c_str(), "", type, type, sizeof(type), nullptr));
   PetscCall(PetscOptionsString("-integrator", integrator_list.c_str(), "", integrator, integrator, sizeof(integrator), nullptr));
   PetscCall(PetscOptionsReal("-spectral_radius", "rho_infinity of genalpha", "", a.spectral_radius, &a.spectral_radius, nullptr));
+  PetscCall(PetscOptionsString("-em_correction", "em's correction vector: resultants (N_d, M_d) or forces (N_d, 0)", "", em_correction, em_correction,
+                               sizeof(em_correction), nullptr));
   PetscCall(PetscOptionsReal("-end_time", "Final (pseudo-)time", "", a.end_time, &a.end_time, nullptr));
   PetscCall(PetscOptionsReal("-initial_step", "First step size", "", a.initial_step, &a.initial_step, nullptr));
   PetscCall(PetscOptionsReal("-min_step", "Smallest step before giving up", "", a.min_step, &a.min_step, nullptr));
@@ -44,6 +53,20 @@ PetscErrorCode SettingsFromOptions(MPI_Comm comm, Model *model, RunOptions *opti
   PetscCall(PetscOptionsReal("-newton_atol", "Newton absolute residual tolerance", "", a.newton_atol, &a.newton_atol, nullptr));
   PetscCall(
       PetscOptionsRealArray("-output_times", "Times the steps must land on (comma separated)", "", output_times.data(), &num_output_times, &output_times_set));
+  PetscCall(PetscOptionsString("-control", control_list.c_str(), "", control, control, sizeof(control), nullptr));
+  PetscCall(PetscOptionsReal("-arc_length_psi", "Weight of the load factor in the arc-length constraint (0: cylindrical)", "", a.arc_length_psi,
+                             &a.arc_length_psi, nullptr));
+  PetscCall(PetscOptionsInt("-desired_iterations", "Corrector iterations the arc length aims at", "", desired_iterations, &desired_iterations, nullptr));
+  PetscCall(PetscOptionsInt("-max_steps", "Steps before an arc-length run stops", "", max_steps, &max_steps, nullptr));
+  PetscCall(PetscOptionsString("-control_node", "Node of displacement control", "", control_node, control_node, sizeof(control_node), nullptr));
+  PetscCall(PetscOptionsString("-control_joint", "Joint of displacement control", "", control_joint, control_joint, sizeof(control_joint), nullptr));
+  PetscCall(PetscOptionsString("-control_dof", "DOF (ux..rz) or joint coordinate (tx..rz) of displacement control", "", control_dof, control_dof,
+                               sizeof(control_dof), nullptr));
+  PetscCall(PetscOptionsReal("-control_value", "Controlled coordinate per unit pseudo-time", "", a.control_value, &a.control_value, nullptr));
+  PetscCall(PetscOptionsBool("-stability", "Negative pivots and critical points of the static path", "", stability, &stability, nullptr));
+  PetscCall(PetscOptionsInt("-eigenvalues", "Eigenvalues of a modes or buckling analysis", "", eigenvalues, &eigenvalues, nullptr));
+  PetscCall(PetscOptionsReal("-shift", "Shift of shift-and-invert for modes, (rad/s)^2", "", shift, &shift, &shift_set));
+  PetscCall(PetscOptionsBool("-preload", "Eigenanalysis about the static equilibrium at end_time", "", preload, &preload, nullptr));
   PetscCall(PetscOptionsBool("-static_stage", "Dynamic analyses: equilibrium under the loads at t = 0 first", "", static_stage, &static_stage, nullptr));
   PetscCall(PetscOptionsInt("-static_stage_steps", "Load steps of the static stage at first", "", static_stage_steps, &static_stage_steps, nullptr));
   PetscCall(PetscOptionsString("-initial_velocities", "projected, given", "", initial_velocities, initial_velocities, sizeof(initial_velocities), nullptr));
@@ -51,17 +74,49 @@ PetscErrorCode SettingsFromOptions(MPI_Comm comm, Model *model, RunOptions *opti
   PetscCheck(static_stage_steps >= 1, comm, PETSC_ERR_USER_INPUT, "option -analysis_static_stage_steps must be >= 1, got %" PetscInt_FMT, static_stage_steps);
   PetscCheck(!strcmp(initial_velocities, "projected") || !strcmp(initial_velocities, "given"), comm, PETSC_ERR_USER_INPUT,
              "option -analysis_initial_velocities must be projected or given, got '%s'", initial_velocities);
-  a.static_stage                = static_stage == PETSC_TRUE;
-  a.static_stage_steps          = (int)static_stage_steps;
-  a.project_initial_velocities  = !strcmp(initial_velocities, "projected");
-  const AnalysisType input_type = a.type;
+  a.static_stage                   = static_stage == PETSC_TRUE;
+  a.static_stage_steps             = (int)static_stage_steps;
+  a.project_initial_velocities     = !strcmp(initial_velocities, "projected");
+  const AnalysisType input_type    = a.type;
+  const bool         input_preload = a.preload;
   PetscCheck(AnalysisTypeFromName(type, &a.type), comm, PETSC_ERR_USER_INPUT, "option -analysis_type must be one of %s, got '%s'", type_list.c_str(), type);
   PetscCheck(TimeSchemeKindFromName(integrator, &a.integrator), comm, PETSC_ERR_USER_INPUT, "option -analysis_integrator must be one of %s, got '%s'",
              integrator_list.c_str(), integrator);
-  const bool made_static = input_type != AnalysisType::Static && a.type == AnalysisType::Static;
-  if (made_static) { // the reader checked the input for its own (dynamic) analysis only
+  PetscCheck(EnergyCorrectionFromName(em_correction, &a.em_correction), comm, PETSC_ERR_USER_INPUT,
+             "option -analysis_em_correction must be resultants or forces, got '%s'", em_correction);
+  PetscCheck(PathControlFromName(control, &a.control), comm, PETSC_ERR_USER_INPUT, "option -analysis_control must be one of %s, got '%s'", control_list.c_str(),
+             control);
+  a.preload = preload == PETSC_TRUE;
+  // The reader checked the input for its own analysis only.
+  const bool made_static = NeedsStaticStiffness(a.type, a.preload) && !NeedsStaticStiffness(input_type, input_preload);
+  if (made_static) {
     InputError error;
-    PetscCheck(CheckStaticModel(*model, &error), comm, PETSC_ERR_USER_INPUT, "with -analysis_type static: %s", error.Format().c_str());
+    PetscCheck(CheckStaticModel(*model, &error), comm, PETSC_ERR_USER_INPUT, "with -analysis_type %s: %s", AnalysisTypeName(a.type), error.Format().c_str());
+  }
+  PetscCheck(std::isfinite(a.arc_length_psi) && a.arc_length_psi >= 0, comm, PETSC_ERR_USER_INPUT, "option -analysis_arc_length_psi must be >= 0, got %g",
+             a.arc_length_psi);
+  PetscCheck(desired_iterations >= 1 && max_steps >= 1 && eigenvalues >= 1, comm, PETSC_ERR_USER_INPUT,
+             "options -analysis_desired_iterations, -analysis_max_steps and -analysis_eigenvalues must be >= 1, got %" PetscInt_FMT ", %" PetscInt_FMT
+             " and %" PetscInt_FMT,
+             desired_iterations, max_steps, eigenvalues);
+  a.desired_iterations = (int)desired_iterations;
+  a.max_steps          = (int)max_steps;
+  a.eigenvalues        = (int)eigenvalues;
+  a.stability          = stability == PETSC_TRUE;
+  PetscCheck(!shift_set || std::isfinite(shift), comm, PETSC_ERR_USER_INPUT, "option -analysis_shift must be a finite number, got %g", (double)shift);
+  a.shift = shift;
+  PetscCheck(std::isfinite(a.control_value) && a.control_value != 0.0, comm, PETSC_ERR_USER_INPUT,
+             "option -analysis_control_value must be a finite number other than zero, got %g", a.control_value);
+  a.control_node  = control_node;
+  a.control_joint = control_joint;
+  if (control_dof[0]) {
+    a.control_dof = PathControlDof(control_dof);
+    PetscCheck(a.control_dof >= 0, comm, PETSC_ERR_USER_INPUT, "option -analysis_control_dof must be one of ux, uy, uz, rx, ry, rz, tx, ty, tz, got '%s'",
+               control_dof);
+  }
+  {
+    InputError error;
+    PetscCheck(CheckAnalysisSettings(*model, &error), comm, PETSC_ERR_USER_INPUT, "%s", error.Format().c_str());
   }
   PetscCheck(a.spectral_radius >= 0.0 && a.spectral_radius <= 1.0, comm, PETSC_ERR_USER_INPUT, "option -analysis_spectral_radius must lie in [0, 1], got %g",
              a.spectral_radius);
@@ -91,6 +146,8 @@ PetscErrorCode SettingsFromOptions(MPI_Comm comm, Model *model, RunOptions *opti
   PetscCheck(a.max_rotation_increment < M_PI, comm, PETSC_ERR_USER_INPUT, "max_rotation_increment must be below pi, got %g", a.max_rotation_increment);
   // A run shortened with -analysis_end_time keeps the output times it still reaches.
   a.output_times.erase(std::remove_if(a.output_times.begin(), a.output_times.end(), [&a](double t) { return t > a.end_time; }), a.output_times.end());
+  PetscCheck(a.control != PathControl::ArcLength || a.output_times.empty(), comm, PETSC_ERR_USER_INPUT,
+             "output times do not apply to arc-length control, whose steps are lengths along the path");
   for (size_t i = 0; i < a.output_times.size(); ++i)
     PetscCheck(a.output_times[i] > 0 && (i == 0 || a.output_times[i] > a.output_times[i - 1]), comm, PETSC_ERR_USER_INPUT,
                "output time %g must be positive and exceed the one before it", a.output_times[i]);

@@ -26,6 +26,10 @@ int ElementIndices(const BeamElement &element, const DofMap &map, PetscInt *indi
 Assembler::~Assembler()
 {
   MatDestroy(&jacobian_);
+  MatDestroy(&correction_jacobian_);
+  VecDestroy(&rank_one_left_);
+  VecDestroy(&rank_one_right_);
+  VecDestroy(&beta_gradient_correction_);
   VecDestroy(&solution_template_);
   VecDestroy(&ghosted_increments_);
   VecDestroy(&scratch_residual_);
@@ -113,6 +117,7 @@ PetscErrorCode Assembler::Setup(MPI_Comm comm, const Model &model, const DofMap 
   expansion_rows_.assign(state->nodes.size(), {});
   expansion_columns_.assign(state->nodes.size(), {});
   slave_residual_.assign(state->nodes.size(), Vec6::Zero());
+  prescribed_residual_.assign(state->nodes.size(), Vec6::Zero());
   joint_slots_.assign(state->joints.size(), {-1, -1, -1, -1, -1, -1});
   size_t max_unknowns = 6;
   for (size_t j = 0; j < state->joints.size(); ++j) {
@@ -298,7 +303,7 @@ PetscErrorCode Assembler::CreateCsrDestinations()
 // Columns from spins to the nodes' unknowns (d theta_b = H(omega_b) d omega_b; none for
 // accelerations), then owned rows straight into the CSR values, rows of other ranks through
 // MatSetValues (PETSc's stash); without CSR destinations (non-AIJ matrices) all through MatSetValues.
-PetscErrorCode Assembler::AddDirectElementMatrix(size_t k, double *K, PetscScalar *diagonal_values, PetscScalar *off_diagonal_values)
+PetscErrorCode Assembler::AddDirectElementMatrix(Mat target, size_t k, double *K, PetscScalar *diagonal_values, PetscScalar *off_diagonal_values)
 {
   const BeamElement &element = model_->elements[map_->local_elements[k]];
   const int          n = element.order + 1, nd = 6 * n;
@@ -315,7 +320,7 @@ PetscErrorCode Assembler::AddDirectElementMatrix(size_t k, double *K, PetscScala
     }
   ElementIndices(element, *map_, indices);
   if (csr_destinations_.empty()) {
-    PetscCall(MatSetValues(jacobian_, nd, indices, nd, indices, K, ADD_VALUES));
+    PetscCall(MatSetValues(target, nd, indices, nd, indices, K, ADD_VALUES));
     PetscFunctionReturn(PETSC_SUCCESS);
   }
   const PetscInt *destination = csr_destinations_.data() + csr_destination_offsets_[k];
@@ -323,7 +328,7 @@ PetscErrorCode Assembler::AddDirectElementMatrix(size_t k, double *K, PetscScala
     const PetscInt *row_destination = destination + i * nd;
     const double   *row_values      = K + i * nd;
     if (row_destination[0] == kCsrOtherRank) {
-      PetscCall(MatSetValues(jacobian_, 1, &indices[i], nd, indices, row_values, ADD_VALUES));
+      PetscCall(MatSetValues(target, 1, &indices[i], nd, indices, row_values, ADD_VALUES));
       continue;
     }
     for (int j = 0; j < nd; ++j) {
@@ -488,19 +493,20 @@ PetscErrorCode Assembler::SetIncrements(Vec increments)
 
 void Assembler::EvaluateElement(size_t k, bool want_tangent, ElementContribution *out)
 {
-  out->Clear(model_->elements[map_->local_elements[k]].order + 1, want_tangent);
+  const StepEquations &eq = state_->equations;
+  out->Clear(model_->elements[map_->local_elements[k]].order + 1, want_tangent, eq.Dynamic() && eq.scheme.kind == TimeSchemeKind::EnergyMomentum);
   for (ForceContributor *c : element_contributors_) {
     c->AddElement(*state_, k, out);
     if (!out->evaluable) return;
   }
-  if (state_->equations.InitialAcceleration()) inertia_->DropMasslessElementRows(*state_, k, out);
+  if (state_->equations.InitialAcceleration() && !mass_matrix_only_) inertia_->DropMasslessElementRows(*state_, k, out);
 }
 
 void Assembler::EvaluateNode(int l, bool want_tangent, NodeContribution *out)
 {
   out->Clear(want_tangent);
   for (ForceContributor *c : node_contributors_) c->AddNode(*state_, l, out);
-  if (state_->equations.InitialAcceleration()) inertia_->SetMasslessNodeEquations(*state_, l, out);
+  if (state_->equations.InitialAcceleration() && !mass_matrix_only_) inertia_->SetMasslessNodeEquations(*state_, l, out);
 }
 
 void Assembler::Add(const NodeBlock &block, const double *residual, const double *tangent)
@@ -557,7 +563,7 @@ PetscErrorCode Assembler::AssembleResidual(Vec residual, PetscBool *geometry_ok)
   }
   // Pass 2: assemble. The residual left on prescribed DOFs is the reaction that drives them; its
   // work over the increments counts as external work.
-  prescribed_work_ = 0.0;
+  for (Vec6 &reaction : prescribed_residual_) reaction.setZero();
   for (Vec6 &g : slave_residual_) g.setZero();
   for (auto &row : coordinate_residual_) row.fill(0.0);
   for (size_t k = 0; k < map.local_elements.size(); ++k) {
@@ -585,46 +591,106 @@ PetscErrorCode Assembler::AssembleResidual(Vec residual, PetscBool *geometry_ok)
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
+PetscErrorCode Assembler::SetupEnergyCorrectionTangent()
+{
+  PetscFunctionBeginUser;
+  PetscCall(MatDuplicate(jacobian_, MAT_DO_NOT_COPY_VALUES, &correction_jacobian_));
+  for (Vec *v : {&rank_one_left_, &rank_one_right_, &beta_gradient_correction_}) {
+    PetscCall(VecDuplicate(solution_template_, v));
+    PetscCall(VecSetOption(*v, VEC_IGNORE_NEGATIVE_INDICES, PETSC_TRUE));
+  }
+  slave_correction_residual_.assign(state_->nodes.size(), Vec6::Zero());
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+// The CSR value arrays of a matrix's owned rows (diagonal and off-diagonal blocks), for the direct
+// element path; null when the matrix type has none.
+static PetscErrorCode GetCsrValues(Mat matrix, bool have_destinations, Mat *diagonal, Mat *off_diagonal, PetscScalar **diagonal_values,
+                                   PetscScalar **off_diagonal_values)
+{
+  PetscBool is_mpi;
+  PetscFunctionBeginUser;
+  *diagonal_values = *off_diagonal_values = nullptr;
+  *diagonal = matrix, *off_diagonal = nullptr;
+  if (!have_destinations) PetscFunctionReturn(PETSC_SUCCESS);
+  PetscCall(PetscObjectTypeCompare((PetscObject)matrix, MATMPIAIJ, &is_mpi));
+  if (is_mpi) PetscCall(MatMPIAIJGetSeqAIJ(matrix, diagonal, off_diagonal, nullptr));
+  PetscCall(MatSeqAIJGetArray(*diagonal, diagonal_values));
+  if (*off_diagonal) PetscCall(MatSeqAIJGetArray(*off_diagonal, off_diagonal_values));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+static PetscErrorCode RestoreCsrValues(Mat diagonal, Mat off_diagonal, PetscScalar **diagonal_values, PetscScalar **off_diagonal_values)
+{
+  PetscFunctionBeginUser;
+  if (*diagonal_values) PetscCall(MatSeqAIJRestoreArray(diagonal, diagonal_values));
+  if (*off_diagonal_values) PetscCall(MatSeqAIJRestoreArray(off_diagonal, off_diagonal_values));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
 PetscErrorCode Assembler::AssembleJacobian(Mat jacobian, PetscBool *geometry_ok)
 {
   PetscFunctionBeginUser;
   PetscCheck(jacobian == jacobian_, PETSC_COMM_SELF, PETSC_ERR_SUP, "the assembler assembles into its own matrix only");
   PetscCall(PetscLogEventBegin(event_jacobian, 0, 0, 0, 0));
-  const DofMap &map = *map_;
-  *geometry_ok      = PETSC_TRUE;
+  const DofMap        &map = *map_;
+  const StepEquations &eq  = state_->equations;
+  const bool           em  = eq.Dynamic() && eq.scheme.kind == TimeSchemeKind::EnergyMomentum;
+  *geometry_ok             = PETSC_TRUE;
+  if (em && !correction_jacobian_) PetscCall(SetupEnergyCorrectionTangent());
   PetscCall(MatZeroEntries(jacobian));
-  PetscScalar *diagonal_values = nullptr, *off_diagonal_values = nullptr;
-  if (!csr_destinations_.empty()) {
-    PetscCall(MatSeqAIJGetArray(diagonal_block_, &diagonal_values));
-    if (off_diagonal_block_) PetscCall(MatSeqAIJGetArray(off_diagonal_block_, &off_diagonal_values));
+  if (em) {
+    PetscCall(MatZeroEntries(correction_jacobian_));
+    for (Vec v : {rank_one_left_, rank_one_right_, beta_gradient_correction_}) PetscCall(VecZeroEntries(v));
+    for (Vec6 &g : slave_correction_residual_) g.setZero();
   }
+  const bool   direct = !csr_destinations_.empty();
+  Mat          diagonal, off_diagonal, correction_diagonal = nullptr, correction_off_diagonal = nullptr;
+  PetscScalar *diagonal_values, *off_diagonal_values, *correction_diagonal_values = nullptr, *correction_off_diagonal_values = nullptr;
+  PetscCall(GetCsrValues(jacobian, direct, &diagonal, &off_diagonal, &diagonal_values, &off_diagonal_values));
+  if (em)
+    PetscCall(GetCsrValues(correction_jacobian_, direct, &correction_diagonal, &correction_off_diagonal, &correction_diagonal_values,
+                           &correction_off_diagonal_values));
   for (Vec6 &g : slave_residual_) g.setZero();
   // One element loop: an element touching slave nodes goes through the expansions (its residual
   // gathered on the slaves for the joints' geometric stiffness), any other straight into the CSR
-  // values of the owned rows (both are in place in the matrix's value arrays).
+  // values of the owned rows (both are in place in the matrix's value arrays). em: K_corr into its
+  // own matrix, the correction vector (rows) and beta's gradients (columns) into vectors.
   ElementContribution element;
+  double              sums[3] = {0.0, 0.0, 0.0}; // work mismatch, correction work, scale of the internal work
   for (size_t k = 0; k < map.local_elements.size(); ++k) {
     EvaluateElement(k, true, &element);
     if (!element.evaluable) {
       *geometry_ok = PETSC_FALSE;
       continue;
     }
-    if (!element_has_slave_[k]) {
-      PetscCall(AddDirectElementMatrix(k, element.tangent, diagonal_values, off_diagonal_values));
-      continue;
-    }
     const BeamElement &element_nodes = model_->elements[map.local_elements[k]];
     int                local_nodes[kBeamMaxNodes];
+    for (int a = 0; a <= element_nodes.order; ++a) local_nodes[a] = map.node_to_local[element_nodes.nodes[a]];
+    if (em) {
+      sums[0] += element.work_mismatch, sums[1] += element.correction_work, sums[2] += element.work_scale;
+      for (int a = 0; a <= element_nodes.order; ++a) {
+        PetscCall(AddNodeVector(rank_one_left_, local_nodes[a], &element.correction[6 * a], Through::Rows));
+        PetscCall(AddNodeVector(rank_one_right_, local_nodes[a], &element.mismatch_gradient[6 * a], Through::Columns));
+        PetscCall(AddNodeVector(beta_gradient_correction_, local_nodes[a], &element.correction_work_gradient[6 * a], Through::Columns));
+      }
+    }
+    if (!element_has_slave_[k]) {
+      PetscCall(AddDirectElementMatrix(jacobian, k, element.tangent, diagonal_values, off_diagonal_values));
+      if (em)
+        PetscCall(AddDirectElementMatrix(correction_jacobian_, k, element.tangent_correction, correction_diagonal_values, correction_off_diagonal_values));
+      continue;
+    }
     for (int a = 0; a <= element_nodes.order; ++a) {
-      local_nodes[a] = map.node_to_local[element_nodes.nodes[a]];
-      if (IsSlave(local_nodes[a])) slave_residual_[local_nodes[a]] += Eigen::Map<const Vec6>(&element.residual[6 * a]);
+      if (!IsSlave(local_nodes[a])) continue;
+      slave_residual_[local_nodes[a]] += Eigen::Map<const Vec6>(&element.residual[6 * a]);
+      if (em) slave_correction_residual_[local_nodes[a]] += Eigen::Map<const Vec6>(&element.correction[6 * a]);
     }
     PetscCall(AddExpandedMatrix(jacobian, element_nodes.order + 1, local_nodes, element.tangent));
+    if (em) PetscCall(AddExpandedMatrix(correction_jacobian_, element_nodes.order + 1, local_nodes, element.tangent_correction));
   }
-  if (!csr_destinations_.empty()) {
-    PetscCall(MatSeqAIJRestoreArray(diagonal_block_, &diagonal_values));
-    if (off_diagonal_block_) PetscCall(MatSeqAIJRestoreArray(off_diagonal_block_, &off_diagonal_values));
-  }
+  PetscCall(RestoreCsrValues(diagonal, off_diagonal, &diagonal_values, &off_diagonal_values));
+  if (em) PetscCall(RestoreCsrValues(correction_diagonal, correction_off_diagonal, &correction_diagonal_values, &correction_off_diagonal_values));
   NodeContribution node;
   for (PetscInt l = 0; l < map.num_owned_nodes; ++l) {
     EvaluateNode((int)l, true, &node);
@@ -637,15 +703,62 @@ PetscErrorCode Assembler::AssembleJacobian(Mat jacobian, PetscBool *geometry_ok)
   for (ForceContributor *c : contributors_) c->AddBlocks(*state_, true, this);
   block_jacobian_ = nullptr;
   PetscCheck(!block_trouble_, PETSC_COMM_SELF, PETSC_ERR_PLIB, "a contributor's block could not be added to the tangent");
-  if (!state_->equations.InitialAcceleration()) PetscCall(AddJointGeometricStiffness(jacobian));
+  // em: beta at these increments (eq. 20, with the residual's round-off rule) and the rank-one
+  // term R_corr (grad beta)^T, grad beta = (grad M - beta grad C) / C.
+  double beta = 0.0, correction_work = 0.0;
+  if (em) {
+    double global[3];
+    PetscCall(MPIU_Allreduce(sums, global, 3, MPI_DOUBLE, MPI_SUM, comm_));
+    if (std::abs(global[0]) > 1e-13 * global[2] && global[1] != 0.0) beta = global[0] / global[1], correction_work = global[1];
+    for (Vec v : {rank_one_left_, rank_one_right_, beta_gradient_correction_}) {
+      PetscCall(VecAssemblyBegin(v));
+      PetscCall(VecAssemblyEnd(v));
+    }
+    PetscCall(MatAssemblyBegin(correction_jacobian_, MAT_FINAL_ASSEMBLY));
+    PetscCall(MatAssemblyEnd(correction_jacobian_, MAT_FINAL_ASSEMBLY));
+    rank_one_active_ = beta != 0.0;
+    if (rank_one_active_) {
+      PetscCall(VecAXPY(rank_one_right_, -beta, beta_gradient_correction_));
+      PetscCall(VecScale(rank_one_right_, 1.0 / correction_work));
+      for (size_t l = 0; l < slave_residual_.size(); ++l) slave_residual_[l] += beta * slave_correction_residual_[l];
+    }
+  } else {
+    rank_one_active_ = false;
+  }
+  if (!eq.InitialAcceleration()) PetscCall(AddJointGeometricStiffness(jacobian));
   PetscCall(MatAssemblyBegin(jacobian, MAT_FINAL_ASSEMBLY));
   PetscCall(MatAssemblyEnd(jacobian, MAT_FINAL_ASSEMBLY));
-  if (state_->equations.InitialAcceleration()) {
+  if (beta != 0.0) PetscCall(MatAXPY(jacobian, beta, correction_jacobian_, SAME_NONZERO_PATTERN));
+  if (state_->equations.InitialAcceleration() && !mass_matrix_only_ && !massless_rows_.empty()) {
     // Massless unknowns: acceleration = 0 (the pattern is kept for the direct CSR assembly).
     PetscCall(MatSetOption(jacobian, MAT_KEEP_NONZERO_PATTERN, PETSC_TRUE));
     PetscCall(MatZeroRows(jacobian, (PetscInt)massless_rows_.size(), massless_rows_.data(), 1.0, nullptr, nullptr));
   }
   PetscCall(PetscLogEventEnd(event_jacobian, 0, 0, 0, 0));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode Assembler::ApplyOperator(Vec x, Vec y)
+{
+  PetscFunctionBeginUser;
+  PetscCall(MatMult(jacobian_, x, y));
+  if (rank_one_active_) {
+    PetscScalar dot;
+    PetscCall(VecDot(rank_one_right_, x, &dot));
+    PetscCall(VecAXPY(y, dot, rank_one_left_));
+  }
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode Assembler::AssembleMassMatrix(Mat mass, PetscBool *geometry_ok)
+{
+  PetscFunctionBeginUser;
+  PetscCheck(state_->equations.InitialAcceleration(), PETSC_COMM_SELF, PETSC_ERR_ARG_WRONGSTATE,
+             "the mass matrix is the tangent of the initial-acceleration problem: begin that step first");
+  mass_matrix_only_         = true;
+  const PetscErrorCode code = AssembleJacobian(mass, geometry_ok);
+  mass_matrix_only_         = false;
+  PetscCall(code);
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
@@ -668,21 +781,53 @@ PetscErrorCode Assembler::MaxRotationIncrement(double *max_rotation)
 
 PetscErrorCode Assembler::StepExternalWork(double *work)
 {
-  PetscBool evaluable;
+  PetscBool            evaluable;
+  const StepEquations &eq = state_->equations;
   PetscFunctionBeginUser;
-  // The reactions on prescribed DOFs at exactly these increments.
+  // The reactions on prescribed DOFs and drives at exactly these increments.
   PetscCall(AssembleResidual(scratch_residual_, &evaluable));
+  PropagateSlaveResiduals();
   double local = 0.0;
   for (const ForceContributor *c : contributors_) c->AddStepWork(*state_, &local);
-  local += prescribed_work_;
+  // Prescribed DOFs: reaction (mid-point, or the mean of both ends) times (u, alpha or omega).
+  const bool midpoint = eq.Midpoint();
+  for (size_t l = 0; l < state_->nodes.size(); ++l) {
+    NodeState &s = state_->nodes[l];
+    for (int d = 0; d < 6; ++d) {
+      if (map_->constraints[map_->local_nodes[l]][d].kind != Support::Kind::Prescribed) continue;
+      const double increment = d < 3 ? s.displacement_increment(d) : midpoint ? s.tangent_scaled_increment(d - 3) : s.rotation_increment(d - 3);
+      const double reaction  = midpoint ? prescribed_residual_[l](d) : 0.5 * (s.prescribed_reaction(d) + prescribed_residual_[l](d));
+      local += reaction * increment;
+    }
+    if (!midpoint) s.prescribed_reaction = prescribed_residual_[l];
+  }
   // Drives: the generalised reaction on a driven coordinate times its test increment.
-  PropagateSlaveResiduals();
+  // (with what force elements add on the coordinate's own row: a spring or damper on a driven
+  // coordinate is resisted by the drive).
   for (size_t j = 0; j < state_->joints.size(); ++j) {
-    const JointState &J = state_->joints[j];
-    const int         c = model_->joints[J.joint].driven_coordinate;
-    if (c >= 0) local += (J.rows_map.col(6 + c).dot(slave_residual_[J.local_slave]) + coordinate_residual_[j][c]) * J.released_test[c];
+    JointState &J = state_->joints[j];
+    const int   c = model_->joints[J.joint].driven_coordinate;
+    if (c < 0) continue;
+    const double reaction = J.rows_map.col(6 + c).dot(slave_residual_[J.local_slave]) + coordinate_residual_[j][c];
+    local += (midpoint ? reaction : 0.5 * (J.drive_reaction + reaction)) * J.released_test[c];
+    if (!midpoint) J.drive_reaction = reaction;
   }
   PetscCall(MPIU_Allreduce(&local, work, 1, MPI_DOUBLE, MPI_SUM, comm_));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode Assembler::StoreReactions()
+{
+  PetscBool evaluable;
+  PetscFunctionBeginUser;
+  PetscCall(AssembleResidual(scratch_residual_, &evaluable));
+  PropagateSlaveResiduals();
+  for (size_t l = 0; l < state_->nodes.size(); ++l) state_->nodes[l].prescribed_reaction = prescribed_residual_[l];
+  for (size_t j = 0; j < state_->joints.size(); ++j) {
+    JointState &J    = state_->joints[j];
+    const int   c    = model_->joints[J.joint].driven_coordinate;
+    J.drive_reaction = c >= 0 ? J.rows_map.col(6 + c).dot(slave_residual_[J.local_slave]) + coordinate_residual_[j][c] : 0.0;
+  }
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 

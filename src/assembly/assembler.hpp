@@ -33,12 +33,12 @@ class InertiaContributor;
 
 // What the projection of the initial velocities did (Assembler::ProjectInitialVelocities).
 struct InitialVelocityReport {
-  PetscInt held   = 0;   // unknowns held at their given velocities (nodes' initial conditions, coordinates' rates)
-  PetscInt chosen = 0;   // unknowns chosen for the least strain rate
-  PetscInt at_rest = 0;  // unknowns that nothing determines, left at rest
+  PetscInt held               = 0;                            // unknowns held at their given velocities (nodes' initial conditions, coordinates' rates)
+  PetscInt chosen             = 0;                            // unknowns chosen for the least strain rate
+  PetscInt at_rest            = 0;                            // unknowns that nothing determines, left at rest
   double   strain_rate_before = 0.0, strain_rate_after = 0.0; // V^T K V of the beams, before and after (W)
-  double   slave_change = 0.0; // largest change of a slave's given velocity (m/s or rad/s)
-  PetscInt iterations   = 0;   // of the conjugate gradients
+  double   slave_change = 0.0;                                // largest change of a slave's given velocity (m/s or rad/s)
+  PetscInt iterations   = 0;                                  // of the conjugate gradients
 };
 
 // The exact nonzero pattern of the owned rows (DofMapPreallocation), computed on the whole model
@@ -69,9 +69,25 @@ public:
   PetscErrorCode SetIncrements(Vec increments);
   // Residual at the current unknowns. *geometry_ok = false when an element cannot be evaluated.
   PetscErrorCode AssembleResidual(Vec residual, PetscBool *geometry_ok);
-  // Tangent at the current unknowns (see the contributors for what is exact: in the mid-point
-  // family the beams' part is approximate).
+  // Exact tangent at the current unknowns, in every problem and scheme. In the energy-momentum
+  // scheme the residual R = R_mc + beta(X) R_corr has the tangent K_mc + beta K_corr (assembled)
+  // plus the rank-one term R_corr (grad beta)^T, which couples every element (beta of eq. 20 is a
+  // global ratio); ApplyOperator applies the whole operator, RankOneTerm gives its two vectors.
   PetscErrorCode AssembleJacobian(Mat jacobian, PetscBool *geometry_ok);
+  // y = J x + a (b . x): the assembled tangent with em's rank-one term (when active). Collective.
+  PetscErrorCode ApplyOperator(Vec x, Vec y);
+  // The rank-one term a b^T of the last tangent: a = R_corr, b = grad beta in the unknowns;
+  // *active = false when there is none (not em, or beta = 0 at round-off).
+  void RankOneTerm(Vec *a, Vec *b, bool *active) const
+  {
+    *a      = rank_one_left_;
+    *b      = rank_one_right_;
+    *active = rank_one_active_;
+  }
+  // The condensed mass matrix (eigenanalysis): the tangent of the initial-acceleration problem
+  // (the step's equations must be it) without its "acceleration = 0" rows of massless groups, so
+  // that a massless DOF keeps a zero row. Into the assembler's own matrix, as AssembleJacobian.
+  PetscErrorCode AssembleMassMatrix(Mat mass, PetscBool *geometry_ok);
 
   // Magnitude of the forces in the last residual (see newton.hpp). Collective.
   PetscErrorCode ForceScale(double *scale);
@@ -80,10 +96,15 @@ public:
   double RoundoffForceLevel() const { return roundoff_force_level_; }
   // Largest |omega| over the nodes of the whole model. Collective.
   PetscErrorCode MaxRotationIncrement(double *max_rotation);
-  // Work of the external loads over the current increments: sum of u.F + alpha.M over the
-  // contributors, plus the reactions that drive prescribed DOFs and driven joint coordinates.
-  // Collective.
+  // Work of the external loads over the current increments, plus that of the reactions that drive
+  // prescribed DOFs and driven joint coordinates, with the quadrature of the scheme's energy
+  // balance: the mid-point family takes the step's (mid-point) reactions times (u, alpha), the
+  // Newmark family the trapezoidal rule, the mean of the reactions at both ends of the step times
+  // (u, omega), and keeps the end's reactions in the State for the next step. Collective.
   PetscErrorCode StepExternalWork(double *work);
+  // Keeps the reactions on prescribed DOFs and drives of the current residual in the State, as
+  // the start of the next step's trapezoidal work (after the initial accelerations). Collective.
+  PetscErrorCode StoreReactions();
   // Called at the converged increments (before the step is committed): each local joint's
   // transmitted force and moment (the slave's residual: what the joint exerts on the slave, about
   // the slave node, global axes) and the step's mean rates of its released coordinates, into the
@@ -157,12 +178,18 @@ private:
   PetscErrorCode AddNodeResidual(Vec residual, int local_node, const double *g);
   // Adds a node's 6x6 spin-form block through its expansion.
   PetscErrorCode AddNodeBlock(Mat jacobian, int local_node, const Mat6 &block);
+  // Adds a node's spin-form 6-vector to v through its expansion's rows (R[unknowns] += rows^T g)
+  // or columns (the gradient of a scalar: b[unknowns] += columns^T g).
+  enum class Through { Rows, Columns };
+  PetscErrorCode AddNodeVector(Vec v, int local_node, const double *g, Through through);
   // Adds a matrix (spin form, 6n x 6n) coupling local nodes, some of them slaves, through the
   // nodes' expansions.
   PetscErrorCode AddExpandedMatrix(Mat jacobian, int num_nodes, const int *local_nodes, const double *K_spin);
   // Adds an element matrix (spin form) of an element without slave nodes straight into the CSR
   // values: columns mapped by blockdiag(I, H(omega)) per node (identity for accelerations).
-  PetscErrorCode AddDirectElementMatrix(size_t k, double *K_spin, PetscScalar *diagonal_values, PetscScalar *off_diagonal_values);
+  PetscErrorCode AddDirectElementMatrix(Mat target, size_t k, double *K_spin, PetscScalar *diagonal_values, PetscScalar *off_diagonal_values);
+  // em's exact tangent: the correction's matrix (same pattern as the tangent) and the rank-one term.
+  PetscErrorCode SetupEnergyCorrectionTangent();
   // Geometric stiffness of every local joint for the slave residuals gathered in slave_residual_.
   PetscErrorCode AddJointGeometricStiffness(Mat jacobian);
   // Slave residuals with what each slave passes on to its master along the chains (deepest first).
@@ -190,11 +217,12 @@ private:
   // Per local slave node: rows and columns of its expansion (6 x m, row-major), m = number of
   // unknowns it depends on: R[unknowns] += rows^T g_spin, d(spin)/dX = columns.
   std::vector<std::vector<double>> expansion_rows_, expansion_columns_;
-  std::vector<Vec6>                slave_residual_;           // per local node: spin residual gathered on slaves
-  Vec                              joint_output_ = nullptr;   // 12 per joint slot (DofMap::joint_slot): reaction (6), rates (6)
-  std::vector<double>              expansion_scratch_;        // work space for expanded blocks
-  std::vector<double>              joint_geometric_scratch_;  // work space of AddJointGeometricStiffness
-  std::vector<PetscInt>            expanded_indices_scratch_; // work space: an expanded element's unknowns
+  std::vector<Vec6>                slave_residual_;            // per local node: spin residual gathered on slaves
+  std::vector<Vec6>                slave_correction_residual_; // per local node: em's correction vector gathered on slaves
+  Vec                              joint_output_ = nullptr;    // 12 per joint slot (DofMap::joint_slot): reaction (6), rates (6)
+  std::vector<double>              expansion_scratch_;         // work space for expanded blocks
+  std::vector<double>              joint_geometric_scratch_;   // work space of AddJointGeometricStiffness
+  std::vector<PetscInt>            expanded_indices_scratch_;  // work space: an expanded element's unknowns
   // Per local element: the residual and em's correction vector of the residual's first pass.
   std::vector<double> element_force_scratch_, element_correction_scratch_;
   std::vector<char>   element_has_slave_; // per local element
@@ -216,12 +244,16 @@ private:
   std::vector<Vec6> reaction_sums_;
   bool              collect_reactions_ = false;
 
-  double roundoff_force_level_ = 0.0;
-  double local_force_squares_  = 0.0; // sum of squares of every node vector added in the last residual
-  double prescribed_work_      = 0.0; // work of the reactions on prescribed DOFs over the increments (local)
-  double energy_correction_    = 0.0; // em's beta of the last residual
+  double            roundoff_force_level_ = 0.0;
+  double            local_force_squares_  = 0.0; // sum of squares of every node vector added in the last residual
+  std::vector<Vec6> prescribed_residual_;        // per local node: the last residual's entries on prescribed DOFs (the reactions this rank assembled)
+  bool              mass_matrix_only_  = false;  // AssembleMassMatrix: no equations for massless groups
+  double            energy_correction_ = 0.0;    // em's beta of the last residual
 
-  Mat                   jacobian_           = nullptr;
+  Mat                   jacobian_            = nullptr;
+  Mat                   correction_jacobian_ = nullptr; // em: K_corr, the pattern of jacobian_
+  Vec                   rank_one_left_ = nullptr, rank_one_right_ = nullptr, beta_gradient_correction_ = nullptr;
+  bool                  rank_one_active_    = false;
   Vec                   solution_template_  = nullptr;
   Vec                   ghosted_increments_ = nullptr; // sequential: the free DOFs of the local nodes
   Vec                   scratch_residual_   = nullptr; // for residual evaluations outside Newton

@@ -85,13 +85,11 @@ void Assembler::UpdateExpansions()
 PetscErrorCode Assembler::AddNodeResidual(Vec residual, int l, const double *g)
 {
   PetscFunctionBeginUser;
-  const int        node = map_->local_nodes[l];
-  const NodeState &s    = state_->nodes[l];
+  const int node = map_->local_nodes[l];
   if (collect_reactions_ && reaction_slot_[l] >= 0) reaction_sums_[reaction_slot_[l]] += Eigen::Map<const Vec6>(g);
   for (int d = 0; d < 6; ++d) {
     local_force_squares_ += g[d] * g[d];
-    if (map_->constraints[node][d].kind == Support::Kind::Prescribed)
-      prescribed_work_ += g[d] * (d < 3 ? s.displacement_increment(d) : s.tangent_scaled_increment(d - 3));
+    if (map_->constraints[node][d].kind == Support::Kind::Prescribed) prescribed_residual_[l](d) += g[d];
   }
   if (!IsSlave(l)) {
     PetscCall(VecSetValues(residual, 6, map_->node_dofs[node].data(), g, ADD_VALUES));
@@ -107,6 +105,33 @@ PetscErrorCode Assembler::AddNodeResidual(Vec residual, int l, const double *g)
     for (int i = 0; i < 6; ++i) values[col] += rows[i * m + col] * g[i];
   }
   PetscCall(VecSetValues(residual, m, unknowns.data(), values, ADD_VALUES));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode Assembler::AddNodeVector(Vec v, int l, const double *g, Through through)
+{
+  PetscFunctionBeginUser;
+  const int node = map_->local_nodes[l];
+  if (!IsSlave(l)) {
+    double values[6];
+    for (int i = 0; i < 6; ++i) values[i] = g[i];
+    // Columns: d theta = H(omega) d omega, so the gradient in omega is H^T times the spin gradient.
+    if (through == Through::Columns && !state_->equations.InitialAcceleration()) {
+      const Vec3 rotated = state_->nodes[l].rotation_tangent.transpose() * Vec3(g[3], g[4], g[5]);
+      for (int i = 0; i < 3; ++i) values[3 + i] = rotated(i);
+    }
+    PetscCall(VecSetValues(v, 6, map_->node_dofs[node].data(), values, ADD_VALUES));
+    PetscFunctionReturn(PETSC_SUCCESS);
+  }
+  const std::vector<PetscInt> &unknowns = map_->node_unknowns[node];
+  const int                    m        = (int)unknowns.size();
+  const double                *map      = through == Through::Rows ? expansion_rows_[l].data() : expansion_columns_[l].data();
+  double                      *values   = expansion_scratch_.data();
+  for (int col = 0; col < m; ++col) {
+    values[col] = 0.0;
+    for (int i = 0; i < 6; ++i) values[col] += map[i * m + col] * g[i];
+  }
+  PetscCall(VecSetValues(v, m, unknowns.data(), values, ADD_VALUES));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
@@ -177,20 +202,33 @@ PetscErrorCode Assembler::AddExpandedMatrix(Mat jacobian, int num_nodes, const i
 
 PetscErrorCode Assembler::AddJointGeometricStiffness(Mat jacobian)
 {
-  double master_rows[6 * 6 * kJointMaxReleased], master_columns[6 * 6 * kJointMaxReleased];
+  double     master_rows[6 * 6 * kJointMaxReleased], master_columns[6 * 6 * kJointMaxReleased];
+  const bool midpoint = state_->equations.Midpoint();
   PetscFunctionBeginUser;
-  // Slaves deepest first: each passes N_m^T g on to its master before the master is processed.
+  // Slaves deepest first: each passes its rows' map's master part times g on to its master before
+  // the master is processed: N_m^T g, or the conserving map's in the mid-point family.
   for (size_t j = state_->joints.size(); j-- > 0;) {
     const JointState &J     = state_->joints[j];
     const Joint      &joint = model_->joints[J.joint];
     const Vec6        g     = slave_residual_[J.local_slave];
     if (g.isZero(0.0)) continue;
-    Mat3 R_m = Mat3::Identity();
-    if (J.local_master >= 0) R_m = state_->nodes[J.local_master].rotation;
-    JointCoordinates q = J.start;
-    for (int c = 0; c < kJointMaxReleased; ++c) q.q[c] += J.increment[c];
     JointSquare G;
-    JointGeometricStiffness(J.geometry, q, R_m, g, &G);
+    if (midpoint) {
+      // d(Ntilde^T g)/d(x_m, theta_m, q) at fixed g, from the start state and the increments.
+      Mat3 R_m_start = Mat3::Identity();
+      Vec3 alpha_m   = Vec3::Zero();
+      if (J.local_master >= 0) {
+        R_m_start = QuaternionToMatrix(state_->nodes[J.local_master].rotation_start);
+        alpha_m   = state_->nodes[J.local_master].tangent_scaled_increment;
+      }
+      JointConservingGeometricStiffness(J.geometry, J.start, J.increment, R_m_start, alpha_m, g, &G);
+    } else {
+      Mat3 R_m = Mat3::Identity();
+      if (J.local_master >= 0) R_m = state_->nodes[J.local_master].rotation;
+      JointCoordinates q = J.start;
+      for (int c = 0; c < kJointMaxReleased; ++c) q.q[c] += J.increment[c];
+      JointGeometricStiffness(J.geometry, q, R_m, g, &G);
+    }
     // Rows: the master's rows for (x_m, theta_m), identity for the free coordinates; columns alike.
     const int                    k        = JointNumCoordinates(J.geometry);
     const std::vector<PetscInt> &unknowns = map_->node_unknowns[joint.slave];
@@ -207,7 +245,7 @@ PetscErrorCode Assembler::AddJointGeometricStiffness(Mat jacobian)
       NodeExpansion(J.local_master, &mr, &mc, master_rows, master_columns);
       for (int i = 0; i < 6; ++i)
         for (int col = 0; col < m_master; ++col) R(i, col) = mr[i * m_master + col], C(i, col) = mc[i * m_master + col];
-      if (IsSlave(J.local_master)) slave_residual_[J.local_master] += J.map.leftCols<6>().transpose() * g;
+      if (IsSlave(J.local_master)) slave_residual_[J.local_master] += J.rows_map.leftCols<6>().transpose() * g;
     }
     int column = m_master;
     for (int c = 0; c < k; ++c) {

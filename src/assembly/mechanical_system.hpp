@@ -35,6 +35,7 @@ public:
   State                 &GetState() { return state_; }
   const State           &GetState() const { return state_; }
   const BeamContributor &Beams() const { return beams_; }
+  BeamContributor       &Beams() { return beams_; }
   // Kinetic energy and momenta of the start-of-step state (collective).
   PetscErrorCode Momenta(msflex::Momenta *momenta);
   // Element results and strain energy of the current configuration (collective).

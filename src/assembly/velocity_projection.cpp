@@ -43,7 +43,7 @@ PetscErrorCode Assembler::ProjectInitialVelocities(double t, InitialVelocityRepo
         if (l >= 0) given[l] = &ic;
       }
   auto given_velocity = [&](int l) {
-    Vec6                    V = Vec6::Zero();
+    Vec6                    V  = Vec6::Zero();
     const InitialCondition *ic = given[l];
     if (!ic) return V;
     const Vec3 X = model.nodes[map.local_nodes[l]].position;
@@ -58,6 +58,7 @@ PetscErrorCode Assembler::ProjectInitialVelocities(double t, InitialVelocityRepo
   PetscCall(VecDuplicate(solution_template_, &y));
   PetscCall(VecDuplicate(solution_template_, &delta));
   PetscCall(VecDuplicate(solution_template_, &R));
+  PetscCall(VecSetOption(R, VEC_IGNORE_NEGATIVE_INDICES, PETSC_TRUE)); // node vectors carry -1 on fixed DOFs
   PetscCall(VecZeroEntries(y));
   for (PetscInt l = 0; l < map.num_owned_nodes; ++l) {
     if (IsSlave((int)l) || !given[l]) continue;
@@ -84,18 +85,18 @@ PetscErrorCode Assembler::ProjectInitialVelocities(double t, InitialVelocityRepo
 
   // The beams' material stiffness at the start configuration (one kernel call per element: the
   // reference strains shifted to the current ones, so the stresses and the geometric terms vanish).
-  double      local_diagonal = 0.0, weight;
-  const auto &references     = beams_->References();
+  double                           local_diagonal = 0.0, weight;
+  const auto                      &references     = beams_->References();
   std::vector<std::vector<double>> element_matrices(map.local_elements.size());
   for (size_t k = 0; k < map.local_elements.size(); ++k) {
-    const BeamElement    &element = model.elements[map.local_elements[k]];
-    const Section        &section = model.sections[element.section];
-    const int             nd      = 6 * (element.order + 1);
-    Vec3                  positions[kBeamMaxNodes], zero[kBeamMaxNodes], strain[kBeamMaxGauss], curvature[kBeamMaxGauss], rate[kBeamMaxGauss], kappa_rate[kBeamMaxGauss];
-    Mat3                  triads[kBeamMaxNodes];
-    BeamElementReference  shifted = references[k];
-    double                force[kBeamMaxDofs];
-    std::vector<double>  &K       = element_matrices[k];
+    const BeamElement &element = model.elements[map.local_elements[k]];
+    const Section     &section = model.sections[element.section];
+    const int          nd      = 6 * (element.order + 1);
+    Vec3 positions[kBeamMaxNodes], zero[kBeamMaxNodes], strain[kBeamMaxGauss], curvature[kBeamMaxGauss], rate[kBeamMaxGauss], kappa_rate[kBeamMaxGauss];
+    Mat3 triads[kBeamMaxNodes];
+    BeamElementReference shifted = references[k];
+    double               force[kBeamMaxDofs];
+    std::vector<double> &K = element_matrices[k];
     for (Vec3 &v : zero) v.setZero();
     beams_->StartConfiguration(state, k, positions, triads);
     K.assign((size_t)nd * nd, 0.0);
@@ -219,8 +220,8 @@ PetscErrorCode Assembler::ProjectInitialVelocities(double t, InitialVelocityRepo
   PetscCall(KSPGetIterationNumber(ksp, &report->iterations));
   PetscCall(KSPDestroy(&ksp));
   PetscCall(MatDestroy(&P));
-  PetscCheck(reason > 0, comm_, PETSC_ERR_NOT_CONVERGED, "the projection of the initial velocities did not converge (%s); run with -analysis_initial_velocities given",
-             KSPConvergedReasons[reason]);
+  PetscCheck(reason > 0, comm_, PETSC_ERR_NOT_CONVERGED,
+             "the projection of the initial velocities did not converge (%s); run with -analysis_initial_velocities given", KSPConvergedReasons[reason]);
   PetscCall(VecAXPY(y, 1.0, delta));
   PetscCall(SetIncrements(y));
   PetscCall(assemble(false, &report->strain_rate_after));

@@ -51,11 +51,14 @@ void BeamContributor::StartConfiguration(const State &state, size_t k, Vec3 *pos
   }
 }
 
-// Statics and the Newmark family: r and K at t_{n+1}. Mid-point family: the mid-point forces and
-// em's correction with the pieces of beta; the tangent is approximated by K(q_{n+1})/2, the
-// mid-point forces moving half as fast as the end state (a preconditioner for the matrix-free
-// operator of integrators/newton.hpp). Initial-acceleration problem: the start state's forces,
-// which balance inertia and loads; no tangent (the unknowns are accelerations).
+// Statics and the Newmark family: r and K at t_{n+1}. Mid-point family: the mid-point forces
+// F_mc and em's correction F_corr with the pieces of beta (eq. 17-20) and their exact tangents
+// (elements/beam.hpp); for em also the gradients of beta's numerator and denominator:
+//   W = sum_a u_a.f_a + alpha_a.m_a,  d alpha = S(alpha) d theta,  S(a) = I - hat(a)/2 + a a^T/4,
+//   grad W = (f_a, S(alpha_a)^T m_a)_a + K^T p,  p = (u_a, alpha_a)_a,
+//   grad(Pi_{n+1} - Pi_n - W_mc) = r_{n+1} - grad W_mc,   grad W_corr.
+// Initial-acceleration problem: the start state's forces, which balance inertia and loads; no
+// tangent (the unknowns are accelerations).
 void BeamContributor::AddElement(const State &state, size_t k, ElementContribution *out)
 {
   const BeamElement          &element = model_->elements[map_->local_elements[k]];
@@ -71,31 +74,53 @@ void BeamContributor::AddElement(const State &state, size_t k, ElementContributi
   if (eq.Midpoint()) {
     Vec3   positions_start[kBeamMaxNodes];
     Mat3   triads_start[kBeamMaxNodes];
-    double correction[kBeamMaxDofs], energy_start, energy_end;
+    double correction[kBeamMaxDofs], energy_start, energy_end, K_mc[kBeamMaxDofs * kBeamMaxDofs], K_corr[kBeamMaxDofs * kBeamMaxDofs],
+        end_residual[kBeamMaxDofs];
+    const bool energy_terms = out->want_energy_terms;
     StartConfiguration(state, k, positions_start, triads_start);
-    if (BeamMidpointInternalForces(ref, section, positions_start, triads_start, positions, triads, force, correction, &energy_start, &energy_end) !=
-        BeamKernelStatus::Ok) {
+    if (BeamMidpointInternalForces(ref, section, positions_start, triads_start, positions, triads, force, correction, end_tangent ? K_mc : nullptr,
+                                   energy_terms ? K_corr : nullptr, energy_terms ? end_residual : nullptr, &energy_start, &energy_end,
+                                   eq.scheme.energy_correction) != BeamKernelStatus::Ok) {
       out->evaluable = false;
       return;
     }
     double work = 0.0;
+    Vec3   u[kBeamMaxNodes], alpha[kBeamMaxNodes];
     for (int a = 0; a < n; ++a) {
-      const NodeState &s = state.nodes[map_->node_to_local[element.nodes[a]]];
-      const Vec3      &u = s.displacement_increment, &alpha = s.tangent_scaled_increment;
-      const double     node_work = u.dot(Vec3(&force[6 * a])) + alpha.dot(Vec3(&force[6 * a + 3]));
+      const NodeState &s     = state.nodes[map_->node_to_local[element.nodes[a]]];
+      u[a]                   = s.displacement_increment;
+      alpha[a]               = s.tangent_scaled_increment;
+      const double node_work = u[a].dot(Vec3(&force[6 * a])) + alpha[a].dot(Vec3(&force[6 * a + 3]));
       work += node_work;
       out->work_scale += std::abs(node_work);
-      out->correction_work += u.dot(Vec3(&correction[6 * a])) + alpha.dot(Vec3(&correction[6 * a + 3]));
+      out->correction_work += u[a].dot(Vec3(&correction[6 * a])) + alpha[a].dot(Vec3(&correction[6 * a + 3]));
     }
     out->work_mismatch += (energy_end - energy_start) - work;
     for (int i = 0; i < nd; ++i) out->residual[i] += force[i], out->correction[i] += correction[i];
-    if (end_tangent) {
-      double K[kBeamMaxDofs * kBeamMaxDofs];
-      if (BeamInternalForces(ref, section, positions, triads, force, K, nullptr, nullptr) != BeamKernelStatus::Ok) {
-        out->evaluable = false;
-        return;
+    if (end_tangent)
+      for (int i = 0; i < nd * nd; ++i) out->tangent[i] += K_mc[i];
+    if (!energy_terms) return;
+    for (int i = 0; i < nd * nd; ++i) out->tangent_correction[i] += K_corr[i];
+    for (int a = 0; a < n; ++a) {
+      const Mat3 S    = Mat3::Identity() - 0.5 * Skew(alpha[a]) + 0.25 * alpha[a] * alpha[a].transpose();
+      const Vec3 m_mc = S.transpose() * Vec3(&force[6 * a + 3]), m_corr = S.transpose() * Vec3(&correction[6 * a + 3]);
+      for (int i = 0; i < 3; ++i) {
+        out->mismatch_gradient[6 * a + i] += end_residual[6 * a + i] - force[6 * a + i];
+        out->mismatch_gradient[6 * a + 3 + i] += end_residual[6 * a + 3 + i] - m_mc(i);
+        out->correction_work_gradient[6 * a + i] += correction[6 * a + i];
+        out->correction_work_gradient[6 * a + 3 + i] += m_corr(i);
       }
-      for (int i = 0; i < nd * nd; ++i) out->tangent[i] += 0.5 * K[i];
+    }
+    // K^T p: column j of K times p.
+    for (int j = 0; j < nd; ++j) {
+      double mc = 0.0, corr = 0.0;
+      for (int i = 0; i < nd; ++i) {
+        const double p = i % 6 < 3 ? u[i / 6](i % 6) : alpha[i / 6](i % 6 - 3);
+        mc += K_mc[i * nd + j] * p;
+        corr += K_corr[i * nd + j] * p;
+      }
+      out->mismatch_gradient[j] -= mc;
+      out->correction_work_gradient[j] += corr;
     }
     return;
   }
@@ -154,6 +179,45 @@ bool BeamContributor::EndPointTangent(const State &state, size_t k, double *resi
   Mat3               triads[kBeamMaxNodes];
   Configuration(state, k, positions, triads);
   return BeamInternalForces(references_[k], sections_[element.section], positions, triads, residual, tangent, nullptr, nullptr) == BeamKernelStatus::Ok;
+}
+
+bool BeamContributor::GaussStrainsOf(const State &state, std::vector<GaussStrains> *strains) const
+{
+  bool         all_ok = true;
+  GaussStrains zero;
+  for (int g = 0; g < kBeamMaxGauss; ++g) zero.strain[g].setZero(), zero.curvature[g].setZero();
+  strains->assign(references_.size(), zero);
+  for (size_t k = 0; k < references_.size(); ++k) {
+    const BeamElement &element = model_->elements[map_->local_elements[k]];
+    Vec3               positions[kBeamMaxNodes];
+    Mat3               triads[kBeamMaxNodes];
+    double             r[kBeamMaxDofs];
+    BeamGaussResults   gauss;
+    Configuration(state, k, positions, triads);
+    if (BeamInternalForces(references_[k], sections_[element.section], positions, triads, r, nullptr, nullptr, &gauss) != BeamKernelStatus::Ok) {
+      all_ok = false;
+      continue;
+    }
+    for (int g = 0; g < references_[k].num_gauss; ++g) (*strains)[k].strain[g] = gauss.strain[g], (*strains)[k].curvature[g] = gauss.curvature[g];
+  }
+  return all_ok;
+}
+
+void BeamContributor::AddPrestrain(const std::vector<GaussStrains> &prestrain)
+{
+  if (unstrained_references_.empty()) unstrained_references_ = references_;
+  for (size_t k = 0; k < references_.size(); ++k)
+    for (int g = 0; g < references_[k].num_gauss; ++g) {
+      references_[k].strain0[g] -= prestrain[k].strain[g];
+      references_[k].curvature0[g] -= prestrain[k].curvature[g];
+    }
+}
+
+void BeamContributor::ClearPrestrain()
+{
+  if (unstrained_references_.empty()) return;
+  references_.swap(unstrained_references_);
+  unstrained_references_.clear();
 }
 
 double BeamContributor::LocalStiffnessSquares() const

@@ -41,6 +41,18 @@ public:
   // the local sections' stiffness (EA, GA, GJ/L, EI/L per element); summed over ranks by the caller.
   double LocalStiffnessSquares() const;
 
+  // Linearised buckling (integrators/linearization.hpp): the strains (Gamma - Gamma_0, K - K_0) of
+  // every Gauss point of the local elements in the current configuration (false when an element
+  // cannot be evaluated), and initial strains added to them: the reference strains become
+  // Gamma_0 - prestrain, K_0 - prestrain, so that a configuration carries the stresses of its own
+  // strains plus the prestrain's, until ClearPrestrain.
+  struct GaussStrains {
+    Vec3 strain[kBeamMaxGauss], curvature[kBeamMaxGauss];
+  };
+  bool GaussStrainsOf(const State &state, std::vector<GaussStrains> *strains) const;
+  void AddPrestrain(const std::vector<GaussStrains> &prestrain);
+  void ClearPrestrain();
+
   // Current (or start-of-step) nodal positions and section triads of local element k.
   void Configuration(const State &state, size_t k, Vec3 *positions, Mat3 *triads) const;
   void StartConfiguration(const State &state, size_t k, Vec3 *positions, Mat3 *triads) const;
@@ -48,8 +60,9 @@ public:
 private:
   const Model                      *model_ = nullptr;
   const DofMap                     *map_   = nullptr;
-  std::vector<BeamElementReference> references_; // per local element
-  std::vector<BeamSectionStiffness> sections_;   // per section
+  std::vector<BeamElementReference> references_;            // per local element
+  std::vector<BeamSectionStiffness> sections_;              // per section
+  std::vector<BeamElementReference> unstrained_references_; // the references without prestrain, while there is one
 };
 
 // Reference data of element e of a model (shared by the set-up of beams and nodal masses).

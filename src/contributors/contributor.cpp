@@ -4,15 +4,21 @@
 
 namespace msflex {
 
-void ElementContribution::Clear(int nodes, bool tangent_wanted)
+void ElementContribution::Clear(int nodes, bool tangent_wanted, bool energy_terms_wanted)
 {
-  const int nd = 6 * nodes;
-  num_nodes    = nodes;
-  want_tangent = tangent_wanted;
-  evaluable    = true;
+  const int nd      = 6 * nodes;
+  num_nodes         = nodes;
+  want_tangent      = tangent_wanted;
+  want_energy_terms = tangent_wanted && energy_terms_wanted;
+  evaluable         = true;
   std::fill(residual, residual + nd, 0.0);
   std::fill(correction, correction + nd, 0.0);
   if (want_tangent) std::fill(tangent, tangent + nd * nd, 0.0);
+  if (want_energy_terms) {
+    std::fill(tangent_correction, tangent_correction + nd * nd, 0.0);
+    std::fill(mismatch_gradient, mismatch_gradient + nd, 0.0);
+    std::fill(correction_work_gradient, correction_work_gradient + nd, 0.0);
+  }
   work_mismatch = correction_work = work_scale = 0.0;
 }
 

@@ -45,8 +45,14 @@ struct ElementContribution {
   // the scale of its internal work (sum of |u.f|) for the round-off test.
   double correction[kBeamMaxDofs];
   double work_mismatch = 0.0, correction_work = 0.0, work_scale = 0.0;
+  // em's exact linearisation (with a tangent in the energy-momentum scheme): the correction's
+  // tangent K_corr, and the spin-form gradients of beta's numerator (the work mismatch
+  // Pi_{n+1} - Pi_n - W_mc) and denominator (the correction's work W_corr), W = sum u.f + alpha.m.
+  bool   want_energy_terms = false;
+  double tangent_correction[kBeamMaxDofs * kBeamMaxDofs];
+  double mismatch_gradient[kBeamMaxDofs], correction_work_gradient[kBeamMaxDofs];
 
-  void Clear(int nodes, bool tangent_wanted);
+  void Clear(int nodes, bool tangent_wanted, bool energy_terms_wanted = false);
 };
 
 // What the node contributors accumulate for one owned node.

@@ -28,8 +28,8 @@ private:
   const Model                 *model_ = nullptr;
   const DofMap                *map_   = nullptr;
   const BeamContributor       *beams_ = nullptr;
-  std::vector<Vec3>            line_load_;  // per local element: force per length, weighted in time
-  std::vector<NodalLoadValues> nodal_load_; // per owned node
+  std::vector<Vec3>            line_load_start_, line_load_end_; // per local element: force per length at t_n, t_{n+1}
+  std::vector<NodalLoadValues> nodal_load_;                      // per owned node
 };
 
 } // namespace msflex

@@ -14,13 +14,14 @@ void RigidBodyContributor::Setup(const Model &model, const DofMap &map)
 void RigidBodyContributor::BeginStep(const State &state)
 {
   const StepEquations &eq = state.equations;
-  const double         w0 = eq.LoadWeightStart(), w1 = eq.LoadWeightEnd();
-  weight_.assign(state.bodies.size(), Vec3::Zero());
+  weight_start_.assign(state.bodies.size(), Vec3::Zero());
+  weight_end_.assign(state.bodies.size(), Vec3::Zero());
   for (size_t b = 0; b < state.bodies.size(); ++b)
     for (const DistributedLoad &load : model_->distributed_loads)
-      if (load.gravity)
-        weight_[b] += (w0 * FunctionValue(*model_, load.function, eq.t_start) + w1 * FunctionValue(*model_, load.function, eq.t_end)) * state.bodies[b].mass *
-                      load.force_per_length;
+      if (load.gravity) {
+        weight_start_[b] += FunctionValue(*model_, load.function, eq.t_start) * state.bodies[b].mass * load.force_per_length;
+        weight_end_[b] += FunctionValue(*model_, load.function, eq.t_end) * state.bodies[b].mass * load.force_per_length;
+      }
 }
 
 // Lever arm of the weight: r_{n+1} in statics and the Newmark family, (r_n + r_{n+1})/2 in the
@@ -50,11 +51,12 @@ void RigidBodyContributor::BodyForces(const State &state, size_t b, Vec6 *residu
   } else if (eq.InitialAcceleration()) {
     InitialOffsetPointMassInertia(body.mass, r_start, R_start * s.rotation_motion.velocity, s.displacement_increment, s.rotation_increment, residual, tangent);
   }
-  if (weight_[b].isZero(0.0)) return;
+  const Vec3 weight = eq.LoadWeightStart() * weight_start_[b] + eq.LoadWeightEnd() * weight_end_[b];
+  if (weight.isZero(0.0)) return;
   const double arm_start = eq.InitialAcceleration() ? 1.0 : eq.Midpoint() ? 0.5 : 0.0, arm_end = eq.InitialAcceleration() ? 0.0 : eq.Midpoint() ? 0.5 : 1.0;
   Vec6         r;
   Mat6         K;
-  OffsetPointWeight(weight_[b], r_start, r_end, arm_start, arm_end, &r, tangent ? &K : nullptr);
+  OffsetPointWeight(weight, r_start, r_end, arm_start, arm_end, &r, tangent ? &K : nullptr);
   *residual += r;
   if (tangent && arm_end != 0.0) *tangent += K;
 }
@@ -88,15 +90,16 @@ void RigidBodyContributor::AddStepWork(const State &state, double *work) const
 {
   for (size_t b = 0; b < state.bodies.size(); ++b) {
     const RigidBodyState &body = state.bodies[b];
-    const NodeState      &s    = state.nodes[body.local_node];
-    *work += weight_[b].dot(s.displacement_increment + (s.rotation - QuaternionToMatrix(s.rotation_start)) * body.offset);
+    const NodeState      &s =
+        state.nodes[body.local_node]; // The mean weight over the step times the centre of mass's displacement (as LoadContributor::AddStepWork).
+    *work += (0.5 * (weight_start_[b] + weight_end_[b])).dot(s.displacement_increment + (s.rotation - QuaternionToMatrix(s.rotation_start)) * body.offset);
   }
 }
 
 void RigidBodyContributor::FindNonFiniteData(const State &state, TroubleFindings *findings) const
 {
   for (size_t b = 0; b < state.bodies.size(); ++b) {
-    if (weight_[b].allFinite() || !NodeStateFinite(state.nodes[state.bodies[b].local_node])) continue;
+    if ((weight_start_[b].allFinite() && weight_end_[b].allFinite()) || !NodeStateFinite(state.nodes[state.bodies[b].local_node])) continue;
     const int node = map_->local_nodes[state.bodies[b].local_node];
     findings->Offer(TroubleSource::RigidBody, map_->global_nodes[node], "the rigid body on " + NodeLabel(*model_, node));
   }

@@ -29,7 +29,7 @@ private:
 
   const Model      *model_ = nullptr;
   const DofMap     *map_   = nullptr;
-  std::vector<Vec3> weight_; // per body of the state: m g at the centre of mass, weighted in time for the step
+  std::vector<Vec3> weight_start_, weight_end_; // per body of the state: m g at the centre of mass at t_n and t_{n+1}
 };
 
 } // namespace msflex

@@ -222,35 +222,149 @@ void GaussStrains(const BeamElementReference &ref, int gp, const Vec3 *rho, cons
   *curvature                   = RodriguesMatrix(TangentForm(series), Psi).transpose() * dPsi - ref.curvature0[gp];
 }
 
-} // namespace
+// Mid-point forces and their exact linearisation with respect to the end of the step.
+//
+// Forces (local coordinates q = (rho_a, psi_a), D(q) = d(Gamma, K)/dq, S = (N, M), C = diag(C_N, C_M)):
+//   h_mc = sum_gp wJ D(q_mid)^T (S_n + S_{n+1})/2,   h_corr = sum_gp wJ D(q_mid)^T (S_{n+1} - S_n)
+//   f_a = Lbar h_rho_a,  m_a = Lbar Hinv(psi_{a,mid})^T h_psi_a,  f_c = -sum f_a,
+//   m_c = sum_a (-dbar_a x f_a - m_a),   Lbar = (Lambda_{c,n} + Lambda_{c,n+1})/2, dbar_a = (d_{a,n} + d_{a,n+1})/2.
+// Tangent with respect to (delta x_{n+1}, delta theta_{n+1}); with q_mid = (q_n + q_{n+1})/2 and
+// delta S_{n+1} = C D(q_{n+1}) delta q_{n+1}, the local part is
+//   delta h = [s D(q_mid)^T C D(q_{n+1}) + G(q_mid, S)/2] delta q_{n+1},   s = 1/2 (mc), 1 (corr),
+// G(q, S) = d(D(q)^T S)/dq at fixed S (the geometric stiffness of the end-point kernel with S),
+// delta q_{n+1} the end-point map (T_{n+1} below), and F = Tbar^T h adds the variation of Tbar at
+// fixed h: Lbar and dbar move with half the end variation, Hinv(psi_{a,mid}) with half of delta psi_{a,n+1}.
 
-BeamKernelStatus BeamMidpointInternalForces(const BeamElementReference &ref, const BeamSectionStiffness &section, const Vec3 *positions_start,
-                                            const Mat3 *triads_start, const Vec3 *positions, const Mat3 *triads, double *force_mc, double *force_correction,
-                                            double *strain_energy_start, double *strain_energy_end)
+// Per Gauss point, the 3x3 matrices from which each local block of s D_m^T C D_1 + G_m/2 is a
+// scalar combination (m: at q_mid, 1: at q_{n+1}; I_a, I'_a the shape functions and derivatives):
+//   (rho_a, rho_b): I'_a I'_b rr                 rr  = s E_m C_N E_1^T
+//   (rho_a, psi_b): I'_a I_b  rp                 rp  = s E_m C_N A_1 + P/2
+//   (psi_a, rho_b): I_a  I'_b pr                 pr  = s A_m^T C_N E_1^T + P^T/2
+//   (psi_a, psi_b): I_a I_b pp + I_a I'_b pd + I'_a I_b dp + I'_a I'_b dd
+//                   pp = s (A_m^T C_N A_1 + B_m^T C_M B_1) + (Sg + Sk)/2,  pd = s B_m^T C_M H_1^T + Q^T/2,
+//                   dp = s H_m C_M B_1 + Q/2,  dd = s H_m C_M H_1^T
+// with P = d(E N)/dPsi, Q = d(H M)/dPsi, Sg + Sk = d(A^T N + B^T M)/dPsi at q_mid for the stresses S of the output.
+struct MidpointGaussBlocks {
+  double wJ;
+  Mat3   rr, rp, pr, pp, pd, dp, dd;
+};
+
+// The maps between nodal variations and local coordinates: Tbar (mid-point, maps the forces) and
+// T_{n+1} (end, maps the variations):
+//   delta rho_a = L^T (dx_a - dx_c) + L^T hat(d_a) dtheta_c,   delta psi_a = P_a (dtheta_a - dtheta_c),  P_a = Hinv(psi_a) L^T.
+template <int NN> struct MidpointMaps {
+  Mat3          Lbar, L, LT;
+  Vec3          d[NN], dbar[NN], psi_mid[NN];
+  Mat3          P[NN];         // Hinv(psi_{a,n+1}) L^T
+  Mat3          HinvT_mid[NN]; // Hinv(psi_{a,mid})^T
+  Mat3          PbarT[NN];     // Lbar Hinv(psi_{a,mid})^T
+  RodriguesForm Finv_mid[NN];
+};
+
+// K = Tbar^T K_loc T_{n+1} + (delta Tbar^T) h for one output (mc or corr), row-major 6 NN x 6 NN.
+template <int NN>
+void MidpointTangent(const BeamElementReference &ref, const int *others, const MidpointGaussBlocks *blocks, const MidpointMaps<NN> &maps, const Vec3 *h_rho,
+                     const Vec3 *h_psi, double *tangent_out)
 {
-  const int nn = ref.num_nodes, c = ref.reference_node;
-  Vec3      rho_n[kBeamMaxNodes], psi_n[kBeamMaxNodes], rho_1[kBeamMaxNodes], psi_1[kBeamMaxNodes], rho_m[kBeamMaxNodes], psi_m[kBeamMaxNodes];
-  if (!LocalCoordinates(nn, c, positions_start, triads_start, rho_n, psi_n)) return BeamKernelStatus::RotationTooLarge;
-  if (!LocalCoordinates(nn, c, positions, triads, rho_1, psi_1)) return BeamKernelStatus::RotationTooLarge;
-  for (int a = 0; a < nn; ++a) {
+  const int                   c = ref.reference_node;
+  Eigen::Map<NodalMatrix<NN>> K(tangent_out);
+  K.setZero();
+  auto add = [&K](int row, int column, const Mat3 &block) { K.template block<3, 3>(row, column) += block; };
+  for (int o = 0; o < NN - 1; ++o) {
+    const int  a     = others[o];
+    const Mat3 hdbar = Skew(maps.dbar[a]);
+    for (int ob = 0; ob < NN - 1; ++ob) {
+      const int b   = others[ob];
+      Mat3      Krr = Mat3::Zero(), Krp = Mat3::Zero(), Kpr = Mat3::Zero(), Kpp = Mat3::Zero();
+      for (int gp = 0; gp < ref.num_gauss; ++gp) {
+        const MidpointGaussBlocks &G  = blocks[gp];
+        const double              *I  = ref.shape[gp];
+        const double              *dI = ref.shape_derivative[gp];
+        Krr += (G.wJ * dI[a] * dI[b]) * G.rr;
+        Krp += (G.wJ * dI[a] * I[b]) * G.rp;
+        Kpr += (G.wJ * I[a] * dI[b]) * G.pr;
+        Kpp += G.wJ * (I[a] * I[b] * G.pp + I[a] * dI[b] * G.pd + dI[a] * I[b] * G.dp + dI[a] * dI[b] * G.dd);
+      }
+      // Tbar^T (rows) and T_{n+1} (columns) of the local block: rows x_a = Lbar (.), theta_a = PbarT_a (.),
+      // x_c = -x_a, theta_c = -dbar_a x x_a - theta_a; columns x_b = (.)_rho L^T, theta_b = (.)_psi P_b,
+      // x_c = -x_b, theta_c = x_b hat(d_b) - theta_b.
+      const Mat3 LKrr = maps.Lbar * Krr, LKrp = maps.Lbar * Krp, PKpr = maps.PbarT[a] * Kpr, PKpp = maps.PbarT[a] * Kpp;
+      const Mat3 Nxx = LKrr * maps.LT, Nxt = LKrp * maps.P[b], Ntx = PKpr * maps.LT, Ntt = PKpp * maps.P[b];
+      const Mat3 hd  = Skew(maps.d[b]);
+      const Mat3 Nxc = Nxx * hd - Nxt, Ntc = Ntx * hd - Ntt;                                   // theta_c columns
+      const Mat3 Cxx = -hdbar * Nxx - Ntx, Cxt = -hdbar * Nxt - Ntt, Cxc = -hdbar * Nxc - Ntc; // theta_c rows
+      const int  ax = 6 * a, at = 6 * a + 3, bx = 6 * b, bt = 6 * b + 3, cx = 6 * c, ct = 6 * c + 3;
+      add(ax, bx, Nxx), add(ax, bt, Nxt), add(ax, cx, -Nxx), add(ax, ct, Nxc);
+      add(at, bx, Ntx), add(at, bt, Ntt), add(at, cx, -Ntx), add(at, ct, Ntc);
+      add(cx, bx, -Nxx), add(cx, bt, -Nxt), add(cx, cx, Nxx), add(cx, ct, -Nxc);
+      add(ct, bx, Cxx), add(ct, bt, Cxt), add(ct, cx, -Cxx), add(ct, ct, Cxc);
+    }
+  }
+  // Variation of Tbar at fixed h, with g_a = L h_rho_a, w_a = L Hinv(psi_mid)^T h_psi_a:
+  //   delta f_a = -hat(g_a) dtheta_c / 2
+  //   delta m_a = -hat(w_a) dtheta_c / 2 + W_a (dtheta_a - dtheta_c),  W_a = Lbar d(Hinv^T h_psi_a)/dpsi|_mid P_a / 2
+  //   delta (-dbar_a x f_a) = hat(f_a) (dx_a - dx_c) / 2 - hat(dbar_a) delta f_a
+  for (int o = 0; o < NN - 1; ++o) {
+    const int  a  = others[o];
+    const Vec3 g  = maps.L * h_rho[a];
+    const Vec3 f  = maps.Lbar * h_rho[a];
+    const Vec3 w  = maps.L * (maps.HinvT_mid[a] * h_psi[a]);
+    const Mat3 W  = 0.5 * maps.Lbar * RodriguesTransposeApplyJacobian(maps.Finv_mid[a], maps.psi_mid[a], h_psi[a]) * maps.P[a];
+    const Mat3 hg = 0.5 * Skew(g), hf = 0.5 * Skew(f), hw = 0.5 * Skew(w);
+    const int  ax = 6 * a, at = 6 * a + 3, cx = 6 * c, ct = 6 * c + 3;
+    K.template block<3, 3>(ax, ct) -= hg;
+    K.template block<3, 3>(cx, ct) += hg;
+    K.template block<3, 3>(at, at) += W;
+    K.template block<3, 3>(at, ct) -= hw + W;
+    K.template block<3, 3>(ct, at) -= W;
+    K.template block<3, 3>(ct, ct) += hw + W + Skew(maps.dbar[a]) * hg;
+    K.template block<3, 3>(ct, ax) += hf;
+    K.template block<3, 3>(ct, cx) -= hf;
+  }
+}
+
+template <int NN>
+BeamKernelStatus MidpointForces(const BeamElementReference &ref, const BeamSectionStiffness &section, const Vec3 *positions_start, const Mat3 *triads_start,
+                                const Vec3 *positions, const Mat3 *triads, double *force_mc, double *force_correction, double *tangent_mc,
+                                double *tangent_correction, double *end_residual_out, double *energy_start_out, double *energy_end_out,
+                                EnergyCorrection correction)
+{
+  const int  c                  = ref.reference_node;
+  const bool correction_moments = correction == EnergyCorrection::Resultants; // (N_d, M_d), else (N_d, 0)
+  Vec3       rho_n[NN], psi_n[NN], rho_1[NN], psi_1[NN], rho_m[NN], psi_m[NN];
+  if (!LocalCoordinates(NN, c, positions_start, triads_start, rho_n, psi_n)) return BeamKernelStatus::RotationTooLarge;
+  if (!LocalCoordinates(NN, c, positions, triads, rho_1, psi_1)) return BeamKernelStatus::RotationTooLarge;
+  int others[NN - 1];
+  for (int a = 0, o = 0; a < NN; ++a)
+    if (a != c) others[o++] = a;
+  for (int a = 0; a < NN; ++a) {
     rho_m[a] = 0.5 * (rho_n[a] + rho_1[a]);
     psi_m[a] = 0.5 * (psi_n[a] + psi_1[a]);
   }
+  const bool  want_tangent = tangent_mc || tangent_correction;
+  const bool  want_end     = want_tangent || end_residual_out; // the end-point operators A_1, B_1
   const Vec3 &CN = section.axial_shear, &CM = section.torsion_bending;
-  Vec3        h_rho[kBeamMaxNodes], h_psi[kBeamMaxNodes], k_rho[kBeamMaxNodes], k_psi[kBeamMaxNodes];
-  for (int a = 0; a < nn; ++a) h_rho[a].setZero(), h_psi[a].setZero(), k_rho[a].setZero(), k_psi[a].setZero();
-  double energy_n = 0.0, energy_1 = 0.0;
+  Vec3        h_rho[NN], h_psi[NN], k_rho[NN], k_psi[NN], g_rho[NN], g_psi[NN];
+  for (int a = 0; a < NN; ++a) h_rho[a].setZero(), h_psi[a].setZero(), k_rho[a].setZero(), k_psi[a].setZero(), g_rho[a].setZero(), g_psi[a].setZero();
+  MidpointGaussBlocks blocks_mc[kBeamMaxGauss], blocks_corr[kBeamMaxGauss];
+  double              energy_n = 0.0, energy_1 = 0.0;
   for (int gp = 0; gp < ref.num_gauss; ++gp) {
-    Vec3 eps_n, kap_n, eps_1, kap_1;
+    const double *I = ref.shape[gp], *dI = ref.shape_derivative[gp];
+    const double  wJ = ref.weight_jacobian[gp];
+    // Start and end of the step: strains and stresses; at the end also D(q_{n+1}).
+    Vec3 eps_n, kap_n;
     GaussStrains(ref, gp, rho_n, psi_n, &eps_n, &kap_n);
-    GaussStrains(ref, gp, rho_1, psi_1, &eps_1, &kap_1);
-    const Vec3   N_n = CN.cwiseProduct(eps_n), M_n = CM.cwiseProduct(kap_n), N_1 = CN.cwiseProduct(eps_1), M_1 = CM.cwiseProduct(kap_1);
-    const double wJ = ref.weight_jacobian[gp];
+    const GaussInterpolation end     = InterpolateAtGauss(ref, gp, rho_1, psi_1);
+    const RotationSeries     series1 = EvaluateRotationSeries(end.Psi.squaredNorm());
+    const RodriguesForm      Fe1 = ExpForm(series1), Fh1 = TangentForm(series1);
+    const Mat3               E1 = RodriguesMatrix(Fe1, end.Psi), H1 = RodriguesMatrix(Fh1, end.Psi);
+    const Vec3               eps_1 = E1.transpose() * end.drho - ref.strain0[gp];
+    const Vec3               kap_1 = H1.transpose() * end.dPsi - ref.curvature0[gp];
+    const Vec3               N_n = CN.cwiseProduct(eps_n), M_n = CM.cwiseProduct(kap_n), N_1 = CN.cwiseProduct(eps_1), M_1 = CM.cwiseProduct(kap_1);
     energy_n += 0.5 * wJ * (eps_n.dot(N_n) + kap_n.dot(M_n));
     energy_1 += 0.5 * wJ * (eps_1.dot(N_1) + kap_1.dot(M_1));
-    const Vec3 N_mid = 0.5 * (N_n + N_1), M_mid = 0.5 * (M_n + M_1), N_d = N_1 - N_n, M_d = M_1 - M_n;
+    const Vec3 N_mid = 0.5 * (N_n + N_1), M_mid = 0.5 * (M_n + M_1), N_d = N_1 - N_n, M_d = correction_moments ? Vec3(M_1 - M_n) : Vec3::Zero();
     // D(q_mid): dGamma = A dPsi + E^T drho',  dK = B dPsi + H^T dPsi'
-    const double *I = ref.shape[gp], *dI = ref.shape_derivative[gp];
     const auto [Psi, dPsi, drho] = InterpolateAtGauss(ref, gp, rho_m, psi_m);
     const RotationSeries series  = EvaluateRotationSeries(Psi.squaredNorm());
     const RodriguesForm  Fe = ExpForm(series), Fh = TangentForm(series);
@@ -258,28 +372,65 @@ BeamKernelStatus BeamMidpointInternalForces(const BeamElementReference &ref, con
     const Mat3           A = RodriguesTransposeApplyJacobian(Fe, Psi, drho), B = RodriguesTransposeApplyJacobian(Fh, Psi, dPsi);
     const Vec3           EN = E * N_mid, AN_BM = A.transpose() * N_mid + B.transpose() * M_mid, HM = H * M_mid;
     const Vec3           ENd = E * N_d, ANd = A.transpose() * N_d + B.transpose() * M_d, HMd = H * M_d;
-    for (int a = 0; a < nn; ++a) {
-      if (a == c) continue;
+    for (int a : others) {
       h_rho[a] += wJ * dI[a] * EN;
       h_psi[a] += wJ * (I[a] * AN_BM + dI[a] * HM);
       k_rho[a] += wJ * dI[a] * ENd;
       k_psi[a] += wJ * (I[a] * ANd + dI[a] * HMd);
     }
+    if (!want_end) continue;
+    const Mat3 A1 = RodriguesTransposeApplyJacobian(Fe1, end.Psi, end.drho), B1 = RodriguesTransposeApplyJacobian(Fh1, end.Psi, end.dPsi);
+    if (end_residual_out) {
+      const Vec3 EN1 = E1 * N_1, AN_BM1 = A1.transpose() * N_1 + B1.transpose() * M_1, HM1 = H1 * M_1;
+      for (int a : others) {
+        g_rho[a] += wJ * dI[a] * EN1;
+        g_psi[a] += wJ * (I[a] * AN_BM1 + dI[a] * HM1);
+      }
+    }
+    if (!want_tangent) continue;
+    // Material part D(q_mid)^T C D(q_{n+1}), shared by both outputs (s = 1/2 for mc, 1 for corr).
+    const Mat3 ECN = E * CN.asDiagonal(), ACN = A.transpose() * CN.asDiagonal(), BCM = B.transpose() * CM.asDiagonal(), HCM = H * CM.asDiagonal();
+    const Mat3 rr = ECN * E1.transpose(), rp = ECN * A1, pr = ACN * E1.transpose();
+    const Mat3 pd = BCM * H1.transpose(), dp = HCM * B1, dd = HCM * H1.transpose();
+    // Geometric part G(q_mid, S)/2 for S_mid (mc) and S_d (corr).
+    // `moments` = 0 drops the variation of the bending and torsion stresses (the (N_d, 0) correction).
+    auto fill = [&](MidpointGaussBlocks *G, double s, const Vec3 &N, const Vec3 &M, double moments) {
+      const Mat3 P = RodriguesApplyJacobian(Fe, Psi, N), Q = RodriguesApplyJacobian(Fh, Psi, M);
+      const Mat3 Sg = RodriguesTransposeApplyHessian(Fe, Psi, drho, N) + RodriguesTransposeApplyHessian(Fh, Psi, dPsi, M);
+      G->wJ         = wJ;
+      G->rr         = s * rr;
+      G->rp         = s * rp + 0.5 * P;
+      G->pr         = s * pr + 0.5 * P.transpose();
+      G->pp         = s * (ACN * A1 + moments * (BCM * B1)) + 0.5 * Sg;
+      G->pd         = s * moments * pd + 0.5 * Q.transpose();
+      G->dp         = s * moments * dp + 0.5 * Q;
+      G->dd         = s * moments * dd;
+    };
+    if (tangent_mc) fill(&blocks_mc[gp], 0.5, N_mid, M_mid, 1.0);
+    if (tangent_correction) fill(&blocks_corr[gp], 1.0, N_d, M_d, correction_moments ? 1.0 : 0.0);
   }
-  if (strain_energy_start) *strain_energy_start = energy_n;
-  if (strain_energy_end) *strain_energy_end = energy_1;
+  if (energy_start_out) *energy_start_out = energy_n;
+  if (energy_end_out) *energy_end_out = energy_1;
 
-  const Mat3 L = 0.5 * (triads_start[c] + triads[c]);
-  for (int i = 0; i < 6 * nn; ++i) force_mc[i] = force_correction[i] = 0.0;
-  for (int a = 0; a < nn; ++a) {
-    if (a == c) continue;
-    const Vec3 d_mid = 0.5 * ((positions_start[a] - positions_start[c]) + (positions[a] - positions[c]));
-    const Mat3 PT    = L * TangentHInverse(psi_m[a]).transpose(); // (H^{-1}(psi_mid) L^T)^T
-    const Mat3 MT    = -Skew(d_mid) * L;                          // (L^T hat(d_mid))^T
+  MidpointMaps<NN> maps;
+  maps.Lbar = 0.5 * (triads_start[c] + triads[c]);
+  maps.L    = triads[c];
+  maps.LT   = maps.L.transpose();
+  for (int i = 0; i < 6 * NN; ++i) force_mc[i] = force_correction[i] = 0.0;
+  if (end_residual_out)
+    for (int i = 0; i < 6 * NN; ++i) end_residual_out[i] = 0.0;
+  for (int a : others) {
+    maps.dbar[a]      = 0.5 * ((positions_start[a] - positions_start[c]) + (positions[a] - positions[c]));
+    maps.d[a]         = positions[a] - positions[c];
+    maps.psi_mid[a]   = psi_m[a];
+    maps.Finv_mid[a]  = TangentInverseForm(EvaluateRotationSeries(psi_m[a].squaredNorm()));
+    maps.HinvT_mid[a] = RodriguesMatrix(maps.Finv_mid[a], psi_m[a]).transpose();
+    maps.PbarT[a]     = maps.Lbar * maps.HinvT_mid[a];   // (H^{-1}(psi_mid) Lbar^T)^T
+    const Mat3 MT     = -Skew(maps.dbar[a]) * maps.Lbar; // (Lbar^T hat(dbar))^T
     for (int which = 0; which < 2; ++which) {
       double     *out = which == 0 ? force_mc : force_correction;
       const Vec3 &hr = which == 0 ? h_rho[a] : k_rho[a], &hp = which == 0 ? h_psi[a] : k_psi[a];
-      const Vec3  f = L * hr, m = PT * hp, mc = MT * hr - m;
+      const Vec3  f = maps.Lbar * hr, m = maps.PbarT[a] * hp, mc = MT * hr - m;
       for (int i = 0; i < 3; ++i) {
         out[6 * a + i] += f(i);
         out[6 * a + 3 + i] += m(i);
@@ -287,8 +438,44 @@ BeamKernelStatus BeamMidpointInternalForces(const BeamElementReference &ref, con
         out[6 * c + 3 + i] += mc(i);
       }
     }
+    if (!want_end) continue;
+    maps.P[a] = RodriguesMatrix(TangentInverseForm(EvaluateRotationSeries(psi_1[a].squaredNorm())), psi_1[a]) * maps.LT;
+    if (end_residual_out) {
+      // r_{n+1} = T_{n+1}^T g: the gradient of the end strain energy (as BeamInternalForces).
+      const Vec3 f = maps.L * g_rho[a], m = maps.P[a].transpose() * g_psi[a], mc = (maps.LT * Skew(maps.d[a])).transpose() * g_rho[a] - m;
+      for (int i = 0; i < 3; ++i) {
+        end_residual_out[6 * a + i] += f(i);
+        end_residual_out[6 * a + 3 + i] += m(i);
+        end_residual_out[6 * c + i] -= f(i);
+        end_residual_out[6 * c + 3 + i] += mc(i);
+      }
+    }
   }
+  if (tangent_mc) MidpointTangent<NN>(ref, others, blocks_mc, maps, h_rho, h_psi, tangent_mc);
+  if (tangent_correction) MidpointTangent<NN>(ref, others, blocks_corr, maps, k_rho, k_psi, tangent_correction);
   return BeamKernelStatus::Ok;
+}
+
+} // namespace
+
+BeamKernelStatus BeamMidpointInternalForces(const BeamElementReference &ref, const BeamSectionStiffness &section, const Vec3 *positions_start,
+                                            const Mat3 *triads_start, const Vec3 *positions, const Mat3 *triads, double *force_mc, double *force_correction,
+                                            double *tangent_mc, double *tangent_correction, double *end_residual, double *strain_energy_start,
+                                            double *strain_energy_end, EnergyCorrection correction)
+{
+  if (ref.num_nodes == 2)
+    return MidpointForces<2>(ref, section, positions_start, triads_start, positions, triads, force_mc, force_correction, tangent_mc, tangent_correction,
+                             end_residual, strain_energy_start, strain_energy_end, correction);
+  return MidpointForces<3>(ref, section, positions_start, triads_start, positions, triads, force_mc, force_correction, tangent_mc, tangent_correction,
+                           end_residual, strain_energy_start, strain_energy_end, correction);
+}
+
+BeamKernelStatus BeamMidpointInternalForces(const BeamElementReference &ref, const BeamSectionStiffness &section, const Vec3 *positions_start,
+                                            const Mat3 *triads_start, const Vec3 *positions, const Mat3 *triads, double *force_mc, double *force_correction,
+                                            double *strain_energy_start, double *strain_energy_end)
+{
+  return BeamMidpointInternalForces(ref, section, positions_start, triads_start, positions, triads, force_mc, force_correction, nullptr, nullptr, nullptr,
+                                    strain_energy_start, strain_energy_end);
 }
 
 BeamKernelStatus BeamElementSetup(int num_nodes, const Vec3 *reference_positions, const Mat3 *reference_triads, BeamElementReference *ref)

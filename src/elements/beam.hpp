@@ -19,6 +19,7 @@
 #pragma once
 
 #include "math/rotation.hpp"
+#include "schemes/time_scheme.hpp"
 
 namespace msflex {
 
@@ -77,11 +78,31 @@ BeamKernelStatus BeamInternalForces(const BeamElementReference &ref, const BeamS
 // T* annihilates rigid motions about x_{n+1/2}, so F_mc and F_corr carry no net force and no net
 // moment about the mid-point configuration: momenta are conserved. The energy scheme adds
 // beta F_corr with beta chosen so that the work equals the change of strain energy (eq. 20).
-// Eq. (19) builds the correction from the force resultants alone, q_k(N_d, 0); here it uses the
-// whole difference (N_d, M_d). Measured on input/flying_spaghetti.yaml (dt = 0.01): with N_d
-// alone the correction does almost no work while the beam mainly bends, beta reaches 3.9 and
-// Newton stalls (9 step halvings); with (N_d, M_d) beta stays below 0.006 and no step is halved.
-// Outputs are 6 per node; energies are the strain energies at n and n+1.
+// Eq. (19) builds the correction from the force resultants alone, q_k(N_d, 0); by default msflex
+// uses the whole difference (N_d, M_d), and the paper's form is selectable (`correction`): with
+// N_d alone the correction does almost no work while a beam mainly bends, so beta grows large
+// (docs/dynamics.md compares the two).
+//
+// Outputs, 6 per node (force then moment), every one but the two force vectors optional (nullptr):
+//   force_mc, force_correction   F_mc and F_corr
+//   tangent_mc, tangent_correction   K_mc = dF_mc/d(x, theta)_{n+1}, K_corr = dF_corr/d(x, theta)_{n+1}
+//       (row-major 6n x 6n; columns: nodal displacement variations and spatial spin variations
+//       delta Lambda_{a,n+1} = hat(delta theta_a) Lambda_{a,n+1} of the END of the step, the start
+//       held fixed: the convention of BeamInternalForces' tangent). Exact: every dependence on the
+//       end state is differentiated (S_{n+1}, q_mid, Lambda_{c,n+1/2}, d_{a,n+1/2}, H^{-1}(psi_mid)).
+//   end_residual   r_{n+1} = d Pi_{n+1}/d(x, theta)_{n+1}, the end-point internal forces (equal to
+//       BeamInternalForces' residual at the end state), for the linearisation of em's beta
+//   strain_energy_start, strain_energy_end   Pi_n and Pi_{n+1}
+// A tangent in incremental rotation vectors omega_a (Lambda_{a,n+1} = exp(hat(omega_a)) Lambda_{a,n})
+// multiplies the spin columns of node a by H(omega_a) from the right, as for the end-point tangent.
+// `correction`: Resultants builds F_corr (and K_corr) from the whole stress difference (N_d, M_d),
+// the default; Forces from (N_d, 0) as in eq. (19) (analysis.em_correction, docs/dynamics.md).
+BeamKernelStatus BeamMidpointInternalForces(const BeamElementReference &ref, const BeamSectionStiffness &section, const Vec3 *positions_start,
+                                            const Mat3 *triads_start, const Vec3 *positions, const Mat3 *triads, double *force_mc, double *force_correction,
+                                            double *tangent_mc, double *tangent_correction, double *end_residual, double *strain_energy_start,
+                                            double *strain_energy_end, EnergyCorrection correction = EnergyCorrection::Resultants);
+
+// The forces and energies alone (no tangents, no end residual): the call above with nullptr for those.
 BeamKernelStatus BeamMidpointInternalForces(const BeamElementReference &ref, const BeamSectionStiffness &section, const Vec3 *positions_start,
                                             const Mat3 *triads_start, const Vec3 *positions, const Mat3 *triads, double *force_mc, double *force_correction,
                                             double *strain_energy_start, double *strain_energy_end);

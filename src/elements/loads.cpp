@@ -12,8 +12,8 @@ void NodalLoadForces(const NodalLoadValues &load, double weight_start, double we
                      Mat6 *tangent)
 {
   const Vec3 f_end = rotation_end * load.follower_force_end, m_end = rotation_end * load.follower_moment_end;
-  residual->head<3>() = -(load.dead_force + weight_start * (rotation_start * load.follower_force_start) + weight_end * f_end);
-  residual->tail<3>() = -(load.dead_moment + weight_start * (rotation_start * load.follower_moment_start) + weight_end * m_end);
+  residual->head<3>() = -(weight_start * (load.dead_force_start + rotation_start * load.follower_force_start) + weight_end * (load.dead_force_end + f_end));
+  residual->tail<3>() = -(weight_start * (load.dead_moment_start + rotation_start * load.follower_moment_start) + weight_end * (load.dead_moment_end + m_end));
   if (!tangent) return;
   tangent->setZero();
   tangent->block<3, 3>(0, 3) = weight_end * Skew(f_end);

@@ -21,13 +21,14 @@ using Mat6 = Eigen::Matrix<double, 6, 6, Eigen::RowMajor>;
 //   r_a -= integral of I_a q ds = nodal_length_a q          (no tangent: the load is dead)
 void BeamLineLoad(const BeamElementReference &ref, const Vec3 &force_per_length, double *residual);
 
-// Nodal load: dead force and moment (already weighted in time) plus a follower force and moment
-// given in the node's body frame at both ends of the step,
-//   f = f_dead + w0 Lambda_n f0_n + w1 Lambda_{n+1} f0_{n+1}   (likewise the moment)
+// Nodal load: dead force and moment (global axes) and a follower force and moment given in the
+// node's body frame, each at both ends of the step,
+//   f = w0 (f_dead,n + Lambda_n f0_n) + w1 (f_dead,n+1 + Lambda_{n+1} f0_{n+1})   (likewise the moment)
 //   r = -(f, m),   dr/d theta_{n+1} = w1 (hat(Lambda_{n+1} f0_{n+1}), hat(Lambda_{n+1} m0_{n+1}))
 // since d(Lambda f0) = -hat(Lambda f0) delta theta.
 struct NodalLoadValues {
-  Vec3 dead_force = Vec3::Zero(), dead_moment = Vec3::Zero();
+  Vec3 dead_force_start = Vec3::Zero(), dead_moment_start = Vec3::Zero();         // global axes, at t_n
+  Vec3 dead_force_end = Vec3::Zero(), dead_moment_end = Vec3::Zero();             // global axes, at t_{n+1}
   Vec3 follower_force_start = Vec3::Zero(), follower_moment_start = Vec3::Zero(); // body frame, at t_n
   Vec3 follower_force_end = Vec3::Zero(), follower_moment_end = Vec3::Zero();     // body frame, at t_{n+1}
 };

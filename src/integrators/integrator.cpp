@@ -24,7 +24,8 @@ PetscErrorCode Integrator::Setup(MPI_Comm comm, const Model &model, const DofMap
   PetscCall(system_.Setup(comm, model, map, std::move(pattern), std::move(nodal_mass)));
   newton_context_.assembler      = &system_.GetAssembler();
   newton_context_.assembly_stage = assembly_stage;
-  PetscCall(NewtonSolverCreate(comm, model.analysis, dynamic_ && IsMidpointScheme(model.analysis.integrator), &newton_context_, &snes_));
+  const bool em                  = dynamic_ && model.analysis.integrator == TimeSchemeKind::EnergyMomentum;
+  PetscCall(NewtonSolverCreate(comm, model.analysis, em ? NewtonOperator::AssembledWithRankOne : NewtonOperator::Assembled, &newton_context_, &snes_));
   PetscCall(VecDuplicate(system_.GetAssembler().SolutionTemplate(), &increments_));
   for (const Probe &probe : model.probes) reaction_probes_ = reaction_probes_ || probe.kind == Probe::Kind::Reaction;
   int local = reaction_probes_ ? 1 : 0, any; // every rank takes part in the reactions' reduction
@@ -84,6 +85,8 @@ PetscErrorCode Integrator::InitialiseMotion(double t)
   PetscCheck(reason > 0, comm_, PETSC_ERR_NOT_CONVERGED,
              "the initial accelerations could not be computed (%s): is every node with a DOF free given mass or stiffness?", SNESConvergedReasons[reason]);
   PetscCall(assembler.SetIncrements(increments_));
+  // The reactions at t (the trapezoidal work of the first step starts from them).
+  PetscCall(assembler.StoreReactions());
   if (reaction_probes_) PetscCall(assembler.EvaluateSupportReactions());
   if (assembler.NumMasslessUnknowns() > 0 && !quiet_)
     PetscCall(PetscPrintf(comm_, "msflex: initial accelerations: %" PetscInt_FMT " unknown(s) without mass start with zero acceleration\n",
@@ -97,7 +100,9 @@ PetscErrorCode Integrator::TryStep(double t, double dt, StepOutcome *outcome)
 {
   const AnalysisSettings &analysis = model_->analysis;
   PetscFunctionBeginUser;
-  const StepEquations equations = dynamic_ ? DynamicStep(MakeTimeScheme(analysis.integrator, analysis.spectral_radius, dt), t) : StaticStep(t, t + dt);
+  TimeScheme scheme             = MakeTimeScheme(analysis.integrator, analysis.spectral_radius, dt);
+  scheme.energy_correction      = analysis.em_correction;
+  const StepEquations equations = dynamic_ ? DynamicStep(scheme, t) : StaticStep(t, t + dt);
   PetscCall(TryEquations(equations, dt, outcome));
   PetscFunctionReturn(PETSC_SUCCESS);
 }

@@ -71,12 +71,17 @@ public:
   double ExternalWork() const { return external_work_; }
   void   SetExternalWork(double work) { external_work_ = work; }
   // Energy dissipated by the dampers since t = 0 (dynamics).
-  double        DissipatedEnergy() const { return dissipated_energy_; }
-  void          SetDissipatedEnergy(double energy) { dissipated_energy_ = energy; }
-  double        EnergyCorrectionFactor() const { return system_.GetAssembler().EnergyCorrectionFactor(); }
-  const State  &GetState() const { return system_.GetState(); }
-  State        *MutableState() { return &system_.GetState(); }
-  const Model  &GetModel() const { return *model_; }
+  double       DissipatedEnergy() const { return dissipated_energy_; }
+  void         SetDissipatedEnergy(double energy) { dissipated_energy_ = energy; }
+  double       EnergyCorrectionFactor() const { return system_.GetAssembler().EnergyCorrectionFactor(); }
+  const State &GetState() const { return system_.GetState(); }
+  State       *MutableState() { return &system_.GetState(); }
+  const Model &GetModel() const { return *model_; }
+  // The mechanical system, for what linearises it about the current state (path following,
+  // stability, eigenanalysis).
+  MechanicalSystem &System() { return system_; }
+  // The increments of the last converged step (Newton's solution).
+  Vec           LastIncrements() const { return increments_; }
   const DofMap &Map() const { return *map_; }
 
 private:

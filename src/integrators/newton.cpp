@@ -109,9 +109,31 @@ PetscErrorCode ForceScaledConvergenceTest(SNES snes, PetscInt iteration, PetscRe
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
+// em's linear solves: the preconditioned operator P^{-1} A = I + P^{-1} a b^T is the identity plus a
+// rank-one matrix, so GMRES is exact after two iterations in exact arithmetic; after a third,
+// what is left is round-off of an ill-conditioned tangent (Newton's own test judges the step),
+// so the solve counts as converged there instead of iterating against round-off.
+PetscErrorCode RankOneConvergenceTest(KSP ksp, PetscInt iteration, PetscReal residual_norm, KSPConvergedReason *reason, void *ctx)
+{
+  PetscFunctionBeginUser;
+  PetscCall(KSPConvergedDefault(ksp, iteration, residual_norm, reason, ctx));
+  if (*reason == KSP_CONVERGED_ITERATING && iteration >= 3) *reason = KSP_CONVERGED_ITS;
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+// The operator of em's Newton step: the assembled tangent plus its rank-one term (Assembler::ApplyOperator).
+PetscErrorCode ApplyRankOneOperator(Mat shell, Vec x, Vec y)
+{
+  NewtonContext *context;
+  PetscFunctionBeginUser;
+  PetscCall(MatShellGetContext(shell, &context));
+  PetscCall(context->assembler->ApplyOperator(x, y));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
 } // namespace
 
-PetscErrorCode NewtonSolverCreate(MPI_Comm comm, const AnalysisSettings &analysis, bool matrix_free_operator, NewtonContext *context, SNES *snes)
+PetscErrorCode NewtonSolverCreate(MPI_Comm comm, const AnalysisSettings &analysis, NewtonOperator newton_operator, NewtonContext *context, SNES *snes)
 {
   KSP            ksp;
   PC             pc;
@@ -124,7 +146,16 @@ PetscErrorCode NewtonSolverCreate(MPI_Comm comm, const AnalysisSettings &analysi
   PetscCall(VecDuplicate(context->assembler->SolutionTemplate(), &residual));
   PetscCall(SNESSetFunction(*snes, residual, FormResidual, context));
   PetscCall(VecDestroy(&residual));
-  PetscCall(SNESSetJacobian(*snes, context->assembler->Jacobian(), context->assembler->Jacobian(), FormJacobian, context));
+  Mat tangent = context->assembler->Jacobian(), op = tangent;
+  if (newton_operator == NewtonOperator::AssembledWithRankOne) {
+    PetscInt rows, columns, global_rows, global_columns;
+    PetscCall(MatGetLocalSize(tangent, &rows, &columns));
+    PetscCall(MatGetSize(tangent, &global_rows, &global_columns));
+    PetscCall(MatCreateShell(comm, rows, columns, global_rows, global_columns, context, &op));
+    PetscCall(MatShellSetOperation(op, MATOP_MULT, (void (*)(void))ApplyRankOneOperator));
+  }
+  PetscCall(SNESSetJacobian(*snes, op, tangent, FormJacobian, context));
+  if (op != tangent) PetscCall(MatDestroy(&op)); // SNES keeps its reference
   // stol: a relative update below 1e-12 means the iterate is at round-off.
   PetscCall(SNESSetTolerances(*snes, analysis.newton_atol, analysis.newton_rtol, 1e-12, analysis.max_newton_iterations, PETSC_DEFAULT));
   // No divergence test on |R|: in a large-rotation beam step the first, correct iteration can
@@ -137,11 +168,14 @@ PetscErrorCode NewtonSolverCreate(MPI_Comm comm, const AnalysisSettings &analysi
   PetscCall(SNESLineSearchSetType(linesearch, SNESLINESEARCHSHELL));
   PetscCall(SNESLineSearchShellSetUserFunc(linesearch, SafeguardedNewtonStep, context));
   PetscCall(SNESGetKSP(*snes, &ksp));
-  if (matrix_free_operator) {
-    PetscCall(SNESSetUseMatrixFree(*snes, PETSC_TRUE, PETSC_FALSE));
+  if (newton_operator == NewtonOperator::AssembledWithRankOne) {
+    // The preconditioned operator is the identity plus a rank-one matrix: GMRES on the LU of the
+    // assembled tangent solves it exactly in at most two iterations.
+    void *default_context;
     PetscCall(KSPSetType(ksp, KSPGMRES));
-    PetscCall(KSPSetTolerances(ksp, 1e-10, PETSC_DEFAULT, PETSC_DEFAULT, 200));
-    PetscCall(KSPGMRESSetRestart(ksp, 100));
+    PetscCall(KSPSetTolerances(ksp, 1e-13, 0.0, PETSC_DEFAULT, 20));
+    PetscCall(KSPConvergedDefaultCreate(&default_context));
+    PetscCall(KSPSetConvergenceTest(ksp, RankOneConvergenceTest, default_context, KSPConvergedDefaultDestroy));
   } else {
     PetscCall(KSPSetType(ksp, KSPPREONLY));
   }

@@ -14,10 +14,11 @@
 //    below the round-off level of the internal forces, 100 eps |stiffness| (a structure at rest
 //    driven by a prescribed motion has almost no force level to measure against).
 //  - MUMPS LU; the symbolic factorisation is reused while the matrix pattern is unchanged.
-//  - For the mid-point schemes (mc, em) the operator is matrix-free (PETSc -snes_mf_operator:
-//    directional differences of the exact residual, so em's global beta coupling is linearised
-//    exactly) and GMRES is preconditioned by the LU of the assembled approximation (the end-point
-//    stiffness halved plus the exact inertia); see assembly/assembler.hpp.
+//  - The tangent is exact in every scheme (assembly/assembler.hpp). In em it has a rank-one term
+//    (beta of eq. 20 couples every element): the operator is a shell applying the assembled
+//    tangent plus that term, and GMRES on the LU of the assembled tangent solves each Newton step
+//    exactly in at most two iterations. -snes_mf_operator -ksp_type gmres gives the old
+//    matrix-free operator (directional differences of the residual) for experiments.
 #pragma once
 
 #include "assembly/assembler.hpp"
@@ -40,8 +41,12 @@ struct NewtonContext {
   double      line_search_last_lambda = 0.0;
 };
 
+// The Newton step's operator: the assembled tangent, or (em) the assembled tangent plus its
+// rank-one term.
+enum class NewtonOperator { Assembled, AssembledWithRankOne };
+
 // Also keeps the residual norms of every solve (SNESGetConvergenceHistory).
-PetscErrorCode NewtonSolverCreate(MPI_Comm comm, const AnalysisSettings &analysis, bool matrix_free_operator, NewtonContext *context, SNES *snes);
+PetscErrorCode NewtonSolverCreate(MPI_Comm comm, const AnalysisSettings &analysis, NewtonOperator newton_operator, NewtonContext *context, SNES *snes);
 
 // After SNESSolve did not converge: why, in words, naming the step's trouble spot where it can be
 // found (the element, node or joint where a NaN or Inf appears or whose geometry fails, the

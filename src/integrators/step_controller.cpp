@@ -1,6 +1,7 @@
 #include "integrators/step_controller.hpp"
 
 #include <algorithm>
+#include <cmath>
 
 namespace msflex {
 
@@ -14,6 +15,11 @@ double StepController::Propose(double t, double target) const
 
 void StepController::Accept(double dt, int iterations)
 {
+  if (settings_.desired_iterations > 0) {
+    const double factor = std::sqrt((double)settings_.desired_iterations / std::max(iterations, 1));
+    step_               = std::clamp(dt * std::clamp(factor, 0.5, settings_.growth_factor), settings_.min_step, settings_.max_step);
+    return;
+  }
   // A step shortened to hit an output time says nothing about the nominal step unless it failed.
   if (iterations <= settings_.easy_iterations) {
     if (++easy_run_ >= settings_.easy_steps_to_grow) {

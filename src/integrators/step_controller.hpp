@@ -12,6 +12,10 @@ struct StepControllerSettings {
   double growth_factor      = 1.5;
   int    easy_iterations    = 5;
   int    easy_steps_to_grow = 2;
+  // > 0: after every converged step the step becomes dt * sqrt(desired_iterations / iterations),
+  // within [dt / 2, growth_factor * dt] and [min_step, max_step] (Crisfield's adaptive arc length),
+  // instead of growing after runs of easy steps.
+  int desired_iterations = 0;
 };
 
 class StepController {

@@ -524,13 +524,77 @@ void ReadOutputTimes(const YAML::Node &value, AnalysisSettings &analysis)
   }
 }
 
+// Path following and stability in statics, eigenanalyses (docs/input.md, docs/stability.md).
+void ReadPathFollowing(const MappingReader &entry, const ReaderContext &context, AnalysisSettings &analysis)
+{
+  if (const YAML::Node *value = entry.Find("control")) {
+    const std::string control = ReadString(*value, "control");
+    if (!PathControlFromName(control, &analysis.control))
+      FailAt(value->Mark(), "unknown control " + Quote(control) + " in 'analysis'; expected one of " + PathControlNameList());
+  }
+  analysis.arc_length_psi     = entry.NonNegativeNumber("arc_length_psi", analysis.arc_length_psi);
+  analysis.desired_iterations = entry.Integer("desired_iterations", 1, analysis.desired_iterations);
+  analysis.max_steps          = entry.Integer("max_steps", 1, analysis.max_steps);
+  analysis.control_node       = entry.String("control_node", analysis.control_node);
+  analysis.control_joint      = entry.String("control_joint", analysis.control_joint);
+  if (const YAML::Node *value = entry.Find("control_dof")) {
+    const std::string name = ReadString(*value, "control_dof");
+    analysis.control_dof   = PathControlDofFromName(name);
+    if (analysis.control_dof < 0)
+      FailAt(value->Mark(), "unknown 'control_dof' " + Quote(name) + "; expected ux, uy, uz, rx, ry, rz (a node) or tx, ty, tz, rx, ry, rz (a joint)");
+  }
+  analysis.control_value = entry.Number("control_value", analysis.control_value);
+  if (analysis.control_value == 0.0) FailAt(entry.Required("control_value").Mark(), "'control_value' must not be zero");
+  analysis.stability   = entry.Bool("stability", analysis.stability);
+  analysis.eigenvalues = entry.Integer("eigenvalues", 1, analysis.eigenvalues);
+  analysis.shift       = entry.Has("shift") ? entry.Number("shift") : analysis.shift;
+  analysis.preload     = entry.Bool("preload", analysis.preload);
+  // Keys of displacement control without it, output times with arc length: not what was meant.
+  if (analysis.control != PathControl::Displacement)
+    for (const char *key : {"control_node", "control_joint", "control_dof", "control_value"})
+      if (entry.Has(key))
+        FailAt(entry.Required(key).Mark(), Quote(key) + " applies to 'control: displacement', but the control is " + PathControlName(analysis.control));
+  if (analysis.control == PathControl::ArcLength && !analysis.output_times.empty())
+    FailAt(entry.Required("output_times").Mark(), "'output_times' do not apply to 'control: arc_length', whose steps are lengths along the path");
+  const AnalysisProblem problem = PathControlProblem(context.model);
+  if (!problem.message.empty()) FailAt(entry.Has(problem.key) ? entry.Required(problem.key).Mark() : entry.Mark(), problem.message);
+}
+
 void ReadAnalysis(const YAML::Node *mapping, const ReaderContext &context, AnalysisSettings &analysis)
 {
   if (mapping == nullptr || mapping->IsNull()) return;
   const MappingReader entry(*mapping, "'analysis'",
-                            {"type", "integrator", "spectral_radius", "end_time", "initial_step", "min_step", "max_step", "growth_factor", "easy_iterations",
-                             "easy_steps_to_grow", "max_rotation_increment", "max_newton_iterations", "newton_rtol", "newton_atol", "output_times",
-                             "static_stage", "static_stage_steps", "initial_velocities"});
+                            {"type",
+                             "integrator",
+                             "spectral_radius",
+                             "em_correction",
+                             "end_time",
+                             "initial_step",
+                             "min_step",
+                             "max_step",
+                             "growth_factor",
+                             "easy_iterations",
+                             "easy_steps_to_grow",
+                             "max_rotation_increment",
+                             "max_newton_iterations",
+                             "newton_rtol",
+                             "newton_atol",
+                             "output_times",
+                             "control",
+                             "arc_length_psi",
+                             "desired_iterations",
+                             "max_steps",
+                             "control_node",
+                             "control_joint",
+                             "control_dof",
+                             "control_value",
+                             "stability",
+                             "eigenvalues",
+                             "shift",
+                             "preload",
+                             "static_stage",
+                             "static_stage_steps",
+                             "initial_velocities"});
   analysis.mark = context.MarkOf(entry.Mark());
   if (const YAML::Node *value = entry.Find("type")) {
     const std::string type = ReadString(*value, "type");
@@ -542,6 +606,11 @@ void ReadAnalysis(const YAML::Node *mapping, const ReaderContext &context, Analy
     const std::string integrator = ReadString(*value, "integrator");
     if (!TimeSchemeKindFromName(integrator, &analysis.integrator))
       FailAt(value->Mark(), "unknown integrator " + Quote(integrator) + " in 'analysis'; expected one of " + IntegratorNameList());
+  }
+  if (const YAML::Node *value = entry.Find("em_correction")) {
+    const std::string correction = ReadString(*value, "em_correction");
+    if (!EnergyCorrectionFromName(correction, &analysis.em_correction))
+      FailAt(value->Mark(), "unknown em_correction " + Quote(correction) + " in 'analysis'; expected resultants or forces");
   }
   analysis.spectral_radius = entry.Number("spectral_radius", analysis.spectral_radius);
   if (analysis.spectral_radius < 0.0 || analysis.spectral_radius > 1.0)
@@ -578,6 +647,7 @@ void ReadAnalysis(const YAML::Node *mapping, const ReaderContext &context, Analy
       FailAt(value->Mark(), "unknown choice " + Quote(choice) + " for 'initial_velocities'; expected projected or given");
     analysis.project_initial_velocities = choice == "projected";
   }
+  ReadPathFollowing(entry, context, analysis);
 }
 
 // "input/rollup.yaml" -> "rollup.h5": results go to the working directory, named after the input.
@@ -677,7 +747,7 @@ Model ParseModel(const std::string &text, const std::string &file_label, MPI_Com
   ReadAnalysis(top.Find("analysis"), context, model.analysis);
   ReadOutput(top.Find("output"), context, model.output);
   ReadExpected(top.Find("expected"), context);
-  if (model.analysis.type == AnalysisType::Static) CheckStaticMechanisms(model);
+  if (NeedsStaticStiffness(model.analysis.type, model.analysis.preload)) CheckStaticMechanisms(model);
   return std::move(context.model);
 }
 

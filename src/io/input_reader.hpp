@@ -36,4 +36,11 @@ bool ReadModelString(const std::string &text, const std::string &file_label, Mod
 // Returns false and fills *error when the model fails it. Never throws.
 bool CheckStaticModel(const Model &model, InputError *error);
 
+// The reader's checks of the analysis settings that refer to the rest of the model (the node DOF
+// or joint coordinate of displacement control), for settings changed after reading (options).
+// Returns false and fills *error when they fail. Never throws.
+bool CheckAnalysisSettings(const Model &model, InputError *error);
+// ux uy uz rx ry rz (a node's DOF) or tx ty tz rx ry rz (a joint's coordinate) -> 0..5; else -1.
+int PathControlDof(const std::string &name);
+
 } // namespace msflex

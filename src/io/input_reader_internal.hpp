@@ -176,4 +176,14 @@ void ReadExpected(const YAML::Node *list, ReaderContext &context);
 // (input_mechanism_check.cpp). Called for static analyses only.
 void CheckStaticMechanisms(const Model &model);
 
+// What is wrong with the analysis settings that refer to the rest of the model (the target of
+// displacement control), and the analysis key to blame; an empty message when nothing is
+// (input_path_control.cpp).
+struct AnalysisProblem {
+  std::string key, message;
+};
+AnalysisProblem PathControlProblem(const Model &model);
+// ux uy uz rx ry rz (a node's DOF) or tx ty tz rx ry rz (a joint's coordinate) -> 0..5; else -1.
+int PathControlDofFromName(const std::string &name);
+
 } // namespace msflex::input_detail

@@ -18,6 +18,9 @@
 //   N = [[I, -hat(Lambda_m b), Lambda_m B], [0, I, Lambda_m Omega]]          (6 x (6 + k))
 // and the geometric term of the condensed tangent, at fixed slave residual g = (g_f, g_m):
 //   d(N^T g) / d(theta_m, q), nonzero in the (theta_m, q) rows and columns.
+// The mid-point schemes use instead the conserving map Ntilde of eq. (21)–(22), its geometric
+// term d(Ntilde^T g)/d(x_m, theta_m, q) and the derivative of its released test quantities
+// (declared below, implemented in joint_conserving.cpp).
 #pragma once
 
 #include "math/rotation.hpp"
@@ -94,11 +97,74 @@ void JointGeometricStiffness(const JointGeometry &joint, const JointCoordinates 
 //   alpha_s = alpha_m + A beta,   beta = Lambda_{m,n} alpha_R,  A = (I + hat(alpha_m)/2 + alpha_m alpha_m^T/4) / (1 - alpha_m.beta/4)
 // where alpha_R is the tangent-scaled released rotation (C_{n+1} C_n^T = cay(alpha_R)) and
 // b_{n+1} - b_n is linear in the released test quantities p: translations dq, and per rotation
-// coordinate tau = 2 tan(dphi/2) (dependent translation: the secant G = (f(phi_{n+1}) - f(phi_n))/tau),
+// coordinate tau = 2 tan(dphi/2) (dependent translation: the secant G of JointDependentSecant),
 // or alpha_R itself for a free rotation. Ntilde (6 x (6 + k)) maps (u_m, alpha_m, p) to
 // (u_s, alpha_s); `released_test` returns p. Since the map is exact, the work and the momenta of
 // the slave's forces carry over to the master and the released coordinates.
+// `start` holds q_n (a free rotation's coordinates are zero at the start of a step, its C_n in
+// free_rotation_start), `increment` the released increments dq of the step (the rotation vector
+// omega_R of a free rotation, |omega_R| < pi; |dphi| < pi), offset_start and offset_end
+// r_n = (x_s - x_m)_n and r_{n+1} = (x_s - x_m)_{n+1}. A joint to the ground takes the identity
+// and zero for the master's rotation and alpha.
 void JointConservingMap(const JointGeometry &joint, const JointCoordinates &start, const double *increment, const Mat3 &master_rotation_start,
                         const Vec3 &master_alpha, const Vec3 &offset_start, const Vec3 &offset_end, JointMatrix *Ntilde, double *released_test);
+
+// The secant of a dependent translation over a step from phi_n by dphi, with tau = 2 tan(dphi/2):
+//   G(dphi) = (f(phi_n + dphi) - f(phi_n)) / tau,   dG/d(dphi),
+// evaluated without cancellation for small steps (G -> f'(phi_n), dG -> f''(phi_n)/2):
+//   linear f = c phi:      G = c kappa,  kappa(dphi) = (dphi/2) cot(dphi/2)
+//   eccentric f = R cos:   G = (f'(phi_n) + f'(phi_{n+1}))/2,   dG = f''(phi_{n+1})/2
+//   spline:                G = sigma kappa, sigma = int_0^1 f'(phi_n + s dphi) ds,
+//                          dsigma/d(dphi) = int_0^1 s f''(phi_n + s dphi) ds
+// (the spline's integrals by two-point Gauss between the knots crossed, exact for a cubic).
+void JointDependentSecant(const JointGeometry &joint, double phi_start, double dphi, double *G, double *dG_ddphi);
+
+using JointReleasedMatrix = Eigen::Matrix<double, kJointMaxReleased, kJointMaxReleased, Eigen::RowMajor>;
+
+// dp/dq (first k rows and columns used): the derivative of the released test quantities of
+// JointConservingMap with respect to the released increments. Diagonal 1 for a translation and
+// 1 + tau^2/4 = sec^2(dphi/2) for an angle; for a free rotation the block
+//   d alpha_R / d omega_R = S(alpha_R) H(omega_R),   S(a) = I - hat(a)/2 + a a^T/4
+// (from S(a)^{-1} d a = d theta = H(omega) d omega, eq. 4 and 17).
+void JointReleasedTestDerivative(const JointGeometry &joint, const double *increment, JointReleasedMatrix *dp_dq);
+
+// The geometric term of the condensed tangent of the mid-point schemes: d(Ntilde^T g)/d(x_m, theta_m, q)
+// at fixed slave residual g = (g_f, g_m) (the rows conjugate to (u_m, alpha_m, p), first 6 + k
+// rows and columns used), with the columns of JointGeometricStiffness: delta x_m, delta theta_m
+// the spatial spin of the master's END rotation Lambda_{m,n+1}, and delta q the increments of the
+// released coordinates (omega_R of a free rotation). The inputs are those of JointConservingMap
+// less the offsets, which the kernel rebuilds at the end of the step from the joint kinematics:
+//   Lambda_{m,n+1} = cay(alpha_m) Lambda_{m,n},  r_{n+1} = Lambda_{m,n+1} b(q_n + dq),
+//   d alpha_m = S(alpha_m) delta theta_m,  S(a) = I - hat(a)/2 + a a^T/4,
+//   d r_{n+1} = -hat(r_{n+1}) delta theta_m + Lambda_{m,n+1} B delta q.
+// With v = C_t^T g_f = Lambda_{m,n}^T (I - hat(alpha_m)/2) g_f, y = Lambda_{m,n}^T S(alpha_m) g_m and
+// den = 1 - alpha_m.beta/4, the rows of Ntilde^T g are
+//   (u_m)          g_f                                   (constant: zero rows)
+//   (alpha_m)      g_m + (r_n + r_{n+1}) x g_f / 2
+//   (translation)  a_c . v
+//   (rotation c)   W_c . y / den  (+ G a_dep . v on the angle of a dependent translation)
+// where alpha_R = W p (W = [a] for one axis, [a_i + tau_2 b x a_i / 2, b], b = exp(phi_1 hat(a_i)) a_j
+// at the end of the step, for two axes, I for a free rotation), and their derivatives are
+//   d(alpha_m row)     = hat(g_f) hat(r_{n+1}) delta theta_m / 2 - hat(g_f) Lambda_{m,n+1} B delta q / 2
+//   d(translation row) = a_c^T Lambda_{m,n}^T hat(g_f) S(alpha_m) delta theta_m / 2
+//   d(rotation row c)  = [W_c^T dy/d alpha_m / den + (W_c . y) beta^T / (4 den^2)] S(alpha_m) delta theta_m
+//                        + sum_d [dW_c/dq_d . y / den + (W_c . y)(Lambda_{m,n}^T alpha_m) . (d alpha_R/dq_d) / (4 den^2)] delta q_d
+//                        (+ G a_dep^T Lambda_{m,n}^T hat(g_f) S(alpha_m) delta theta_m / 2 + dG (a_dep . v) delta phi)
+//   dy/d alpha_m = Lambda_{m,n}^T (hat(g_m)/2 + (alpha_m g_m^T + (alpha_m . g_m) I)/4).
+// The x_m columns are zero (Ntilde does not depend on the master's position).
+//
+// Chains: the kernel differentiates one joint's map only. For a slave whose master is itself a
+// slave, the assembler composes exactly as for JointGeometricStiffness, deepest joint first:
+//  - rows: the master's expansion ROWS (built with the master's own conserving map) for the
+//    (u_m, alpha_m) rows, identity for the free released coordinates; columns: the master's
+//    expansion COLUMNS (built with N, since delta theta_m is an exact variation of the master's end
+//    rotation), identity for the free released coordinates;
+//  - the master's joint then sees, besides its own slave residual, what this joint passes on:
+//    g_master += Ntilde_m^T g (the first 6 columns of this joint's conserving map, not of N), and
+//    its own conserving geometric term is evaluated with that sum.
+// alpha_m of a slave master is its own tangent-scaled increment (cay(alpha_m) = Lambda_{m,n+1} Lambda_{m,n}^T),
+// so d alpha_m = S(alpha_m) delta theta_m holds whatever the master is.
+void JointConservingGeometricStiffness(const JointGeometry &joint, const JointCoordinates &start, const double *increment, const Mat3 &master_rotation_start,
+                                       const Vec3 &master_alpha, const Eigen::Matrix<double, 6, 1> &g, JointSquare *G);
 
 } // namespace msflex

@@ -6,6 +6,14 @@ namespace {
 const AnalysisTypeInfo kAnalysisTypes[] = {
     {"static", AnalysisType::Static, "equilibrium under loads and prescribed motions scaled by functions of a pseudo-time (the load factor)"},
     {"dynamic", AnalysisType::Dynamic, "motion in time with the integrator named by 'integrator'"},
+    {"modes", AnalysisType::Modes, "natural frequencies and mode shapes (SLEPc), about the reference or a preloaded static equilibrium"},
+    {"buckling", AnalysisType::Buckling, "linearised buckling load factors and modes (SLEPc) of the loads at the reference or a preloaded equilibrium"},
+};
+
+const PathControlInfo kPathControls[] = {
+    {"load", PathControl::Load, "the steps advance the load factor (pseudo-time); Newton stops at a limit point"},
+    {"arc_length", PathControl::ArcLength, "Crisfield's arc length: the load factor is an unknown, the steps advance the length of the path"},
+    {"displacement", PathControl::Displacement, "one node DOF or joint coordinate follows control_value * t; the load factor is an unknown"},
 };
 } // namespace
 
@@ -36,6 +44,36 @@ std::string AnalysisTypeNameList()
 {
   std::string list;
   for (const AnalysisTypeInfo &info : kAnalysisTypes) list += (list.empty() ? "" : ", ") + std::string(info.name);
+  return list;
+}
+
+const PathControlInfo *PathControls(int *count)
+{
+  *count = (int)(sizeof(kPathControls) / sizeof(kPathControls[0]));
+  return kPathControls;
+}
+
+bool PathControlFromName(const std::string &name, PathControl *control)
+{
+  for (const PathControlInfo &info : kPathControls)
+    if (name == info.name) {
+      *control = info.control;
+      return true;
+    }
+  return false;
+}
+
+const char *PathControlName(PathControl control)
+{
+  for (const PathControlInfo &info : kPathControls)
+    if (info.control == control) return info.name;
+  return "?";
+}
+
+std::string PathControlNameList()
+{
+  std::string list;
+  for (const PathControlInfo &info : kPathControls) list += (list.empty() ? "" : ", ") + std::string(info.name);
   return list;
 }
 

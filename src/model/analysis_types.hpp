@@ -6,7 +6,7 @@
 
 namespace msflex {
 
-enum class AnalysisType { Static, Dynamic };
+enum class AnalysisType { Static, Dynamic, Modes, Buckling };
 
 struct AnalysisTypeInfo {
   const char  *name;
@@ -20,5 +20,28 @@ bool        AnalysisTypeFromName(const std::string &name, AnalysisType *type);
 const char *AnalysisTypeName(AnalysisType type);
 // "static, dynamic": the registered names, for messages.
 std::string AnalysisTypeNameList();
+// Eigenanalyses (modes, buckling): one eigenvalue problem about the reference configuration or
+// about a static equilibrium computed first (app/run_eigen.cpp), no step loop of their own.
+inline bool IsEigenAnalysis(AnalysisType type) { return type == AnalysisType::Modes || type == AnalysisType::Buckling; }
+// Analyses that need a static equilibrium to exist: the statics' mechanism check applies.
+inline bool NeedsStaticStiffness(AnalysisType type, bool preload)
+{
+  return type == AnalysisType::Static || type == AnalysisType::Buckling || (type == AnalysisType::Modes && preload);
+}
+
+// The registry of path-following controls of static analyses (analysis.control): what drives the
+// steps and which quantity is the unknown besides the configuration.
+enum class PathControl { Load, ArcLength, Displacement };
+
+struct PathControlInfo {
+  const char *name;
+  PathControl control;
+  const char *description;
+};
+
+const PathControlInfo *PathControls(int *count);
+bool                   PathControlFromName(const std::string &name, PathControl *control);
+const char            *PathControlName(PathControl control);
+std::string            PathControlNameList();
 
 } // namespace msflex

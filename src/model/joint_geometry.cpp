@@ -26,4 +26,17 @@ Vec3 JointReferenceOffset(const Model &model, const Joint &joint)
   return model.nodes[joint.slave].position - model.nodes[joint.master].position;
 }
 
+int JointCoordinateOfAxis(const Joint &joint, int axis_dof)
+{
+  if (axis_dof < 3) {
+    for (int k = 0; k < joint.num_translations; ++k)
+      if (joint.translation_axis[k] == axis_dof) return k;
+    return -1;
+  }
+  const int rotations = joint.rotation == Joint::Rotation::OneAxis ? 1 : joint.rotation == Joint::Rotation::TwoAxes ? 2 : 0;
+  for (int k = 0; k < rotations; ++k)
+    if (joint.rotation_axis[k] == axis_dof - 3) return joint.num_translations + k;
+  return -1;
+}
+
 } // namespace msflex

@@ -14,4 +14,9 @@ JointGeometry JointGeometryOf(const Joint &joint, const Vec3 &offset = Vec3::Zer
 // The joint's reference offset in `model`.
 Vec3 JointReferenceOffset(const Model &model, const Joint &joint);
 
+// The index among the joint's released coordinates of the translation along (axis_dof 0..2:
+// tx ty tz) or the rotation about (3..5: rx ry rz) a joint axis; -1 when the joint does not
+// release it as a coordinate of its own (a free rotation has none).
+int JointCoordinateOfAxis(const Joint &joint, int axis_dof);
+
 } // namespace msflex

@@ -11,6 +11,7 @@
 #include "schemes/time_scheme.hpp"
 
 #include <array>
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -247,6 +248,7 @@ struct AnalysisSettings {
   AnalysisType        type                   = AnalysisType::Static;           // model/analysis_types.hpp
   TimeSchemeKind      integrator             = TimeSchemeKind::EnergyMomentum; // dynamic only; schemes/time_scheme.hpp
   double              spectral_radius        = 0.9;                            // rho_infinity of genalpha, in [0, 1]
+  EnergyCorrection    em_correction          = EnergyCorrection::Resultants;   // the correction vector of em (schemes/time_scheme.hpp)
   double              end_time               = 1.0;
   double              initial_step           = 0.1;
   double              min_step               = 1e-6;
@@ -265,7 +267,29 @@ struct AnalysisSettings {
   int  static_stage_steps = 1;
   // Initial velocities: projected (drives, given velocities and the least strain rate of the
   // beams, docs/input.md) or given (as written, others at rest).
-  bool       project_initial_velocities = true;
+  bool project_initial_velocities = true;
+  // Path following in statics (docs/stability.md). control: what the steps advance (model/
+  // analysis_types.hpp). Arc length: psi weighs the load factor in the constraint (0:
+  // cylindrical), desired_iterations steer the arc length, max_steps bounds a path that never
+  // reaches end_time. Displacement control: the node DOF (ux..rz) or joint coordinate (tx..rz
+  // along/about the joint axes) named by control_node or control_joint and control_dof follows
+  // control_value * t.
+  PathControl control            = PathControl::Load;
+  double      arc_length_psi     = 0.0;
+  int         desired_iterations = 5;
+  int         max_steps          = 1000;
+  std::string control_node, control_joint;
+  int         control_dof   = -1; // 0..5: ux uy uz rx ry rz, or the joint's tx ty tz rx ry rz
+  double      control_value = 1.0;
+  // Per converged static step: the negative pivots and lowest eigenvalue of the tangent, critical
+  // points named (docs/stability.md).
+  bool stability = true;
+  // Eigenanalyses: how many eigenvalues, the shift of shift-and-invert for modes ((rad/s)^2;
+  // NaN: chosen automatically) and whether a static equilibrium under the loads at end_time is
+  // computed first (the modes or buckling loads about that preloaded state).
+  int        eigenvalues = 6;
+  double     shift       = std::numeric_limits<double>::quiet_NaN();
+  bool       preload     = false;
   SourceMark mark;
 };
 

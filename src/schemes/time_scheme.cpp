@@ -43,6 +43,16 @@ std::string IntegratorNameList()
   return list;
 }
 
+bool EnergyCorrectionFromName(const std::string &name, EnergyCorrection *correction)
+{
+  if (name == "resultants") *correction = EnergyCorrection::Resultants;
+  else if (name == "forces") *correction = EnergyCorrection::Forces;
+  else return false;
+  return true;
+}
+
+const char *EnergyCorrectionName(EnergyCorrection correction) { return correction == EnergyCorrection::Forces ? "forces" : "resultants"; }
+
 TimeScheme MakeTimeScheme(TimeSchemeKind kind, double spectral_radius, double dt)
 {
   TimeScheme s;

@@ -27,13 +27,22 @@ namespace msflex {
 
 enum class TimeSchemeKind { Newmark, GeneralizedAlpha, MomentumConserving, EnergyMomentum };
 
+// The energy-momentum scheme's correction vector (eq. 18-19): from the whole stress difference
+// (N_d, M_d) of a step (Resultants, msflex's default) or from the force resultants alone (N_d, 0)
+// as the paper writes it (Forces); docs/dynamics.md compares them.
+enum class EnergyCorrection { Resultants, Forces };
+// Parses "resultants" or "forces"; false for anything else.
+bool        EnergyCorrectionFromName(const std::string &name, EnergyCorrection *correction);
+const char *EnergyCorrectionName(EnergyCorrection correction);
+
 // mc and em: the mid-point family (see above).
 inline bool IsMidpointScheme(TimeSchemeKind kind) { return kind == TimeSchemeKind::MomentumConserving || kind == TimeSchemeKind::EnergyMomentum; }
 
 struct TimeScheme {
-  TimeSchemeKind kind = TimeSchemeKind::Newmark;
-  double         dt   = 0.0;
-  double         beta = 0.25, gamma = 0.5, alpha_m = 0.0, alpha_f = 0.0; // Newmark family only
+  TimeSchemeKind   kind = TimeSchemeKind::Newmark;
+  double           dt   = 0.0;
+  double           beta = 0.25, gamma = 0.5, alpha_m = 0.0, alpha_f = 0.0; // Newmark family only
+  EnergyCorrection energy_correction = EnergyCorrection::Resultants;       // em only
 
   bool Midpoint() const { return IsMidpointScheme(kind); }
   // d(inertial acceleration)/d(increment): vdot_{n+1} for the Newmark family, (v_{n+1} - v_n)/dt

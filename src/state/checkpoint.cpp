@@ -9,8 +9,8 @@ namespace msflex {
 
 namespace {
 
-constexpr const char *kFormat     = "msflex checkpoint 2";
-constexpr int         kRunNumbers = 11;
+constexpr const char *kFormat     = "msflex checkpoint 3";
+constexpr int         kRunNumbers = 12;
 
 // The run record's numbers, in a fixed order.
 void PackNumbers(const CheckpointRun &run, double *numbers)
@@ -25,6 +25,7 @@ void PackNumbers(const CheckpointRun &run, double *numbers)
                                       (double)run.num_nodes,
                                       (double)run.num_joints,
                                       (double)run.num_rigid_bodies,
+                                      run.initial_energy,
                                       run.dissipated_energy};
   std::copy(values, values + kRunNumbers, numbers);
 }
@@ -41,7 +42,8 @@ void UnpackNumbers(const double *numbers, CheckpointRun *run)
   run->num_nodes           = (long long)numbers[7];
   run->num_joints          = (long long)numbers[8];
   run->num_rigid_bodies    = (long long)numbers[9];
-  run->dissipated_energy   = numbers[10];
+  run->initial_energy      = numbers[10];
+  run->dissipated_energy   = numbers[11];
 }
 
 // Text as a 1-D dataset of bytes (any length, also 0).
@@ -72,14 +74,15 @@ PetscErrorCode ReadText(const std::string &label, hid_t parent, const char *name
 
 // The start-of-step state in records of fixed size: node: position (3), tracked rotation
 // quaternion w x y z (4), translational velocity, acceleration and pseudo-acceleration (9), the
-// same for the rotation in the body frame (9); joint: released coordinates (6), the free rotation's
-// C_n row-major (9), the coordinates' rates, accelerations and pseudo-accelerations (18); rigid
-// body: motion of its centre of mass (9); damped beam element: the motion of its strains and
-// curvatures at its two Gauss points (36). Only start-of-step values are
+// same for the rotation in the body frame (9), the reaction on its prescribed DOFs (6); joint:
+// released coordinates (6), the free rotation's C_n row-major (9), the drive's reaction (1), the
+// coordinates' rates, accelerations and pseudo-accelerations (18); rigid body: motion of its
+// centre of mass (9); damped beam element: the motion of its strains and curvatures at its two
+// Gauss points (36). Only start-of-step values are
 // kept: everything else (current configuration, slave placement, loads, the time scheme's
 // coefficients) follows from them and the time at the next step, so a restarted run repeats the
 // original one to the last bit.
-constexpr int kNodeStateSize = 25, kJointStateSize = 33, kRigidBodyStateSize = 9, kBeamStrainSize = 36;
+constexpr int kNodeStateSize = 31, kJointStateSize = 34, kRigidBodyStateSize = 9, kBeamStrainSize = 36;
 
 struct StateRecords {
   std::vector<int>    numbers; // in the whole model
@@ -113,6 +116,7 @@ void ExportState(const State &state, const DofMap &map, int rank, StateRecords *
     record[3] = s.rotation_start.w, record[4] = s.rotation_start.x, record[5] = s.rotation_start.y, record[6] = s.rotation_start.z;
     PutMotion(s.translation_motion, record + 7);
     PutMotion(s.rotation_motion, record + 16);
+    for (int i = 0; i < 6; ++i) record[25 + i] = s.prescribed_reaction(i);
     nodes->numbers.push_back(map.global_nodes[map.local_nodes[l]]);
     nodes->values.insert(nodes->values.end(), record, record + kNodeStateSize);
   }
@@ -122,8 +126,9 @@ void ExportState(const State &state, const DofMap &map, int rank, StateRecords *
     for (int c = 0; c < kJointMaxReleased; ++c) record[c] = J.start.q[c];
     for (int i = 0; i < 3; ++i)
       for (int k = 0; k < 3; ++k) record[kJointMaxReleased + 3 * i + k] = J.start.free_rotation_start(i, k);
-    PutMotion(J.coordinate_motion[0], record + 15);
-    PutMotion(J.coordinate_motion[1], record + 24);
+    record[kJointMaxReleased + 9] = J.drive_reaction;
+    PutMotion(J.coordinate_motion[0], record + 16);
+    PutMotion(J.coordinate_motion[1], record + 25);
     joints->numbers.push_back(map.global_joints[J.joint]);
     joints->values.insert(joints->values.end(), record, record + kJointStateSize);
   }
@@ -164,6 +169,7 @@ PetscErrorCode ImportState(const std::vector<double> &nodes, const std::vector<d
     s.rotation_start     = Quaternion{record[3], record[4], record[5], record[6]};
     s.translation_motion = GetMotion(record + 7);
     s.rotation_motion    = GetMotion(record + 16);
+    for (int i = 0; i < 6; ++i) s.prescribed_reaction(i) = record[25 + i];
     s.displacement_increment.setZero();
     s.rotation_increment.setZero();
     StateUpdateNode(StaticStep(0.0, 0.0), &s);
@@ -174,8 +180,9 @@ PetscErrorCode ImportState(const std::vector<double> &nodes, const std::vector<d
     for (int c = 0; c < kJointMaxReleased; ++c) J.start.q[c] = record[c], J.increment[c] = 0.0;
     for (int i = 0; i < 3; ++i)
       for (int k = 0; k < 3; ++k) J.start.free_rotation_start(i, k) = record[kJointMaxReleased + 3 * i + k];
-    J.coordinate_motion[0] = GetMotion(record + 15);
-    J.coordinate_motion[1] = GetMotion(record + 24);
+    J.drive_reaction       = record[kJointMaxReleased + 9];
+    J.coordinate_motion[0] = GetMotion(record + 16);
+    J.coordinate_motion[1] = GetMotion(record + 25);
   }
   for (size_t b = 0; b < state->bodies.size(); ++b) state->bodies[b].centre_of_mass = GetMotion(&bodies[kRigidBodyStateSize * b]);
   PetscFunctionReturn(PETSC_SUCCESS);

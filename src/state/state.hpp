@@ -47,6 +47,10 @@ struct NodeState {
   MotionUpdate translation_update;
   Vec3         tangent_scaled_increment  = Vec3::Zero();     // alpha = 2 tan(|omega|/2) omega/|omega|
   Mat3         tangent_scaled_derivative = Mat3::Identity(); // d alpha / d omega
+  // The residual this rank assembled on the node's prescribed DOFs (the reaction that drives
+  // them, zero on other DOFs) at the end of the last step: the Newmark family's work of the
+  // reactions is the trapezoidal rule over the step.
+  Eigen::Matrix<double, 6, 1> prescribed_reaction = Eigen::Matrix<double, 6, 1>::Zero();
 };
 
 using Vec6 = Eigen::Matrix<double, 6, 1>;
@@ -69,6 +73,9 @@ struct JointState {
   // mean rates of the released coordinates over the last step.
   Vec6                                  reaction = Vec6::Zero();
   std::array<double, kJointMaxReleased> rate{};
+  // The generalised reaction on a driven coordinate this rank assembled at the end of the last
+  // step (the Newmark family's trapezoidal work of the drive).
+  double drive_reaction = 0.0;
   // Dynamics of the released coordinates (dampers on them): rate, acceleration and the Newmark
   // family's pseudo-acceleration at the start of the step, coordinates 0-2 in [0] and 3-5 in [1],
   // and what the step's increments imply at its end (Newmark family).

@@ -1,6 +1,6 @@
 #!/usr/bin/env python3
-"""Runs postproc/msflex-history and postproc/plot-history on a synthetic result file that follows
-docs/output.md (a history and one probe). Run: python3 tests/regression/test_postproc.py"""
+"""Runs postproc/msflex-history, postproc/plot-history and postproc/msflex-modes on synthetic result
+files that follow docs/output.md (a history and one probe; modes; critical points). Run: python3 tests/regression/test_postproc.py"""
 
 import csv
 import io
@@ -98,6 +98,41 @@ class PostprocTest(unittest.TestCase):
         result = run("plot-history", self.h5, "no_such_series", "-o", png)
         self.assertEqual(result.returncode, 2)
         self.assertFalse(os.path.exists(png))
+
+
+    def test_lists_modes(self):
+        path = os.path.join(self.directory.name, "modes.h5")
+        with h5py.File(path, "w") as f:
+            for name, values in {"time": [1, 2], "step": [1, 2], "mode": [1, 2], "eigenvalue": [-1e-9, 400.0], "angular_frequency": [0.0, 20.0],
+                                 "frequency": [0.0, 20.0 / (2 * np.pi)], "rigid_mode": [1, 0], "backward_error": [1e-16, 2e-16]}.items():
+                f[f"history/{name}"] = np.array(values, dtype=float)
+        result = run("msflex-modes", path)
+        self.assertEqual(result.returncode, 0, result.stderr)
+        lines = result.stdout.splitlines()
+        self.assertEqual(len(lines), 3)
+        self.assertIn("rigid mode", lines[1])
+        self.assertAlmostEqual(float(lines[2].split()[2]), 20.0 / (2 * np.pi), places=6)
+        self.assertAlmostEqual(float(lines[2].split()[3]), 2 * np.pi / 20.0, places=5)
+
+    def test_lists_critical_points(self):
+        path = os.path.join(self.directory.name, "path.h5")
+        with h5py.File(path, "w") as f:
+            for name, values in {"time": [0, 1, 2, 3], "step": [0, 1, 2, 3], "critical_point": [0, 1, 0, 2],
+                                 "critical_load_factor": [np.nan, 0.38, np.nan, 0.5], "negative_pivots": [0, 1, 1, 2]}.items():
+                f[f"history/{name}"] = np.array(values, dtype=float)
+        result = run("msflex-modes", path)
+        self.assertEqual(result.returncode, 0, result.stderr)
+        lines = result.stdout.splitlines()
+        self.assertEqual(len(lines), 3)
+        self.assertIn("limit point", lines[1])
+        self.assertIn("0 -> 1", lines[1])
+        self.assertIn("bifurcation point", lines[2])
+        self.assertIn("1 -> 2", lines[2])
+
+    def test_modes_of_a_file_without_them_fail(self):
+        result = run("msflex-modes", self.h5)
+        self.assertEqual(result.returncode, 2)
+        self.assertIn("no modes", result.stderr)
 
 
 if __name__ == "__main__":

@@ -63,12 +63,21 @@ def read_all(path):
 SOLVER_DIAGNOSTICS = ("history/residual_norm", "history/newton_iterations", "history/energy_correction")
 
 
+# Series of energy measured on the scale of the total energy: the energy balance's terms
+# (algorithmic_dissipation is zero to the Newton tolerance in em, so its own scale is round-off).
+ENERGY_SERIES = ("history/total_energy", "history/kinetic_energy", "history/strain_energy", "history/external_work", "history/energy_balance",
+                 "history/algorithmic_dissipation")
+
+
 def family_scales(data):
     """Per history series: the largest |value| among the series of its joint or probe ("ball.force_x"
-    and "ball.moment_x" share "ball"); other datasets: their own largest |value|."""
+    and "ball.moment_x" share "ball"), or among the energy series; other datasets: their own
+    largest |value|."""
     scales, families = {}, {}
     for name, values in data.items():
         family = name.rsplit("/", 1)[0] + "/" + name.rsplit("/", 1)[1].split(".")[0] if name.startswith("history/") and "." in name else name
+        if name in ENERGY_SERIES:
+            family = "history/energies"
         families[name] = family
         scales[family] = max(scales.get(family, 0.0), float(np.abs(np.asarray(values, float)).max()) if np.size(values) else 0.0)
     return {name: scales[families[name]] for name in data}

@@ -163,7 +163,7 @@ analysis: {type: dynamic}
 )";
 
 // Which problem the assembler is set up for.
-enum class Problem { Static, Newmark, GeneralizedAlpha, InitialAcceleration };
+enum class Problem { Static, Newmark, GeneralizedAlpha, InitialAcceleration, MomentumConserving, EnergyMomentum };
 
 struct AssembledSystem {
   Model            model;
@@ -179,6 +179,10 @@ StepEquations EquationsOf(Problem problem)
   case Problem::Newmark:
   case Problem::GeneralizedAlpha:
     return DynamicStep(MakeTimeScheme(problem == Problem::Newmark ? TimeSchemeKind::Newmark : TimeSchemeKind::GeneralizedAlpha, 0.6, 0.05), 0.0);
+  case Problem::MomentumConserving:
+  case Problem::EnergyMomentum:
+    return DynamicStep(MakeTimeScheme(problem == Problem::EnergyMomentum ? TimeSchemeKind::EnergyMomentum : TimeSchemeKind::MomentumConserving, 0.6, 0.05),
+                       0.0);
   case Problem::InitialAcceleration:
     break;
   }
@@ -224,8 +228,11 @@ PetscErrorCode Residual(Assembler &assembler, Vec x, Vec r)
 }
 
 // ||J - J_fd||_F / ||J||_F with J_fd by central differences, column by column.
-PetscErrorCode JacobianRelativeError(const char *text, Problem problem, double *relative_error)
+PetscErrorCode JacobianRelativeError(const char *text, Problem problem, double *relative_error, bool *rank_one_active = nullptr)
 {
+  bool unused;
+  if (!rank_one_active) rank_one_active = &unused;
+  *rank_one_active = false;
   AssembledSystem system;
   Vec             x, r_plus, r_minus, column;
   Mat             fd;
@@ -252,6 +259,21 @@ PetscErrorCode JacobianRelativeError(const char *text, Problem problem, double *
   PetscCall(assembler.SetIncrements(x));
   PetscCall(assembler.AssembleJacobian(assembler.Jacobian(), &ok));
   PetscCheck(ok, PETSC_COMM_SELF, PETSC_ERR_PLIB, "jacobian not evaluable");
+  // em: the operator is the assembled tangent plus the rank-one term a b^T (beta couples every
+  // element); the finite differences are compared with it, b gathered on every rank.
+  Vec        a, b, b_all = nullptr;
+  bool       rank_one;
+  VecScatter to_all = nullptr;
+  assembler.RankOneTerm(&a, &b, &rank_one);
+  if (rank_one) {
+    PetscCall(VecScatterCreateToAll(b, &to_all, &b_all));
+    PetscCall(VecScatterBegin(to_all, b, b_all, INSERT_VALUES, SCATTER_FORWARD));
+    PetscCall(VecScatterEnd(to_all, b, b_all, INSERT_VALUES, SCATTER_FORWARD));
+    PetscReal b_norm;
+    PetscCall(VecNorm(b, NORM_2, &b_norm));
+    PetscCheck(b_norm > 0.0, PETSC_COMM_SELF, PETSC_ERR_PLIB, "em's rank-one term is zero");
+    *rank_one_active = true;
+  }
   PetscCall(MatDuplicate(assembler.Jacobian(), MAT_DO_NOT_COPY_VALUES, &fd));
   PetscCall(MatSetOption(fd, MAT_NEW_NONZERO_ALLOCATION_ERR, PETSC_FALSE));
   const double h = 1e-6;
@@ -270,6 +292,13 @@ PetscErrorCode JacobianRelativeError(const char *text, Problem problem, double *
     PetscCall(VecAssemblyEnd(x));
     PetscCall(VecWAXPY(column, -1.0, r_minus, r_plus));
     PetscCall(VecScale(column, 1.0 / (2 * h)));
+    if (to_all) { // the rank-one part of column j: a b_j
+      const PetscScalar *b_values;
+      PetscCall(VecGetArrayRead(b_all, &b_values));
+      const PetscScalar b_j = b_values[j];
+      PetscCall(VecRestoreArrayRead(b_all, &b_values));
+      PetscCall(VecAXPY(column, -b_j, a));
+    }
     const PetscScalar *values;
     PetscCall(VecGetArrayRead(column, &values));
     for (PetscInt i = first; i < last; ++i)
@@ -283,6 +312,8 @@ PetscErrorCode JacobianRelativeError(const char *text, Problem problem, double *
   PetscCall(MatAXPY(fd, -1.0, assembler.Jacobian(), DIFFERENT_NONZERO_PATTERN));
   PetscCall(MatNorm(fd, NORM_FROBENIUS, &difference_norm));
   *relative_error = difference_norm / jacobian_norm;
+  PetscCall(VecScatterDestroy(&to_all));
+  PetscCall(VecDestroy(&b_all));
   PetscCall(MatDestroy(&fd));
   PetscCall(VecDestroy(&x));
   PetscCall(VecDestroy(&r_plus));
@@ -293,7 +324,8 @@ PetscErrorCode JacobianRelativeError(const char *text, Problem problem, double *
 
 } // namespace
 
-// Checks the Jacobian of `model` for statics, Newmark, genalpha and the initial-acceleration problem.
+// Checks the Jacobian of `model` for statics, Newmark, genalpha, the initial-acceleration problem
+// and the mid-point schemes mc and em (em: with its rank-one term, which must be active).
 void CheckEveryProblem(const char *model, const char *label)
 {
   const struct {
@@ -302,14 +334,18 @@ void CheckEveryProblem(const char *model, const char *label)
   } cases[] = {{Problem::Static, "statics"},
                {Problem::Newmark, "newmark"},
                {Problem::GeneralizedAlpha, "genalpha"},
-               {Problem::InitialAcceleration, "initial accelerations"}};
+               {Problem::InitialAcceleration, "initial accelerations"},
+               {Problem::MomentumConserving, "mc"},
+               {Problem::EnergyMomentum, "em"}};
   PetscMPIInt size;
   MPI_Comm_size(PETSC_COMM_WORLD, &size);
   for (const auto &c : cases) {
     double relative_error = 1.0;
-    ASSERT_EQ(JacobianRelativeError(model, c.problem, &relative_error), PETSC_SUCCESS) << c.name;
+    bool   rank_one       = false;
+    ASSERT_EQ(JacobianRelativeError(model, c.problem, &relative_error, &rank_one), PETSC_SUCCESS) << c.name;
     PetscPrintf(PETSC_COMM_WORLD, "assembled Jacobian%s, %s, %d rank(s): ||J - J_fd||_F / ||J||_F = %.2e\n", label, c.name, size, relative_error);
     EXPECT_LT(relative_error, 1e-6) << c.name;
+    EXPECT_EQ(rank_one, c.problem == Problem::EnergyMomentum) << c.name;
   }
 }
 
@@ -373,10 +409,13 @@ TEST(AssembledSystem, JacobianOfEveryJointKindMatchesFiniteDifferences)
   MPI_Comm_size(PETSC_COMM_WORLD, &size);
   for (const auto &joint : joints) {
     const std::string model = SingleJointModel(joint.keys);
-    for (Problem problem : {Problem::Static, Problem::Newmark}) {
+    for (Problem problem : {Problem::Static, Problem::Newmark, Problem::EnergyMomentum}) {
       double relative_error = 1.0;
       ASSERT_EQ(JacobianRelativeError(model.c_str(), problem, &relative_error), PETSC_SUCCESS) << joint.kind;
-      PetscPrintf(PETSC_COMM_WORLD, "assembled Jacobian, %-11s joint, %-7s, %d rank(s): %.2e\n", joint.kind, problem == Problem::Static ? "statics" : "newmark",
+      PetscPrintf(PETSC_COMM_WORLD, "assembled Jacobian, %-11s joint, %-7s, %d rank(s): %.2e\n", joint.kind,
+                  problem == Problem::Static    ? "statics"
+                  : problem == Problem::Newmark ? "newmark"
+                                                : "em",
                   size, relative_error);
       EXPECT_LT(relative_error, 1e-6) << joint.kind;
     }

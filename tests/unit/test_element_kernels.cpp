@@ -98,8 +98,10 @@ TEST(ElementKernels, LineLoadIsConsistentAndTranslatesMomenta)
 TEST(ElementKernels, NodalLoadTangentMatchesFiniteDifferences)
 {
   NodalLoadValues load;
-  load.dead_force            = RandomVector(2.0);
-  load.dead_moment           = RandomVector(2.0);
+  load.dead_force_start      = RandomVector(2.0);
+  load.dead_moment_start     = RandomVector(2.0);
+  load.dead_force_end        = RandomVector(2.0);
+  load.dead_moment_end       = RandomVector(2.0);
   load.follower_force_start  = RandomVector(3.0);
   load.follower_moment_start = RandomVector(3.0);
   load.follower_force_end    = RandomVector(3.0);
@@ -109,7 +111,9 @@ TEST(ElementKernels, NodalLoadTangentMatchesFiniteDifferences)
     Vec6 r;
     Mat6 K;
     NodalLoadForces(load, w0, w1, R_start, R_end, &r, &K);
-    EXPECT_LT((r.head<3>() + load.dead_force + w0 * R_start * load.follower_force_start + w1 * R_end * load.follower_force_end).norm(), 1e-13);
+    EXPECT_LT((r.head<3>() + w0 * (load.dead_force_start + R_start * load.follower_force_start) + w1 * (load.dead_force_end + R_end * load.follower_force_end))
+                  .norm(),
+              1e-13);
     Eigen::Matrix<double, 6, 6> numeric;
     const double                h = 1e-6;
     for (int k = 0; k < 6; ++k) {

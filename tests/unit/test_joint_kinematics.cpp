@@ -3,11 +3,15 @@
 // differences of N^T g, for every kind of release (none, translations, one axis, two axes, free
 // rotation, dependent linear / eccentric cam / periodic-spline cam), in a rotated master state
 // with many turns of the released angle; and the periodic cubic spline (interpolation, C^2
-// continuity, period, derivatives).
+// continuity, period, derivatives). For the mid-point schemes: the conserving map exact for finite
+// steps and tending to N for vanishing ones, its geometric term d(Ntilde^T g)/d(x_m, theta_m, q)
+// and dp/dq against finite differences at random finite steps, and the secant of a dependent
+// translation (exact, smooth, and free of cancellation for small steps).
 #include "joints/joint_kinematics.hpp"
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cstdio>
 #include <random>
 #include <string>
@@ -235,5 +239,204 @@ TEST(JointKinematics, ConservingMapIsExactForFiniteSteps)
     std::printf("joint %-14s conserving map: |u_s error| %.1e, |alpha_s error| %.1e\n", c.name.c_str(), u_error, alpha_error);
     EXPECT_LT(u_error, 1e-13) << c.name;
     EXPECT_LT(alpha_error, 1e-13) << c.name;
+  }
+}
+
+namespace {
+
+// A step of the mid-point schemes: the master's start (x_mn, Lambda_{m,n}) and end (x_m1,
+// Lambda_{m,n+1}), the joint's start coordinates and increments.
+struct Step {
+  Vec3             x_mn, x_m1;
+  Mat3             R_mn, R_m1;
+  JointCoordinates start;
+  double           increment[kJointMaxReleased] = {0, 0, 0, 0, 0, 0};
+};
+
+// The conserving map of a step, built as the assembler does: alpha_m from the master's rotations,
+// the offsets from the joint kinematics at both ends.
+void ConservingMapOf(const JointGeometry &joint, const Step &s, Vec3 *alpha_m, JointMatrix *Nt, double *p)
+{
+  const int        k   = JointNumCoordinates(joint);
+  JointCoordinates end = s.start;
+  for (int i = 0; i < k; ++i) end.q[i] += s.increment[i];
+  Vec3 x_sn, x_s1;
+  Mat3 R_sn, R_s1;
+  JointSlaveConfiguration(joint, s.start, s.x_mn, s.R_mn, &x_sn, &R_sn);
+  JointSlaveConfiguration(joint, end, s.x_m1, s.R_m1, &x_s1, &R_s1);
+  *alpha_m = TangentScaledFromRotationVector(LogSO3(s.R_m1 * s.R_mn.transpose()));
+  JointConservingMap(joint, s.start, s.increment, s.R_mn, *alpha_m, x_sn - s.x_mn, x_s1 - s.x_m1, Nt, p);
+}
+
+// Ntilde^T g (6 + k rows) of a step.
+Eigen::VectorXd ConservingRows(const JointGeometry &joint, const Step &s, const Eigen::Matrix<double, 6, 1> &g)
+{
+  const int   k = JointNumCoordinates(joint);
+  Vec3        alpha_m;
+  JointMatrix Nt;
+  double      p[kJointMaxReleased];
+  ConservingMapOf(joint, s, &alpha_m, &Nt, p);
+  return Nt.leftCols(6 + k).transpose() * g;
+}
+
+// Perturbation of column c of (x_m (3), theta_m (3) of the END rotation, dq (k)).
+Step PerturbEnd(const Step &s, int c, double h)
+{
+  Step p = s;
+  if (c < 3) p.x_m1(c) += h;
+  else if (c < 6) p.R_m1 = ExpSO3(h * Vec3::Unit(c - 3)) * p.R_m1;
+  else p.increment[c - 6] += h;
+  return p;
+}
+
+// A random step: master rotations of about 1 rad at the start and over the step, released
+// coordinates up to about 1 rad at the start and over the step, a non-zero C_n of a free
+// rotation; `master_at_rest` makes it a joint to the ground (Lambda_m = I, alpha_m = 0).
+Step RandomStep(const JointGeometry &joint, std::mt19937 &gen, bool master_at_rest)
+{
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  const int                              k = JointNumCoordinates(joint), nt = joint.num_translations;
+  auto                                   random_vector = [&](double length) {
+    const Vec3 v(u(gen), u(gen), u(gen));
+    return Vec3(length * v.normalized());
+  };
+  Step s;
+  s.x_mn = Vec3(u(gen), u(gen), u(gen));
+  s.x_m1 = s.x_mn + 0.3 * Vec3(u(gen), u(gen), u(gen));
+  s.R_mn = ExpSO3(random_vector(1.0 + 0.2 * u(gen)));
+  s.R_m1 = ExpSO3(random_vector(0.9 + 0.2 * u(gen))) * s.R_mn;
+  if (master_at_rest) s.R_mn = s.R_m1 = Mat3::Identity(), s.x_m1 = s.x_mn;
+  for (int i = 0; i < k; ++i) {
+    s.start.q[i]   = (i < nt ? 0.5 : 1.0) * u(gen);
+    s.increment[i] = (i < nt ? 0.3 : 1.0) * u(gen);
+  }
+  if (joint.rotation == JointRotation::OneAxis) s.start.q[nt] += 6.0; // beyond one turn
+  if (joint.rotation == JointRotation::Free) {
+    s.start.free_rotation_start = ExpSO3(random_vector(1.1));
+    const Vec3 w                = random_vector(0.6 + 0.4 * u(gen));
+    for (int i = 0; i < 3; ++i) s.start.q[nt + i] = 0.0, s.increment[nt + i] = w(i); // a free rotation restarts from C_n
+  }
+  return s;
+}
+
+} // namespace
+
+// The geometric term of the mid-point schemes, d(Ntilde^T g)/d(x_m, theta_m, q) at fixed g, and
+// dp/dq against central differences of the conserving map, for every release kind at random
+// finite steps (and at a joint to the ground).
+TEST(JointKinematics, ConservingGeometricStiffnessMatchesFiniteDifferences)
+{
+  std::mt19937                           gen(17);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  for (const Case &c : Cases()) {
+    const int k           = JointNumCoordinates(c.joint);
+    double    worst_G     = 0.0;
+    double    worst_dp_dq = 0.0;
+    for (int trial = 0; trial < 4; ++trial) {
+      const Step                  s = RandomStep(c.joint, gen, trial == 3);
+      Eigen::Matrix<double, 6, 1> g;
+      for (int i = 0; i < 6; ++i) g(i) = u(gen);
+      Vec3        alpha_m;
+      JointMatrix Nt;
+      double      p[kJointMaxReleased];
+      ConservingMapOf(c.joint, s, &alpha_m, &Nt, p);
+      JointSquare G;
+      JointConservingGeometricStiffness(c.joint, s.start, s.increment, s.R_mn, alpha_m, g, &G);
+      JointReleasedMatrix dp_dq;
+      JointReleasedTestDerivative(c.joint, s.increment, &dp_dq);
+      const double    h = 1e-6;
+      Eigen::MatrixXd G_fd(6 + k, 6 + k), dp_fd(k, k);
+      for (int col = 0; col < 6 + k; ++col) {
+        const Step plus = PerturbEnd(s, col, h), minus = PerturbEnd(s, col, -h);
+        G_fd.col(col) = (ConservingRows(c.joint, plus, g) - ConservingRows(c.joint, minus, g)) / (2 * h);
+        if (col < 6) continue;
+        Vec3        a;
+        JointMatrix N_plus, N_minus;
+        double      p_plus[kJointMaxReleased], p_minus[kJointMaxReleased];
+        ConservingMapOf(c.joint, plus, &a, &N_plus, p_plus);
+        ConservingMapOf(c.joint, minus, &a, &N_minus, p_minus);
+        for (int i = 0; i < k; ++i) dp_fd(i, col - 6) = (p_plus[i] - p_minus[i]) / (2 * h);
+      }
+      const Eigen::MatrixXd Ga = G.topLeftCorner(6 + k, 6 + k);
+      worst_G                  = std::max(worst_G, MaxAbs(G_fd - Ga) / MaxAbs(Ga));
+      if (k > 0) worst_dp_dq = std::max(worst_dp_dq, MaxAbs(dp_fd - dp_dq.topLeftCorner(k, k)) / MaxAbs(dp_fd));
+    }
+    std::printf("joint %-14s k = %d: conserving geometric term FD error %.2e, dp/dq FD error %.2e\n", c.name.c_str(), k, worst_G, worst_dp_dq);
+    EXPECT_LT(worst_G, 1e-8) << c.name;
+    EXPECT_LT(worst_dp_dq, 1e-8) << c.name;
+  }
+}
+
+// The secant of a dependent translation: G tau = f(phi_{n+1}) - f(phi_n) for any step, dG/d(dphi)
+// against central differences, and the limits G -> f'(phi_n), dG -> f''(phi_n)/2 of a vanishing
+// step, where the plain quotient would cancel.
+TEST(JointKinematics, DependentSecantIsExactAndSmooth)
+{
+  for (const Case &c : Cases()) {
+    if (c.joint.dependence == JointDependence::None) continue;
+    double worst = 0.0;
+    for (double phi : {-2.3, 0.35, 0.4, 7.1}) // 0.4 is a knot of the tabulated cam
+      for (double dphi : {0.0, 1e-12, -1e-9, 1e-5, 3e-3, -0.02, 0.45, -1.3, 2.9}) {
+        double G, dG, f0, df0, ddf0, f1, df1, ddf1;
+        JointDependentSecant(c.joint, phi, dphi, &G, &dG);
+        JointDependentTranslation(c.joint, phi, &f0, &df0, &ddf0);
+        JointDependentTranslation(c.joint, phi + dphi, &f1, &df1, &ddf1);
+        const double tau = 2.0 * std::tan(0.5 * dphi);
+        EXPECT_NEAR(G * tau, f1 - f0, 1e-14) << c.name << " phi " << phi << " dphi " << dphi;
+        // Central differences about a knot (phi = 0.4, tiny dphi) straddle the jump of f''' and are
+        // only first order there: the derivative is compared elsewhere.
+        const double h = 1e-6;
+        double       Gp, Gm, scratch;
+        JointDependentSecant(c.joint, phi, dphi + h, &Gp, &scratch);
+        JointDependentSecant(c.joint, phi, dphi - h, &Gm, &scratch);
+        // (relative to the size of G: the differences of G round off at eps |G| / h).
+        const double scale = std::max({1e-3, std::abs(G), std::abs(dG)});
+        if (!(phi == 0.4 && std::abs(dphi) < 1e-4)) worst = std::max(worst, std::abs((Gp - Gm) / (2 * h) - dG) / scale);
+        if (dphi == 0.0) {
+          EXPECT_NEAR(G, df0, 1e-15) << c.name;
+          EXPECT_NEAR(dG, 0.5 * ddf0, 1e-15) << c.name;
+        } else if (std::abs(dphi) <= 1e-9) { // G = f' + f'' dphi / 2 + O(dphi^2), dG = f''/2 + O(dphi)
+          EXPECT_NEAR(G, df0 + 0.5 * ddf0 * dphi, 1e-15) << c.name;
+          EXPECT_NEAR(dG, 0.5 * ddf0, 1e-8) << c.name;
+        }
+      }
+    std::printf("joint %-14s secant derivative FD error %.2e\n", c.name.c_str(), worst);
+    EXPECT_LT(worst, 1e-8) << c.name;
+  }
+}
+
+// As the step vanishes the conserving map tends to N: Ntilde diag(I, dp/dq) = N exactly for an
+// empty step and within O(step) otherwise.
+TEST(JointKinematics, ConservingMapTendsToTheJointMap)
+{
+  std::mt19937 gen(23);
+  for (const Case &c : Cases()) {
+    const int    k         = JointNumCoordinates(c.joint);
+    const Step   direction = RandomStep(c.joint, gen, false);
+    const Vec3   omega_m   = LogSO3(direction.R_m1 * direction.R_mn.transpose());
+    double       error[3];
+    const double scales[3] = {0.0, 1e-3, 1e-4};
+    for (int e = 0; e < 3; ++e) {
+      Step s = direction;
+      s.x_m1 = s.x_mn + scales[e] * (direction.x_m1 - direction.x_mn);
+      s.R_m1 = ExpSO3(scales[e] * omega_m) * s.R_mn;
+      for (int i = 0; i < k; ++i) s.increment[i] = scales[e] * direction.increment[i];
+      Vec3        alpha_m;
+      JointMatrix Nt, N;
+      double      p[kJointMaxReleased];
+      ConservingMapOf(c.joint, s, &alpha_m, &Nt, p);
+      JointReleasedMatrix dp_dq;
+      JointReleasedTestDerivative(c.joint, s.increment, &dp_dq);
+      JointCoordinates end = s.start;
+      for (int i = 0; i < k; ++i) end.q[i] += s.increment[i];
+      JointMap(c.joint, end, s.R_m1, &N);
+      Eigen::MatrixXd chain = Eigen::MatrixXd::Identity(6 + k, 6 + k);
+      if (k > 0) chain.bottomRightCorner(k, k) = dp_dq.topLeftCorner(k, k);
+      error[e] = MaxAbs(Nt.leftCols(6 + k) * chain - N.leftCols(6 + k)) / MaxAbs(N.leftCols(6 + k));
+    }
+    std::printf("joint %-14s |Ntilde dp/dq - N| / |N|: %.1e (empty step), %.1e (1e-3), %.1e (1e-4)\n", c.name.c_str(), error[0], error[1], error[2]);
+    EXPECT_LT(error[0], 1e-14) << c.name;
+    EXPECT_LT(error[1], 1e-2) << c.name;
+    EXPECT_LT(error[2], 0.2 * error[1]) << c.name; // first order in the step
   }
 }

@@ -143,7 +143,7 @@ PetscErrorCode Build(const char *text, const std::function<void(Model &)> &edit,
   PetscCall(DofMapRestrictToLocal(whole, whole_map, &p->model, &p->map));
   PetscCall(p->system.Setup(PETSC_COMM_WORLD, p->model, p->map, std::move(pattern), std::move(mass)));
   p->context.assembler = &p->assembler;
-  PetscCall(NewtonSolverCreate(PETSC_COMM_WORLD, p->model.analysis, false, &p->context, &p->snes));
+  PetscCall(NewtonSolverCreate(PETSC_COMM_WORLD, p->model.analysis, NewtonOperator::Assembled, &p->context, &p->snes));
   PetscCall(VecDuplicate(p->assembler.SolutionTemplate(), &p->x));
   PetscFunctionReturn(PETSC_SUCCESS);
 }

@@ -82,6 +82,30 @@ TEST(Registries, IntegratorsRoundTripAreReadAndDocumented)
   EXPECT_NE(error.message.find("expected one of " + IntegratorNameList()), std::string::npos) << error.message;
 }
 
+TEST(Registries, PathControlsRoundTripAreReadAndDocumented)
+{
+  int                    count;
+  const PathControlInfo *controls = PathControls(&count);
+  ASSERT_GE(count, 3);
+  const std::string doc = ReadDoc("input.md") + ReadDoc("stability.md");
+  for (int i = 0; i < count; ++i) {
+    PathControl parsed;
+    ASSERT_TRUE(PathControlFromName(controls[i].name, &parsed)) << controls[i].name;
+    EXPECT_EQ(parsed, controls[i].control);
+    EXPECT_STREQ(PathControlName(controls[i].control), controls[i].name);
+    EXPECT_NE(doc.find(std::string("`control: ") + controls[i].name + "`"), std::string::npos) << controls[i].name << " is not in docs/stability.md";
+    const std::string target = controls[i].control == PathControl::Displacement ? ", control_node: b, control_dof: uy" : "";
+    Model             model;
+    InputError        error;
+    EXPECT_TRUE(ReadModelString(std::string(kBeam) + "analysis: {control: " + controls[i].name + target + "}\n", "registry", &model, &error)) << error.Format();
+    EXPECT_EQ(model.analysis.control, controls[i].control);
+  }
+  Model      model;
+  InputError error;
+  EXPECT_FALSE(ReadModelString(std::string(kBeam) + "analysis: {control: riks}\n", "registry", &model, &error));
+  EXPECT_NE(error.message.find("expected one of " + PathControlNameList()), std::string::npos) << error.message;
+}
+
 TEST(Registries, JointKindsRoundTripAndAreDocumented)
 {
   int                  count;

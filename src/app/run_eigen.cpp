@@ -1,0 +1,188 @@
+#include "app/run_eigen.hpp"
+
+#include "core/format.hpp"
+#include "eigen/eigen_solver.hpp"
+#include "integrators/linearization.hpp"
+#include "integrators/step_controller.hpp"
+#include "integrators/tangent_factor.hpp"
+#include "output/results.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+namespace msflex {
+
+namespace {
+
+// The static equilibrium under the loads at end_time, by load-controlled steps with the usual step
+// control; *lambda: the load factor reached. Collective.
+PetscErrorCode Preload(MPI_Comm comm, const Model &model, Integrator &integrator, bool quiet, double *lambda)
+{
+  const AnalysisSettings &a = model.analysis;
+  StepControllerSettings  settings;
+  settings.initial_step       = a.initial_step;
+  settings.min_step           = a.min_step;
+  settings.max_step           = a.max_step;
+  settings.growth_factor      = a.growth_factor;
+  settings.easy_iterations    = a.easy_iterations;
+  settings.easy_steps_to_grow = a.easy_steps_to_grow;
+  StepController controller(settings);
+  double         t    = 0.0;
+  int            step = 0;
+  PetscFunctionBeginUser;
+  while (t < a.end_time * (1.0 - 1e-14)) {
+    const double dt = controller.Propose(t, a.end_time);
+    StepOutcome  outcome;
+    PetscCall(integrator.TryStep(t, dt, &outcome));
+    if (outcome.converged) {
+      t = t + dt >= a.end_time * (1.0 - 1e-14) ? a.end_time : t + dt;
+      controller.Accept(dt, outcome.newton_iterations);
+      ++step;
+      if (!quiet)
+        PetscCall(PetscPrintf(comm, "preload step %4d  t = %-12.6g dt = %-10.4g newton %2d  |R| = %.3e\n", step, t, dt, outcome.newton_iterations,
+                              outcome.residual_norm));
+      continue;
+    }
+    PetscCheck(controller.Reject(dt), comm, PETSC_ERR_NOT_CONVERGED,
+               "%s analysis: the preload stopped at t = %g: the step to t = %g failed (%s) and halving it would go below min_step = %g",
+               AnalysisTypeName(a.type), t, t + dt, outcome.why.c_str(), a.min_step);
+  }
+  *lambda = t;
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+// A frame of the state with increments x (null: the equilibrium itself) added. Collective.
+PetscErrorCode WriteShapeFrame(MPI_Comm comm, const Model &model, const DofMap &map, Integrator &integrator, OutputFile &output, double lambda, Vec x,
+                               int number)
+{
+  Assembler                  &assembler = integrator.System().GetAssembler();
+  std::vector<ElementResults> results;
+  OutputFrame                 frame;
+  double                      strain_energy;
+  PetscFunctionBeginUser;
+  PetscCall(assembler.BeginStep(StaticStep(lambda, lambda)));
+  if (x) PetscCall(assembler.SetIncrements(x));
+  PetscCall(integrator.ElementResults(&results, &strain_energy));
+  PetscCall(GatherFrame(comm, model, map, integrator.GetState(), results, number, number, false, &frame));
+  PetscCall(output.WriteFrame(frame));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+// The mode scaled for display: its largest translation, or rotation times `length`, becomes a
+// tenth of `length`, and that entry positive (a sign the same on any number of ranks). Collective.
+PetscErrorCode DisplayShape(Vec mode, Vec weights, double length, Vec shape)
+{
+  PetscReal largest;
+  PetscInt  row;
+  double    value;
+  PetscFunctionBeginUser;
+  PetscCall(VecCopy(weights, shape));
+  PetscCall(VecSqrtAbs(shape));
+  PetscCall(VecPointwiseMult(shape, shape, mode));
+  PetscCall(VecAbs(shape));
+  PetscCall(VecMax(shape, &row, &largest));
+  PetscCall(VecEntry(mode, row, &value));
+  PetscCall(VecCopy(mode, shape));
+  if (largest > 0) PetscCall(VecScale(shape, (value < 0 ? -0.1 : 0.1) * length / largest));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+} // namespace
+
+PetscErrorCode RunEigenAnalysis(MPI_Comm comm, const Model &model, const DofMap &map, Integrator &integrator, OutputFile &output, bool quiet)
+{
+  const AnalysisSettings &a         = model.analysis;
+  const bool              buckling  = a.type == AnalysisType::Buckling;
+  MechanicalSystem       &system    = integrator.System();
+  Assembler              &assembler = system.GetAssembler();
+  double                  lambda    = 0.0, length;
+  Mat                     K, B;
+  Vec                     weights, shape;
+  EigenPairs              pairs;
+  PetscFunctionBeginUser;
+  PetscCall(EigenInitialize());
+  if (a.preload) PetscCall(Preload(comm, model, integrator, quiet, &lambda));
+  PetscCall(MatDuplicate(assembler.Jacobian(), MAT_DO_NOT_COPY_VALUES, &K));
+  PetscCall(MatDuplicate(assembler.Jacobian(), MAT_DO_NOT_COPY_VALUES, &B));
+  PetscCall(VecDuplicate(assembler.SolutionTemplate(), &weights));
+  PetscCall(VecDuplicate(assembler.SolutionTemplate(), &shape));
+  PetscCall(ModelLength(comm, model, map, &length));
+  PetscCall(UnknownWeights(comm, model, map, integrator.GetState(), length, weights));
+  PetscCall(EquilibriumTangent(system, lambda, K));
+  if (!buckling) {
+    PetscCall(MassMatrix(system, lambda, B));
+    PetscCall(SolveVibrationModes(K, B, a.eigenvalues, a.shift, &pairs));
+  } else {
+    // The direction of the linear path, u' = K^{-1} q; K must be positive definite.
+    TangentFactor  factor;
+    TangentInertia inertia;
+    Vec            residual, q, direction;
+    PetscBool      ok;
+    double         force_scale;
+    PetscCall(VecDuplicate(weights, &residual));
+    PetscCall(VecDuplicate(weights, &q));
+    PetscCall(VecDuplicate(weights, &direction));
+    PetscCall(factor.Factor(K, 1e-8, &inertia));
+    PetscCheck(inertia.factored && (!inertia.symmetric || inertia.negative_pivots == 0), comm, PETSC_ERR_USER_INPUT,
+               "buckling analysis: the tangent at load factor %g is %s, so the structure has buckled already (or is a mechanism)", lambda,
+               inertia.factored ? "not positive definite" : "singular");
+    PetscCall(StaticResidual(system, lambda, lambda, nullptr, residual, &ok, &force_scale));
+    PetscCall(StaticLoadPattern(system, lambda, lambda, nullptr, residual, q));
+    PetscCall(factor.Solve(q, direction));
+    // A perturbation of 1e-4 of the model size, in translations or rotations times the size.
+    PetscReal largest;
+    PetscCall(VecCopy(weights, shape));
+    PetscCall(VecSqrtAbs(shape));
+    PetscCall(VecPointwiseMult(shape, shape, direction));
+    PetscCall(VecNorm(shape, NORM_INFINITY, &largest));
+    PetscCheck(largest > 0, comm, PETSC_ERR_USER_INPUT, "buckling analysis: the loads do not deform the structure (no loads?)");
+    PetscCall(GeometricStiffness(system, model, map, lambda, direction, 1e-4 * length / largest, B));
+    PetscCall(SolveBucklingModes(K, B, a.eigenvalues, &pairs));
+    PetscCall(VecDestroy(&residual));
+    PetscCall(VecDestroy(&q));
+    PetscCall(VecDestroy(&direction));
+  }
+  if (!quiet) {
+    PetscCall(PetscPrintf(comm, "msflex: %zu %s%s about the equilibrium at load factor %g", pairs.values.size(), buckling ? "buckling modes" : "modes",
+                          buckling ? "" : Format(" (shift-and-invert at %.6g, %d solve%s)", pairs.shift, pairs.solves, pairs.solves == 1 ? "" : "s").c_str(),
+                          lambda));
+    PetscCall(PetscPrintf(comm, buckling ? "\n  mode  load factor          backward error\n"
+                                         : "\n  mode  eigenvalue (rad/s)^2  frequency (Hz)       backward error\n"));
+  }
+  PetscCall(WriteShapeFrame(comm, model, map, integrator, output, lambda, nullptr, 0));
+  for (size_t k = 0; k < pairs.values.size(); ++k) {
+    const int    number = (int)k + 1;
+    const double value = pairs.values[k], error = pairs.backward_errors[k];
+    // A rigid mode (a mechanism's free motion) has lambda at round-off.
+    const bool               rigid  = !buckling && std::abs(value) <= pairs.zero_level;
+    const double             omega  = !buckling && value > 0 && !rigid ? std::sqrt(value) : 0.0;
+    std::vector<std::string> names  = {"time", "step", "mode"};
+    std::vector<double>      values = {(double)number, (double)number, (double)number};
+    if (buckling) {
+      names.insert(names.end(), {"load_factor", "eigenvalue", "backward_error"});
+      values.insert(values.end(), {lambda + value, value, error});
+    } else {
+      names.insert(names.end(), {"eigenvalue", "angular_frequency", "frequency", "rigid_mode", "backward_error"});
+      values.insert(values.end(), {value, omega, omega / (2.0 * M_PI), rigid ? 1.0 : 0.0, error});
+    }
+    if (!quiet) {
+      if (buckling) PetscCall(PetscPrintf(comm, "  %4d  %-19.12g  %.2e\n", number, lambda + value, error));
+      else PetscCall(PetscPrintf(comm, "  %4d  %-20.12g  %-19.12g  %.2e%s\n", number, value, omega / (2.0 * M_PI), error, rigid ? "  (rigid mode)" : ""));
+    }
+    PetscCall(DisplayShape(pairs.vectors[k], weights, length, shape));
+    PetscCall(WriteShapeFrame(comm, model, map, integrator, output, lambda, shape, number));
+    std::vector<ProbeSample> probes;
+    PetscCall(SampleProbes(comm, model, map, integrator.GetState(), &probes));
+    PetscCall(output.AppendHistory(names, values, probes));
+  }
+  PetscCall(assembler.BeginStep(StaticStep(lambda, lambda)));
+  PetscCall(EigenPairsDestroy(&pairs));
+  PetscCall(MatDestroy(&K));
+  PetscCall(MatDestroy(&B));
+  PetscCall(VecDestroy(&weights));
+  PetscCall(VecDestroy(&shape));
+  PetscCall(EigenFinalize());
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+} // namespace msflex

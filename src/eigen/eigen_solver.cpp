@@ -1,0 +1,239 @@
+#include "eigen/eigen_solver.hpp"
+
+#include <slepceps.h>
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <numeric>
+
+namespace msflex {
+
+namespace {
+
+// Relative residual tolerance of the eigenpairs: the eigenvalues of a symmetric pencil are then
+// accurate to about its square.
+constexpr double kTolerance = 1e-12;
+
+// A factorisation of the ST's operator by MUMPS Cholesky (K - sigma M, or K), direct.
+PetscErrorCode UseCholesky(EPS eps)
+{
+  ST  st;
+  KSP ksp;
+  PC  pc;
+  PetscFunctionBeginUser;
+  PetscCall(EPSGetST(eps, &st));
+  PetscCall(STGetKSP(st, &ksp));
+  PetscCall(KSPSetType(ksp, KSPPREONLY));
+  PetscCall(KSPGetPC(ksp, &pc));
+  PetscCall(PCSetType(pc, PCCHOLESKY));
+  PetscCall(PCFactorSetMatSolverType(pc, MATSOLVERMUMPS));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+// The converged pairs (at most `count`), their backward errors and vectors, with value(theta).
+template <class Value> PetscErrorCode CollectPairs(EPS eps, Mat A, int count, Value value, bool keep_positive_only, EigenPairs *pairs)
+{
+  PetscInt converged;
+  PetscFunctionBeginUser;
+  PetscCall(EPSGetConverged(eps, &converged));
+  std::vector<double> values, errors;
+  std::vector<Vec>    vectors;
+  for (PetscInt i = 0; i < converged && (int)values.size() < count; ++i) {
+    PetscScalar eigenvalue;
+    PetscReal   error;
+    Vec         x;
+    PetscCall(EPSGetEigenvalue(eps, i, &eigenvalue, nullptr));
+    if (keep_positive_only && !(PetscRealPart(eigenvalue) > 0)) continue;
+    PetscCall(MatCreateVecs(A, &x, nullptr));
+    PetscCall(EPSGetEigenvector(eps, i, x, nullptr));
+    PetscCall(EPSComputeError(eps, i, EPS_ERROR_BACKWARD, &error));
+    values.push_back(value(PetscRealPart(eigenvalue)));
+    errors.push_back(error);
+    vectors.push_back(x);
+  }
+  std::vector<size_t> order(values.size());
+  std::iota(order.begin(), order.end(), 0);
+  std::stable_sort(order.begin(), order.end(), [&](size_t a, size_t b) { return values[a] < values[b]; });
+  for (size_t k : order) {
+    pairs->values.push_back(values[k]);
+    pairs->backward_errors.push_back(errors[k]);
+    pairs->vectors.push_back(vectors[k]);
+  }
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+// One shift-and-invert solve of K phi = lambda M phi about sigma. *failed (when not null): the
+// solve raised an error (a singular K - sigma M), which is then no error of the caller.
+PetscErrorCode SolveModesAt(Mat K, Mat M, int count, double sigma, EigenPairs *pairs, bool *failed)
+{
+  EPS eps;
+  ST  st;
+  PetscFunctionBeginUser;
+  PetscCall(EigenPairsDestroy(pairs));
+  PetscCall(EPSCreate(PetscObjectComm((PetscObject)K), &eps));
+  PetscCall(EPSSetOperators(eps, K, M));
+  PetscCall(EPSSetProblemType(eps, EPS_GHEP));
+  PetscCall(EPSSetDimensions(eps, count, PETSC_DEFAULT, PETSC_DEFAULT));
+  PetscCall(EPSSetTolerances(eps, kTolerance, PETSC_DEFAULT));
+  PetscCall(EPSSetTarget(eps, sigma));
+  PetscCall(EPSSetWhichEigenpairs(eps, EPS_TARGET_MAGNITUDE));
+  PetscCall(EPSGetST(eps, &st));
+  PetscCall(STSetType(st, STSINVERT));
+  PetscCall(UseCholesky(eps));
+  PetscCall(EPSSetFromOptions(eps));
+  PetscErrorCode code = PETSC_SUCCESS;
+  if (failed) {
+    PetscCall(PetscPushErrorHandler(PetscReturnErrorHandler, nullptr));
+    code = EPSSolve(eps);
+    PetscCall(PetscPopErrorHandler());
+    int mine = code != PETSC_SUCCESS, any;
+    PetscCallMPI(MPI_Allreduce(&mine, &any, 1, MPI_INT, MPI_MAX, PetscObjectComm((PetscObject)K)));
+    *failed = any != 0;
+  } else {
+    PetscCall(EPSSolve(eps));
+  }
+  if (!failed || !*failed) {
+    PetscScalar target;
+    PetscCall(EPSGetTarget(eps, &target));
+    pairs->shift = PetscRealPart(target);
+    PetscCall(CollectPairs(
+        eps, K, count, [](double theta) { return theta; }, false, pairs));
+  }
+  ++pairs->solves;
+  PetscCall(EPSDestroy(&eps));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+// min (or max) over the DOFs with mass of K_ii / M_ii: the Rayleigh quotient of a unit vector,
+// an upper bound of the lowest eigenvalue (a scale of the largest). Collective.
+PetscErrorCode DiagonalRatio(Mat K, Mat M, double *ratio, bool largest = false)
+{
+  Vec                k, m;
+  const PetscScalar *kv, *mv;
+  PetscInt           n;
+  double             local = largest ? 0.0 : INFINITY;
+  PetscFunctionBeginUser;
+  PetscCall(MatCreateVecs(K, &k, &m));
+  PetscCall(MatGetDiagonal(K, k));
+  PetscCall(MatGetDiagonal(M, m));
+  PetscCall(VecGetLocalSize(k, &n));
+  PetscCall(VecGetArrayRead(k, &kv));
+  PetscCall(VecGetArrayRead(m, &mv));
+  for (PetscInt i = 0; i < n; ++i)
+    if (PetscRealPart(mv[i]) > 0 && PetscRealPart(kv[i]) > 0) {
+      const double r = PetscRealPart(kv[i]) / PetscRealPart(mv[i]);
+      local          = largest ? std::max(local, r) : std::min(local, r);
+    }
+  PetscCall(VecRestoreArrayRead(k, &kv));
+  PetscCall(VecRestoreArrayRead(m, &mv));
+  PetscCall(VecDestroy(&k));
+  PetscCall(VecDestroy(&m));
+  PetscCall(MPIU_Allreduce(&local, ratio, 1, MPI_DOUBLE, largest ? MPI_MAX : MPI_MIN, PetscObjectComm((PetscObject)K)));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode SolveModes(Mat K, Mat M, int count, double shift, EigenPairs *pairs);
+
+} // namespace
+
+PetscErrorCode EigenInitialize()
+{
+  PetscBool initialized;
+  PetscFunctionBeginUser;
+  PetscCall(SlepcInitialized(&initialized));
+  if (!initialized) PetscCall(SlepcInitializeNoArguments());
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode EigenFinalize()
+{
+  PetscBool initialized;
+  PetscFunctionBeginUser;
+  PetscCall(SlepcInitialized(&initialized));
+  if (initialized) PetscCall(SlepcFinalize());
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode EigenPairsDestroy(EigenPairs *pairs)
+{
+  PetscFunctionBeginUser;
+  for (Vec &v : pairs->vectors) PetscCall(VecDestroy(&v));
+  pairs->vectors.clear();
+  pairs->values.clear();
+  pairs->backward_errors.clear();
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode SolveVibrationModes(Mat K, Mat M, int count, double shift, EigenPairs *pairs)
+{
+  double largest_ratio;
+  PetscFunctionBeginUser;
+  PetscCall(SolveModes(K, M, count, shift, pairs));
+  PetscCall(DiagonalRatio(K, M, &largest_ratio, true));
+  pairs->zero_level = std::max(1e-6 * std::abs(pairs->shift), 1e3 * std::numeric_limits<double>::epsilon() * largest_ratio);
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+namespace {
+
+PetscErrorCode SolveModes(Mat K, Mat M, int count, double shift, EigenPairs *pairs)
+{
+  PetscBool target_option;
+  PetscFunctionBeginUser;
+  pairs->solves = 0;
+  PetscCall(PetscOptionsHasName(nullptr, nullptr, "-eps_target", &target_option));
+  if (std::isfinite(shift) || target_option) {
+    PetscCall(SolveModesAt(K, M, count, std::isfinite(shift) ? shift : 0.0, pairs, nullptr));
+    PetscFunctionReturn(PETSC_SUCCESS);
+  }
+  // First at sigma = 0, which is the best shift unless K is singular.
+  bool failed = false;
+  PetscCall(SolveModesAt(K, M, count, 0.0, pairs, &failed));
+  double largest = 0.0, worst_error = 0.0;
+  for (size_t k = 0; k < pairs->values.size(); ++k)
+    largest = std::max(largest, std::abs(pairs->values[k])), worst_error = std::max(worst_error, pairs->backward_errors[k]);
+  double first_elastic = NAN;
+  bool   rigid         = false;
+  for (double value : pairs->values) {
+    if (std::abs(value) <= 1e-6 * largest) rigid = true;
+    else if (std::isnan(first_elastic) && value > 0) first_elastic = value;
+  }
+  if (!failed && !rigid && (int)pairs->values.size() == count && worst_error <= 1e-8) PetscFunctionReturn(PETSC_SUCCESS);
+  // Rigid modes, or a first solve that failed or is inaccurate: shift below zero by a hundredth of
+  // the first elastic eigenvalue (or, without an estimate, of the lowest diagonal ratio).
+  if (std::isnan(first_elastic)) PetscCall(DiagonalRatio(K, M, &first_elastic));
+  PetscCheck(std::isfinite(first_elastic) && first_elastic > 0, PetscObjectComm((PetscObject)K), PETSC_ERR_USER_INPUT,
+             "no eigenvalue of the model could be estimated: does anything in it have mass?");
+  PetscCall(SolveModesAt(K, M, count, -1e-2 * first_elastic, pairs, nullptr));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+} // namespace
+
+PetscErrorCode SolveBucklingModes(Mat K, Mat K_sigma, int count, EigenPairs *pairs)
+{
+  EPS eps;
+  Mat minus_K_sigma;
+  PetscFunctionBeginUser;
+  PetscCall(EigenPairsDestroy(pairs));
+  PetscCall(MatDuplicate(K_sigma, MAT_COPY_VALUES, &minus_K_sigma));
+  PetscCall(MatScale(minus_K_sigma, -1.0));
+  PetscCall(EPSCreate(PetscObjectComm((PetscObject)K), &eps));
+  PetscCall(EPSSetOperators(eps, minus_K_sigma, K));
+  PetscCall(EPSSetProblemType(eps, EPS_GHEP));
+  PetscCall(EPSSetDimensions(eps, count, PETSC_DEFAULT, PETSC_DEFAULT));
+  PetscCall(EPSSetTolerances(eps, kTolerance, PETSC_DEFAULT));
+  PetscCall(EPSSetWhichEigenpairs(eps, EPS_LARGEST_REAL));
+  PetscCall(UseCholesky(eps));
+  PetscCall(EPSSetFromOptions(eps));
+  PetscCall(EPSSolve(eps));
+  pairs->solves = 1;
+  PetscCall(CollectPairs(
+      eps, K, count, [](double nu) { return 1.0 / nu; }, true, pairs));
+  PetscCall(EPSDestroy(&eps));
+  PetscCall(MatDestroy(&minus_K_sigma));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+} // namespace msflex

@@ -1,0 +1,578 @@
+#include "integrators/path_following.hpp"
+
+#include "core/format.hpp"
+#include "integrators/linearization.hpp"
+#include "model/joint_geometry.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+namespace msflex {
+
+namespace {
+
+// A tangent is taken as symmetric (an LDL^T factorisation with its inertia) within this relative
+// asymmetry: at a converged equilibrium under conservative loads the spin-form tangent is
+// symmetric up to the residual.
+constexpr double kSymmetryTolerance = 1e-8;
+// A load step whose increment differs from the path tangent's prediction by more than this many
+// times the prediction, at both ends, has jumped to another branch.
+constexpr double kJumpDeviation = 2.0;
+
+} // namespace
+
+const char *CriticalPointName(CriticalPointKind kind)
+{
+  switch (kind) {
+  case CriticalPointKind::Limit:
+    return "limit point";
+  case CriticalPointKind::Bifurcation:
+    return "bifurcation point";
+  case CriticalPointKind::Jump:
+    return "jump to another branch";
+  default:
+    return "no critical point";
+  }
+}
+
+PathFollower::~PathFollower()
+{
+  MatDestroy(&tangent_);
+  KSPDestroy(&ksp_);
+  for (Vec *v :
+       {&x_, &residual_, &q_, &dx_R_, &dx_F_, &dx_, &trial_, &work_, &weights_, &scale_, &mode_, &path_tangent_, &previous_increment_, &previous_tangent_})
+    VecDestroy(v);
+}
+
+PetscErrorCode PathFollower::Setup(MPI_Comm comm, Integrator *integrator)
+{
+  PC pc;
+  PetscFunctionBeginUser;
+  comm_                = comm;
+  integrator_          = integrator;
+  model_               = &integrator->GetModel();
+  map_                 = &integrator->Map();
+  control_             = model_->analysis.control;
+  stability_           = model_->analysis.stability;
+  Assembler &assembler = integrator->System().GetAssembler();
+  for (Vec *v :
+       {&x_, &residual_, &q_, &dx_R_, &dx_F_, &dx_, &trial_, &work_, &weights_, &scale_, &mode_, &path_tangent_, &previous_increment_, &previous_tangent_})
+    PetscCall(VecDuplicate(assembler.SolutionTemplate(), v));
+  PetscCall(MatDuplicate(assembler.Jacobian(), MAT_DO_NOT_COPY_VALUES, &tangent_));
+  double length;
+  PetscCall(ModelLength(comm, *model_, *map_, &length));
+  PetscCall(UnknownWeights(comm, *model_, *map_, integrator->GetState(), length, weights_));
+  // The corrector's linear solver: as Newton's, MUMPS LU (options -path_ksp_*, -path_pc_*).
+  PetscCall(KSPCreate(comm, &ksp_));
+  PetscCall(KSPSetOptionsPrefix(ksp_, "path_"));
+  PetscCall(KSPSetType(ksp_, KSPPREONLY));
+  PetscCall(KSPGetPC(ksp_, &pc));
+  PetscCall(PCSetType(pc, PCLU));
+  PetscCall(PCFactorSetMatSolverType(pc, MATSOLVERMUMPS));
+  PetscCall(KSPSetFromOptions(ksp_));
+  if (control_ == PathControl::Displacement) {
+    // The controlled unknown: a free DOF of an independent node or a released joint coordinate
+    // (the reader checked both), held by the rank that owns the node or the joint.
+    const AnalysisSettings &a = model_->analysis;
+    PetscMPIInt             rank;
+    PetscCallMPI(MPI_Comm_rank(comm, &rank));
+    PetscInt row = -1;
+    if (!a.control_node.empty()) {
+      for (PetscInt l = 0; l < map_->num_owned_nodes; ++l)
+        if (model_->nodes[map_->local_nodes[l]].name == a.control_node) row = map_->node_dofs[map_->local_nodes[l]][a.control_dof];
+    } else {
+      for (const JointState &J : integrator->GetState().joints) {
+        const Joint &joint = model_->joints[J.joint];
+        if (joint.name != a.control_joint || map_->joint_rank[J.joint] != rank) continue;
+        const int c = JointCoordinateOfAxis(joint, a.control_dof);
+        if (c >= 0) row = map_->joint_dofs[J.joint][c];
+      }
+    }
+    PetscCall(MPIU_Allreduce(&row, &control_row_, 1, MPIU_INT, MPI_MAX, comm));
+    PetscCheck(control_row_ >= 0, comm, PETSC_ERR_USER_INPUT, "the DOF of displacement control ('%s') is not an unknown of the model",
+               (a.control_node.empty() ? a.control_joint : a.control_node).c_str());
+  }
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode PathFollower::WeightedDot(Vec a, Vec b, double *dot)
+{
+  PetscScalar value;
+  PetscFunctionBeginUser;
+  PetscCall(VecPointwiseMult(work_, weights_, a));
+  PetscCall(VecDot(work_, b, &value));
+  *dot = PetscRealPart(value);
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode PathFollower::Start(double t, bool restarted)
+{
+  PetscFunctionBeginUser;
+  PetscCheck(!restarted || control_ == PathControl::Load, comm_, PETSC_ERR_SUP,
+             "a restart continues load-controlled static analyses only; an analysis with control: %s starts afresh", PathControlName(control_));
+  point_   = PathPoint{};
+  point_.t = t;
+  recent_.clear();
+  PetscCall(Linearize(t, t, 0.0));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode PathFollower::Linearize(double t, double lambda, double load_factor_increment)
+{
+  MechanicalSystem &system   = integrator_->System();
+  const PathPoint   previous = point_;
+  PetscFunctionBeginUser;
+  point_                       = PathPoint{};
+  point_.t                     = t;
+  point_.load_factor           = lambda;
+  point_.load_factor_increment = load_factor_increment;
+  last_critical_               = CriticalPoint{};
+  tangent_ready_               = false;
+  if (stability_ || control_ != PathControl::Load) {
+    PetscBool ok;
+    double    force_scale;
+    PetscCall(EquilibriumTangent(system, lambda, tangent_));
+    PetscCall(StaticResidual(system, lambda, lambda, nullptr, residual_, &ok, &force_scale));
+    PetscCall(StaticLoadPattern(system, lambda, lambda, nullptr, residual_, q_));
+    PetscCall(factor_.Factor(tangent_, kSymmetryTolerance, &point_.inertia));
+    if (point_.inertia.factored) {
+      PetscScalar c;
+      PetscCall(factor_.Solve(q_, path_tangent_));
+      PetscCall(VecDot(q_, path_tangent_, &c));
+      if (std::isnan(c_0_)) {
+        // The first equilibrium sets the scales: the current stiffness, the arc length per unit
+        // load factor, the scaling of the lowest eigenvalue.
+        c_0_ = PetscRealPart(c);
+        PetscCall(WeightedDot(path_tangent_, path_tangent_, &c_ref_));
+        const double psi = model_->analysis.arc_length_psi;
+        psi2_c_ref_      = psi * psi * c_ref_;
+        arc_scale_       = std::sqrt(c_ref_ + psi2_c_ref_);
+        PetscCall(MatGetDiagonal(tangent_, scale_));
+        PetscCall(VecAbs(scale_));
+        PetscScalar *d;
+        PetscInt     n;
+        PetscCall(VecGetLocalSize(scale_, &n));
+        PetscCall(VecGetArray(scale_, &d));
+        for (PetscInt i = 0; i < n; ++i)
+          if (!(PetscRealPart(d[i]) > 0)) d[i] = 1.0;
+        PetscCall(VecRestoreArray(scale_, &d));
+        PetscCall(VecSet(mode_, 1.0));
+      }
+      point_.stiffness_parameter = PetscRealPart(c) != 0.0 ? c_0_ / PetscRealPart(c) : NAN;
+      PetscCall(LoadFactorRate());
+      if (stability_) PetscCall(factor_.LowestEigenvalue(scale_, mode_, &point_.lowest_eigenvalue));
+      tangent_ready_ = true;
+    }
+  }
+  recent_.push_back(point_);
+  if (recent_.size() > 3) recent_.erase(recent_.begin());
+  if (steps_ > 0 && stability_) PetscCall(DetectCriticalPoint(previous));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode PathFollower::DetectCriticalPoint(const PathPoint &previous)
+{
+  const TangentInertia &before = previous.inertia, &after = point_.inertia;
+  PetscFunctionBeginUser;
+  if (!before.factored || !after.factored) PetscFunctionReturn(PETSC_SUCCESS);
+  const bool counted = before.symmetric && after.symmetric;
+  const bool passed  = counted ? before.negative_pivots != after.negative_pivots : before.determinant_sign != after.determinant_sign;
+  if (!passed) PetscFunctionReturn(PETSC_SUCCESS);
+  CriticalPoint point;
+  point.step          = steps_;
+  point.pivots_before = counted ? before.negative_pivots : -1;
+  point.pivots_after  = counted ? after.negative_pivots : -1;
+  // At a limit point c = q^T K^{-1} q passes through infinity (q is not orthogonal to the
+  // critical mode), so S = c_0 / c changes sign; at a bifurcation it keeps its sign.
+  point.kind = previous.stiffness_parameter * point_.stiffness_parameter < 0 ? CriticalPointKind::Limit : CriticalPointKind::Bifurcation;
+  // Where the lowest eigenvalue passes zero, as a fraction of the step: on the parabola through
+  // the last three equilibria when it has a root in the step (mu is quadratic in lambda where the
+  // loads couple modes, as in lateral-torsional buckling), else on the line through the last two.
+  const double mu0 = previous.lowest_eigenvalue, mu1 = point_.lowest_eigenvalue;
+  double       fraction = std::isfinite(mu0) && std::isfinite(mu1) && mu0 * mu1 < 0 ? mu0 / (mu0 - mu1) : 0.5;
+  if (recent_.size() == 3 && std::isfinite(recent_[0].lowest_eigenvalue) && std::isfinite(mu0) && std::isfinite(mu1) && mu0 * mu1 < 0) {
+    // mu(s) = mu0 + s (mu1 - mu0) + c s (s - 1) with s = 0 at the previous point, s = 1 at this one.
+    const double h = point_.t - previous.t, s_first = (recent_[0].t - previous.t) / h;
+    const double line = mu0 + s_first * (mu1 - mu0), c = (recent_[0].lowest_eigenvalue - line) / (s_first * (s_first - 1.0));
+    const double a = c, b = mu1 - mu0 - c, discriminant = b * b - 4 * a * mu0;
+    if (a != 0.0 && discriminant >= 0.0)
+      for (double root : {(-b + std::sqrt(discriminant)) / (2 * a), (-b - std::sqrt(discriminant)) / (2 * a)})
+        if (root >= 0.0 && root <= 1.0) fraction = root;
+  }
+  point.load_factor = previous.load_factor + fraction * (point_.load_factor - previous.load_factor);
+  // lambda(s), s in [0, 1] over the step: the cubic through both ends' values and rates.
+  const double h = point_.t - previous.t, l0 = previous.load_factor, l1 = point_.load_factor;
+  const double m0 = h * previous.load_factor_rate, m1 = h * point_.load_factor_rate;
+  if (std::isfinite(m0) && std::isfinite(m1)) {
+    auto cubic = [&](double s) {
+      return (2 * s * s * s - 3 * s * s + 1) * l0 + (s * s * s - 2 * s * s + s) * m0 + (-2 * s * s * s + 3 * s * s) * l1 + (s * s * s - s * s) * m1;
+    };
+    point.load_factor = cubic(fraction);
+    if (point.kind == CriticalPointKind::Limit) {
+      // A limit load is the extremum of the cubic in the step where the path turns: a maximum
+      // when it was rising (a root of the derivative A s^2 + B s + C).
+      const double A = 6 * l0 + 3 * m0 - 6 * l1 + 3 * m1, B = -6 * l0 - 4 * m0 + 6 * l1 - 2 * m1, C = m0, rising = m0 >= 0 ? 1.0 : -1.0;
+      double       best     = NAN;
+      auto         consider = [&](double s) {
+        if (s >= 0.0 && s <= 1.0 && (std::isnan(best) || rising * cubic(s) > rising * cubic(best))) best = s;
+      };
+      if (A != 0.0) {
+        const double discriminant = B * B - 4 * A * C;
+        if (discriminant >= 0) consider((-B + std::sqrt(discriminant)) / (2 * A)), consider((-B - std::sqrt(discriminant)) / (2 * A));
+      } else if (B != 0.0) {
+        consider(-C / B);
+      }
+      if (std::isfinite(best)) point.load_factor = cubic(best);
+    }
+  }
+  last_critical_ = point;
+  critical_points_.push_back(point);
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode PathFollower::DetectJump(double dt, double previous_rate, Vec x)
+{
+  // The step's increment x against the path tangent's prediction dt (d lambda / dt) K^{-1} q at
+  // either end: on a continuous path one of them predicts it to O(dt); after a jump both are far off.
+  double deviation[2];
+  PetscFunctionBeginUser;
+  for (int end = 0; end < 2; ++end) {
+    const Vec    tangent   = end == 0 ? previous_tangent_ : path_tangent_;
+    const double scale     = dt * (end == 0 ? previous_rate : point_.load_factor_rate);
+    double       predicted = 0, error = 0;
+    PetscCall(VecWAXPY(dx_, -scale, tangent, x));
+    PetscCall(WeightedDot(dx_, dx_, &error));
+    PetscCall(WeightedDot(tangent, tangent, &predicted));
+    deviation[end] = predicted > 0 && scale != 0 ? std::sqrt(error / predicted) / std::abs(scale) : INFINITY;
+  }
+  if (std::min(deviation[0], deviation[1]) > kJumpDeviation && last_critical_.kind == CriticalPointKind::None) {
+    last_critical_             = CriticalPoint{};
+    last_critical_.kind        = CriticalPointKind::Jump;
+    last_critical_.step        = steps_;
+    last_critical_.load_factor = point_.load_factor;
+    critical_points_.push_back(last_critical_);
+  }
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode PathFollower::LoadFactorRate()
+{
+  PetscFunctionBeginUser;
+  if (control_ == PathControl::Load) {
+    point_.load_factor_rate = 1.0;
+  } else if (control_ == PathControl::Displacement) {
+    double path_c;
+    PetscCall(VecEntry(path_tangent_, control_row_, &path_c));
+    point_.load_factor_rate = model_->analysis.control_value / path_c;
+  } else {
+    // t advances with the arc length per arc_scale_; the path goes on the way the last step went.
+    double norm2 = 0, projection = 1.0;
+    PetscCall(WeightedDot(path_tangent_, path_tangent_, &norm2));
+    if (have_previous_increment_) {
+      PetscCall(WeightedDot(previous_increment_, path_tangent_, &projection));
+      projection += psi2_c_ref_ * previous_load_increment_;
+    }
+    point_.load_factor_rate = (projection < 0 ? -1.0 : 1.0) * arc_scale_ / std::sqrt(norm2 + psi2_c_ref_);
+  }
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode PathFollower::TryStep(double t, double dt, StepOutcome *outcome)
+{
+  PetscFunctionBeginUser;
+  if (control_ == PathControl::ArcLength) PetscCall(TryArcLengthStep(t, dt, outcome));
+  else if (control_ == PathControl::Displacement) PetscCall(TryDisplacementStep(t, dt, outcome));
+  else {
+    const bool had_tangent = tangent_ready_;
+    if (had_tangent) PetscCall(VecCopy(path_tangent_, previous_tangent_));
+    PetscCall(integrator_->TryStep(t, dt, outcome));
+    if (outcome->converged) {
+      ++steps_;
+      PetscCall(Linearize(t + dt, t + dt, dt));
+      if (had_tangent && tangent_ready_ && stability_) PetscCall(DetectJump(dt, 1.0, integrator_->LastIncrements()));
+    }
+  }
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode PathFollower::TryArcLengthStep(double t, double dt, StepOutcome *outcome)
+{
+  State       &state  = integrator_->System().GetState();
+  const double lambda = point_.load_factor, end = model_->analysis.end_time;
+  PetscFunctionBeginUser;
+  *outcome = StepOutcome{};
+  if (!tangent_ready_) {
+    outcome->why = "the tangent at the last equilibrium cannot be factored (it is singular), so there is no arc-length predictor";
+    PetscFunctionReturn(PETSC_SUCCESS);
+  }
+  PetscCheck(c_ref_ > 0, comm_, PETSC_ERR_USER_INPUT, "arc-length control needs loads (or prescribed motions) that move the structure");
+  const double dl = dt * arc_scale_;
+  // Predictor: along K^{-1} q, the way the previous step went.
+  double tangent_norm2 = 0, projection = 1.0;
+  PetscCall(WeightedDot(path_tangent_, path_tangent_, &tangent_norm2));
+  if (have_previous_increment_) {
+    PetscCall(WeightedDot(previous_increment_, path_tangent_, &projection));
+    projection += psi2_c_ref_ * previous_load_increment_;
+  }
+  double dlambda = (projection < 0 ? -1.0 : 1.0) * dl / std::sqrt(tangent_norm2 + psi2_c_ref_);
+  PetscCall(VecAXPBY(x_, dlambda, 0.0, path_tangent_));
+  PetscCall(Correct(dl, NAN, &dlambda, outcome));
+  if (!outcome->converged) {
+    StateDiscardStep(*model_, &state);
+    PetscFunctionReturn(PETSC_SUCCESS);
+  }
+  // A step that passes end_time on a rising path lands on it by load control when it can.
+  if (dlambda > 0 && lambda < end && lambda + dlambda > end * (1.0 + 1e-12)) {
+    StepOutcome landing;
+    PetscCall(VecCopy(x_, trial_));
+    StateDiscardStep(*model_, &state);
+    PetscCall(integrator_->TryStep(lambda, end - lambda, &landing));
+    if (landing.converged) {
+      *outcome = landing;
+      ++steps_;
+      PetscCall(Linearize(t + dt, end, end - lambda));
+      PetscFunctionReturn(PETSC_SUCCESS);
+    }
+    PetscCall(integrator_->System().GetAssembler().BeginStep(StaticStep(lambda, lambda + dlambda)));
+    PetscCall(integrator_->System().GetAssembler().SetIncrements(trial_));
+    PetscCall(VecCopy(trial_, x_));
+  }
+  PetscCall(Commit(dt, dlambda, outcome));
+  if (outcome->converged) PetscCall(Linearize(t + dt, lambda + dlambda, dlambda));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode PathFollower::TryDisplacementStep(double t, double dt, StepOutcome *outcome)
+{
+  State &state  = integrator_->System().GetState();
+  double path_c = 0;
+  PetscFunctionBeginUser;
+  *outcome = StepOutcome{};
+  if (!tangent_ready_) {
+    outcome->why = "the tangent at the last equilibrium cannot be factored (it is singular), so there is no predictor";
+    PetscFunctionReturn(PETSC_SUCCESS);
+  }
+  const double target = model_->analysis.control_value * (t + dt), dc = target - control_value_;
+  PetscReal    scale;
+  PetscCall(VecEntry(path_tangent_, control_row_, &path_c));
+  PetscCall(VecNorm(path_tangent_, NORM_INFINITY, &scale));
+  if (!(std::abs(path_c) > 1e-12 * scale)) {
+    outcome->why = "the controlled coordinate does not move under the load pattern (a turning point of the controlled coordinate); use arc length";
+    PetscFunctionReturn(PETSC_SUCCESS);
+  }
+  double dlambda = dc / path_c;
+  PetscCall(VecAXPBY(x_, dlambda, 0.0, path_tangent_));
+  PetscCall(Correct(NAN, dc, &dlambda, outcome));
+  if (!outcome->converged) {
+    StateDiscardStep(*model_, &state);
+    PetscFunctionReturn(PETSC_SUCCESS);
+  }
+  const double previous_rate = point_.load_factor_rate;
+  PetscCall(VecCopy(path_tangent_, previous_tangent_));
+  PetscCall(Commit(dt, dlambda, outcome));
+  if (outcome->converged) {
+    control_value_ = target;
+    PetscCall(Linearize(t + dt, point_.load_factor + dlambda, dlambda));
+    if (tangent_ready_ && stability_) PetscCall(DetectJump(dt, previous_rate, previous_increment_));
+  }
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode PathFollower::Commit(double dt, double dlambda, StepOutcome *outcome)
+{
+  MechanicalSystem       &system    = integrator_->System();
+  Assembler              &assembler = system.GetAssembler();
+  const AnalysisSettings &analysis  = model_->analysis;
+  double                  max_rotation;
+  PetscFunctionBeginUser;
+  PetscCall(assembler.MaxRotationIncrement(&max_rotation));
+  if (max_rotation > analysis.max_rotation_increment) {
+    outcome->converged = false;
+    outcome->why = Format("a nodal rotation increment of %.4g rad exceeds max_rotation_increment = %.4g rad", max_rotation, analysis.max_rotation_increment);
+    StateDiscardStep(*model_, &system.GetState());
+    PetscFunctionReturn(PETSC_SUCCESS);
+  }
+  if (map_->global_count.joints > 0) PetscCall(assembler.EvaluateJointReactions(dt));
+  PetscCall(VecCopy(x_, previous_increment_));
+  previous_load_increment_ = dlambda;
+  have_previous_increment_ = true;
+  StateCommitStep(*model_, &system.GetState());
+  ++steps_;
+  outcome->converged = true;
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode PathFollower::Correct(double dl, double displacement_target, double *dlambda, StepOutcome *outcome)
+{
+  MechanicalSystem       &system    = integrator_->System();
+  Assembler              &assembler = system.GetAssembler();
+  const AnalysisSettings &analysis  = model_->analysis;
+  const bool              arc       = control_ == PathControl::ArcLength;
+  const double            lambda    = point_.load_factor;
+  const char             *name      = arc ? "arc-length" : "displacement-control";
+  PetscBool               ok;
+  PetscReal               norm, first_norm;
+  double                  force_scale;
+  PetscFunctionBeginUser;
+  outcome->converged = false;
+  PetscCall(StaticResidual(system, lambda, lambda + *dlambda, x_, residual_, &ok, &force_scale));
+  if (!ok) {
+    std::string where;
+    PetscCall(assembler.DescribeUnevaluable(&where));
+    outcome->why = "the predicted configuration cannot be evaluated" + (where.empty() ? std::string() : ": " + where);
+    PetscFunctionReturn(PETSC_SUCCESS);
+  }
+  PetscCall(VecNorm(residual_, NORM_2, &first_norm));
+  norm = first_norm;
+  for (int iteration = 0;; ++iteration) {
+    // Newton's test (integrators/newton.hpp): relative to the predictor's residual and to the
+    // force level, or at round-off; and the constraint met.
+    const double needed = std::max(
+        {analysis.newton_atol, iteration > 0 ? analysis.newton_rtol * std::max((double)first_norm, force_scale) : 0.0, assembler.RoundoffForceLevel()});
+    double constraint_error = 0.0;
+    if (arc) {
+      double xWx = 0;
+      PetscCall(WeightedDot(x_, x_, &xWx));
+      constraint_error = std::abs(xWx + psi2_c_ref_ * (*dlambda) * (*dlambda) - dl * dl) / (dl * dl);
+    } else {
+      double x_c = 0;
+      PetscCall(VecEntry(x_, control_row_, &x_c));
+      constraint_error = std::abs(x_c - displacement_target) / std::max(std::abs(displacement_target), 1e-300);
+    }
+    outcome->newton_iterations = iteration;
+    outcome->residual_norm     = norm;
+    if (norm <= needed && constraint_error <= 1e-8) {
+      outcome->converged = true;
+      PetscFunctionReturn(PETSC_SUCCESS);
+    }
+    if (iteration == analysis.max_newton_iterations) {
+      outcome->why =
+          Format("the %s corrector did not converge in %d iterations: |R| = %.3e at the predictor, %.3e after the last iteration (convergence needs %.3e)",
+                 name, iteration, (double)first_norm, (double)norm, needed);
+      PetscFunctionReturn(PETSC_SUCCESS);
+    }
+    // The bordered solve with one factorisation: K dx_R = -R, K dx_F = q.
+    KSPConvergedReason reason_R, reason_F;
+    PetscBool          geometry_ok;
+    PetscCall(StaticLoadPattern(system, lambda, lambda + *dlambda, x_, residual_, q_));
+    PetscCall(assembler.AssembleJacobian(assembler.Jacobian(), &geometry_ok));
+    PetscCall(KSPSetOperators(ksp_, assembler.Jacobian(), assembler.Jacobian()));
+    PetscCall(VecAXPBY(work_, -1.0, 0.0, residual_));
+    PetscCall(KSPSolve(ksp_, work_, dx_R_));
+    PetscCall(KSPGetConvergedReason(ksp_, &reason_R));
+    PetscCall(KSPSolve(ksp_, q_, dx_F_));
+    PetscCall(KSPGetConvergedReason(ksp_, &reason_F));
+    if (reason_R < 0 || reason_F < 0) {
+      PC pc;
+      outcome->why =
+          Format("the %s corrector's linear solve failed (%s): the tangent is singular", name, KSPConvergedReasons[reason_R < 0 ? reason_R : reason_F]);
+      PetscCall(KSPGetPC(ksp_, &pc));
+      PetscCall(PCReset(pc));
+      PetscFunctionReturn(PETSC_SUCCESS);
+    }
+    double step_lambda;
+    if (arc) {
+      // (x + dx_R + s dx_F)^T W (...) + psi^2 c_ref (dlambda + s)^2 = dl^2, a quadratic in s.
+      double FF = 0, FX = 0, XX = 0, FXold = 0, XXold = 0;
+      PetscCall(VecWAXPY(trial_, 1.0, x_, dx_R_));
+      PetscCall(WeightedDot(dx_F_, dx_F_, &FF));
+      PetscCall(WeightedDot(dx_F_, trial_, &FX));
+      PetscCall(WeightedDot(trial_, trial_, &XX));
+      PetscCall(WeightedDot(x_, dx_F_, &FXold));
+      PetscCall(WeightedDot(x_, trial_, &XXold));
+      const double a1 = FF + psi2_c_ref_, a2 = 2.0 * (FX + psi2_c_ref_ * (*dlambda)), a3 = XX + psi2_c_ref_ * (*dlambda) * (*dlambda) - dl * dl;
+      const double discriminant = a2 * a2 - 4.0 * a1 * a3;
+      if (!(discriminant >= 0) || !(a1 > 0)) {
+        outcome->why =
+            Format("the arc-length constraint has no real solution in corrector iteration %d (the path turns too sharply for the arc length)", iteration + 1);
+        PetscFunctionReturn(PETSC_SUCCESS);
+      }
+      const double root = std::sqrt(discriminant), s1 = (-a2 + root) / (2.0 * a1), s2 = (-a2 - root) / (2.0 * a1);
+      // The root whose increment turns least from the current one (Crisfield's criterion).
+      auto turning = [&](double s) { return XXold + s * FXold + psi2_c_ref_ * (*dlambda) * (*dlambda + s); };
+      step_lambda  = turning(s1) >= turning(s2) ? s1 : s2;
+    } else {
+      double x_c = 0, R_c = 0, F_c = 0;
+      PetscCall(VecEntry(x_, control_row_, &x_c));
+      PetscCall(VecEntry(dx_R_, control_row_, &R_c));
+      PetscCall(VecEntry(dx_F_, control_row_, &F_c));
+      if (!(std::abs(F_c) > 0)) {
+        outcome->why = "the controlled coordinate does not move under the load pattern (a turning point of the controlled coordinate); use arc length";
+        PetscFunctionReturn(PETSC_SUCCESS);
+      }
+      step_lambda = (displacement_target - x_c - R_c) / F_c;
+    }
+    PetscCall(VecWAXPY(dx_, step_lambda, dx_F_, dx_R_));
+    // Safeguard as Newton's: halve the update while the configuration cannot be evaluated.
+    double fraction = 1.0;
+    for (int attempt = 0; attempt < 9; ++attempt, fraction *= 0.5) {
+      PetscCall(VecWAXPY(trial_, fraction, dx_, x_));
+      PetscCall(StaticResidual(system, lambda, lambda + *dlambda + fraction * step_lambda, trial_, residual_, &ok, &force_scale));
+      if (ok) break;
+    }
+    if (!ok) {
+      std::string where;
+      PetscCall(assembler.DescribeUnevaluable(&where));
+      outcome->why = Format("the %s update cannot be applied even shortened to 1/256: ", name) +
+                     (where.empty() ? std::string("the residual is not finite") : where + ": its nodes turn by nearly pi relative to each other");
+      PetscFunctionReturn(PETSC_SUCCESS);
+    }
+    PetscCall(VecCopy(trial_, x_));
+    *dlambda += fraction * step_lambda;
+    PetscCall(VecNorm(residual_, NORM_2, &norm));
+  }
+}
+
+bool PathFollower::ReachedEnd(double t) const
+{
+  if (control_ == PathControl::ArcLength) return ReachedLoad() || steps_ >= model_->analysis.max_steps;
+  return t >= model_->analysis.end_time * (1.0 - 1e-14);
+}
+
+void PathFollower::HistoryColumns(std::vector<std::string> *names, std::vector<double> *values) const
+{
+  names->push_back("load_factor");
+  values->push_back(point_.load_factor);
+  if (!stability_) return;
+  const TangentInertia &inertia = point_.inertia;
+  names->insert(names->end(), {"negative_pivots", "determinant_sign", "lowest_eigenvalue", "stiffness_parameter", "critical_point", "critical_load_factor"});
+  values->insert(values->end(),
+                 {inertia.factored && inertia.symmetric ? (double)inertia.negative_pivots : -1.0, (double)inertia.determinant_sign, point_.lowest_eigenvalue,
+                  point_.stiffness_parameter, (double)last_critical_.kind, last_critical_.kind == CriticalPointKind::None ? NAN : last_critical_.load_factor});
+}
+
+std::string PathFollower::ProgressNote() const
+{
+  std::string note;
+  if (control_ != PathControl::Load) note += Format("  lambda = %-11.6g", point_.load_factor);
+  if (!stability_) return note;
+  const TangentInertia &inertia = point_.inertia;
+  if (!inertia.factored) note += "  tangent singular";
+  else if (inertia.symmetric) note += Format("  neg %" PetscInt_FMT, inertia.negative_pivots);
+  else note += Format("  det %c", inertia.determinant_sign > 0 ? '+' : '-');
+  if (last_critical_.kind != CriticalPointKind::None) {
+    note += Format("  %s at lambda = %.6g", CriticalPointName(last_critical_.kind), last_critical_.load_factor);
+    if (last_critical_.pivots_before >= 0)
+      note += Format(" (negative pivots %" PetscInt_FMT " -> %" PetscInt_FMT ")", last_critical_.pivots_before, last_critical_.pivots_after);
+  }
+  return note;
+}
+
+std::string PathFollower::StopAdvice() const
+{
+  if (control_ != PathControl::Load || !stability_ || recent_.size() < 2) return "";
+  const PathPoint &now = recent_.back(), &before = recent_[recent_.size() - 2];
+  const double     S = now.stiffness_parameter, S_before = before.stiffness_parameter;
+  if (!(std::isfinite(S) && S > 0 && S < 0.25)) return "";
+  // Near a limit point S^2 falls linearly with lambda.
+  std::string where;
+  if (std::isfinite(S_before) && S_before > S) {
+    const double estimate = now.load_factor + S * S * (now.load_factor - before.load_factor) / (S_before * S_before - S * S);
+    where                 = Format(" near t = %.6g", estimate);
+  }
+  return Format("; the current stiffness parameter has fallen from 1 to %.3g, so the load factor reaches a maximum (a limit point)%s, which load "
+                "control cannot pass: follow the path with analysis: {control: arc_length} (docs/stability.md)",
+                S, where.c_str());
+}
+
+} // namespace msflex

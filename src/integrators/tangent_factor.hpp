@@ -1,0 +1,52 @@
+// The factorisation of the tangent at an equilibrium and what it tells about its stability
+// (docs/stability.md).
+//
+// The tangent K is the one at the converged state taken as the start of a new step (omega = 0,
+// so H(omega) = I and K is the spin-form tangent condensed through the joints). Under conservative
+// loads it is symmetric at equilibrium, and by Sylvester's law of inertia the number of negative
+// pivots of its LDL^T factorisation is the number of its negative eigenvalues: 0 on a stable
+// path, changing by one wherever the path passes a simple critical point. A tangent that is not
+// symmetric (follower loads, moments of fixed direction about free rotations) is factored by LU;
+// then only the sign of its determinant, (-1)^(negative eigenvalues), is known.
+//
+// The lowest eigenvalue mu of the pencil (K, D), D = |diag K_0| of the first tangent (a scaling
+// that makes the eigenvalue independent of the units of translations and rotations), by inverse
+// iteration with the factors: v <- K^{-1} D v, 1/mu = (Dv)^T K^{-1} D v for v^T D v = 1. It passes
+// through zero at a critical point, where it locates the point by interpolation.
+#pragma once
+
+#include <petscmat.h>
+
+namespace msflex {
+
+struct TangentInertia {
+  bool     factored         = false; // false: the factorisation failed (a singular tangent)
+  bool     symmetric        = false; // factored by Cholesky (LDL^T) rather than LU
+  double   asymmetry        = 0.0;   // ||K - K^T||_F / ||K||_F
+  PetscInt negative_pivots  = -1;    // -1 when not symmetric
+  int      determinant_sign = 0;     // +1 or -1; 0 when not factored
+};
+
+class TangentFactor {
+public:
+  TangentFactor()                                 = default;
+  TangentFactor(const TangentFactor &)            = delete;
+  TangentFactor &operator=(const TangentFactor &) = delete;
+  ~TangentFactor();
+
+  // Factors K (Cholesky with the inertia if K is symmetric to `symmetry_tolerance`, else LU with
+  // the determinant sign), keeping the factors for Solve and LowestEigenvalue. K must stay
+  // unchanged while they are used. Collective.
+  PetscErrorCode Factor(Mat K, double symmetry_tolerance, TangentInertia *inertia);
+  // x = K^{-1} b with the last factors. Collective.
+  PetscErrorCode Solve(Vec b, Vec x);
+  // The eigenvalue mu of smallest magnitude of K phi = mu D phi, by inverse iteration from *mode
+  // (in: the start vector, e.g. the last mode; out: the mode, v^T D v = 1). Collective.
+  PetscErrorCode LowestEigenvalue(Vec D, Vec mode, double *mu);
+
+private:
+  Mat factor_  = nullptr;
+  Vec work_[2] = {nullptr, nullptr};
+};
+
+} // namespace msflex

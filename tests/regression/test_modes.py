@@ -1,0 +1,119 @@
+"""Natural frequencies and mode shapes (analysis type modes) against Euler-Bernoulli closed forms,
+and the eigenvalues of every eigenanalysis on 1 and --np ranks:
+ - cantilever (tests/regression/inputs/cantilever_modes.yaml, 48 quadratic elements): the 6 lowest
+   frequencies of both bending planes to 1e-4 (shear stiffness 5e9: Euler-Bernoulli to 5e-5); the first mode shape (a frame) against
+   cosh - cos - s (sinh - sin) to 1e-3 of the tip deflection;
+ - free-free beam (free_free_modes.yaml): six rigid modes (|lambda| below the round-off level,
+   flagged rigid_mode), then the 6 lowest bending frequencies to 1e-4;
+ - a beam hinged by a revolute joint (input/hinged_beam_modes.yaml): one rigid mode at zero (|lambda|
+   <= 1e-6 of the first elastic one), pinned-free bending in the hinge's plane and clamped-free
+   bending out of it to 1e-4;
+ - a pinned-pinned beam preloaded by a tension T and by a compression of half its Euler load
+   (tension_modes.yaml): omega^2 = [(n pi/L)^4 EI + (n pi/L)^2 T] / rhoA to 1e-4 (5 lowest);
+ - with --np > 1, every one of these and the two buckling analyses of test_stability give the same
+   eigenvalues on 1 and --np ranks to 1e-8 relative (rigid modes: to 1e-8 of the first elastic)."""
+
+import math
+
+import h5py
+import numpy as np
+
+import msflex_testing as mt
+
+CANTILEVER = [1.875104068711961, 4.694091132974175, 7.854757438237613, 10.99554073487547, 14.13716549125746]
+FREE_FREE = [4.730040744862704, 7.853204624095838, 10.99560783800167, 14.13716549125746, 17.27875965739948]
+PINNED_FREE = [3.926602312047919, 7.068582745628732, 10.21017612281303, 13.35176877775409]
+L, RHO_A, EI2, EI3 = 2.0, 1.0, 1.0e4, 4.0e4
+
+
+def bending(betas, EI):
+    return [b * b * math.sqrt(EI / (RHO_A * L**4)) for b in betas]
+
+
+def run(name, input_file, extra=(), ranks=None):
+    path = f"{args.work_dir}/{name}{'' if ranks in (None, 1) else f'_np{ranks}'}.h5"
+    mt.run_msflex(args, input_file, path, extra=list(extra), np_ranks=ranks)
+    return path
+
+
+def compare(label, omega, expected, tolerance, count=6):
+    """The `count` lowest frequencies against the closed forms."""
+    omega = omega[:count]
+    expected = np.sort(expected)[: len(omega)]
+    error = np.abs(omega / expected - 1)
+    print(f"{label}: omega {np.array2string(omega, precision=6)}\n{' ' * len(label)}  closed form {np.array2string(expected, precision=6)}")
+    check.less(f"{label}: max relative error of {len(omega)} frequencies", error.max(), tolerance)
+
+
+args = mt.parse_arguments(__doc__)
+check = mt.Checker("modes")
+inputs = f"{args.source_dir}/tests/regression/inputs"
+runs = []  # (name, input, extra options) of every eigenanalysis, for the rank comparison
+
+# Cantilever.
+path = run("cantilever", f"{inputs}/cantilever_modes.yaml", ranks=1)
+runs.append(("cantilever", f"{inputs}/cantilever_modes.yaml", ()))
+history = mt.history(path)
+compare("cantilever", history["angular_frequency"], bending(CANTILEVER, EI2) + bending(CANTILEVER, EI3), 1e-4)
+with h5py.File(path, "r") as f:
+    check.less("cantilever: frames (equilibrium + 8 modes) - 9", abs(len(f["frames"]) - 9), 0.5)
+    frame = f["frames"][sorted(f["frames"].keys(), key=int)[1]]
+    shape = frame["displacement"][()]
+    position = frame["position"][()] - shape
+    x = position[:, 0] / L
+beta = CANTILEVER[0]
+s = (math.cosh(beta) + math.cos(beta)) / (math.sinh(beta) + math.sin(beta))
+reference = np.cosh(beta * x) - np.cos(beta * x) - s * (np.sinh(beta * x) - np.sin(beta * x))
+deflection = shape[:, 2]  # mode 1 bends about the weak axis e2: deflection along e3
+deflection = deflection / deflection[np.argmax(np.abs(deflection))] * reference[np.argmax(np.abs(deflection))]
+check.less("cantilever: first mode shape error / tip deflection", np.abs(deflection - reference).max() / np.abs(reference).max(), 1e-3)
+
+# Free-free beam.
+path = run("free_free", f"{inputs}/free_free_modes.yaml", ranks=1)
+runs.append(("free_free", f"{inputs}/free_free_modes.yaml", ()))
+history = mt.history(path)
+rigid = history["rigid_mode"] == 1
+print(f"free-free: eigenvalues of the rigid modes {history['eigenvalue'][rigid]}")
+check.less("free-free: |rigid modes - 6|", abs(np.count_nonzero(rigid) - 6), 0.5)
+check.less("free-free: rigid modes first (0 = yes)", 0.0 if np.all(rigid[:6]) else 1.0, 0.5)
+compare("free-free", history["angular_frequency"][~rigid], bending(FREE_FREE, EI2) + bending(FREE_FREE, EI3), 1e-4)
+
+# Hinged beam: a mechanism with one rigid mode.
+path = run("pinned_free", f"{args.source_dir}/input/hinged_beam_modes.yaml", ranks=1)
+runs.append(("pinned_free", f"{args.source_dir}/input/hinged_beam_modes.yaml", ()))
+history = mt.history(path)
+rigid = history["rigid_mode"] == 1
+values = history["eigenvalue"]
+print(f"pinned-free: rigid mode eigenvalue {values[rigid]}, first elastic {values[~rigid][0]:.6f}")
+check.less("pinned-free: |rigid modes - 1|", abs(np.count_nonzero(rigid) - 1), 0.5)
+check.less("pinned-free: |rigid eigenvalue| / first elastic eigenvalue", np.abs(values[0]) / values[1], 1e-6)
+compare("pinned-free", history["angular_frequency"][~rigid], bending(PINNED_FREE, EI3) + bending(CANTILEVER, EI2), 1e-4)
+
+# Preloaded beam: tension, and compression by half the Euler load of the weak axis.
+euler = math.pi**2 * EI2 / L**2
+tension_input = f"{inputs}/tension_modes.yaml"
+compression_input = f"{args.work_dir}/compression_modes.yaml"
+with open(tension_input) as source, open(compression_input, "w") as target:
+    target.write(source.read().replace("force: [1.0e4, 0, 0]", f"force: [{-0.5 * euler!r}, 0, 0]"))
+for name, input_file, T in (("tension", tension_input, 1.0e4), ("compression", compression_input, -0.5 * euler)):
+    path = run(name, input_file, ranks=1)
+    runs.append((name, input_file, ()))
+    expected = [math.sqrt(((n * math.pi / L) ** 4 * EI + (n * math.pi / L) ** 2 * T) / RHO_A) for EI in (EI2, EI3) for n in range(1, 6)]
+    compare(f"{name} T = {T:.6g}", mt.history(path)["angular_frequency"], expected, 1e-4, count=5)
+
+# The same eigenvalues on more ranks.
+runs += [("column_buckling", f"{inputs}/euler_column.yaml", ("-analysis_type", "buckling", "-analysis_eigenvalues", "2")),
+         ("ltb_buckling", f"{inputs}/lateral_torsional.yaml", ("-analysis_type", "buckling", "-analysis_eigenvalues", "1"))]
+if args.np > 1:
+    for name, input_file, extra in runs:
+        a, b = mt.history(run(name, input_file, extra, ranks=1)), mt.history(run(name, input_file, extra, ranks=args.np))
+        # Elastic modes relative to each eigenvalue; rigid modes (their eigenvalues are round-off)
+        # must be rigid on both.
+        rigid_a = a.get("rigid_mode", np.zeros_like(a["eigenvalue"])) == 1
+        rigid_b = b.get("rigid_mode", np.zeros_like(b["eigenvalue"])) == 1
+        same = len(rigid_a) == len(rigid_b) and np.array_equal(rigid_a, rigid_b)
+        check.less(f"{name}: the same modes, rigid ones the same, on np 1 and np {args.np} (0 = yes)", 0.0 if same else 1.0, 0.5)
+        if same:
+            difference = np.abs(b["eigenvalue"] - a["eigenvalue"]) / np.abs(a["eigenvalue"])
+            check.less(f"{name}: max relative eigenvalue difference np 1 vs np {args.np}", difference[~rigid_a].max(), 1e-8)
+check.finish()

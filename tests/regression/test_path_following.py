@@ -1,0 +1,122 @@
+"""Path following on the von Mises truss with a series spring (input/von_mises_truss.yaml), whose
+path is known in closed form: P(w) = 2 EA y (1/L - 1/L0) with y = h - w, L = sqrt(a^2 + y^2), and the
+spring's top at u = w + P/k.
+
+ - arc length: every converged state lies on the closed-form path (|lambda P_ref - P(w)| <= 1e-8
+   P_ref, |u - w - P/k| <= 1e-10), through both limit points (lambda = +-0.383837398174347, named as
+   limit points, located to 1e-6) and the snap-back of u, to lambda = 1 exactly; the negative pivots
+   are 0 before the first limit point, 1 between the two and 0 after;
+ - load control follows the same path up to the limit point and then jumps to the far branch: the
+   states before the jump lie on the path, and the jump is named;
+ - with too few Newton iterations to jump, load control stops near the limit point with a message
+   that names it and suggests arc length;
+ - displacement control of the apex passes both limit points; displacement control of the spring's
+   top, which turns back in the snap-back, jumps (and the jump is named).
+Also on --np ranks (the main run)."""
+
+import numpy as np
+
+import msflex_testing as mt
+
+A, H, EA, K_SPRING, P_REF = 1.0, 0.5, 1.0e6, 1.0e5, 1.0e5
+L0 = np.hypot(A, H)
+LIMIT_W = H - np.sqrt((A * A * L0) ** (2.0 / 3.0) - A * A)  # the first limit point: L^3 = a^2 L0
+
+
+def load(w):
+    y = H - w
+    return 2.0 * EA * y * (1.0 / np.hypot(A, y) - 1.0 / L0)
+
+
+LIMIT = load(LIMIT_W) / P_REF
+
+
+def deflection_at(lam, low, high):
+    """The apex deflection where P(w) = lam P_ref on a monotone stretch [low, high] (bisection)."""
+    for _ in range(200):
+        middle = 0.5 * (low + high)
+        if (load(middle) - lam * P_REF) * (load(low) - lam * P_REF) > 0:
+            low = middle
+        else:
+            high = middle
+    return 0.5 * (low + high)
+
+
+def run(name, extra=()):
+    """Runs the truss with the extra options; its history and the apex and top deflections."""
+    path = f"{args.work_dir}/{name}.h5"
+    mt.run_msflex(args, truss, path, extra=list(extra))
+    history = mt.history(path)
+    apex = mt.probe_history(path, "apex")
+    top = mt.probe_history(path, "top")
+    return history, -apex["displacement"][:, 1], -top["displacement"][:, 1]
+
+
+args = mt.parse_arguments(__doc__)
+check = mt.Checker("path following")
+truss = f"{args.source_dir}/input/von_mises_truss.yaml"
+print(f"closed form: limit load factor {LIMIT:.15f} at w = {LIMIT_W:.15f}")
+
+# Arc length.
+history, w, u = run("arc")
+lam = history["load_factor"]
+check.less("arc length: max |lambda P_ref - P(w)| / P_ref", np.abs(lam * P_REF - load(w)).max() / P_REF, 1e-8)
+check.less("arc length: max |u - w - P / k|", np.abs(u - w - lam * P_REF / K_SPRING).max(), 1e-10)
+limits = history["critical_load_factor"][history["critical_point"] == 1]
+print(f"arc length: limit points at {limits}, {len(lam) - 1} steps")
+check.less("arc length: |limit points found - 2|", abs(len(limits) - 2), 0.5)
+if len(limits) == 2:
+    check.less("arc length: first limit load relative error", abs(limits[0] / LIMIT - 1), 1e-6)
+    check.less("arc length: second limit load relative error", abs(limits[1] / -LIMIT - 1), 1e-6)
+pivots = history["negative_pivots"]
+expected = np.where((w > LIMIT_W + 1e-9) & (w < 2 * H - LIMIT_W - 1e-9), 1, 0)
+far = np.abs(w - LIMIT_W) > 1e-3
+far &= np.abs(w - (2 * H - LIMIT_W)) > 1e-3
+check.less("arc length: states with the wrong number of negative pivots", np.count_nonzero(pivots[far] != expected[far]), 0.5)
+snap_back = np.any(np.diff(u) < -1e-3)
+check.less("arc length: the top of the spring moves back (snap-back) (0 = yes)", 0.0 if snap_back else 1.0, 0.5)
+check.less("arc length: |final load factor - 1|", abs(lam[-1] - 1.0), 1e-12)
+check.less("arc length: |final w - closed form|", abs(w[-1] - deflection_at(1.0, 2 * H - LIMIT_W, 3.0)), 1e-8)
+
+# Load control: on the path until it jumps over the limit point.
+history, w, u = run("load", ["-analysis_control", "load"])
+lam = history["load_factor"]
+before = lam < LIMIT
+check.less("load control: states before the limit point off the path", np.abs(lam[before] * P_REF - load(w[before])).max() / P_REF, 1e-8)
+branch = np.array([deflection_at(x, 0.0, LIMIT_W) for x in lam[before]])
+check.less("load control: max |w - w(lambda) on the rising branch|", np.abs(w[before] - branch).max(), 1e-8)
+jumps = np.nonzero(history["critical_point"] == 3)[0]
+print(f"load control: jump named at steps {jumps}, load factors {lam[jumps]}")
+check.less("load control: jumps named - 1", abs(len(jumps) - 1), 0.5)
+if len(jumps):
+    check.less("load control: the jump is the first step past the limit point (0 = yes)", 0.0 if lam[jumps[0]] > LIMIT > lam[jumps[0] - 1] else 1.0, 0.5)
+
+# Load control that cannot jump: it stops at the limit point and says so.
+code, _, stderr = mt.run_msflex(args, truss, f"{args.work_dir}/stop.h5",
+                                extra=["-analysis_control", "load", "-analysis_max_newton_iterations", "6", "-analysis_min_step", "1e-3"],
+                                expect_success=False)
+message = " ".join(line for line in stderr.splitlines() if line.startswith("msflex:"))
+print("load control stop message:", message[:600])
+check.less("stopped run: |exit status - 1|", abs(code - 1), 0.5)
+check.less("stop message names a limit point and arc length (0 = yes)", 0.0 if "limit point" in message and "arc_length" in message else 1.0, 0.5)
+
+# Displacement control of the apex: through both limit points.
+history, w, u = run("apex", ["-analysis_control", "displacement", "-analysis_control_node", "apex", "-analysis_control_dof", "uy",
+                             "-analysis_control_value", "-1", "-analysis_end_time", "1.19"])
+lam = history["load_factor"]
+check.less("apex control: max |lambda P_ref - P(w)| / P_ref", np.abs(lam * P_REF - load(w)).max() / P_REF, 1e-8)
+check.less("apex control: max |w - control_value t|", np.abs(w - history["time"]).max(), 1e-10)
+limits = history["critical_load_factor"][history["critical_point"] == 1]
+print(f"apex control: limit points at {limits}")
+check.less("apex control: |limit points found - 2|", abs(len(limits) - 2), 0.5)
+if len(limits) == 2:
+    # Steps of 0.075 in w: the cubic through the ends of the step locates the maximum to ~3e-5.
+    check.less("apex control: limit loads relative error", max(abs(limits[0] / LIMIT - 1), abs(limits[1] / -LIMIT - 1)), 2e-4)
+
+# Displacement control of the spring's top: it cannot follow the snap-back and jumps.
+history, w, u = run("top", ["-analysis_control", "displacement", "-analysis_control_node", "top", "-analysis_control_dof", "uy",
+                            "-analysis_control_value", "-1", "-analysis_initial_step", "0.05"])
+jumps = np.nonzero(history["critical_point"] == 3)[0]
+print(f"top control: jump named at u = {u[jumps]}")
+check.less("top control: jumps named (at least 1): 1 / count", 1.0 / max(len(jumps), 1e-300), 1.01)
+check.finish()
