@@ -55,17 +55,10 @@ bool BeamDampingContributor::Forces(const State &state, size_t k, double *force,
     beams_->Configuration(state, k, positions, triads);
     const double               dt = eq.scheme.dt;
     const BeamSectionStiffness scaled{C.axial_shear / dt, C.torsion_bending / dt};
-    if (BeamMidpointInternalForces(ref, scaled, positions_start, triads_start, positions, triads, force_mc, force, &energy_start, &energy_end) !=
-        BeamKernelStatus::Ok)
-      return false;
-    if (!tangent) return true;
-    // The stress C_d (e - e_n)/dt at the end point: the kernel with the reference strains shifted by e_n.
-    Vec3 strain[kBeamMaxGauss], curvature[kBeamMaxGauss];
-    if (!Strains(state, k, true, strain, curvature)) return false;
-    BeamElementReference shifted = ref;
-    for (int gp = 0; gp < ref.num_gauss; ++gp) shifted.strain0[gp] += strain[gp], shifted.curvature0[gp] += curvature[gp];
-    double unused[kBeamMaxDofs];
-    return BeamInternalForces(shifted, scaled, positions, triads, unused, tangent, nullptr, nullptr) == BeamKernelStatus::Ok;
+    // The damping force is the kernel's correction vector with C_d/dt: T*^T D^T C_d (e_{n+1} - e_n)/dt,
+    // and its exact tangent is K_corr.
+    return BeamMidpointInternalForces(ref, scaled, positions_start, triads_start, positions, triads, force_mc, force, nullptr, tangent, nullptr, &energy_start,
+                                      &energy_end) == BeamKernelStatus::Ok;
   }
   const BeamStrainMotion &motion  = state.beam_strains[k];
   BeamElementReference    shifted = ref;

@@ -353,8 +353,11 @@ void StateSetCoordinateRates(const Model &model, double t, State *state)
       v_m << master.translation_motion.velocity, QuaternionToMatrix(master.rotation_start) * master.rotation_motion.velocity;
       relative -= J.map.leftCols<6>() * v_m;
     }
-    const Eigen::MatrixXd N_q   = J.map.block(0, 6, 6, k);
-    const Eigen::VectorXd rates = N_q.colPivHouseholderQr().solve(relative);
+    Eigen::VectorXd rates = Eigen::VectorXd::Zero(k);
+    if (k > 0) { // a rigid joint releases nothing
+      const Eigen::MatrixXd N_q = J.map.block(0, 6, 6, k);
+      rates                     = N_q.colPivHouseholderQr().solve(relative);
+    }
     for (int c = 0; c < kJointMaxReleased; ++c) J.coordinate_motion[c / 3].velocity(c % 3) = c < k ? rates(c) : 0.0;
     if (joint.driven_coordinate >= 0)
       J.coordinate_motion[joint.driven_coordinate / 3].velocity(joint.driven_coordinate % 3) =
