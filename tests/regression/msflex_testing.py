@@ -108,3 +108,33 @@ class Checker:
         if self.failures:
             raise SystemExit(f"{self.name}: {self.failures} check(s) failed")
         print(f"{self.name}: all checks passed")
+
+
+def check_expected(checker, input_file, output_file, label):
+    """Compares the `expected` results of an input (docs/input.md, "expected") with its result file:
+    a series' value at a time, or a statistic (final, max, min, max_abs, range) of it, against
+    value +- tolerance (absolute or relative) or bounds below / above. Returns how many there were."""
+    import yaml
+    with open(input_file) as f:
+        expected = (yaml.safe_load(f) or {}).get("expected") or []
+    data = history(output_file)
+    for item in expected:
+        series = data[item["series"]]
+        if "time" in item:
+            rows = np.where(np.abs(data["time"] - item["time"]) <= 1e-9 * max(1.0, abs(item["time"])))[0]
+            if len(rows) != 1:
+                raise SystemExit(f"{label}: expected one history row at t = {item['time']}, found {len(rows)}")
+            value, what = series[rows[0]], f"{item['series']} at t = {item['time']}"
+        else:
+            statistic = item["statistic"]
+            value = {"final": lambda s: s[-1], "max": np.max, "min": np.min, "max_abs": lambda s: np.abs(s).max(), "range": np.ptp}[statistic](series)
+            what = f"{statistic} of {item['series']}"
+        if "value" in item:
+            limit = item["tolerance"] if "tolerance" in item else item["relative_tolerance"] * abs(item["value"])
+            print(f"{label}: {what} = {value:.10g} (expected {item['value']})")
+            checker.less(f"{label}: |{what} - expected|", abs(value - item["value"]), limit if limit > 0 else np.finfo(float).tiny)
+        if "below" in item:
+            checker.less(f"{label}: {what} - {item['below']} (below)", value - item["below"], 0.0)
+        if "above" in item:
+            checker.less(f"{label}: {item['above']} - {what} (above)", item["above"] - value, 0.0)
+    return len(expected)

@@ -1,0 +1,18 @@
+"""The issue-12 examples in input/ against the `expected` results in their YAML (docs/input.md,
+"expected"): the slider-crank with a flexible connecting rod driven by a motor torque through a
+torsional damper (em energy balance, rotor speed, rod force), the pendulum with a massless rod on a
+revolute joint (amplitude and largest kinetic energy against the closed form), and the
+bushing-mounted rigid body on a flexible beam after a static stage (root reaction = weight, em
+energy balance)."""
+
+import msflex_testing as mt
+
+args = mt.parse_arguments(__doc__)
+check = mt.Checker("force-element examples")
+for name in ("slider_crank", "massless_pendulum", "bushing_mount"):
+    source = f"{args.source_dir}/input/{name}.yaml"
+    output = f"{args.work_dir}/{name}.h5"
+    mt.run_msflex(args, source, output, extra=["-quiet"])
+    count = mt.check_expected(check, source, output, name)
+    check.less(f"{name}: has expected results (-count)", -count, 0)
+check.finish()
