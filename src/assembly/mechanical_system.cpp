@@ -24,7 +24,11 @@ PetscErrorCode MechanicalSystem::Setup(MPI_Comm comm, const Model &model, const 
   node_pair_forces_.Setup(model, map);
   bool damped = false;
   for (const Section &section : model.sections) damped = damped || section.Damped();
-  has_force_elements_or_damping_ = damped || !model.force_elements.empty();
+  // On every rank alike (the history's series and their collective sums depend on it), though a
+  // rank's part of the model may hold no force element.
+  int local = damped || !model.force_elements.empty() ? 1 : 0, any = 0;
+  PetscCallMPI(MPI_Allreduce(&local, &any, 1, MPI_INT, MPI_MAX, comm));
+  has_force_elements_or_damping_ = any != 0;
   // The order of evaluation, which is the order in which the contributions are summed: per
   // element the internal forces, the structural damping, the inertia, then the loads; per node
   // the inertia, then the loads; then the rigid bodies' and the force elements' blocks. The force
