@@ -79,6 +79,7 @@ struct Analysis {
   PathFollower         path; // statics: the control of the steps and the stability of the path
   OutputFile           output;
   JointHistoryNames    joint_history_names;
+  HistoryGather        force_element_history;
   const CheckpointRun *restart      = nullptr;                      // the checkpoint this run continues, or null
   long long            history_rows = 0;                            // rows written to /history
   std::string          input_file_absolute, input_text, input_file; // for checkpoints (the text only on rank 0)
@@ -187,14 +188,17 @@ PetscErrorCode Setup(Analysis &a, Model whole)
                a.restart->num_nodes, a.restart->num_joints, a.restart->num_rigid_bodies, count.nodes, count.joints, count.rigid_bodies);
     PetscCall(CheckpointReadState(a.comm, a.options.restart_file, a.model, a.map, a.integrator.MutableState()));
     a.integrator.SetExternalWork(a.restart->external_work);
+    a.integrator.SetDissipatedEnergy(a.restart->dissipated_energy);
     a.initial_energy = a.restart->initial_energy;
   }
   PetscCall(PetscLogStagePop());
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
-// *kinetic_energy: from the dynamics diagnostics of the row (0 in statics).
-PetscErrorCode WriteHistory(Analysis &a, const StepRecord &record, double strain_energy, double *kinetic_energy)
+// *kinetic_energy: from the dynamics diagnostics of the row (0 in statics); *total_energy: kinetic
+// + strain + spring energy.
+PetscErrorCode WriteHistory(Analysis &a, const StepRecord &record, double strain_energy, const std::vector<ElementResults> &results, double *kinetic_energy,
+                            double *total_energy)
 {
   std::vector<ProbeSample> probes;
   PetscFunctionBeginUser;
@@ -202,23 +206,38 @@ PetscErrorCode WriteHistory(Analysis &a, const StepRecord &record, double strain
   PetscCall(SampleProbes(a.comm, a.model, a.map, state, &probes));
   std::vector<std::string> names  = {"time", "step", "step_size", "newton_iterations", "residual_norm", "strain_energy"};
   std::vector<double>      values = {record.time, (double)record.step, record.step_size, (double)record.newton_iterations, record.residual_norm, strain_energy};
+  // Force elements and damped beams: their stored energy, and in dynamics the energy their dampers dissipated.
+  const bool force_elements = a.integrator.HasForceElementsOrDamping();
+  double     spring_energy  = 0.0;
+  if (force_elements) {
+    PetscCall(a.integrator.SpringEnergy(&spring_energy));
+    names.push_back("spring_energy");
+    values.push_back(spring_energy);
+  }
+  *total_energy = strain_energy + spring_energy;
   if (a.Static()) a.path.HistoryColumns(&names, &values);
   if (a.Dynamic()) {
     Momenta d;
     PetscCall(a.integrator.MomentaOfState(&d));
     *kinetic_energy    = d.kinetic_energy;
-    const double total = d.kinetic_energy + strain_energy, work = a.integrator.ExternalWork();
+    *total_energy      = d.kinetic_energy + strain_energy + spring_energy;
+    const double total = *total_energy, work = a.integrator.ExternalWork(), dissipated = a.integrator.DissipatedEnergy();
     if (record.step == 0 && !a.restart) a.initial_energy = total;
-    // What the scheme itself dissipates (or creates): the external work less the change of energy,
-    // with the work taken by the scheme's own quadrature (Assembler::StepExternalWork).
-    const double dissipation = work - (total - a.initial_energy);
-    a.summary.Energy(total - work, total);
+    // What the scheme itself dissipates (or creates): the external work less the change of energy
+    // and the energy the dampers dissipated, with the work taken by the scheme's own quadrature
+    // (Assembler::StepExternalWork) and the dampers' dissipation by their own (StepDissipation).
+    const double dissipation = work - dissipated - (total - a.initial_energy);
+    a.summary.Energy(total - work + dissipated, total);
     names.insert(names.end(),
                  {"kinetic_energy", "total_energy", "external_work", "energy_balance", "algorithmic_dissipation", "linear_momentum_x", "linear_momentum_y",
                   "linear_momentum_z", "angular_momentum_x", "angular_momentum_y", "angular_momentum_z", "energy_correction"});
     values.insert(values.end(),
-                  {d.kinetic_energy, total, work, total - work, dissipation, d.linear_momentum(0), d.linear_momentum(1), d.linear_momentum(2),
+                  {d.kinetic_energy, total, work, total - work + dissipated, dissipation, d.linear_momentum(0), d.linear_momentum(1), d.linear_momentum(2),
                    d.angular_momentum(0), d.angular_momentum(1), d.angular_momentum(2), record.step == 0 ? 0.0 : a.integrator.EnergyCorrectionFactor()});
+    if (force_elements) {
+      names.push_back("dissipated_energy");
+      values.push_back(dissipated);
+    }
   }
   if (a.map.global_count.joints > 0) {
     std::vector<std::string> joint_names;
@@ -227,18 +246,38 @@ PetscErrorCode WriteHistory(Analysis &a, const StepRecord &record, double strain
     names.insert(names.end(), joint_names.begin(), joint_names.end());
     values.insert(values.end(), joint_values.begin(), joint_values.end());
   }
+  if (force_elements) {
+    std::vector<HistoryValue> local;
+    std::vector<std::string>  element_names;
+    std::vector<double>       element_values;
+    a.integrator.ForceElementHistory(&local);
+    PetscCall(GatherHistory(a.comm, local, &a.force_element_history, &element_names, &element_values));
+    names.insert(names.end(), element_names.begin(), element_names.end());
+    values.insert(values.end(), element_values.begin(), element_values.end());
+  }
+  {
+    std::vector<std::string> probe_names;
+    std::vector<double>      probe_values;
+    PetscCall(ProbeHistory(a.comm, a.model, a.map, state, results, &probe_names, &probe_values));
+    names.insert(names.end(), probe_names.begin(), probe_names.end());
+    values.insert(values.end(), probe_values.begin(), probe_values.end());
+  }
   PetscCall(a.output.AppendHistory(names, values, probes));
   ++a.history_rows;
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
-PetscErrorCode WriteFrame(Analysis &a, int step, double time, double *strain_energy)
+// A frame of the current state; `results`: the element results of that state (computed when null).
+PetscErrorCode WriteFrame(Analysis &a, int step, double time, double *strain_energy, const std::vector<ElementResults> *results = nullptr)
 {
-  std::vector<ElementResults> results;
+  std::vector<ElementResults> computed;
   OutputFrame                 frame;
   PetscFunctionBeginUser;
-  PetscCall(a.integrator.ElementResults(&results, strain_energy));
-  PetscCall(GatherFrame(a.comm, a.model, a.map, a.integrator.GetState(), results, step, time, a.Dynamic(), &frame));
+  if (!results) {
+    PetscCall(a.integrator.ElementResults(&computed, strain_energy));
+    results = &computed;
+  }
+  PetscCall(GatherFrame(a.comm, a.model, a.map, a.integrator.GetState(), *results, step, time, a.Dynamic(), &frame));
   PetscCall(a.output.WriteFrame(frame));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
@@ -246,12 +285,13 @@ PetscErrorCode WriteFrame(Analysis &a, int step, double time, double *strain_ene
 // The state after a converged step: frame (when due), history row, progress line.
 PetscErrorCode RecordStep(Analysis &a, const StepRecord &record, bool write_frame)
 {
-  double strain_energy = 0.0, kinetic_energy = 0.0;
+  double                      strain_energy = 0.0, kinetic_energy = 0.0, total_energy = 0.0;
+  std::vector<ElementResults> results;
   PetscFunctionBeginUser;
   PetscCall(PetscLogStagePush(a.stage_output));
-  if (write_frame) PetscCall(WriteFrame(a, record.step, record.time, &strain_energy));
-  else PetscCall(a.integrator.StrainEnergy(&strain_energy));
-  PetscCall(WriteHistory(a, record, strain_energy, &kinetic_energy));
+  PetscCall(a.integrator.ElementResults(&results, &strain_energy));
+  if (write_frame) PetscCall(WriteFrame(a, record.step, record.time, &strain_energy, &results));
+  PetscCall(WriteHistory(a, record, strain_energy, results, &kinetic_energy, &total_energy));
   PetscCall(PetscLogStagePop());
   const bool last = a.Finished(record.time);
   if (!a.options.quiet && record.step > 0 && (record.step % a.options.progress_every == 0 || last)) {
@@ -261,7 +301,7 @@ PetscErrorCode RecordStep(Analysis &a, const StepRecord &record, bool write_fram
     const std::string timing  = "wall " + FormatDuration(elapsed) + (last ? "" : ", left ~" + FormatDuration(left));
     if (a.Dynamic()) {
       PetscCall(PetscPrintf(a.comm, "step %6d  t = %-11.6g dt = %-10.4g newton %2d  |R| = %.3e  energy = %.10e  %s\n", record.step, record.time,
-                            record.step_size, record.newton_iterations, record.residual_norm, kinetic_energy + strain_energy, timing.c_str()));
+                            record.step_size, record.newton_iterations, record.residual_norm, total_energy, timing.c_str()));
     } else {
       PetscCall(PetscPrintf(a.comm, "step %5d  t = %-12.6g dt = %-10.4g newton %2d  |R| = %.3e  strain energy = %.6e%s  %s\n", record.step, record.time,
                             record.step_size, record.newton_iterations, record.residual_norm, strain_energy, a.path.ProgressNote().c_str(), timing.c_str()));
@@ -285,6 +325,7 @@ PetscErrorCode WriteCheckpoint(Analysis &a, int step, double t, int last_written
   run.step                = step;
   run.time                = t;
   run.external_work       = a.integrator.ExternalWork();
+  run.dissipated_energy   = a.integrator.DissipatedEnergy();
   run.initial_energy      = a.initial_energy;
   run.last_written        = last_written;
   run.history_rows        = a.history_rows;
@@ -329,6 +370,53 @@ PetscErrorCode CheckpointIfDue(Analysis &a, int step, double t, int last_written
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
+// The static stage of a dynamic analysis: equilibrium under the loads at t = 0, reached with the
+// load factor going from 0 to 1 under the step controller (first step 1/static_stage_steps); the
+// dynamics start from it. Nothing is written; a progress line per step unless quiet.
+PetscErrorCode RunStaticStage(Analysis &a)
+{
+  const AnalysisSettings &analysis = a.model.analysis;
+  StepControllerSettings  settings;
+  PetscFunctionBeginUser;
+  settings.initial_step       = 1.0 / analysis.static_stage_steps;
+  settings.max_step           = 1.0;
+  settings.min_step           = std::min(1e-6, settings.initial_step);
+  settings.growth_factor      = analysis.growth_factor;
+  settings.easy_iterations    = analysis.easy_iterations;
+  settings.easy_steps_to_grow = analysis.easy_steps_to_grow;
+  StepController controller(settings);
+  double         factor = 0.0;
+  int            steps  = 0;
+  while (factor < 1.0 - 1e-14) {
+    double dt = controller.Propose(factor, 1.0);
+    for (;;) {
+      StepOutcome outcome;
+      PetscCall(a.integrator.TryStaticStageStep(0.0, factor, dt, &outcome));
+      if (outcome.converged) {
+        factor = factor + dt >= 1.0 - 1e-14 ? 1.0 : factor + dt;
+        ++steps;
+        controller.Accept(dt, outcome.newton_iterations);
+        if (!a.options.quiet)
+          PetscCall(PetscPrintf(a.comm, "static stage %3d  load factor = %-10.6g newton %2d  |R| = %.3e\n", steps, factor, outcome.newton_iterations,
+                                outcome.residual_norm));
+        break;
+      }
+      PetscCheck(controller.Reject(dt), a.comm, PETSC_ERR_NOT_CONVERGED,
+                 "the static stage could not reach equilibrium under the loads at t = 0: the step to load factor %g failed (%s); a static stage needs every "
+                 "free motion held (supports, drives, springs or stiffness)",
+                 factor + dt, outcome.why.c_str());
+      dt = controller.Propose(factor, 1.0);
+    }
+  }
+  double strain_energy, spring_energy;
+  PetscCall(a.integrator.StrainEnergy(&strain_energy));
+  PetscCall(a.integrator.SpringEnergy(&spring_energy));
+  if (!a.options.quiet)
+    PetscCall(PetscPrintf(a.comm, "msflex: static stage: equilibrium under the loads at t = 0 in %d step(s); strain energy %.6e J, spring energy %.6e J\n",
+                          steps, strain_energy, spring_energy));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
 } // namespace
 
 PetscErrorCode RunAnalysis(MPI_Comm comm, Model model, const RunOptions &options, const CheckpointRun *restart, RunEnd *end)
@@ -346,6 +434,7 @@ PetscErrorCode RunAnalysis(MPI_Comm comm, Model model, const RunOptions &options
                           AnalysisTypeName(analysis.type), a.Dynamic() ? " with " : "", a.Dynamic() ? TimeSchemeName(analysis.integrator) : "",
                           a.input_file.c_str(), a.map.global_count.nodes, a.map.global_count.elements, a.map.global_count.rigid_bodies,
                           a.map.global_count.joints, a.map.num_global, options.output_file.c_str()));
+  a.integrator.SetQuiet(options.quiet);
   if (IsEigenAnalysis(analysis.type)) {
     PetscCall(RunEigenAnalysis(comm, a.model, a.map, a.integrator, a.output, options.quiet));
     PetscCall(a.output.Close());
@@ -354,7 +443,10 @@ PetscErrorCode RunAnalysis(MPI_Comm comm, Model model, const RunOptions &options
   }
   if (a.Static()) PetscCall(a.path.Start(restart ? restart->time : 0.0, restart != nullptr));
   if (!restart) {
+    PetscCall(a.integrator.InitialiseConfiguration());
+    if (a.Dynamic() && analysis.static_stage) PetscCall(RunStaticStage(a));
     if (a.Dynamic()) PetscCall(a.integrator.InitialiseMotion(0.0));
+    else PetscCall(a.integrator.InitialiseStatics());
     PetscCall(RecordStep(a, StepRecord{}, true));
   }
 

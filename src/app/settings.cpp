@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <vector>
 
 namespace msflex {
@@ -13,6 +14,9 @@ PetscErrorCode SettingsFromOptions(MPI_Comm comm, Model *model, RunOptions *opti
 {
   AnalysisSettings &a               = model->analysis;
   PetscInt          easy_iterations = a.easy_iterations, easy_steps = a.easy_steps_to_grow, max_newton = a.max_newton_iterations;
+  PetscInt          static_stage_steps = a.static_stage_steps;
+  PetscBool         static_stage       = a.static_stage ? PETSC_TRUE : PETSC_FALSE;
+  char              initial_velocities[32];
   // -analysis_output_times replaces the input's list; room for as many entries as anyone types.
   std::vector<PetscReal> output_times(1024);
   PetscInt               num_output_times = (PetscInt)output_times.size();
@@ -27,6 +31,7 @@ PetscErrorCode SettingsFromOptions(MPI_Comm comm, Model *model, RunOptions *opti
   PetscCall(PetscStrncpy(control_joint, a.control_joint.c_str(), sizeof(control_joint)));
   PetscCall(PetscStrncpy(type, AnalysisTypeName(a.type), sizeof(type)));
   PetscCall(PetscStrncpy(integrator, TimeSchemeName(a.integrator), sizeof(integrator)));
+  PetscCall(PetscStrncpy(initial_velocities, a.project_initial_velocities ? "projected" : "given", sizeof(initial_velocities)));
   PetscCall(PetscStrncpy(em_correction, EnergyCorrectionName(a.em_correction), sizeof(em_correction))); // default: the input's
   const std::string type_list = AnalysisTypeNameList(), integrator_list = IntegratorNameList(), control_list = PathControlNameList();
   PetscOptionsBegin(comm, "analysis_", "Analysis settings (defaults: the input's analysis section)", "msflex");
@@ -61,7 +66,17 @@ PetscErrorCode SettingsFromOptions(MPI_Comm comm, Model *model, RunOptions *opti
   PetscCall(PetscOptionsInt("-eigenvalues", OptionDescription("-analysis_eigenvalues"), "", eigenvalues, &eigenvalues, nullptr));
   PetscCall(PetscOptionsReal("-shift", OptionDescription("-analysis_shift"), "", shift, &shift, &shift_set));
   PetscCall(PetscOptionsBool("-preload", OptionDescription("-analysis_preload"), "", preload, &preload, nullptr));
+  PetscCall(PetscOptionsBool("-static_stage", OptionDescription("-analysis_static_stage"), "", static_stage, &static_stage, nullptr));
+  PetscCall(PetscOptionsInt("-static_stage_steps", OptionDescription("-analysis_static_stage_steps"), "", static_stage_steps, &static_stage_steps, nullptr));
+  PetscCall(PetscOptionsString("-initial_velocities", OptionDescription("-analysis_initial_velocities"), "", initial_velocities, initial_velocities,
+                               sizeof(initial_velocities), nullptr));
   PetscOptionsEnd();
+  PetscCheck(static_stage_steps >= 1, comm, PETSC_ERR_USER_INPUT, "option -analysis_static_stage_steps must be >= 1, got %" PetscInt_FMT, static_stage_steps);
+  PetscCheck(!strcmp(initial_velocities, "projected") || !strcmp(initial_velocities, "given"), comm, PETSC_ERR_USER_INPUT,
+             "option -analysis_initial_velocities must be projected or given, got '%s'", initial_velocities);
+  a.static_stage                   = static_stage == PETSC_TRUE;
+  a.static_stage_steps             = (int)static_stage_steps;
+  a.project_initial_velocities     = !strcmp(initial_velocities, "projected");
   const AnalysisType input_type    = a.type;
   const bool         input_preload = a.preload;
   PetscCheck(AnalysisTypeFromName(type, &a.type), comm, PETSC_ERR_USER_INPUT, "option -analysis_type must be one of %s, got '%s'", type_list.c_str(), type);

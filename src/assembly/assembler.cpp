@@ -58,6 +58,7 @@ Assembler::~Assembler()
   VecDestroy(&solution_template_);
   VecDestroy(&ghosted_increments_);
   VecDestroy(&scratch_residual_);
+  VecDestroy(&last_increments_);
   VecScatterDestroy(&to_ghosted_);
   VecDestroy(&joint_output_);
 }
@@ -136,6 +137,16 @@ PetscErrorCode Assembler::Setup(MPI_Comm comm, const Model &model, const DofMap 
   PetscCall(MatSetOption(jacobian_, MAT_NEW_NONZERO_ALLOCATION_ERR, PETSC_TRUE));
   PetscCall(MatCreateVecs(jacobian_, &solution_template_, nullptr));
   PetscCall(VecDuplicate(solution_template_, &scratch_residual_));
+  PetscCall(VecDuplicate(solution_template_, &last_increments_));
+  coordinate_residual_.assign(state->joints.size(), std::array<double, kJointMaxReleased>{});
+  reaction_slot_.assign(state->nodes.size(), -1);
+  reaction_sums_.assign(model.probes.size(), Vec6::Zero());
+  for (size_t p = 0; p < model.probes.size(); ++p)
+    if (model.probes[p].kind == Probe::Kind::Reaction && model.probes[p].node >= 0) {
+      const int l = map.node_to_local[model.probes[p].node];
+      if (l >= 0) reaction_slot_[l] = (int)p;
+    }
+  state->probe_reactions.assign(model.probes.size(), Vec6::Zero());
   PetscCall(AttachRigidBodyModes());
   PetscCall(PetscLogEventBegin(event_csr_destinations, 0, 0, 0, 0));
   PetscCall(CreateCsrDestinations());
@@ -384,6 +395,99 @@ PetscErrorCode Assembler::BeginStep(const StepEquations &equations)
   StateBeginStep(*model_, *map_, equations, state_);
   UpdateExpansions();
   for (ForceContributor *c : contributors_) c->BeginStep(*state_);
+  massless_rows_.clear();
+  if (equations.InitialAcceleration()) PetscCall(FindMasslessUnknowns());
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode Assembler::FindMasslessUnknowns()
+{
+  Vec       row_max;
+  PetscBool ok;
+  PetscReal largest;
+  PetscInt  first, count = 0;
+  PetscFunctionBeginUser;
+  // The mass matrix is the tangent of the initial-acceleration problem (the accelerations enter
+  // linearly, so it does not depend on them). A zero row is an unknown no mass reaches; the mass
+  // matrix is symmetric, so its column is zero too and the other equations do not see it.
+  PetscCall(AssembleJacobian(jacobian_, &ok));
+  PetscCall(VecDuplicate(solution_template_, &row_max));
+  PetscCall(MatGetRowMaxAbs(jacobian_, row_max, nullptr));
+  PetscCall(VecMax(row_max, nullptr, &largest));
+  PetscCall(VecGetOwnershipRange(row_max, &first, nullptr));
+  const PetscScalar *values;
+  PetscCall(VecGetArrayRead(row_max, &values));
+  for (PetscInt i = 0; i < map_->num_owned; ++i)
+    if (!(PetscAbsScalar(values[i]) > 1e-14 * largest)) massless_rows_.push_back(first + i);
+  PetscCall(VecRestoreArrayRead(row_max, &values));
+  PetscCall(VecDestroy(&row_max));
+  const PetscInt local = (PetscInt)massless_rows_.size();
+  PetscCallMPI(MPIU_Allreduce(&local, &count, 1, MPIU_INT, MPI_SUM, comm_));
+  num_massless_unknowns_ = count;
+  (void)ok;
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode Assembler::SetMasslessResidualRows(Vec residual)
+{
+  PetscScalar       *r;
+  const PetscScalar *x;
+  PetscFunctionBeginUser;
+  if (massless_rows_.empty()) PetscFunctionReturn(PETSC_SUCCESS);
+  PetscCall(VecGetArray(residual, &r));
+  PetscCall(VecGetArrayRead(last_increments_, &x));
+  for (PetscInt row : massless_rows_) r[row - map_->first_owned] = x[row - map_->first_owned];
+  PetscCall(VecRestoreArrayRead(last_increments_, &x));
+  PetscCall(VecRestoreArray(residual, &r));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+void Assembler::AddCoordinate(int joint, int coordinate, double residual, double tangent)
+{
+  const PetscInt row  = map_->joint_dofs[state_->joints[joint].joint][coordinate];
+  PetscErrorCode code = PETSC_SUCCESS;
+  if (block_residual_) {
+    coordinate_residual_[joint][coordinate] += residual;
+    if (row >= 0) {
+      local_force_squares_ += residual * residual;
+      code = VecSetValue(block_residual_, row, residual, ADD_VALUES);
+    }
+  } else if (block_jacobian_ && row >= 0) {
+    code = MatSetValue(block_jacobian_, row, row, tangent, ADD_VALUES);
+  }
+  if (code != PETSC_SUCCESS) block_trouble_ = true;
+}
+
+PetscErrorCode Assembler::StepDissipation(double *dissipation)
+{
+  double local = 0.0;
+  PetscFunctionBeginUser;
+  for (const ForceContributor *c : contributors_) c->AddStepDissipation(*state_, &local);
+  PetscCall(MPIU_Allreduce(&local, dissipation, 1, MPI_DOUBLE, MPI_SUM, comm_));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode Assembler::EvaluateSupportReactions()
+{
+  PetscBool evaluable;
+  PetscFunctionBeginUser;
+  for (Vec6 &sum : reaction_sums_) sum.setZero();
+  collect_reactions_ = true;
+  PetscCall(AssembleResidual(scratch_residual_, &evaluable));
+  collect_reactions_ = false;
+  // Every rank holding a probe's node added its share; the sums of all ranks are the residual.
+  std::vector<double> local(6 * reaction_sums_.size()), global(6 * reaction_sums_.size());
+  for (size_t p = 0; p < reaction_sums_.size(); ++p)
+    for (int i = 0; i < 6; ++i) local[6 * p + i] = reaction_sums_[p](i);
+  PetscCall(MPIU_Allreduce(local.data(), global.data(), (PetscMPIInt)local.size(), MPI_DOUBLE, MPI_SUM, comm_));
+  for (size_t p = 0; p < reaction_sums_.size(); ++p) {
+    Vec6      reaction = Vec6::Zero();
+    const int node     = model_->probes[p].node;
+    if (model_->probes[p].kind == Probe::Kind::Reaction && node >= 0)
+      for (int d = 0; d < 6; ++d)
+        if (map_->constraints[node][d].kind != Support::Kind::Free) reaction(d) = global[6 * p + d];
+    state_->probe_reactions[p] = reaction;
+  }
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
@@ -413,6 +517,7 @@ PetscErrorCode Assembler::SetIncrements(Vec increments)
 {
   const PetscScalar *values;
   PetscFunctionBeginUser;
+  if (state_->equations.InitialAcceleration() && increments != last_increments_) PetscCall(VecCopy(increments, last_increments_));
   PetscCall(VecScatterBegin(to_ghosted_, increments, ghosted_increments_, INSERT_VALUES, SCATTER_FORWARD));
   PetscCall(VecScatterEnd(to_ghosted_, increments, ghosted_increments_, INSERT_VALUES, SCATTER_FORWARD));
   PetscCall(VecGetArrayRead(ghosted_increments_, &values));
@@ -509,6 +614,7 @@ PetscErrorCode Assembler::AssembleResidual(Vec residual, PetscBool *geometry_ok)
   // work over the increments counts as external work.
   for (Vec6 &reaction : prescribed_residual_) reaction.setZero();
   for (Vec6 &g : slave_residual_) g.setZero();
+  for (auto &row : coordinate_residual_) row.fill(0.0);
   for (size_t k = 0; k < map.local_elements.size(); ++k) {
     const BeamElement &element_nodes = model_->elements[map.local_elements[k]];
     double            *f             = &element_force_scratch_[kBeamMaxDofs * k];
@@ -529,6 +635,7 @@ PetscErrorCode Assembler::AssembleResidual(Vec residual, PetscBool *geometry_ok)
   PetscCheck(!block_trouble_, PETSC_COMM_SELF, PETSC_ERR_PLIB, "a contributor's block could not be added to the residual");
   PetscCall(VecAssemblyBegin(residual));
   PetscCall(VecAssemblyEnd(residual));
+  if (state_->equations.InitialAcceleration()) PetscCall(SetMasslessResidualRows(residual));
   PetscCall(PetscLogEventEnd(event_residual, 0, 0, 0, 0));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
@@ -671,6 +778,11 @@ PetscErrorCode Assembler::AssembleJacobian(Mat jacobian, PetscBool *geometry_ok)
   PetscCall(MatAssemblyBegin(jacobian, MAT_FINAL_ASSEMBLY));
   PetscCall(MatAssemblyEnd(jacobian, MAT_FINAL_ASSEMBLY));
   if (beta != 0.0) PetscCall(MatAXPY(jacobian, beta, correction_jacobian_, SAME_NONZERO_PATTERN));
+  if (state_->equations.InitialAcceleration() && !mass_matrix_only_ && !massless_rows_.empty()) {
+    // Massless unknowns: acceleration = 0 (the pattern is kept for the direct CSR assembly).
+    PetscCall(MatSetOption(jacobian, MAT_KEEP_NONZERO_PATTERN, PETSC_TRUE));
+    PetscCall(MatZeroRows(jacobian, (PetscInt)massless_rows_.size(), massless_rows_.data(), 1.0, nullptr, nullptr));
+  }
   PetscCall(PetscLogEventEnd(event_jacobian, 0, 0, 0, 0));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
@@ -739,10 +851,13 @@ PetscErrorCode Assembler::StepExternalWork(double *work)
     if (!midpoint) s.prescribed_reaction = prescribed_residual_[l];
   }
   // Drives: the generalised reaction on a driven coordinate times its test increment.
-  for (JointState &J : state_->joints) {
-    const int c = model_->joints[J.joint].driven_coordinate;
+  // (with what force elements add on the coordinate's own row: a spring or damper on a driven
+  // coordinate is resisted by the drive).
+  for (size_t j = 0; j < state_->joints.size(); ++j) {
+    JointState &J = state_->joints[j];
+    const int   c = model_->joints[J.joint].driven_coordinate;
     if (c < 0) continue;
-    const double reaction = J.rows_map.col(6 + c).dot(slave_residual_[J.local_slave]);
+    const double reaction = J.rows_map.col(6 + c).dot(slave_residual_[J.local_slave]) + coordinate_residual_[j][c];
     local += (midpoint ? reaction : 0.5 * (J.drive_reaction + reaction)) * J.released_test[c];
     if (!midpoint) J.drive_reaction = reaction;
   }
@@ -757,9 +872,10 @@ PetscErrorCode Assembler::StoreReactions()
   PetscCall(AssembleResidual(scratch_residual_, &evaluable));
   PropagateSlaveResiduals();
   for (size_t l = 0; l < state_->nodes.size(); ++l) state_->nodes[l].prescribed_reaction = prescribed_residual_[l];
-  for (JointState &J : state_->joints) {
-    const int c      = model_->joints[J.joint].driven_coordinate;
-    J.drive_reaction = c >= 0 ? J.rows_map.col(6 + c).dot(slave_residual_[J.local_slave]) : 0.0;
+  for (size_t j = 0; j < state_->joints.size(); ++j) {
+    JointState &J    = state_->joints[j];
+    const int   c    = model_->joints[J.joint].driven_coordinate;
+    J.drive_reaction = c >= 0 ? J.rows_map.col(6 + c).dot(slave_residual_[J.local_slave]) + coordinate_residual_[j][c] : 0.0;
   }
   PetscFunctionReturn(PETSC_SUCCESS);
 }

@@ -31,6 +31,16 @@ namespace msflex {
 class BeamContributor;
 class InertiaContributor;
 
+// What the projection of the initial velocities did (Assembler::ProjectInitialVelocities).
+struct InitialVelocityReport {
+  PetscInt held               = 0;                            // unknowns held at their given velocities (nodes' initial conditions, coordinates' rates)
+  PetscInt chosen             = 0;                            // unknowns chosen for the least strain rate
+  PetscInt at_rest            = 0;                            // unknowns that nothing determines, left at rest
+  double   strain_rate_before = 0.0, strain_rate_after = 0.0; // V^T K V of the beams, before and after (W)
+  double   slave_change = 0.0;                                // largest change of a slave's given velocity (m/s or rad/s)
+  PetscInt iterations   = 0;                                  // of the conjugate gradients
+};
+
 // The exact nonzero pattern of the owned rows (DofMapPreallocation), computed on the whole model
 // before it is restricted to the rank's part.
 struct MatrixPattern {
@@ -121,6 +131,32 @@ public:
 
   // BlockSink: a free block of a contributor (rigid bodies, force elements).
   void Add(const NodeBlock &block, const double *residual, const double *tangent) override;
+  // BlockSink: a generalised force on a joint's released coordinate (force elements).
+  void AddCoordinate(int joint, int coordinate, double residual, double tangent) override;
+
+  // The initial velocities of a dynamic analysis at time t (docs/input.md, "initial_conditions"),
+  // into the State's motion: every node with an initial condition keeps it (a slave as closely as
+  // its joint allows, in the least-squares sense), drives and prescribed supports impose their
+  // rates, joint coordinates with an initial rate keep it, and every other velocity is chosen so
+  // that the beams start with the least strain rate, min V^T K V with K = sum B^T C B (the
+  // sections' material stiffness): what a beam attached to a driven joint does is then a rigid
+  // motion with it, and a closed loop's coordinates move consistently. Motions that nothing
+  // determines (no strain resists them, nothing given moves them) stay at rest: the minimum-norm
+  // correction of the given velocities, by conjugate gradients preconditioned with the LU of
+  // K + 1e-8 max(diag K) I (options prefix -velocity_projection_). Collective.
+  PetscErrorCode ProjectInitialVelocities(double t, InitialVelocityReport *report);
+
+  // Energy dissipated by the dampers over the current increments (collective).
+  PetscErrorCode StepDissipation(double *dissipation);
+  // Called at the converged increments: the reaction of the supports at each node of a reaction
+  // probe (the node's residual on its fixed and prescribed DOFs, zero on its free ones; global
+  // axes), per model probe (zero for the other probes), into State::probe_reactions. Collective.
+  PetscErrorCode EvaluateSupportReactions();
+  // The unknowns of the initial-acceleration problem that no mass reaches (a zero row of the mass
+  // matrix: a massless rotation of a joint's node, a released coordinate that moves nothing with
+  // mass, a point mass's node without rotary inertia): their equation becomes acceleration = 0.
+  // Found when the initial-acceleration problem begins; the number found in the whole model.
+  PetscInt NumMasslessUnknowns() const { return num_massless_unknowns_; }
 
 private:
   // The element loop's evaluation of local element k by every element contributor.
@@ -159,6 +195,10 @@ private:
   // Slave residuals with what each slave passes on to its master along the chains (deepest first).
   void           PropagateSlaveResiduals();
   PetscErrorCode CreateCsrDestinations();
+  // The zero rows of the initial-acceleration problem's mass matrix (NumMasslessUnknowns).
+  PetscErrorCode FindMasslessUnknowns();
+  // Replaces the massless rows of the initial-acceleration problem by acceleration = 0.
+  PetscErrorCode SetMasslessResidualRows(Vec residual);
   // The six rigid-body modes in the unknowns (u = t + w x (X - centroid), omega = w at every
   // independent node, zero on joint coordinates), orthonormalised: the near-null space that
   // algebraic multigrid (-pc_type gamg) needs for beams.
@@ -192,11 +232,23 @@ private:
   Mat  block_jacobian_ = nullptr;
   bool block_trouble_  = false;
 
+  // Force elements on released coordinates: per local joint, what they added to each coordinate's
+  // row in the last residual (a driven coordinate's goes into the drive's work).
+  std::vector<std::array<double, kJointMaxReleased>> coordinate_residual_;
+  // Initial-acceleration problem: the owned rows without mass, and the unknowns of the last SetIncrements.
+  std::vector<PetscInt> massless_rows_;
+  PetscInt              num_massless_unknowns_ = 0;
+  Vec                   last_increments_       = nullptr;
+  // Reaction probes: per local node, its probe's slot (-1: none), and the sums being collected.
+  std::vector<int>  reaction_slot_;
+  std::vector<Vec6> reaction_sums_;
+  bool              collect_reactions_ = false;
+
   double            roundoff_force_level_ = 0.0;
   double            local_force_squares_  = 0.0; // sum of squares of every node vector added in the last residual
   std::vector<Vec6> prescribed_residual_;        // per local node: the last residual's entries on prescribed DOFs (the reactions this rank assembled)
-  double            energy_correction_ = 0.0;    // em's beta of the last residual
   bool              mass_matrix_only_  = false;  // AssembleMassMatrix: no equations for massless groups
+  double            energy_correction_ = 0.0;    // em's beta of the last residual
 
   Mat                   jacobian_            = nullptr;
   Mat                   correction_jacobian_ = nullptr; // em: K_corr, the pattern of jacobian_

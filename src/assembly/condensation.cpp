@@ -86,6 +86,7 @@ PetscErrorCode Assembler::AddNodeResidual(Vec residual, int l, const double *g)
 {
   PetscFunctionBeginUser;
   const int node = map_->local_nodes[l];
+  if (collect_reactions_ && reaction_slot_[l] >= 0) reaction_sums_[reaction_slot_[l]] += Eigen::Map<const Vec6>(g);
   for (int d = 0; d < 6; ++d) {
     local_force_squares_ += g[d] * g[d];
     if (map_->constraints[node][d].kind == Support::Kind::Prescribed) prescribed_residual_[l](d) += g[d];

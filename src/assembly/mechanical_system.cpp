@@ -19,11 +19,52 @@ PetscErrorCode MechanicalSystem::Setup(MPI_Comm comm, const Model &model, const 
   inertia_.Setup(model, map, beams_, std::move(nodal_mass));
   loads_.Setup(model, map, beams_);
   rigid_bodies_.Setup(model, map);
+  beam_damping_.Setup(model, map, beams_);
+  coordinate_forces_.Setup(model, map, state_);
+  node_pair_forces_.Setup(model, map);
+  bool damped = false;
+  for (const Section &section : model.sections) damped = damped || section.Damped();
+  // On every rank alike (the history's series and their collective sums depend on it), though a
+  // rank's part of the model may hold no force element.
+  int local = damped || !model.force_elements.empty() ? 1 : 0, any = 0;
+  PetscCallMPI(MPI_Allreduce(&local, &any, 1, MPI_INT, MPI_MAX, comm));
+  has_force_elements_or_damping_ = any != 0;
   // The order of evaluation, which is the order in which the contributions are summed: per
-  // element the internal forces, the inertia, then the loads; per node the inertia, then the
-  // loads; then the rigid bodies' blocks.
-  PetscCall(assembler_.Setup(comm, model, map, std::move(pattern), {&beams_, &inertia_, &loads_, &rigid_bodies_}, &beams_, &inertia_, &state_));
+  // element the internal forces, the structural damping, the inertia, then the loads; per node
+  // the inertia, then the loads; then the rigid bodies' and the force elements' blocks. The force
+  // elements and the damping take part only where the model has them.
+  contributors_ = {&beams_};
+  if (!beam_damping_.Empty()) contributors_.push_back(&beam_damping_);
+  contributors_.insert(contributors_.end(), {&inertia_, &loads_, &rigid_bodies_});
+  if (!coordinate_forces_.Empty()) contributors_.push_back(&coordinate_forces_);
+  if (!node_pair_forces_.Empty()) contributors_.push_back(&node_pair_forces_);
+  PetscCall(assembler_.Setup(comm, model, map, std::move(pattern), contributors_, &beams_, &inertia_, &state_));
   PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode MechanicalSystem::SpringEnergy(double *energy)
+{
+  double local = 0.0;
+  PetscFunctionBeginUser;
+  for (const ForceContributor *c : contributors_)
+    if (c->StoresSpringEnergy()) c->AddStoredEnergy(state_, &local);
+  PetscCall(MPIU_Allreduce(&local, energy, 1, MPI_DOUBLE, MPI_SUM, comm_));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+void MechanicalSystem::StartMotion()
+{
+  for (ForceContributor *c : contributors_) c->StartMotion(&state_);
+}
+
+void MechanicalSystem::CommitStep()
+{
+  for (ForceContributor *c : contributors_) c->CommitStep(&state_);
+}
+
+void MechanicalSystem::ForceElementHistory(std::vector<HistoryValue> *values) const
+{
+  for (const ForceContributor *c : contributors_) c->AddHistory(state_, values);
 }
 
 PetscErrorCode MechanicalSystem::Momenta(msflex::Momenta *momenta)

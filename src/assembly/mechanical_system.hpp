@@ -5,6 +5,8 @@
 
 #include "assembly/assembler.hpp"
 #include "contributors/beam_contributor.hpp"
+#include "contributors/beam_damping_contributor.hpp"
+#include "contributors/force_element_contributors.hpp"
 #include "contributors/inertia_contributor.hpp"
 #include "contributors/load_contributor.hpp"
 #include "contributors/rigid_body_contributor.hpp"
@@ -38,15 +40,31 @@ public:
   PetscErrorCode Momenta(msflex::Momenta *momenta);
   // Element results and strain energy of the current configuration (collective).
   PetscErrorCode ElementResults(std::vector<msflex::ElementResults> *results, double *strain_energy);
+  // Stored energy of the force elements' springs in the current configuration (collective).
+  PetscErrorCode SpringEnergy(double *energy);
+  // Whether the model has force elements or damped beams (their history series). Not collective:
+  // the same on every rank.
+  bool HasForceElementsOrDamping() const { return has_force_elements_or_damping_; }
+  // The contributors' own motion: after the initial velocities (and accelerations), and at the
+  // converged increments of a step before the state commits them.
+  void StartMotion();
+  void CommitStep();
+  // History values of the force elements this rank evaluates (output/results.hpp gathers them).
+  void ForceElementHistory(std::vector<HistoryValue> *values) const;
 
 private:
-  MPI_Comm             comm_ = MPI_COMM_NULL;
-  State                state_;
-  BeamContributor      beams_;
-  InertiaContributor   inertia_;
-  LoadContributor      loads_;
-  RigidBodyContributor rigid_bodies_;
-  Assembler            assembler_;
+  MPI_Comm                        comm_ = MPI_COMM_NULL;
+  State                           state_;
+  BeamContributor                 beams_;
+  InertiaContributor              inertia_;
+  LoadContributor                 loads_;
+  RigidBodyContributor            rigid_bodies_;
+  BeamDampingContributor          beam_damping_;
+  CoordinateForceContributor      coordinate_forces_;
+  NodePairForceContributor        node_pair_forces_;
+  std::vector<ForceContributor *> contributors_; // in the order of evaluation
+  bool                            has_force_elements_or_damping_ = false;
+  Assembler                       assembler_;
 };
 
 } // namespace msflex

@@ -77,6 +77,20 @@ public:
   virtual ~BlockSink() = default;
   // residual: 6 per node; tangent: (6n)^2 row-major, or null when no tangent was asked for.
   virtual void Add(const NodeBlock &block, const double *residual, const double *tangent) = 0;
+  // A generalised force on released coordinate `coordinate` of local joint `joint` (State::joints):
+  // its row is the coordinate's (the released test quantity p in the mid-point family), its
+  // tangent d residual / d(the coordinate's increment); a driven coordinate has no unknown, and
+  // its residual goes to the drive's reaction. `tangent` is ignored when none was asked for.
+  virtual void AddCoordinate(int joint, int coordinate, double residual, double tangent) = 0;
+};
+
+// One value of a history series that a contributor records (output/results.hpp gathers them on
+// rank 0): its name and its place in the series' order (e.g. the force element's number in the
+// whole model, then the quantity).
+struct HistoryValue {
+  long long   order = 0;
+  std::string name;
+  double      value = 0.0;
 };
 
 // Kinetic energy, linear momentum and angular momentum about the origin.
@@ -90,7 +104,7 @@ struct Momenta {
 // sources upstream first (a node's own unknowns feed the joints that place their slaves, both feed
 // the loads and elements), then by the number in the whole model; the lowest key wins, and of
 // equal keys the first offered.
-enum class TroubleSource : long long { NodeIncrement = 0, Joint, NodeLoad, Element, NodeForces, RigidBody };
+enum class TroubleSource : long long { NodeIncrement = 0, Joint, NodeLoad, Element, NodeForces, RigidBody, ForceElement };
 struct TroubleFindings {
   static constexpr long long kNone = std::numeric_limits<long long>::max();
   long long                  key   = kNone;
@@ -131,6 +145,20 @@ public:
   virtual void AddStoredEnergy(const State &state, double *energy) const {}
   virtual void AddMomenta(const State &state, Momenta *momenta) const {}
   virtual void AddStepWork(const State &state, double *work) const {}
+  // The energy the contributor's dampers dissipate over the step's increments (their force times
+  // the change of what they resist), summed over what this rank holds.
+  virtual void AddStepDissipation(const State &state, double *dissipation) const {}
+  // Whether the stored energy is a spring's (history `spring_energy`) rather than the beams'.
+  virtual bool StoresSpringEnergy() const { return false; }
+
+  // Motion the contributor keeps of its own: StartMotion after the initial velocities (and again
+  // after the initial accelerations) are in the state, CommitStep at the converged increments of a
+  // step before the state commits them (history of damped strains, the forces recorded for the
+  // output).
+  virtual void StartMotion(State *state) {}
+  virtual void CommitStep(State *state) {}
+  // History values of this rank's elements at the last committed step (or the start).
+  virtual void AddHistory(const State &state, std::vector<HistoryValue> *values) const {}
 
   // Numerical trouble in the contributor's data (loads, inertia) rather than in its forces, and
   // in the forces of its free blocks whose nodes are finite (node_finite: per local node).

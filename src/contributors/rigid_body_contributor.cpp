@@ -36,9 +36,16 @@ void RigidBodyContributor::BodyForces(const State &state, size_t b, Vec6 *residu
   residual->setZero();
   if (tangent) tangent->setZero();
   if (eq.Dynamic()) {
-    MotionUpdate update;
-    OffsetPointMassInertia(eq.scheme, body.mass, body.offset, R_start, s.displacement_increment, s.rotation_increment, body.centre_of_mass, residual, tangent,
-                           &update);
+    if (eq.Midpoint()) {
+      MotionUpdate update;
+      OffsetPointMassInertia(eq.scheme, body.mass, body.offset, R_start, s.displacement_increment, s.rotation_increment, body.centre_of_mass, residual, tangent,
+                             &update);
+    } else {
+      // The centre of mass as a point of the node's frame: the Newmark family's stability for a
+      // body turning about a held node (elements/inertia.hpp).
+      RigidOffsetMassInertia(eq.scheme, body.mass, body.offset, R_start, s.displacement_increment, s.rotation_increment, s.translation_motion,
+                             s.rotation_motion, residual, tangent);
+    }
     // The kernel differentiates with respect to omega; spins: d omega = H(omega)^{-1} d theta.
     if (tangent) tangent->rightCols<3>() = (tangent->rightCols<3>() * TangentHInverse(s.rotation_increment)).eval();
   } else if (eq.InitialAcceleration()) {

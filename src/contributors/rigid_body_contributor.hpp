@@ -1,5 +1,6 @@
 // Rigid bodies: the translational inertia of the centre of mass, a point at the offset c from its
-// node moving with its own algorithmic velocity (elements/inertia.hpp), and the body's weight at
+// node (elements/inertia.hpp: moving with the node's frame in the Newmark family, with its own
+// algorithmic velocity in the mid-point family), and the body's weight at
 // the centre of mass with the lever arm of the scheme's virtual work (elements/loads.hpp). The
 // body's rotary inertia is lumped to its node with the beams' (inertia_contributor.hpp).
 #pragma once

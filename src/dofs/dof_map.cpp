@@ -145,6 +145,10 @@ PetscErrorCode DofMapCreate(MPI_Comm comm, const Model &model, const std::vector
     map->local_elements.push_back((int)e);
     for (int a = 0; a < element.order + 1; ++a) add_local(element.nodes[a]);
   }
+  // A force element between two nodes is evaluated by the owner of its first node, which holds the
+  // second as a ghost.
+  for (const ForceElement &element : model.force_elements)
+    if (element.kind != ForceElement::Kind::Coordinate && node_rank[element.nodes[0]] == rank) add_local(element.nodes[1]);
   for (size_t scanned = 0; scanned < map->local_nodes.size(); ++scanned) {
     const int j = map->node_joint[map->local_nodes[scanned]];
     if (j >= 0 && model.joints[j].master >= 0) add_local(model.joints[j].master);
@@ -222,7 +226,28 @@ PetscErrorCode DofMapRestrictToLocal(const Model &model, const DofMap &map, Mode
   local.initial_conditions = model.initial_conditions;
   for (InitialCondition &condition : local.initial_conditions) condition.nodes = RestrictList(node_to_local, condition.nodes);
   local.probes = model.probes;
-  for (Probe &probe : local.probes) probe.node = local_node(probe.node);
+  for (Probe &probe : local.probes) {
+    probe.node    = local_node(probe.node);
+    probe.element = probe.element >= 0 ? map.element_to_local[probe.element] : -1;
+  }
+  // Force elements: those on a local joint's coordinate, and those between two local nodes.
+  for (const ForceElement &element : model.force_elements) {
+    ForceElement kept = element;
+    if (element.kind == ForceElement::Kind::Coordinate) {
+      kept.joint = map.joint_to_local[element.joint];
+      if (kept.joint < 0) continue;
+    } else {
+      kept.nodes = {{local_node(element.nodes[0]), local_node(element.nodes[1])}};
+      if (kept.nodes[0] < 0 || kept.nodes[1] < 0) continue;
+    }
+    local.force_elements.push_back(std::move(kept));
+  }
+  for (const CoordinateInitialCondition &condition : model.coordinate_initial_conditions)
+    if (map.joint_to_local[condition.joint] >= 0) {
+      local.coordinate_initial_conditions.push_back(condition);
+      local.coordinate_initial_conditions.back().joint = map.joint_to_local[condition.joint];
+    }
+  local.expected = model.expected;
   std::vector<int> body_numbers;
   for (size_t b = 0; b < model.rigid_bodies.size(); ++b) {
     const RigidBody &body = model.rigid_bodies[b];
@@ -300,8 +325,24 @@ PetscErrorCode DofMapPreallocation(const DofMap &map, const Model &model, std::v
       for (PetscInt row : map.node_unknowns[n])
         if (row >= first && row < last) holders[(size_t)next[row - first]++] = (int)n;
   }
+  // Force elements between two nodes couple them like a 2-node element: node -> partners.
+  std::vector<int> partner_start(num_nodes + 1, 0), partners;
+  for (const ForceElement &element : model.force_elements)
+    if (element.kind != ForceElement::Kind::Coordinate) ++partner_start[element.nodes[0] + 1], ++partner_start[element.nodes[1] + 1];
+  for (size_t n = 0; n < num_nodes; ++n) partner_start[n + 1] += partner_start[n];
+  partners.resize((size_t)partner_start[num_nodes]);
+  {
+    std::vector<int> next(partner_start.begin(), partner_start.end() - 1);
+    for (const ForceElement &element : model.force_elements)
+      if (element.kind != ForceElement::Kind::Coordinate) {
+        partners[(size_t)next[element.nodes[0]]++] = element.nodes[1];
+        partners[(size_t)next[element.nodes[1]]++] = element.nodes[0];
+      }
+  }
   const auto add_node_columns = [&](int h, std::vector<PetscInt> *columns) {
     columns->insert(columns->end(), map.node_unknowns[h].begin(), map.node_unknowns[h].end());
+    for (int k = partner_start[h]; k < partner_start[h + 1]; ++k)
+      columns->insert(columns->end(), map.node_unknowns[partners[(size_t)k]].begin(), map.node_unknowns[partners[(size_t)k]].end());
     for (int k = element_start[h]; k < element_start[h + 1]; ++k) {
       const BeamElement &element = model.elements[(size_t)node_elements[(size_t)k]];
       for (int a = 0; a <= element.order; ++a)

@@ -4,7 +4,8 @@
 // no unknowns of its own: its configuration follows from its master and its joint (chains
 // compose). Owned unknowns of a rank are contiguous in the global numbering (PETSc's layout); a
 // joint belongs to the rank of its slave node. Ghost nodes are the non-owned nodes of the rank's
-// elements and, recursively, the masters of local slave nodes.
+// elements, the second nodes of the force elements whose first node the rank owns and,
+// recursively, the masters of local slave nodes.
 //
 // Set-up sees the whole model; DofMapRestrictToLocal then makes the distributed model: a new model
 // and map of what the rank holds (its local nodes, elements and joints, renumbered), so that no
@@ -77,8 +78,8 @@ struct DofMap {
 PetscErrorCode DofMapCreate(MPI_Comm comm, const Model &model, const std::vector<int> &node_rank, DofMap *map);
 
 // Exact nonzeros per owned row of the assembled matrix, split into the diagonal (owned columns)
-// and off-diagonal blocks: every element couples the unknowns of all its nodes, every node those
-// it depends on (nodal inertia, loads and the joints' geometric stiffness).
+// and off-diagonal blocks: every element and every force element between two nodes couples the
+// unknowns of all its nodes, every node those it depends on (nodal inertia, loads and the joints' geometric stiffness).
 // With row_start and columns (may be null): the pattern itself, in CSR form for the owned rows
 // (global column indices, ascending per row), as MatMPIAIJSetPreallocationCSR takes it.
 PetscErrorCode DofMapPreallocation(const DofMap &map, const Model &model, std::vector<PetscInt> *diagonal_nonzeros,

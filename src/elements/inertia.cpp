@@ -50,6 +50,33 @@ void OffsetPointMassInertia(const TimeScheme &scheme, double mass, const Vec3 &o
   tangent->block<3, 3>(3, 3) = Skew(arm) * dF_domega - arm_weight * Skew(F) * dr_domega;
 }
 
+void RigidOffsetMassInertia(const TimeScheme &scheme, double mass, const Vec3 &offset, const Mat3 &rotation_start, const Vec3 &u, const Vec3 &omega,
+                            const MotionState &translation, const MotionState &rotation, Vec6 *residual, Mat6 *tangent)
+{
+  const Mat3         R_new = ExpSO3(omega) * rotation_start;
+  const MotionUpdate node  = AdvanceMotion(scheme, translation, u);
+  const MotionUpdate spin  = AdvanceMotion(scheme, rotation, rotation_start.transpose() * omega);
+  const Vec3        &c = offset, &W = spin.velocity, &Wdot = spin.acceleration;
+  const Vec3         Wc = W.cross(c);
+  const Vec3         y  = Wdot.cross(c) + W.cross(Wc); // body-frame acceleration of the centre relative to the node
+  const Vec3         r  = R_new * c;
+  const Vec3         F  = mass * (node.acceleration + R_new * y);
+  residual->head<3>()   = F;
+  residual->tail<3>()   = r.cross(F);
+  if (!tangent) return;
+  // d(R y) = -hat(R y) H d omega + R dy,  dy = [-hat(c) ca + (-hat(W x c) - hat(W) hat(c)) cv] R_n^T d omega.
+  const Mat3   H  = TangentH(omega);
+  const double ca = scheme.InertiaCoefficient(), cv = scheme.VelocityCoefficient();
+  const Mat3   dy_domega     = (-Skew(c) * ca + (-Skew(Wc) - Skew(W) * Skew(c)) * cv) * rotation_start.transpose();
+  const Mat3   dF_du         = mass * ca * Mat3::Identity();
+  const Mat3   dF_domega     = mass * (-Skew(R_new * y) * H + R_new * dy_domega);
+  const Mat3   dr_domega     = -Skew(r) * H;
+  tangent->block<3, 3>(0, 0) = dF_du;
+  tangent->block<3, 3>(0, 3) = dF_domega;
+  tangent->block<3, 3>(3, 0) = Skew(r) * dF_du;
+  tangent->block<3, 3>(3, 3) = Skew(r) * dF_domega - Skew(F) * dr_domega;
+}
+
 void InitialRotationalInertia(const Mat3 &inertia, const Mat3 &rotation, const Vec3 &body_angular_velocity, const Vec3 &angular_acceleration, Vec3 *moment,
                               Mat3 *tangent)
 {

@@ -34,8 +34,25 @@ void RotationalInertia(const TimeScheme &scheme, const Mat3 &inertia, const Mat3
                        Mat3 *tangent, MotionUpdate *update);
 
 // residual: (force, moment) on the node (6); tangent: d/d(u, omega) (6x6); update: the point's motion.
+// Mid-point family (the centre of mass moves with its own algorithmic velocity, which the
+// conserving scheme keeps consistent with the node); the Newmark family uses
+// RigidOffsetMassInertia below.
 void OffsetPointMassInertia(const TimeScheme &scheme, double mass, const Vec3 &offset, const Mat3 &rotation_start, const Vec3 &u, const Vec3 &omega,
                             const MotionState &start, Vec6 *residual, Mat6 *tangent, MotionUpdate *update);
+
+// Newmark family: the centre of mass as a point of the node's rigid frame. Its acceleration follows
+// from the node's algorithmic motion (translation a, material angular velocity W and acceleration
+// Wdot, all of the scheme at t_{n+1}) instead of being integrated as a point of its own:
+//   a_c = a + Lambda_{n+1} (Wdot x c + W x (W x c)),   F = m a_c,   moment r_{n+1} x F.
+// Together with the rotary inertia about the centre of mass (RotationalInertia) this is the rigid
+// body's Newton-Euler equations about the node, J_o = J_c - m hat(c)^2, which Newmark integrates
+// with the Simo & Vu-Quoc update: a body spinning about a held node with its centre of mass away
+// from it keeps the scheme's stability (integrating the centre of mass as an independent Newmark
+// point does not: its trajectory leaves the sphere the joint allows and the energy grows).
+// residual (6) and tangent d/d(u, omega) (6x6); `translation` and `rotation` are the node's
+// start-of-step motions (global translation, material rotation).
+void RigidOffsetMassInertia(const TimeScheme &scheme, double mass, const Vec3 &offset, const Mat3 &rotation_start, const Vec3 &u, const Vec3 &omega,
+                            const MotionState &translation, const MotionState &rotation, Vec6 *residual, Mat6 *tangent);
 
 // Initial-acceleration problem: rotary inertia of a node with body-frame tensor J, rotation Lambda
 // and body angular velocity W; moment and d moment / d wdot.

@@ -27,6 +27,28 @@ PetscErrorCode Integrator::Setup(MPI_Comm comm, const Model &model, const DofMap
   const bool em                  = dynamic_ && model.analysis.integrator == TimeSchemeKind::EnergyMomentum;
   PetscCall(NewtonSolverCreate(comm, model.analysis, em ? NewtonOperator::AssembledWithRankOne : NewtonOperator::Assembled, &newton_context_, &snes_));
   PetscCall(VecDuplicate(system_.GetAssembler().SolutionTemplate(), &increments_));
+  for (const Probe &probe : model.probes) reaction_probes_ = reaction_probes_ || probe.kind == Probe::Kind::Reaction;
+  int local = reaction_probes_ ? 1 : 0, any; // every rank takes part in the reactions' reduction
+  PetscCallMPI(MPI_Allreduce(&local, &any, 1, MPI_INT, MPI_MAX, comm));
+  reaction_probes_ = any != 0;
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode Integrator::InitialiseConfiguration()
+{
+  PetscFunctionBeginUser;
+  StateSetInitialConfiguration(*model_, *map_, &system_.GetState());
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode Integrator::InitialiseStatics()
+{
+  PetscFunctionBeginUser;
+  system_.StartMotion();
+  if (reaction_probes_) {
+    PetscCall(system_.GetAssembler().BeginStep(StaticStep(0.0, 0.0)));
+    PetscCall(system_.GetAssembler().EvaluateSupportReactions());
+  }
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
@@ -35,7 +57,26 @@ PetscErrorCode Integrator::InitialiseMotion(double t)
   PetscFunctionBeginUser;
   Assembler &assembler = system_.GetAssembler();
   StateSetInitialVelocities(*model_, *map_, t, &system_.GetState());
-  if (IsMidpointScheme(model_->analysis.integrator)) PetscFunctionReturn(PETSC_SUCCESS);
+  if (model_->analysis.project_initial_velocities) {
+    InitialVelocityReport report;
+    PetscCall(assembler.ProjectInitialVelocities(t, &report));
+    if (!quiet_)
+      PetscCall(PetscPrintf(comm_,
+                            "msflex: initial velocities: %" PetscInt_FMT " unknown(s) held at given velocities, %" PetscInt_FMT
+                            " chosen for the least strain rate (V^T K V %.3e -> %.3e), %" PetscInt_FMT
+                            " at rest; largest change of a given velocity %.3g (slaves: the nearest their joints allow)\n",
+                            report.held, report.chosen, report.strain_rate_before, report.strain_rate_after, report.at_rest, report.slave_change));
+  } else {
+    StateSetCoordinateRates(*model_, t, &system_.GetState());
+  }
+  system_.StartMotion();
+  if (IsMidpointScheme(model_->analysis.integrator)) {
+    if (reaction_probes_) {
+      PetscCall(assembler.BeginStep(InitialAccelerationProblem(t)));
+      PetscCall(assembler.EvaluateSupportReactions());
+    }
+    PetscFunctionReturn(PETSC_SUCCESS);
+  }
   SNESConvergedReason reason;
   PetscCall(assembler.BeginStep(InitialAccelerationProblem(t)));
   PetscCall(VecZeroEntries(increments_));
@@ -46,11 +87,34 @@ PetscErrorCode Integrator::InitialiseMotion(double t)
   PetscCall(assembler.SetIncrements(increments_));
   // The reactions at t (the trapezoidal work of the first step starts from them).
   PetscCall(assembler.StoreReactions());
+  if (reaction_probes_) PetscCall(assembler.EvaluateSupportReactions());
+  if (assembler.NumMasslessUnknowns() > 0 && !quiet_)
+    PetscCall(PetscPrintf(comm_, "msflex: initial accelerations: %" PetscInt_FMT " unknown(s) without mass start with zero acceleration\n",
+                          assembler.NumMasslessUnknowns()));
   StateCommitInitialAcceleration(&system_.GetState());
+  system_.StartMotion();
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
 PetscErrorCode Integrator::TryStep(double t, double dt, StepOutcome *outcome)
+{
+  const AnalysisSettings &analysis = model_->analysis;
+  PetscFunctionBeginUser;
+  TimeScheme scheme             = MakeTimeScheme(analysis.integrator, analysis.spectral_radius, dt);
+  scheme.energy_correction      = analysis.em_correction;
+  const StepEquations equations = dynamic_ ? DynamicStep(scheme, t) : StaticStep(t, t + dt);
+  PetscCall(TryEquations(equations, dt, outcome));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode Integrator::TryStaticStageStep(double t, double load_factor, double step, StepOutcome *outcome)
+{
+  PetscFunctionBeginUser;
+  PetscCall(TryEquations(StaticStageStep(t, load_factor + step), step, outcome));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode Integrator::TryEquations(const StepEquations &equations, double dt, StepOutcome *outcome)
 {
   const AnalysisSettings &analysis = model_->analysis;
   SNESConvergedReason     reason;
@@ -61,9 +125,6 @@ PetscErrorCode Integrator::TryStep(double t, double dt, StepOutcome *outcome)
   PetscFunctionBeginUser;
   *outcome = StepOutcome{};
   PetscCall(PetscLogStagePush(solve_stage_));
-  TimeScheme scheme             = MakeTimeScheme(analysis.integrator, analysis.spectral_radius, dt);
-  scheme.energy_correction      = analysis.em_correction;
-  const StepEquations equations = dynamic_ ? DynamicStep(scheme, t) : StaticStep(t, t + dt);
   PetscCall(assembler.BeginStep(equations));
   PetscCall(assembler.PredictIncrements(increments_));
   PetscCall(SNESSolve(snes_, nullptr, increments_));
@@ -80,12 +141,16 @@ PetscErrorCode Integrator::TryStep(double t, double dt, StepOutcome *outcome)
   if (reason > 0) PetscCall(assembler.MaxRotationIncrement(&max_rotation));
   const bool rotation_too_large = max_rotation > analysis.max_rotation_increment;
   if (reason > 0 && !rotation_too_large) {
-    if (dynamic_) {
-      double work;
+    if (equations.Dynamic()) {
+      double work, dissipation;
       PetscCall(assembler.StepExternalWork(&work));
       external_work_ += work;
+      PetscCall(assembler.StepDissipation(&dissipation));
+      dissipated_energy_ += dissipation;
     }
     if (map_->global_count.joints > 0) PetscCall(assembler.EvaluateJointReactions(dt));
+    if (reaction_probes_) PetscCall(assembler.EvaluateSupportReactions());
+    system_.CommitStep();
     StateCommitStep(*model_, &system_.GetState());
     outcome->converged = true;
     PetscFunctionReturn(PETSC_SUCCESS);

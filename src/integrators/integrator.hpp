@@ -41,9 +41,18 @@ public:
   // integrator. Collective.
   PetscErrorCode Setup(MPI_Comm comm, const Model &model, const DofMap &map, MatrixPattern pattern, NodalMass nodal_mass, PetscLogStage assembly_stage);
 
+  // The initial configuration of the initial conditions (displacements, rotations, joint
+  // coordinates). Collective.
+  PetscErrorCode InitialiseConfiguration();
   // Initial velocities, and for the Newmark family the accelerations that satisfy the equations of
-  // motion at t (a linear problem, solved by the same Newton solver in one iteration). Collective.
+  // motion at t (a linear problem, solved by the same Newton solver in one iteration; unknowns no
+  // mass reaches get zero acceleration). Collective.
   PetscErrorCode InitialiseMotion(double t);
+  // The start of a static analysis (the force elements' recorded forces). Collective.
+  PetscErrorCode InitialiseStatics();
+  // One attempt at a step of the static stage: equilibrium at t with the loads scaled from
+  // load_factor to load_factor + step; committed when converged, as TryStep. Collective.
+  PetscErrorCode TryStaticStageStep(double t, double load_factor, double step, StepOutcome *outcome);
   // One attempt at the step t -> t + dt. Converged (and the nodal rotation increments within
   // max_rotation_increment): the external work is accumulated, the joint reactions are
   // evaluated and the step is committed; otherwise the state is back at t and outcome->why says
@@ -55,10 +64,19 @@ public:
   PetscErrorCode ElementResults(std::vector<msflex::ElementResults> *results, double *strain_energy);
   PetscErrorCode StrainEnergy(double *strain_energy);
   PetscErrorCode MomentaOfState(Momenta *momenta);
+  // Stored energy of the force elements' springs in the current state (collective).
+  PetscErrorCode SpringEnergy(double *energy) { return system_.SpringEnergy(energy); }
+  bool           HasForceElementsOrDamping() const { return system_.HasForceElementsOrDamping(); }
+  void           ForceElementHistory(std::vector<HistoryValue> *values) const { system_.ForceElementHistory(values); }
 
-  bool         Dynamic() const { return dynamic_; }
-  double       ExternalWork() const { return external_work_; }
-  void         SetExternalWork(double work) { external_work_ = work; }
+  bool Dynamic() const { return dynamic_; }
+  // No messages (-quiet).
+  void   SetQuiet(bool quiet) { quiet_ = quiet; }
+  double ExternalWork() const { return external_work_; }
+  void   SetExternalWork(double work) { external_work_ = work; }
+  // Energy dissipated by the dampers since t = 0 (dynamics).
+  double       DissipatedEnergy() const { return dissipated_energy_; }
+  void         SetDissipatedEnergy(double energy) { dissipated_energy_ = energy; }
   double       EnergyCorrectionFactor() const { return system_.GetAssembler().EnergyCorrectionFactor(); }
   const State &GetState() const { return system_.GetState(); }
   State       *MutableState() { return &system_.GetState(); }
@@ -77,10 +95,15 @@ private:
   bool             dynamic_ = false;
   MechanicalSystem system_;
   NewtonContext    newton_context_;
-  SNES             snes_          = nullptr;
-  Vec              increments_    = nullptr;
-  double           external_work_ = 0.0; // accumulated work of the external loads (dynamics)
-  PetscLogStage    solve_stage_   = -1;
+  SNES             snes_              = nullptr;
+  Vec              increments_        = nullptr;
+  double           external_work_     = 0.0;   // accumulated work of the external loads (dynamics)
+  double           dissipated_energy_ = 0.0;   // accumulated dissipation of the dampers (dynamics)
+  bool             reaction_probes_   = false; // the model has reaction probes
+  bool             quiet_             = false;
+  // One attempt at a step with these equations (TryStep, TryStaticStageStep).
+  PetscErrorCode TryEquations(const StepEquations &equations, double dt, StepOutcome *outcome);
+  PetscLogStage  solve_stage_ = -1;
 };
 
 } // namespace msflex

@@ -315,6 +315,24 @@ std::string JointTreeProblem(const Joint &joint, const ReaderContext &context, b
   return "";
 }
 
+int NamedJointCoordinate(const Joint &joint, const YAML::Node &value, const std::string &where)
+{
+  const std::string              coordinate = ReadString(value, "coordinate");
+  const std::vector<std::string> names      = DrivableCoordinates(joint);
+  std::vector<std::string>       choices    = names;
+  if (joint.rotation == Joint::Rotation::OneAxis) choices.push_back("rotation");
+  const std::string joint_kind = "joint " + Quote(joint.name) + " (" + JointKindName(joint.kind) + ")";
+  if (coordinate == "rotation" && joint.rotation == Joint::Rotation::OneAxis) return joint.num_translations;
+  for (size_t k = 0; k < names.size(); ++k)
+    if (names[k] == coordinate) return static_cast<int>(k);
+  const bool rotation_name = coordinate == "rx" || coordinate == "ry" || coordinate == "rz";
+  if (rotation_name && joint.rotation == Joint::Rotation::Free)
+    FailAt(value.Mark(), "the free rotation of " + joint_kind + " has no angle " + Quote(coordinate) + " for " + where +
+                             "; use a bushing between its master and slave, or a joint with one or two rotation axes");
+  FailAt(value.Mark(), "coordinate " + Quote(coordinate) + " of " + where + " is not released by " + joint_kind + "; " +
+                           (choices.empty() ? "it has no coordinate with a name" : "its coordinates are " + JoinWords(choices)));
+}
+
 void AppendJoint(Joint joint, ReaderContext &context)
 {
   Model    &model                     = context.model;

@@ -1,12 +1,13 @@
 // Static mechanism check: every connected group of beams, and every group of rigid bodies outside
 // all beams, must be held by its supports and its joints to the ground against the six linearised
 // rigid-body motions, or the static tangent stiffness is singular from the first step. Elements and
-// joints between two nodes connect nodes into groups. Caught here, the user gets a message naming
+// joints between two nodes, and bushings stiff in all six directions, connect nodes into groups. Caught here, the user gets a message naming
 // the beams or the node instead of a failed solve. Dynamic analyses skip the check: there the mass
 // holds free motions. Mechanisms inside a group (e.g. a free revolute joint between two supported
 // beams) are not detected.
 #include "io/input_reader_internal.hpp"
 
+#include <Eigen/Cholesky>
 #include <Eigen/Geometry>
 #include <Eigen/LU>
 
@@ -29,6 +30,9 @@ public:
       for (int a = 1; a <= element.order; ++a) Join(element.nodes[0], element.nodes[a]);
     for (const Joint &joint : model.joints)
       if (joint.master >= 0) Join(joint.master, joint.slave);
+    // A bushing stiff in all six directions ties its nodes like an element.
+    for (const ForceElement &element : model.force_elements)
+      if (element.kind == ForceElement::Kind::Bushing && element.bushing_stiffness.llt().info() == Eigen::Success) Join(element.nodes[0], element.nodes[1]);
   }
   int Root(int node)
   {

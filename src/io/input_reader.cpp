@@ -217,9 +217,30 @@ void ReadSectionInertia(const MappingReader &entry, Section &section)
   if (const YAML::Node *rhoJ = entry.Find("rhoJ")) section.rhoJ = ReadNonNegativeVec3(*rhoJ, "rhoJ");
 }
 
+// Structural damping: proportional to the stiffness (`damping_time` tau, s: C_d = tau C) or given
+// (`damping`: six numbers >= 0, in the order EA GA2 GA3 GJ EI2 EI3), never both.
+void ReadSectionDamping(const MappingReader &entry, Section &section)
+{
+  if (entry.Has("damping_time") && entry.Has("damping"))
+    FailAt(entry.Required("damping").Mark(), "give either 'damping_time' or 'damping' in " + entry.Description() + ", not both");
+  if (entry.Has("damping_time")) {
+    const double tau                = entry.NonNegativeNumber("damping_time", 0.0);
+    section.damping_axial_shear     = tau * Vec3(section.EA, section.GA2, section.GA3);
+    section.damping_torsion_bending = tau * Vec3(section.GJ, section.EI2, section.EI3);
+  } else if (const YAML::Node *value = entry.Find("damping")) {
+    if (!value->IsSequence() || value->size() != 6)
+      FailAt(value->Mark(), "expected 6 numbers (for EA GA2 GA3 GJ EI2 EI3) for 'damping' of " + entry.Description() + ", got " + DescribeValue(*value));
+    for (int k = 0; k < 3; ++k) {
+      section.damping_axial_shear(k)     = ReadNonNegativeNumber((*value)[k], "damping");
+      section.damping_torsion_bending(k) = ReadNonNegativeNumber((*value)[3 + k], "damping");
+    }
+  }
+}
+
 Section ReadSection(const YAML::Node &item, const ReaderContext &context)
 {
-  const MappingReader entry(item, "section", {"name", "EA", "GA2", "GA3", "GJ", "EI2", "EI3", "rhoA", "rhoJ", "density", "area", "I2", "I3"});
+  const MappingReader entry(item, "section",
+                            {"name", "EA", "GA2", "GA3", "GJ", "EI2", "EI3", "rhoA", "rhoJ", "density", "area", "I2", "I3", "damping_time", "damping"});
   Section             section;
   section.name = entry.String("name");
   section.mark = context.MarkOf(entry.Mark());
@@ -231,6 +252,7 @@ Section ReadSection(const YAML::Node &item, const ReaderContext &context)
   section.EI2 = entry.PositiveNumber("EI2");
   section.EI3 = entry.PositiveNumber("EI3");
   ReadSectionInertia(entry, section);
+  ReadSectionDamping(entry, section);
   return section;
 }
 
@@ -261,10 +283,12 @@ void CheckEveryNodeConnected(const ReaderContext &context, size_t user_node_coun
     if (joint.master >= 0) connected[joint.master] = true;
     connected[joint.slave] = true;
   }
+  for (const ForceElement &element : model.force_elements)
+    if (element.kind != ForceElement::Kind::Coordinate) connected[element.nodes[0]] = connected[element.nodes[1]] = true;
   for (size_t node = 0; node < user_node_count; ++node)
     if (!connected[node])
       FailAt(model.nodes[node].mark, MeshNodePrefix(context, static_cast<int>(node)) + "node " + Quote(model.nodes[node].name) +
-                                         " is not connected to any beam or joint and carries no rigid body");
+                                         " is not connected to any beam, joint or force element and carries no rigid body");
 }
 
 void ReadSets(const YAML::Node *mapping, ReaderContext &context)
@@ -429,14 +453,62 @@ void ReadLoad(const YAML::Node &item, ReaderContext &context)
   model.distributed_loads.push_back(std::move(load));
 }
 
+// A probe is one of: a point moving with a node's frame (`node`, optional `offset`), a rigid
+// body's centre of mass (`rigid_body`), the support reaction at a node (`reaction`) or the section
+// forces of an element (`beam`, optional `element`).
 Probe ReadProbe(const YAML::Node &item, const ReaderContext &context)
 {
-  const MappingReader entry(item, "probe", {"name", "node"});
+  const MappingReader entry(item, "probe", {"name", "node", "offset", "rigid_body", "reaction", "beam", "element"});
+  const Model        &model = context.model;
   Probe               probe;
   probe.name = entry.String("name");
   probe.mark = context.MarkOf(entry.Mark());
-  RequireUniqueName(context.model.probes, probe.name, "probe", entry);
-  probe.node = context.NodeIndex(entry, "node");
+  RequireUniqueName(model.probes, probe.name, "probe", entry);
+  const int kinds = int(entry.Has("node")) + int(entry.Has("rigid_body")) + int(entry.Has("reaction")) + int(entry.Has("beam"));
+  if (kinds != 1)
+    FailAt(entry.Mark(), "a probe needs exactly one of 'node' (a point), 'rigid_body' (its centre of mass), 'reaction' (a supported node) and 'beam' (an "
+                         "element's section forces), got " +
+                             std::to_string(kinds));
+  if (const YAML::Node *offset = entry.Find("offset"); offset && !entry.Has("node"))
+    FailAt(offset->Mark(), "'offset' of " + entry.Description() + " goes with 'node'");
+  if (const YAML::Node *element = entry.Find("element"); element && !entry.Has("beam"))
+    FailAt(element->Mark(), "'element' of " + entry.Description() + " goes with 'beam'");
+  if (entry.Has("node")) {
+    probe.node   = context.NodeIndex(entry, "node");
+    probe.offset = entry.Has("offset") ? ReadPosition(entry.Required("offset"), "offset") : Vec3::Zero();
+  } else if (entry.Has("rigid_body")) {
+    const YAML::Node &value = entry.Required("rigid_body");
+    const std::string name  = ReadString(value, "rigid_body");
+    const int         body  = IndexByName(model.rigid_bodies, name);
+    if (body < 0) FailAt(value.Mark(), "unknown rigid body " + Quote(name) + " in " + entry.Description() + " (a rigid body is named by its 'name')");
+    probe.node   = model.rigid_bodies[body].node;
+    probe.offset = model.rigid_bodies[body].offset;
+  } else if (entry.Has("reaction")) {
+    probe.kind     = Probe::Kind::Reaction;
+    probe.node     = context.NodeIndex(entry, "reaction");
+    bool supported = false;
+    for (const Support &support : model.supports)
+      for (int node : support.nodes)
+        if (node == probe.node)
+          for (Support::Kind kind : support.kind) supported = supported || kind != Support::Kind::Free;
+    if (!supported)
+      FailAt(entry.Required("reaction").Mark(), "node " + Quote(model.nodes[probe.node].name) + " of " + entry.Description() +
+                                                    " has no support, so no reaction; name a node that a support fixes or prescribes");
+  } else {
+    probe.kind              = Probe::Kind::Element;
+    const YAML::Node &value = entry.Required("beam");
+    const std::string name  = ReadString(value, "beam");
+    const auto        found = context.names.find(name);
+    if (found == context.names.end() || found->second.kind != NameKind::Beam)
+      FailAt(value.Mark(), "unknown beam " + Quote(name) + " in " + entry.Description());
+    const Beam &beam  = model.beams[found->second.index];
+    const int   count = static_cast<int>(beam.elements.size());
+    const int   index = entry.Integer("element", 0, 0);
+    if (index >= count)
+      FailAt(entry.Required("element").Mark(), "beam " + Quote(name) + " has " + std::to_string(count) + " element(s), numbered 0 to " +
+                                                   std::to_string(count - 1) + "; got 'element: " + std::to_string(index) + "'");
+    probe.element = beam.elements[index];
+  }
   return probe;
 }
 
@@ -519,7 +591,10 @@ void ReadAnalysis(const YAML::Node *mapping, const ReaderContext &context, Analy
                              "stability",
                              "eigenvalues",
                              "shift",
-                             "preload"});
+                             "preload",
+                             "static_stage",
+                             "static_stage_steps",
+                             "initial_velocities"});
   analysis.mark = context.MarkOf(entry.Mark());
   if (const YAML::Node *value = entry.Find("type")) {
     const std::string type = ReadString(*value, "type");
@@ -564,6 +639,14 @@ void ReadAnalysis(const YAML::Node *mapping, const ReaderContext &context, Analy
   analysis.newton_rtol           = entry.PositiveNumber("newton_rtol", analysis.newton_rtol);
   analysis.newton_atol           = entry.NonNegativeNumber("newton_atol", analysis.newton_atol);
   if (const YAML::Node *output_times = entry.Find("output_times")) ReadOutputTimes(*output_times, analysis);
+  analysis.static_stage       = entry.Bool("static_stage", analysis.static_stage);
+  analysis.static_stage_steps = entry.Integer("static_stage_steps", 1, analysis.static_stage_steps);
+  if (const YAML::Node *value = entry.Find("initial_velocities")) {
+    const std::string choice = ReadString(*value, "initial_velocities");
+    if (choice != "projected" && choice != "given")
+      FailAt(value->Mark(), "unknown choice " + Quote(choice) + " for 'initial_velocities'; expected projected or given");
+    analysis.project_initial_velocities = choice == "projected";
+  }
   ReadPathFollowing(entry, context, analysis);
 }
 
@@ -619,7 +702,7 @@ Model ParseModel(const std::string &text, const std::string &file_label, MPI_Com
   context.model.input_file = file_label;
   context.model.input_text = text;
   const MappingReader top(LoadSingleDocument(text), "the top-level mapping",
-                          {"title", "mesh", "functions", "sections", "nodes", "beams", "rigid_bodies", "sets", "supports", "loads", "joints",
+                          {"title", "mesh", "functions", "sections", "nodes", "beams", "rigid_bodies", "sets", "supports", "loads", "joints", "force_elements",
                            "initial_conditions", "probes", "analysis", "output", "expected"});
   // The model has no place for the title; it is validated here and kept in input_text.
   if (top.Has("title")) top.String("title");
@@ -655,6 +738,7 @@ Model ParseModel(const std::string &text, const std::string &file_label, MPI_Com
   if (mesh != nullptr) AddMeshJoints(*mesh, context);
   ReadJoints(top.Find("joints"), context);
   mesh.reset();
+  ReadForceElements(top.Find("force_elements"), context);
   CheckEveryNodeConnected(context, user_node_count);
   for (const YAML::Node &item : ReadOptionalList(top.Find("supports"), "supports")) model.supports.push_back(ReadSupport(item, context));
   CheckSupportConflicts(model);

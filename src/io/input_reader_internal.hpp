@@ -119,6 +119,10 @@ Mat3 JointAxesFrom(const Vec3 &axis, const Vec3 *second_axis);
 // one joint and closes no cycle of joints, else the message. *at_slave tells whether the problem
 // is with the slave (already a slave) rather than the joint as a whole (a cycle).
 std::string JointTreeProblem(const Joint &joint, const ReaderContext &context, bool *at_slave);
+// The index of the released coordinate named by `value` (tx .. rz, or `rotation` for the single
+// rotation of a one-axis joint) of `joint`, for force elements and initial conditions (`where`
+// names the entry in messages); a free rotation has no named coordinate.
+int NamedJointCoordinate(const Joint &joint, const YAML::Node &value, const std::string &where);
 // Appends a checked joint to Model::joints and records its slave in joint_of_slave and its name.
 void AppendJoint(Joint joint, ReaderContext &context);
 
@@ -157,6 +161,10 @@ void AddMeshJoints(const MeshData &mesh, ReaderContext &context);
 int MeshNodeRow(const ReaderContext &context, int node);
 // "lattice.h5: /nodes row 3: " for a node that came from the mesh file, else "".
 std::string MeshNodePrefix(const ReaderContext &context, int node);
+
+// Reads `force_elements` into Model::force_elements (input_force_elements.cpp). Needs the nodes,
+// the joints and the functions.
+void ReadForceElements(const YAML::Node *list, ReaderContext &context);
 
 // Reads `expected` into Model::expected (input_expected.cpp): results an example must reproduce,
 // which the test suite checks against the result file and the solver ignores.

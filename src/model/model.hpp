@@ -47,7 +47,11 @@ struct Section {
   double      EA = 0, GA2 = 0, GA3 = 0, GJ = 0, EI2 = 0, EI3 = 0; // N, N, N, N m^2, N m^2, N m^2
   double      rhoA = 0;                                           // mass per unit length, kg/m
   Vec3        rhoJ = Vec3::Zero();                                // rotational inertia per length (J1, J2, J3), kg m
-  SourceMark  mark;
+  // Structural damping: viscous section forces C_d (Gammadot, Kdot) on the strain rates, C_d =
+  // diag(damping_axial_shear, damping_torsion_bending) (N s, N s, N s, N m^2 s, N m^2 s, N m^2 s).
+  Vec3       damping_axial_shear = Vec3::Zero(), damping_torsion_bending = Vec3::Zero();
+  bool       Damped() const { return !damping_axial_shear.isZero(0.0) || !damping_torsion_bending.isZero(0.0); }
+  SourceMark mark;
 };
 
 struct Node {
@@ -125,23 +129,37 @@ struct DistributedLoad {
 // the centre of mass from the node, both given in global axes for the reference configuration
 // (the node's rotation is the identity there, so they are also the node's body-frame values).
 struct RigidBody {
-  int        node    = -1;
-  double     mass    = 0.0;          // kg
-  Mat3       inertia = Mat3::Zero(); // kg m^2, about the centre of mass, symmetric positive semi-definite
-  Vec3       offset  = Vec3::Zero(); // m, centre of mass minus node position
-  SourceMark mark;
+  std::string name; // optional (probes refer to it)
+  int         node    = -1;
+  double      mass    = 0.0;          // kg
+  Mat3        inertia = Mat3::Zero(); // kg m^2, about the centre of mass, symmetric positive semi-definite
+  Vec3        offset  = Vec3::Zero(); // m, centre of mass minus node position
+  SourceMark  mark;
 };
 
 // Initial velocities of a set of nodes: uniform (v = velocity) or a rigid-body field
 // v = velocity + angular_velocity x (X - center) when `rigid_body_field`; every node of the set
 // gets the angular velocity `angular_velocity` (global axes).
+// Initial displacements: the set is moved rigidly (rotation vector `rotation`, global axes, about
+// `center` when `rigid_body_field`, else about each node) and translated by `displacement`.
 struct InitialCondition {
   std::vector<int> nodes;
   Vec3             velocity         = Vec3::Zero(); // m/s
   Vec3             angular_velocity = Vec3::Zero(); // rad/s
   bool             rigid_body_field = false;
   Vec3             center           = Vec3::Zero(); // m
+  bool             has_velocity     = false;        // velocity or angular_velocity given
+  Vec3             displacement     = Vec3::Zero(); // m
+  Vec3             rotation         = Vec3::Zero(); // rad, rotation vector in global axes
   SourceMark       mark;
+};
+
+// The initial value and rate of a joint's released coordinate (from the reference value 0).
+struct CoordinateInitialCondition {
+  int        joint = -1, coordinate = -1;
+  bool       has_value = false, has_rate = false;
+  double     value = 0.0, rate = 0.0; // m or rad, m/s or rad/s
+  SourceMark mark;
 };
 
 // A master–slave joint (docs/joints.md). The slave node's motion follows from the master's and
@@ -170,10 +188,44 @@ struct Joint {
   SourceMark mark;
 };
 
+// What a probe records every step: a point moving with a node's frame (position x + Lambda offset;
+// offset in global axes at the reference configuration, the centre of mass for a rigid body's
+// probe), the reaction of a node's supports, or the section forces of an element.
 struct Probe {
+  enum class Kind { Point, Reaction, Element };
   std::string name;
-  int         node = -1;
+  Kind        kind    = Kind::Point;
+  int         node    = -1;           // Point, Reaction
+  Vec3        offset  = Vec3::Zero(); // Point, m
+  int         element = -1;           // Element: index into Model::elements
   SourceMark  mark;
+};
+
+// A force element (docs/input.md, force_elements): on a joint's released coordinate (a spring,
+// linear or tabulated, a linear damper and an actuator following a function of time), an axial
+// spring-damper between two nodes, or a bushing between two nodes.
+struct SpringLaw {
+  bool                present    = false;
+  double              stiffness  = 0.0;    // N/m or N m/rad
+  double              free_value = 0.0;    // m or rad: the coordinate (length) at which the force vanishes
+  std::vector<double> deflections, forces; // tabulated f(x - free_value) when non-empty
+};
+struct ForceElement {
+  enum class Kind { Coordinate, SpringDamper, Bushing };
+  std::string        name;
+  int                number = -1; // in the whole model (kept by the distributed model)
+  Kind               kind   = Kind::Coordinate;
+  int                joint = -1, coordinate = -1; // Coordinate: the joint and its released coordinate
+  std::array<int, 2> nodes{{-1, -1}};             // SpringDamper, Bushing
+  SpringLaw          spring;                      // Coordinate, SpringDamper
+  double             damping           = 0.0;     // Coordinate, SpringDamper: N s/m or N m s/rad
+  bool               has_actuator      = false;   // Coordinate
+  double             actuator          = 0.0;     // N or N m at function value 1
+  int                actuator_function = -1;      // -1: ramp f(t) = t
+  // Bushing: 6x6 stiffness and damping in bushing axes (translations, then rotations), the axes.
+  Eigen::Matrix<double, 6, 6> bushing_stiffness = Eigen::Matrix<double, 6, 6>::Zero(), bushing_damping = Eigen::Matrix<double, 6, 6>::Zero();
+  Mat3                        axes = Mat3::Identity();
+  SourceMark                  mark;
 };
 
 // A result an example must reproduce (docs/input.md, expected): the solver ignores it; the test
@@ -209,6 +261,13 @@ struct AnalysisSettings {
   double              newton_rtol            = 1e-10;
   double              newton_atol            = 1e-50;
   std::vector<double> output_times; // steps are shortened to hit these exactly
+  // Dynamic analyses: a static stage first (equilibrium under the loads at t = 0, reached in
+  // load steps starting at 1/static_stage_steps), then the motion from it.
+  bool static_stage       = false;
+  int  static_stage_steps = 1;
+  // Initial velocities: projected (drives, given velocities and the least strain rate of the
+  // beams, docs/input.md) or given (as written, others at rest).
+  bool project_initial_velocities = true;
   // Path following in statics (docs/stability.md). control: what the steps advance (model/
   // analysis_types.hpp). Arc length: psi weighs the load factor in the constraint (0:
   // cylindrical), desired_iterations steer the arc length, max_steps bounds a path that never
@@ -250,24 +309,26 @@ struct OutputSettings {
 };
 
 struct Model {
-  std::string                   input_file;
-  std::string                   input_text; // copy of the input, stored in the output for provenance
-  std::vector<TimeFunction>     functions;
-  std::vector<Section>          sections;
-  std::vector<Node>             nodes;
-  std::vector<Beam>             beams;
-  std::vector<BeamElement>      elements;
-  std::vector<NodeSet>          node_sets;
-  std::vector<Support>          supports;
-  std::vector<NodalLoad>        nodal_loads;
-  std::vector<DistributedLoad>  distributed_loads;
-  std::vector<Probe>            probes;
-  std::vector<RigidBody>        rigid_bodies;
-  std::vector<InitialCondition> initial_conditions;
-  std::vector<Joint>            joints;
-  std::vector<ExpectedResult>   expected;
-  AnalysisSettings              analysis;
-  OutputSettings                output;
+  std::string                             input_file;
+  std::string                             input_text; // copy of the input, stored in the output for provenance
+  std::vector<TimeFunction>               functions;
+  std::vector<Section>                    sections;
+  std::vector<Node>                       nodes;
+  std::vector<Beam>                       beams;
+  std::vector<BeamElement>                elements;
+  std::vector<NodeSet>                    node_sets;
+  std::vector<Support>                    supports;
+  std::vector<NodalLoad>                  nodal_loads;
+  std::vector<DistributedLoad>            distributed_loads;
+  std::vector<Probe>                      probes;
+  std::vector<RigidBody>                  rigid_bodies;
+  std::vector<InitialCondition>           initial_conditions;
+  std::vector<CoordinateInitialCondition> coordinate_initial_conditions;
+  std::vector<Joint>                      joints;
+  std::vector<ForceElement>               force_elements;
+  std::vector<ExpectedResult>             expected;
+  AnalysisSettings                        analysis;
+  OutputSettings                          output;
 };
 
 // Value at t of the model's function number `function`; -1 is the ramp f(t) = t.

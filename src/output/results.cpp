@@ -229,14 +229,22 @@ PetscErrorCode SampleProbes(MPI_Comm comm, const Model &model, const DofMap &map
   const size_t                  count = model.probes.size();
   std::vector<double>           local(kNodeRecordSize * count, 0.0), global(kNodeRecordSize * count, 0.0);
   for (size_t p = 0; p < count; ++p) {
-    const int node = model.probes[p].node; // -1: not held here (restricted model)
-    const int l    = node >= 0 ? map.node_to_local[node] : -1;
-    if (l >= 0 && l < map.num_owned_nodes) PackNodeRecord(model, node, nodes[l], &local[kNodeRecordSize * p]);
+    const Probe &probe = model.probes[p];
+    const int    node  = probe.node; // -1: not held here (restricted model)
+    const int    l     = node >= 0 ? map.node_to_local[node] : -1;
+    if (probe.kind != Probe::Kind::Point || l < 0 || l >= map.num_owned_nodes) continue;
+    double *record = &local[kNodeRecordSize * p];
+    PackNodeRecord(model, node, nodes[l], record);
+    // A point at `offset` from the node (in the node's frame, given at the reference).
+    const Vec3 point = nodes[l].rotation * probe.offset;
+    for (int i = 0; i < 3; ++i) record[i] += point(i), record[3 + i] += point(i) - probe.offset(i);
   }
   PetscCall(MPIU_Allreduce(local.data(), global.data(), (PetscMPIInt)global.size(), MPI_DOUBLE, MPI_SUM, comm));
-  samples->assign(count, ProbeSample{});
+  samples->clear();
   for (size_t p = 0; p < count; ++p) {
-    ProbeSample  &sample = (*samples)[p];
+    if (model.probes[p].kind != Probe::Kind::Point) continue;
+    samples->push_back(ProbeSample{});
+    ProbeSample  &sample = samples->back();
     const double *in     = &global[kNodeRecordSize * p];
     sample.name          = model.probes[p].name;
     for (int i = 0; i < 3; ++i) {
@@ -327,6 +335,105 @@ PetscErrorCode JointHistory(MPI_Comm comm, const Model &model, const DofMap &map
     PetscCheck(gathered_values.size() == sizeof(double) * names->size(), PETSC_COMM_SELF, PETSC_ERR_PLIB, "joint history: %zu values for %zu series",
                gathered_values.size() / sizeof(double), names->size());
     std::memcpy(values->data(), gathered_values.data(), gathered_values.size());
+  }
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+} // namespace msflex
+
+namespace msflex {
+
+PetscErrorCode ProbeHistory(MPI_Comm comm, const Model &model, const DofMap &map, const State &state, const std::vector<ElementResults> &element_results,
+                            std::vector<std::string> *names, std::vector<double> *values)
+{
+  static const char *const reaction_names[6] = {"force_x", "force_y", "force_z", "moment_x", "moment_y", "moment_z"};
+  static const char *const section_names[6]  = {"N1", "N2", "N3", "M1", "M2", "M3"};
+  PetscFunctionBeginUser;
+  names->clear();
+  values->clear();
+  const size_t        count = model.probes.size();
+  std::vector<double> local(6 * count, 0.0), global(6 * count, 0.0);
+  bool                any = false;
+  for (size_t p = 0; p < count; ++p) {
+    const Probe &probe = model.probes[p];
+    if (probe.kind == Probe::Kind::Element) {
+      any = true;
+      if (probe.element < 0) continue; // held by another rank
+      const int k = map.element_to_local[probe.element];
+      if (k < 0 || k >= (int)element_results.size()) continue;
+      for (int i = 0; i < 3; ++i) local[6 * p + i] = element_results[k].force(i), local[6 * p + 3 + i] = element_results[k].moment(i);
+    } else if (probe.kind == Probe::Kind::Reaction) {
+      any = true;
+    }
+  }
+  // Every rank has the same probes, so every rank takes part or none does.
+  if (!any) PetscFunctionReturn(PETSC_SUCCESS);
+  PetscCall(MPIU_Allreduce(local.data(), global.data(), (PetscMPIInt)global.size(), MPI_DOUBLE, MPI_SUM, comm));
+  for (size_t p = 0; p < count; ++p) {
+    const Probe &probe = model.probes[p];
+    if (probe.kind == Probe::Kind::Element)
+      for (int i = 0; i < 6; ++i) names->push_back(probe.name + "." + section_names[i]), values->push_back(global[6 * p + i]);
+    else if (probe.kind == Probe::Kind::Reaction)
+      for (int i = 0; i < 6; ++i)
+        names->push_back(probe.name + "." + reaction_names[i]), values->push_back(p < state.probe_reactions.size() ? state.probe_reactions[p](i) : 0.0);
+  }
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode GatherHistory(MPI_Comm comm, const std::vector<HistoryValue> &local, HistoryGather *cache, std::vector<std::string> *names,
+                             std::vector<double> *values)
+{
+  PetscMPIInt rank, size;
+  PetscFunctionBeginUser;
+  PetscCallMPI(MPI_Comm_rank(comm, &rank));
+  PetscCallMPI(MPI_Comm_size(comm, &size));
+  auto gather = [&](const void *send, int count, MPI_Datatype type, std::vector<char> *received, size_t element_size) -> PetscErrorCode {
+    std::vector<int> counts(rank == 0 ? size : 0), offsets(rank == 0 ? size : 0);
+    PetscFunctionBeginUser;
+    PetscCallMPI(MPI_Gather(&count, 1, MPI_INT, counts.data(), 1, MPI_INT, 0, comm));
+    int total = 0;
+    for (int r = 0; r < (int)counts.size(); ++r) offsets[r] = total, total += counts[r];
+    received->resize(element_size * (size_t)total);
+    PetscCallMPI(MPI_Gatherv(send, count, type, received->data(), counts.data(), offsets.data(), type, 0, comm));
+    PetscFunctionReturn(PETSC_SUCCESS);
+  };
+  if (!cache->gathered) {
+    std::string         local_names; // '\0'-terminated
+    std::vector<double> local_orders;
+    for (const HistoryValue &v : local) local_names += v.name + '\0', local_orders.push_back((double)v.order);
+    std::vector<char> gathered_names, gathered_orders;
+    PetscCall(gather(local_names.data(), (int)local_names.size(), MPI_CHAR, &gathered_names, 1));
+    PetscCall(gather(local_orders.data(), (int)local_orders.size(), MPI_DOUBLE, &gathered_orders, sizeof(double)));
+    if (rank == 0) {
+      std::vector<std::string> unordered;
+      for (size_t start = 0; start < gathered_names.size();) {
+        const size_t end = std::find(gathered_names.begin() + (std::ptrdiff_t)start, gathered_names.end(), '\0') - gathered_names.begin();
+        unordered.emplace_back(gathered_names.data() + start, end - start);
+        start = end + 1;
+      }
+      const double       *orders = reinterpret_cast<const double *>(gathered_orders.data());
+      std::vector<size_t> sorted(unordered.size());
+      for (size_t i = 0; i < sorted.size(); ++i) sorted[i] = i;
+      std::stable_sort(sorted.begin(), sorted.end(), [&](size_t a, size_t b) { return orders[a] < orders[b]; });
+      cache->permutation.assign(unordered.size(), 0);
+      cache->names.resize(unordered.size());
+      for (size_t place = 0; place < sorted.size(); ++place) cache->permutation[sorted[place]] = place, cache->names[place] = unordered[sorted[place]];
+    }
+    cache->gathered = true;
+  }
+  std::vector<double> local_values;
+  for (const HistoryValue &v : local) local_values.push_back(v.value);
+  std::vector<char> gathered_values;
+  PetscCall(gather(local_values.data(), (int)local_values.size(), MPI_DOUBLE, &gathered_values, sizeof(double)));
+  names->clear();
+  values->clear();
+  if (rank == 0) {
+    *names = cache->names;
+    values->assign(names->size(), 0.0);
+    PetscCheck(gathered_values.size() == sizeof(double) * names->size(), PETSC_COMM_SELF, PETSC_ERR_PLIB, "history: %zu values for %zu series",
+               gathered_values.size() / sizeof(double), names->size());
+    const double *in = reinterpret_cast<const double *>(gathered_values.data());
+    for (size_t i = 0; i < names->size(); ++i) (*values)[cache->permutation[i]] = in[i];
   }
   PetscFunctionReturn(PETSC_SUCCESS);
 }

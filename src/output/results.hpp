@@ -32,7 +32,8 @@ BodyPrincipalAxes RigidBodyPrincipalAxes(const RigidBody &body);
 PetscErrorCode GatherFrame(MPI_Comm comm, const Model &model, const DofMap &map, const State &state, const std::vector<ElementResults> &element_results,
                            int step, double time, bool with_velocities, OutputFrame *frame);
 
-// One sample per probe, valid on every rank. Collective.
+// One sample per point probe (a node's point: its position x + Lambda offset, displacement from
+// the point's reference position, the node's rotation), valid on every rank. Collective.
 PetscErrorCode SampleProbes(MPI_Comm comm, const Model &model, const DofMap &map, const State &state, std::vector<ProbeSample> *samples);
 
 // The joints' history series, per joint "<joint>.<quantity>": the released coordinates (tx ty tz
@@ -46,5 +47,23 @@ struct JointHistoryNames {
 };
 PetscErrorCode JointHistory(MPI_Comm comm, const Model &model, const DofMap &map, const State &state, JointHistoryNames *cache, std::vector<std::string> *names,
                             std::vector<double> *values);
+
+// The series of the reaction and element probes, "<probe>.<quantity>": a reaction probe's
+// force_x/_y/_z and moment_x/_y/_z (what the supports exert on the node, global axes,
+// State::probe_reactions), an element probe's N1 N2 N3 M1 M2 M3 (section frame, mean over the
+// Gauss points, from `element_results` of the local elements). Values on every rank. Collective.
+PetscErrorCode ProbeHistory(MPI_Comm comm, const Model &model, const DofMap &map, const State &state, const std::vector<ElementResults> &element_results,
+                            std::vector<std::string> *names, std::vector<double> *values);
+
+// History values the ranks hold (HistoryValue: force elements), gathered to rank 0 in the order
+// of their keys; names and order are gathered once (kept in *cache). Values and names on rank 0,
+// empty elsewhere. Collective.
+struct HistoryGather {
+  bool                     gathered = false;
+  std::vector<std::string> names;       // in order
+  std::vector<size_t>      permutation; // gathered position -> place in order
+};
+PetscErrorCode GatherHistory(MPI_Comm comm, const std::vector<HistoryValue> &local, HistoryGather *cache, std::vector<std::string> *names,
+                             std::vector<double> *values);
 
 } // namespace msflex

@@ -77,6 +77,11 @@ static PetscErrorCode MetisPartition(const Model &model, int parts, std::vector<
         const int va = vertex[element.nodes[a]], vb = vertex[element.nodes[b]];
         if (va != vb) neighbours[va].push_back(vb);
       }
+  for (const ForceElement &element : model.force_elements) // between two nodes, like a 2-node element
+    if (element.kind != ForceElement::Kind::Coordinate) {
+      const int va = vertex[element.nodes[0]], vb = vertex[element.nodes[1]];
+      if (va != vb) neighbours[va].push_back(vb), neighbours[vb].push_back(va);
+    }
   std::vector<idx_t> xadj(1, 0), adjncy, weight(num_vertices, 0), part(num_vertices, 0);
   for (int v = 0; v < num_vertices; ++v) {
     std::vector<idx_t> &list = neighbours[v];

@@ -20,7 +20,7 @@ PetscErrorCode PartitionerTypeFromOptions(MPI_Comm comm, PartitionerType *type);
 // contiguous blocks of nearly equal size.
 // Metis: k-way partition (METIS_PartGraphKway, computed on rank 0 and broadcast) of the graph
 // whose vertices are the nodes, with every joint chain contracted to one vertex so that no joint
-// straddles ranks, and whose edges join the nodes of each element; vertex weights are the
+// straddles ranks, and whose edges join the nodes of each element and of each force element between two nodes; vertex weights are the
 // vertices' node counts. Joint chains stay whole with either partitioner.
 PetscErrorCode PartitionNodes(MPI_Comm comm, const Model &model, PartitionerType type, std::vector<int> *node_rank);
 

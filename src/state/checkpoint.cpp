@@ -9,8 +9,8 @@ namespace msflex {
 
 namespace {
 
-constexpr const char *kFormat     = "msflex checkpoint 2";
-constexpr int         kRunNumbers = 11;
+constexpr const char *kFormat     = "msflex checkpoint 3";
+constexpr int         kRunNumbers = 12;
 
 // The run record's numbers, in a fixed order.
 void PackNumbers(const CheckpointRun &run, double *numbers)
@@ -25,7 +25,8 @@ void PackNumbers(const CheckpointRun &run, double *numbers)
                                       (double)run.num_nodes,
                                       (double)run.num_joints,
                                       (double)run.num_rigid_bodies,
-                                      run.initial_energy};
+                                      run.initial_energy,
+                                      run.dissipated_energy};
   std::copy(values, values + kRunNumbers, numbers);
 }
 
@@ -42,6 +43,7 @@ void UnpackNumbers(const double *numbers, CheckpointRun *run)
   run->num_joints          = (long long)numbers[8];
   run->num_rigid_bodies    = (long long)numbers[9];
   run->initial_energy      = numbers[10];
+  run->dissipated_energy   = numbers[11];
 }
 
 // Text as a 1-D dataset of bytes (any length, also 0).
@@ -73,12 +75,14 @@ PetscErrorCode ReadText(const std::string &label, hid_t parent, const char *name
 // The start-of-step state in records of fixed size: node: position (3), tracked rotation
 // quaternion w x y z (4), translational velocity, acceleration and pseudo-acceleration (9), the
 // same for the rotation in the body frame (9), the reaction on its prescribed DOFs (6); joint:
-// released coordinates (6), the free rotation's C_n row-major (9), the drive's reaction (1);
-// rigid body: motion of its centre of mass (9). Only start-of-step values are
+// released coordinates (6), the free rotation's C_n row-major (9), the drive's reaction (1), the
+// coordinates' rates, accelerations and pseudo-accelerations (18); rigid body: motion of its
+// centre of mass (9); damped beam element: the motion of its strains and curvatures at its two
+// Gauss points (36). Only start-of-step values are
 // kept: everything else (current configuration, slave placement, loads, the time scheme's
 // coefficients) follows from them and the time at the next step, so a restarted run repeats the
 // original one to the last bit.
-constexpr int kNodeStateSize = 31, kJointStateSize = 16, kRigidBodyStateSize = 9;
+constexpr int kNodeStateSize = 31, kJointStateSize = 34, kRigidBodyStateSize = 9, kBeamStrainSize = 36;
 
 struct StateRecords {
   std::vector<int>    numbers; // in the whole model
@@ -123,6 +127,8 @@ void ExportState(const State &state, const DofMap &map, int rank, StateRecords *
     for (int i = 0; i < 3; ++i)
       for (int k = 0; k < 3; ++k) record[kJointMaxReleased + 3 * i + k] = J.start.free_rotation_start(i, k);
     record[kJointMaxReleased + 9] = J.drive_reaction;
+    PutMotion(J.coordinate_motion[0], record + 16);
+    PutMotion(J.coordinate_motion[1], record + 25);
     joints->numbers.push_back(map.global_joints[J.joint]);
     joints->values.insert(joints->values.end(), record, record + kJointStateSize);
   }
@@ -131,6 +137,21 @@ void ExportState(const State &state, const DofMap &map, int rank, StateRecords *
     PutMotion(body.centre_of_mass, record);
     bodies->numbers.push_back(body.global_index);
     bodies->values.insert(bodies->values.end(), record, record + kRigidBodyStateSize);
+  }
+}
+
+// The strain motion of the local (damped) elements, with their numbers in the whole model.
+void ExportBeamStrains(const State &state, const DofMap &map, StateRecords *records)
+{
+  *records = StateRecords{};
+  for (size_t k = 0; k < state.beam_strains.size(); ++k) {
+    double record[kBeamStrainSize];
+    for (int gp = 0; gp < 2; ++gp) {
+      PutMotion(state.beam_strains[k].strain[gp], record + 18 * gp);
+      PutMotion(state.beam_strains[k].curvature[gp], record + 18 * gp + 9);
+    }
+    records->numbers.push_back(map.global_elements[map.local_elements[k]]);
+    records->values.insert(records->values.end(), record, record + kBeamStrainSize);
   }
 }
 
@@ -159,7 +180,9 @@ PetscErrorCode ImportState(const std::vector<double> &nodes, const std::vector<d
     for (int c = 0; c < kJointMaxReleased; ++c) J.start.q[c] = record[c], J.increment[c] = 0.0;
     for (int i = 0; i < 3; ++i)
       for (int k = 0; k < 3; ++k) J.start.free_rotation_start(i, k) = record[kJointMaxReleased + 3 * i + k];
-    J.drive_reaction = record[kJointMaxReleased + 9];
+    J.drive_reaction       = record[kJointMaxReleased + 9];
+    J.coordinate_motion[0] = GetMotion(record + 16);
+    J.coordinate_motion[1] = GetMotion(record + 25);
   }
   for (size_t b = 0; b < state->bodies.size(); ++b) state->bodies[b].centre_of_mass = GetMotion(&bodies[kRigidBodyStateSize * b]);
   PetscFunctionReturn(PETSC_SUCCESS);
@@ -194,9 +217,12 @@ PetscErrorCode CheckpointWrite(MPI_Comm comm, const std::string &path, const Che
     PetscFunctionReturn(PETSC_SUCCESS);
   }));
   // Every rank: the state records it owns, collectively.
-  StateRecords nodes, joints, bodies;
+  StateRecords nodes, joints, bodies, strains;
   PetscCallMPI(MPI_Comm_rank(comm, &rank));
   ExportState(state, map, rank, &nodes, &joints, &bodies);
+  ExportBeamStrains(state, map, &strains);
+  int local_damped = state.beam_strains.empty() ? 0 : 1, damped;
+  PetscCallMPI(MPI_Allreduce(&local_damped, &damped, 1, MPI_INT, MPI_MAX, comm));
   PetscCall(RunCollective(comm, [&]() -> PetscErrorCode {
     H5Id file;
     PetscFunctionBeginUser;
@@ -204,6 +230,8 @@ PetscErrorCode CheckpointWrite(MPI_Comm comm, const std::string &path, const Che
     PetscCall(WriteRowsCollective(temporary, file, "nodes", (hsize_t)run.num_nodes, kNodeStateSize, nodes.numbers, nodes.values));
     PetscCall(WriteRowsCollective(temporary, file, "joints", (hsize_t)run.num_joints, kJointStateSize, joints.numbers, joints.values));
     PetscCall(WriteRowsCollective(temporary, file, "rigid_bodies", (hsize_t)run.num_rigid_bodies, kRigidBodyStateSize, bodies.numbers, bodies.values));
+    if (damped)
+      PetscCall(WriteRowsCollective(temporary, file, "beam_strains", (hsize_t)map.global_count.elements, kBeamStrainSize, strains.numbers, strains.values));
     PetscCallHDF5At(temporary, H5Fclose(file.Release()));
     PetscFunctionReturn(PETSC_SUCCESS);
   }));
@@ -248,13 +276,16 @@ PetscErrorCode CheckpointReadRun(MPI_Comm comm, const std::string &path, Checkpo
 
 PetscErrorCode CheckpointReadState(MPI_Comm comm, const std::string &path, const Model &model, const DofMap &map, State *state)
 {
-  std::vector<int>    node_numbers, joint_numbers, body_numbers;
-  std::vector<double> nodes, joints, bodies;
+  std::vector<int>    node_numbers, joint_numbers, body_numbers, element_numbers;
+  std::vector<double> nodes, joints, bodies, strains;
   PetscFunctionBeginUser;
   // The numbers of what this rank needs: every local node and joint, its own rigid bodies.
   for (size_t l = 0; l < state->nodes.size(); ++l) node_numbers.push_back(map.global_nodes[map.local_nodes[l]]);
   for (const JointState &J : state->joints) joint_numbers.push_back(map.global_joints[J.joint]);
   for (const RigidBodyState &body : state->bodies) body_numbers.push_back(body.global_index);
+  for (size_t k = 0; k < state->beam_strains.size(); ++k) element_numbers.push_back(map.global_elements[map.local_elements[k]]);
+  int local_damped = state->beam_strains.empty() ? 0 : 1, damped;
+  PetscCallMPI(MPI_Allreduce(&local_damped, &damped, 1, MPI_INT, MPI_MAX, comm));
   PetscCall(RunCollective(comm, [&]() -> PetscErrorCode {
     H5Id file;
     PetscFunctionBeginUser;
@@ -262,9 +293,15 @@ PetscErrorCode CheckpointReadState(MPI_Comm comm, const std::string &path, const
     PetscCall(ReadRows(path, file, "nodes", kNodeStateSize, node_numbers, &nodes));
     PetscCall(ReadRows(path, file, "joints", kJointStateSize, joint_numbers, &joints));
     PetscCall(ReadRows(path, file, "rigid_bodies", kRigidBodyStateSize, body_numbers, &bodies));
+    if (damped) PetscCall(ReadRows(path, file, "beam_strains", kBeamStrainSize, element_numbers, &strains));
     PetscFunctionReturn(PETSC_SUCCESS);
   }));
   PetscCall(ImportState(nodes, joints, bodies, state));
+  for (size_t k = 0; k < state->beam_strains.size(); ++k)
+    for (int gp = 0; gp < 2; ++gp) {
+      state->beam_strains[k].strain[gp]    = GetMotion(&strains[kBeamStrainSize * k + 18 * gp]);
+      state->beam_strains[k].curvature[gp] = GetMotion(&strains[kBeamStrainSize * k + 18 * gp + 9]);
+    }
   StateUpdateSlaves(model, state);
   PetscFunctionReturn(PETSC_SUCCESS);
 }

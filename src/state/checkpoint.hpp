@@ -18,6 +18,7 @@ struct CheckpointRun {
   int         step                = 0;   // converged steps so far
   double      time                = 0.0; // (pseudo-)time reached
   double      external_work       = 0.0; // work of the external loads so far (dynamics)
+  double      dissipated_energy   = 0.0; // energy dissipated by dampers so far (dynamics)
   int         last_written        = 0;   // step of the last frame written
   long long   history_rows        = 0;   // rows of /history written so far
   double      controller_step     = 0.0; // the step controller's current step and run of easy steps

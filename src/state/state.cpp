@@ -2,6 +2,8 @@
 
 #include "model/joint_geometry.hpp"
 
+#include <Eigen/QR>
+
 namespace msflex {
 
 namespace {
@@ -51,6 +53,9 @@ void StateCreate(const Model &model, const DofMap &map, State *state)
     state->node_joint[J.local_slave] = (int)state->joints.size();
     state->joints.push_back(J);
   }
+  bool damped = false;
+  for (const Section &section : model.sections) damped = damped || section.Damped();
+  if (damped) state->beam_strains.assign(map.local_elements.size(), BeamStrainMotion{});
   for (size_t b = 0; b < model.rigid_bodies.size(); ++b) {
     const RigidBody &body = model.rigid_bodies[b];
     const int        l    = map.node_to_local[body.node];
@@ -63,11 +68,12 @@ void StateCreate(const Model &model, const DofMap &map, State *state)
     local.offset       = body.offset;
     state->bodies.push_back(local);
   }
+  StateUpdateSlaves(model, state); // the joints' maps at the reference configuration
 }
 
 void StateUpdateNode(const StepEquations &equations, NodeState *s)
 {
-  if (equations.InitialAcceleration()) return;
+  if (equations.RateUnknowns()) return;
   NodeUpdateConfiguration(s);
   if (!equations.Dynamic()) return;
   s->translation_update = AdvanceMotion(equations.scheme, s->translation_motion, s->displacement_increment);
@@ -82,7 +88,7 @@ void StateBeginStep(const Model &model, const DofMap &map, const StepEquations &
 {
   state->equations     = equations;
   const double t_start = equations.t_start, t_end = equations.t_end;
-  const bool   accelerations = equations.InitialAcceleration();
+  const bool   accelerations = equations.InitialAcceleration(), velocities = equations.problem == StepProblem::InitialVelocity;
   for (size_t l = 0; l < state->nodes.size(); ++l) {
     const int  node = map.local_nodes[l];
     NodeState &s    = state->nodes[l];
@@ -91,7 +97,7 @@ void StateBeginStep(const Model &model, const DofMap &map, const StepEquations &
       if (c.kind == Support::Kind::Free) continue;
       double value = 0.0;
       if (c.kind == Support::Kind::Prescribed) {
-        if (accelerations) value = c.value * FunctionDerivative(model, c.function, t_end, 2);
+        if (accelerations || velocities) value = c.value * FunctionDerivative(model, c.function, t_end, accelerations ? 2 : 1);
         else if (d < 3) value = model.nodes[node].position(d) + c.value * FunctionValue(model, c.function, t_end) - s.position_start(d);
         else value = c.value * (FunctionValue(model, c.function, t_end) - FunctionValue(model, c.function, t_start));
       }
@@ -105,8 +111,8 @@ void StateBeginStep(const Model &model, const DofMap &map, const StepEquations &
     for (int c = 0; c < kJointMaxReleased; ++c) J.increment[c] = 0.0;
     if (joint.driven_coordinate < 0) continue;
     const int c    = joint.driven_coordinate;
-    J.increment[c] = accelerations ? joint.drive_value * FunctionDerivative(model, joint.drive_function, t_end, 2)
-                                   : joint.drive_value * FunctionValue(model, joint.drive_function, t_end) - J.start.q[c];
+    J.increment[c] = accelerations || velocities ? joint.drive_value * FunctionDerivative(model, joint.drive_function, t_end, accelerations ? 2 : 1)
+                                                 : joint.drive_value * FunctionValue(model, joint.drive_function, t_end) - J.start.q[c];
   }
   StateUpdateSlaves(model, state);
 }
@@ -114,7 +120,7 @@ void StateBeginStep(const Model &model, const DofMap &map, const StepEquations &
 void StateUpdateSlaves(const Model &model, State *state)
 {
   const StepEquations &equations     = state->equations;
-  const bool           accelerations = equations.InitialAcceleration();
+  const bool           accelerations = equations.RateUnknowns(); // accelerations or velocities: linear in N
   for (JointState &J : state->joints) {
     const Joint &joint = model.joints[J.joint];
     NodeState   &slave = state->nodes[J.local_slave];
@@ -150,6 +156,10 @@ void StateUpdateSlaves(const Model &model, State *state)
       slave.rotation_increment     = LogSO3(R_s * QuaternionToMatrix(slave.rotation_start).transpose());
       StateUpdateNode(equations, &slave);
     }
+    if (equations.Dynamic())
+      for (int half = 0; half < 2; ++half)
+        J.coordinate_update[half] =
+            AdvanceMotion(equations.scheme, J.coordinate_motion[half], Vec3(J.increment[3 * half], J.increment[3 * half + 1], J.increment[3 * half + 2]));
     // Rows of the mid-point schemes: the conserving map of eq. (21-22), so that the slave's work
     // and momenta carry over exactly; elsewhere N itself.
     J.rows_map = N;
@@ -175,12 +185,25 @@ void StateCommitStep(const Model &model, State *state)
   if (equations.Dynamic()) {
     const TimeScheme &scheme = equations.scheme;
     for (RigidBodyState &body : state->bodies) {
-      const NodeState   &s       = state->nodes[body.local_node];
-      const Mat3         R_start = QuaternionToMatrix(s.rotation_start);
-      const Vec3         u_c     = s.displacement_increment + (s.rotation - R_start) * body.offset;
-      const MotionUpdate next    = AdvanceMotion(scheme, body.centre_of_mass, u_c);
-      body.centre_of_mass        = {next.velocity, next.acceleration, next.pseudo_acceleration};
+      const NodeState &s       = state->nodes[body.local_node];
+      const Mat3       R_start = QuaternionToMatrix(s.rotation_start);
+      if (scheme.Midpoint()) {
+        // The centre of mass moves with its own algorithmic velocity (elements/inertia.hpp).
+        const Vec3         u_c  = s.displacement_increment + (s.rotation - R_start) * body.offset;
+        const MotionUpdate next = AdvanceMotion(scheme, body.centre_of_mass, u_c);
+        body.centre_of_mass     = {next.velocity, next.acceleration, next.pseudo_acceleration};
+      } else {
+        // A point of the node's frame (RigidOffsetMassInertia): its motion follows from the node's.
+        const MotionUpdate spin = AdvanceMotion(scheme, s.rotation_motion, R_start.transpose() * s.rotation_increment);
+        const Vec3        &c = body.offset, &W = spin.velocity;
+        body.centre_of_mass.velocity            = s.translation_update.velocity + s.rotation * W.cross(c);
+        body.centre_of_mass.acceleration        = s.translation_update.acceleration + s.rotation * (spin.acceleration.cross(c) + W.cross(W.cross(c)));
+        body.centre_of_mass.pseudo_acceleration = body.centre_of_mass.acceleration;
+      }
     }
+    for (JointState &J : state->joints)
+      for (int half = 0; half < 2; ++half)
+        J.coordinate_motion[half] = {J.coordinate_update[half].velocity, J.coordinate_update[half].acceleration, J.coordinate_update[half].pseudo_acceleration};
     for (NodeState &s : state->nodes) {
       const Mat3 R_start = QuaternionToMatrix(s.rotation_start);
       // Material increment: Theta = R_n^T omega (Newmark family), theta = R_n^T alpha (mid-point).
@@ -220,8 +243,11 @@ void StateCommitInitialAcceleration(State *state)
     s.displacement_increment.setZero();
     s.rotation_increment.setZero();
   }
-  for (JointState &J : state->joints)
+  for (JointState &J : state->joints) {
+    for (int c = 0; c < kJointMaxReleased; ++c)
+      J.coordinate_motion[c / 3].acceleration(c % 3) = J.coordinate_motion[c / 3].pseudo_acceleration(c % 3) = J.increment[c];
     for (double &increment : J.increment) increment = 0.0;
+  }
 }
 
 void StateDiscardStep(const Model &model, State *state)
@@ -276,6 +302,66 @@ void StateSetInitialVelocities(const Model &model, const DofMap &map, double t, 
     const NodeState &s           = state->nodes[body.local_node];
     const Mat3       R           = QuaternionToMatrix(s.rotation_start);
     body.centre_of_mass.velocity = s.translation_motion.velocity + (R * s.rotation_motion.velocity).cross(R * body.offset);
+  }
+}
+
+void StateSetInitialConfiguration(const Model &model, const DofMap &map, State *state)
+{
+  state->equations = StepEquations{};
+  for (size_t l = 0; l < state->nodes.size(); ++l) {
+    NodeState &s = state->nodes[l];
+    s.displacement_increment.setZero();
+    s.rotation_increment.setZero();
+  }
+  for (const InitialCondition &ic : model.initial_conditions) {
+    if (ic.displacement.isZero(0.0) && ic.rotation.isZero(0.0)) continue;
+    const Mat3 R = ExpSO3(ic.rotation);
+    for (int node : ic.nodes) {
+      const int l = map.node_to_local[node];
+      if (l < 0 || state->node_joint[l] >= 0) continue;
+      NodeState &s             = state->nodes[l];
+      const Vec3 X             = model.nodes[node].position;
+      const Vec3 moved         = ic.rigid_body_field ? Vec3(ic.center + R * (X - ic.center)) : X;
+      s.displacement_increment = moved + ic.displacement - s.position_start;
+      s.rotation_increment     = ic.rotation;
+      NodeUpdateConfiguration(&s);
+    }
+  }
+  for (const CoordinateInitialCondition &ic : model.coordinate_initial_conditions) {
+    if (!ic.has_value) continue;
+    const int j = map.joint_to_local[ic.joint];
+    if (j < 0) continue;
+    JointState &J              = state->joints[j];
+    J.increment[ic.coordinate] = ic.value - J.start.q[ic.coordinate];
+  }
+  StateUpdateSlaves(model, state);
+  StateCommitStep(model, state);
+}
+
+void StateSetCoordinateRates(const Model &model, double t, State *state)
+{
+  for (JointState &J : state->joints) {
+    const Joint &joint = model.joints[J.joint];
+    const int    k     = JointNumCoordinates(J.geometry);
+    // v_s - N_m v_m = N_q qdot (velocities of the slave and the master, spatial).
+    const NodeState &slave = state->nodes[J.local_slave];
+    Vec6             relative;
+    relative << slave.translation_motion.velocity, QuaternionToMatrix(slave.rotation_start) * slave.rotation_motion.velocity;
+    if (J.local_master >= 0) {
+      const NodeState &master = state->nodes[J.local_master];
+      Vec6             v_m;
+      v_m << master.translation_motion.velocity, QuaternionToMatrix(master.rotation_start) * master.rotation_motion.velocity;
+      relative -= J.map.leftCols<6>() * v_m;
+    }
+    Eigen::VectorXd rates = Eigen::VectorXd::Zero(k);
+    if (k > 0) { // a rigid joint releases nothing
+      const Eigen::MatrixXd N_q = J.map.block(0, 6, 6, k);
+      rates                     = N_q.colPivHouseholderQr().solve(relative);
+    }
+    for (int c = 0; c < kJointMaxReleased; ++c) J.coordinate_motion[c / 3].velocity(c % 3) = c < k ? rates(c) : 0.0;
+    if (joint.driven_coordinate >= 0)
+      J.coordinate_motion[joint.driven_coordinate / 3].velocity(joint.driven_coordinate % 3) =
+          joint.drive_value * FunctionDerivative(model, joint.drive_function, t, 1);
   }
 }
 

@@ -76,6 +76,21 @@ struct JointState {
   // The generalised reaction on a driven coordinate this rank assembled at the end of the last
   // step (the Newmark family's trapezoidal work of the drive).
   double drive_reaction = 0.0;
+  // Dynamics of the released coordinates (dampers on them): rate, acceleration and the Newmark
+  // family's pseudo-acceleration at the start of the step, coordinates 0-2 in [0] and 3-5 in [1],
+  // and what the step's increments imply at its end (Newmark family).
+  MotionState  coordinate_motion[2];
+  MotionUpdate coordinate_update[2];
+  // The coordinate's rate (start of the step) and, in dynamics, its end-of-step update.
+  double CoordinateRate(int c) const { return coordinate_motion[c / 3].velocity(c % 3); }
+  double CoordinateEndRate(int c) const { return coordinate_update[c / 3].velocity(c % 3); }
+};
+
+// Strains of a damped beam element at its Gauss points (at most two, elements/beam.hpp) as a
+// motion of the Newmark family: the strain rates and their accelerations at the start of the step
+// (structural damping, contributors/beam_damping_contributor.hpp).
+struct BeamStrainMotion {
+  MotionState strain[2], curvature[2];
 };
 
 // A rigid body on an owned node: its translational inertia sits at its centre of mass, which
@@ -90,12 +105,14 @@ struct RigidBodyState {
 };
 
 struct State {
-  std::vector<NodeState>      nodes;      // per local node (DofMap::local_nodes: owned first)
-  std::vector<JointState>     joints;     // per local joint (DofMap::local_joints: masters' joints first)
-  std::vector<int>            node_joint; // per local node: index into joints when it is a slave, else -1
-  std::vector<RigidBodyState> bodies;     // rigid bodies on owned nodes
-  PetscInt                    num_owned_nodes = 0;
-  StepEquations               equations; // of the step being solved
+  std::vector<NodeState>        nodes;           // per local node (DofMap::local_nodes: owned first)
+  std::vector<JointState>       joints;          // per local joint (DofMap::local_joints: masters' joints first)
+  std::vector<int>              node_joint;      // per local node: index into joints when it is a slave, else -1
+  std::vector<RigidBodyState>   bodies;          // rigid bodies on owned nodes
+  std::vector<BeamStrainMotion> beam_strains;    // per local element when a section is damped, else empty
+  std::vector<Vec6>             probe_reactions; // per model probe: the supports' reaction at a reaction probe's node (Assembler::EvaluateSupportReactions)
+  PetscInt                      num_owned_nodes = 0;
+  StepEquations                 equations; // of the step being solved
 };
 
 // The reference configuration at rest.
@@ -116,6 +133,13 @@ void StateCommitStep(const Model &model, State *state);
 void StateCommitInitialAcceleration(State *state);
 // Forgets the increments (a rejected step); slaves follow.
 void StateDiscardStep(const Model &model, State *state);
+// The initial configuration: nodes moved by their initial conditions' displacements and rotations,
+// joint coordinates at their initial values; slaves follow. Starts the state there (at rest).
+void StateSetInitialConfiguration(const Model &model, const DofMap &map, State *state);
+// The rate of every joint coordinate implied by the slave's and master's velocities (the least-
+// squares solution of N_q qdot = v_s - N_m v_m), for coordinates that are not driven; used when
+// the velocities are given rather than projected. Driven coordinates take their drive's rate.
+void StateSetCoordinateRates(const Model &model, double t, State *state);
 // Initial velocities from the model's initial conditions and prescribed motions at time t; a slave
 // without an initial condition moves rigidly with its master.
 void StateSetInitialVelocities(const Model &model, const DofMap &map, double t, State *state);

@@ -107,6 +107,61 @@ initial_conditions:
 analysis: {type: dynamic}   # a mechanism: the static rigid-body check would refuse it; the test sets up each problem itself
 )";
 
+// Force elements and structural damping on a mechanism: coordinate springs (linear and
+// tabulated), dampers and actuators on a revolute (slave on a beam), a prismatic (to the ground)
+// and a driven revolute's coordinate; a spring-damper between two beams that share no element
+// (one end a joint's slave); a bushing between a beam node and a node carrying only a rigid body,
+// and one between two slaves; damped sections (stiffness-proportional and given).
+const char *kForceElementModel = R"(
+functions:
+  - {name: drive, type: harmonic, amplitude: 0.4, frequency: 0.5}
+  - {name: torque, type: linear, slope: 2.0, offset: 1.0}
+sections:
+  - {name: s, EA: 3.0e3, GA2: 1.2e3, GA3: 9.0e2, GJ: 40, EI2: 60, EI3: 80, rhoA: 1.5, rhoJ: [0.03, 0.02, 0.01], damping_time: 0.02}
+  - {name: d, EA: 2.0e3, GA2: 1.0e3, GA3: 8.0e2, GJ: 30, EI2: 50, EI3: 70, rhoA: 1.0, rhoJ: [0.02, 0.02, 0.01], damping: [5, 2, 2, 0.1, 0.2, 0.3]}
+nodes:
+  base: [0, 0, 0]
+  hub: [1.5, 0, 0]
+  a0: [1.5, 0, 0]
+  a1: [1.5, 1.2, 0.3]
+  p0: [0.5, -0.5, 0.2]
+  p1: [0.2, -1.5, 0.6]
+  m0: [0.8, 0.0, 0.0]
+  m1: [0.8, 0.4, -0.9]
+  body: [1.1, 0.3, -0.4]
+beams:
+  - {name: main, section: s, from: base, to: hub, elements: 3, order: 2}
+  - {name: arm, section: d, from: a0, to: a1, elements: 2}
+  - {name: slide, section: s, from: p0, to: p1, elements: 2}
+  - {name: motor, section: d, from: m0, to: m1, elements: 2, order: 2}
+joints:
+  - {name: hinge, type: revolute, master: hub, slave: a0, axis: [0, 1, 1]}
+  - {name: rail, type: prismatic, master: ground, slave: p0, axis: [0.3, 1, 0]}
+  - {name: shaft, type: revolute, master: main.2, slave: m0, axis: [0, 0, 1], drive: {coordinate: rx, value: 1.0, function: drive}}
+force_elements:
+  - {name: k_hinge, type: coordinate, joint: hinge, coordinate: rx, stiffness: 35, free_value: 0.2, damping: 0.8, actuator: 1.5, function: torque}
+  - {name: k_rail, type: coordinate, joint: rail, coordinate: tx, force_table: [[-0.3, -40], [0, 0], [0.02, 1], [0.4, 30]], damping: 2.0}
+  - {name: k_shaft, type: coordinate, joint: shaft, coordinate: rotation, stiffness: 10, damping: 0.3}
+  - {name: strut, type: spring_damper, nodes: [arm.1, slide.1], stiffness: 80, damping: 4}
+  - {name: strut2, type: spring_damper, nodes: [p1, a0], force_table: [[-1, -50], [0.1, 10], [1, 20]], free_length: 1.4, damping: 1}
+  - {name: mount, type: bushing, nodes: [main.4, body], stiffness: [300, 200, 250, 20, 30, 25], damping: [3, 2, 2, 0.2, 0.3, 0.1], axis: [1, 1, 0]}
+  - name: link
+    type: bushing
+    nodes: [a0, m0]
+    stiffness: [[200, 10, 0, 5, 0, 0], [10, 150, 0, 0, 3, 0], [0, 0, 180, 0, 0, 2], [5, 0, 0, 15, 0, 0], [0, 3, 0, 0, 12, 0], [0, 0, 2, 0, 0, 10]]
+    damping: [1, 1, 1, 0.05, 0.05, 0.05]
+supports:
+  - {nodes: base, fix: all}
+loads:
+  - {nodes: [a1, p1, m1], force: [3, -2, 1], moment: [1, 2, -1]}
+  - {gravity: [0, 0, -9.81]}
+rigid_bodies:
+  - {name: block, node: body, mass: 2.0, inertia: [0.2, 0.3, 0.25], offset: [0.05, -0.1, 0.1]}
+initial_conditions:
+  - {nodes: [main, arm, slide, motor, body], velocity: [0.3, -0.2, 0.1], angular_velocity: [0.5, -0.4, 0.8], rigid_body_center: [0.3, 0.1, 2]}
+analysis: {type: dynamic}
+)";
+
 // Which problem the assembler is set up for.
 enum class Problem { Static, Newmark, GeneralizedAlpha, InitialAcceleration, MomentumConserving, EnergyMomentum };
 
@@ -141,6 +196,8 @@ PetscErrorCode SetupSystem(Model *model, DofMap *map, MatrixPattern pattern, Nod
   PetscFunctionBeginUser;
   PetscCall(system->Setup(PETSC_COMM_WORLD, *model, *map, std::move(pattern), std::move(mass)));
   StateSetInitialVelocities(*model, *map, 0.0, &system->GetState());
+  StateSetCoordinateRates(*model, 0.0, &system->GetState());
+  system->StartMotion(); // strain rates of the damped beams
   PetscCall(system->GetAssembler().BeginStep(EquationsOf(problem)));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
@@ -296,6 +353,9 @@ TEST(AssembledSystem, JacobianMatchesFiniteDifferences) { CheckEveryProblem(kMod
 
 // The same with joints of every kind condensed at assembly.
 TEST(AssembledSystem, JacobianWithJointsMatchesFiniteDifferences) { CheckEveryProblem(kJointModel, " with joints"); }
+
+// The same with force elements on joint coordinates and between nodes, and damped beams.
+TEST(AssembledSystem, JacobianWithForceElementsMatchesFiniteDifferences) { CheckEveryProblem(kForceElementModel, " with force elements"); }
 
 // Each joint kind alone: a clamped beam carrying a second beam (with a rigid body at its far end)
 // through the joint, in a deformed, rotated, moving state; statics and Newmark.

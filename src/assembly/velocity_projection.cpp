@@ -1,0 +1,259 @@
+// The projection of the initial velocities (Assembler::ProjectInitialVelocities): the unknowns are
+// the velocities of the independent nodes and the rates of the free joint coordinates (stored in
+// the increment fields, as the accelerations of the initial-acceleration problem); slaves follow
+// through their joints' maps N, drives and prescribed supports impose their rates (state.cpp).
+//
+// With V(y) the nodal velocities of the unknowns y, the beams' strain rates are edot = B V
+// (elements/beam_rates.hpp) and the objective is
+//   Phi(y) = 1/2 sum_elements V^T K_e V + 1/2 w sum_slaves with a given velocity |V_s - V_s,given|^2,
+// K_e = B^T C B the element's material stiffness (the internal-force kernel with the stresses set
+// to zero), w = the largest diagonal entry of the assembled K (so a slave's given velocity weighs
+// like a stiff beam). Unknowns held at given values (nodes' initial conditions, coordinates' initial
+// rates) and unknowns no term reaches (left at rest) are removed by identity rows and columns. The
+// gradient at the given velocities y_g, R = A y_g + r_0, lies in the range of A (Phi is a sum of
+// squares), so A delta = -R is consistent; conjugate gradients from delta = 0 give its minimum-norm
+// solution: no component along the motions nothing determines.
+#include "assembly/assembler.hpp"
+
+#include "contributors/beam_contributor.hpp"
+#include "elements/beam_rates.hpp"
+
+#include <petscksp.h>
+
+#include <algorithm>
+
+namespace msflex {
+
+PetscErrorCode Assembler::ProjectInitialVelocities(double t, InitialVelocityReport *report)
+{
+  const Model  &model = *model_;
+  const DofMap &map   = *map_;
+  State        &state = *state_;
+  PetscFunctionBeginUser;
+  *report = InitialVelocityReport{};
+  StateBeginStep(model, map, InitialVelocityProblem(t), state_);
+  UpdateExpansions();
+
+  // The given velocities per node (spatial), and which nodes and coordinates have one.
+  std::vector<const InitialCondition *> given(state.nodes.size(), nullptr);
+  for (const InitialCondition &ic : model.initial_conditions)
+    if (ic.has_velocity)
+      for (int node : ic.nodes) {
+        const int l = map.node_to_local[node];
+        if (l >= 0) given[l] = &ic;
+      }
+  auto given_velocity = [&](int l) {
+    Vec6                    V  = Vec6::Zero();
+    const InitialCondition *ic = given[l];
+    if (!ic) return V;
+    const Vec3 X = model.nodes[map.local_nodes[l]].position;
+    V.head<3>()  = ic->velocity + (ic->rigid_body_field ? Vec3(ic->angular_velocity.cross(X - ic->center)) : Vec3::Zero());
+    V.tail<3>()  = ic->angular_velocity;
+    return V;
+  };
+
+  // y_g: the given velocities (rest elsewhere); the rows held at them.
+  Vec                   y, delta, R;
+  std::vector<PetscInt> held;
+  PetscCall(VecDuplicate(solution_template_, &y));
+  PetscCall(VecDuplicate(solution_template_, &delta));
+  PetscCall(VecDuplicate(solution_template_, &R));
+  PetscCall(VecSetOption(R, VEC_IGNORE_NEGATIVE_INDICES, PETSC_TRUE)); // node vectors carry -1 on fixed DOFs
+  PetscCall(VecZeroEntries(y));
+  for (PetscInt l = 0; l < map.num_owned_nodes; ++l) {
+    if (IsSlave((int)l) || !given[l]) continue;
+    const Vec6                     V    = given_velocity((int)l);
+    const std::array<PetscInt, 6> &dofs = map.node_dofs[map.local_nodes[l]];
+    for (int d = 0; d < 6; ++d)
+      if (dofs[d] >= 0) {
+        PetscCall(VecSetValue(y, dofs[d], V(d), INSERT_VALUES));
+        held.push_back(dofs[d]);
+      }
+  }
+  for (const CoordinateInitialCondition &ic : model.coordinate_initial_conditions) {
+    if (!ic.has_rate) continue;
+    const int j = map.joint_to_local[ic.joint];
+    if (j < 0 || state.joints[j].local_slave >= map.num_owned_nodes) continue;
+    const PetscInt row = map.joint_dofs[ic.joint][ic.coordinate];
+    if (row < 0) continue;
+    PetscCall(VecSetValue(y, row, ic.rate, INSERT_VALUES));
+    held.push_back(row);
+  }
+  PetscCall(VecAssemblyBegin(y));
+  PetscCall(VecAssemblyEnd(y));
+  PetscCall(SetIncrements(y));
+
+  // The beams' material stiffness at the start configuration (one kernel call per element: the
+  // reference strains shifted to the current ones, so the stresses and the geometric terms vanish).
+  double                           local_diagonal = 0.0, weight;
+  const auto                      &references     = beams_->References();
+  std::vector<std::vector<double>> element_matrices(map.local_elements.size());
+  for (size_t k = 0; k < map.local_elements.size(); ++k) {
+    const BeamElement &element = model.elements[map.local_elements[k]];
+    const Section     &section = model.sections[element.section];
+    const int          nd      = 6 * (element.order + 1);
+    Vec3 positions[kBeamMaxNodes], zero[kBeamMaxNodes], strain[kBeamMaxGauss], curvature[kBeamMaxGauss], rate[kBeamMaxGauss], kappa_rate[kBeamMaxGauss];
+    Mat3 triads[kBeamMaxNodes];
+    BeamElementReference shifted = references[k];
+    double               force[kBeamMaxDofs];
+    std::vector<double> &K = element_matrices[k];
+    for (Vec3 &v : zero) v.setZero();
+    beams_->StartConfiguration(state, k, positions, triads);
+    K.assign((size_t)nd * nd, 0.0);
+    if (BeamStrainRates(shifted, positions, triads, zero, zero, strain, curvature, rate, kappa_rate) != BeamKernelStatus::Ok) continue;
+    for (int gp = 0; gp < shifted.num_gauss; ++gp) shifted.strain0[gp] += strain[gp], shifted.curvature0[gp] += curvature[gp];
+    const BeamSectionStiffness stiffness{Vec3(section.EA, section.GA2, section.GA3), Vec3(section.GJ, section.EI2, section.EI3)};
+    if (BeamInternalForces(shifted, stiffness, positions, triads, force, K.data(), nullptr, nullptr) != BeamKernelStatus::Ok) continue;
+    for (int i = 0; i < nd; ++i) local_diagonal = std::max(local_diagonal, K[(size_t)i * nd + i]);
+  }
+  PetscCall(MPIU_Allreduce(&local_diagonal, &weight, 1, MPI_DOUBLE, MPI_MAX, comm_));
+  if (!(weight > 0.0)) weight = 1.0;
+
+  // A and R = A y_g + r_0 (the strain-rate forces K_e V and the slaves' pulls to their given velocities).
+  auto assemble = [&](bool with_matrix, double *strain_rate) -> PetscErrorCode {
+    PetscFunctionBeginUser;
+    PetscCall(VecZeroEntries(R));
+    if (with_matrix) PetscCall(MatZeroEntries(jacobian_));
+    double local_rate = 0.0;
+    for (size_t k = 0; k < map.local_elements.size(); ++k) {
+      const BeamElement &element = model.elements[map.local_elements[k]];
+      const int          n = element.order + 1, nd = 6 * n;
+      int                nodes[kBeamMaxNodes];
+      double             V[kBeamMaxDofs], r[kBeamMaxDofs];
+      for (int a = 0; a < n; ++a) {
+        nodes[a]           = map.node_to_local[element.nodes[a]];
+        const NodeState &s = state.nodes[nodes[a]];
+        for (int i = 0; i < 3; ++i) V[6 * a + i] = s.displacement_increment(i), V[6 * a + 3 + i] = s.rotation_increment(i);
+      }
+      const std::vector<double> &K = element_matrices[k];
+      for (int i = 0; i < nd; ++i) {
+        r[i] = 0.0;
+        for (int j = 0; j < nd; ++j) r[i] += K[(size_t)i * nd + j] * V[j];
+        local_rate += V[i] * r[i];
+      }
+      for (int a = 0; a < n; ++a) PetscCall(AddNodeResidual(R, nodes[a], &r[6 * a]));
+      if (with_matrix) PetscCall(AddExpandedMatrix(jacobian_, n, nodes, K.data()));
+    }
+    for (PetscInt l = 0; l < map.num_owned_nodes; ++l) {
+      if (!IsSlave((int)l) || !given[l]) continue;
+      const NodeState &s = state.nodes[l];
+      Vec6             V;
+      V << s.displacement_increment, s.rotation_increment;
+      const Vec6 g = weight * (V - given_velocity((int)l));
+      PetscCall(AddNodeResidual(R, (int)l, g.data()));
+      if (with_matrix) PetscCall(AddNodeBlock(jacobian_, (int)l, Mat6(weight * Mat6::Identity())));
+    }
+    PetscCall(VecAssemblyBegin(R));
+    PetscCall(VecAssemblyEnd(R));
+    if (with_matrix) {
+      PetscCall(MatAssemblyBegin(jacobian_, MAT_FINAL_ASSEMBLY));
+      PetscCall(MatAssemblyEnd(jacobian_, MAT_FINAL_ASSEMBLY));
+    }
+    PetscCall(MPIU_Allreduce(&local_rate, strain_rate, 1, MPI_DOUBLE, MPI_SUM, comm_));
+    PetscFunctionReturn(PETSC_SUCCESS);
+  };
+  PetscCall(assemble(true, &report->strain_rate_before));
+
+  // Rows no term reaches stay at rest; held rows stay at their given values.
+  {
+    Vec       row_max;
+    PetscReal largest;
+    PetscInt  first;
+    PetscCall(VecDuplicate(solution_template_, &row_max));
+    PetscCall(MatGetRowMaxAbs(jacobian_, row_max, nullptr));
+    PetscCall(VecMax(row_max, nullptr, &largest));
+    PetscCall(VecGetOwnershipRange(row_max, &first, nullptr));
+    const PetscScalar *values;
+    PetscCall(VecGetArrayRead(row_max, &values));
+    std::vector<PetscInt> sorted_held = held;
+    std::sort(sorted_held.begin(), sorted_held.end());
+    PetscInt at_rest = 0;
+    for (PetscInt i = 0; i < map.num_owned; ++i)
+      if (!(PetscAbsScalar(values[i]) > 1e-14 * largest) && !std::binary_search(sorted_held.begin(), sorted_held.end(), first + i)) {
+        held.push_back(first + i);
+        ++at_rest;
+      }
+    PetscCall(VecRestoreArrayRead(row_max, &values));
+    PetscCall(VecDestroy(&row_max));
+    const PetscInt counts[2] = {(PetscInt)held.size() - at_rest, at_rest};
+    PetscInt       totals[2];
+    PetscCallMPI(MPIU_Allreduce(counts, totals, 2, MPIU_INT, MPI_SUM, comm_));
+    report->held    = totals[0];
+    report->at_rest = totals[1];
+    report->chosen  = map.num_global - totals[0] - totals[1];
+  }
+  PetscCall(MatSetOption(jacobian_, MAT_KEEP_NONZERO_PATTERN, PETSC_TRUE));
+  PetscCall(MatZeroRowsColumns(jacobian_, (PetscInt)held.size(), held.data(), 1.0, nullptr, nullptr));
+  for (PetscInt row : held) PetscCall(VecSetValue(R, row, 0.0, INSERT_VALUES));
+  PetscCall(VecAssemblyBegin(R));
+  PetscCall(VecAssemblyEnd(R));
+  PetscCall(VecScale(R, -1.0));
+
+  // A delta = -R: minimum-norm solution by preconditioned conjugate gradients.
+  Mat       P;
+  KSP       ksp;
+  PC        pc;
+  Vec       diagonal;
+  PetscReal largest_diagonal;
+  PetscCall(MatDuplicate(jacobian_, MAT_COPY_VALUES, &P));
+  PetscCall(VecDuplicate(solution_template_, &diagonal));
+  PetscCall(MatGetDiagonal(jacobian_, diagonal));
+  PetscCall(VecAbs(diagonal));
+  PetscCall(VecMax(diagonal, nullptr, &largest_diagonal));
+  PetscCall(VecDestroy(&diagonal));
+  PetscCall(MatShift(P, 1e-8 * largest_diagonal));
+  PetscCall(KSPCreate(comm_, &ksp));
+  PetscCall(KSPSetOptionsPrefix(ksp, "velocity_projection_"));
+  PetscCall(KSPSetOperators(ksp, jacobian_, P));
+  PetscCall(KSPSetType(ksp, KSPCG));
+  PetscCall(KSPGetPC(ksp, &pc));
+  PetscCall(PCSetType(pc, PCLU));
+#if defined(PETSC_HAVE_MUMPS)
+  PetscCall(PCFactorSetMatSolverType(pc, MATSOLVERMUMPS));
+#endif
+  PetscCall(KSPSetTolerances(ksp, 1e-12, 0.0, PETSC_DEFAULT, 200));
+  PetscCall(KSPSetFromOptions(ksp));
+  PetscCall(VecZeroEntries(delta));
+  PetscCall(KSPSolve(ksp, R, delta));
+  KSPConvergedReason reason;
+  PetscCall(KSPGetConvergedReason(ksp, &reason));
+  PetscCall(KSPGetIterationNumber(ksp, &report->iterations));
+  PetscCall(KSPDestroy(&ksp));
+  PetscCall(MatDestroy(&P));
+  PetscCheck(reason > 0, comm_, PETSC_ERR_NOT_CONVERGED,
+             "the projection of the initial velocities did not converge (%s); run with -analysis_initial_velocities given", KSPConvergedReasons[reason]);
+  PetscCall(VecAXPY(y, 1.0, delta));
+  PetscCall(SetIncrements(y));
+  PetscCall(assemble(false, &report->strain_rate_after));
+
+  // The velocities into the state's motion: nodes (angular velocity in the body frame), joint
+  // coordinates (their rates), rigid bodies' centres of mass.
+  double local_change = 0.0;
+  for (size_t l = 0; l < state.nodes.size(); ++l) {
+    NodeState &s                  = state.nodes[l];
+    s.translation_motion.velocity = s.displacement_increment;
+    s.rotation_motion.velocity    = QuaternionToMatrix(s.rotation_start).transpose() * s.rotation_increment;
+    if (given[l] && (PetscInt)l < map.num_owned_nodes) {
+      Vec6 V;
+      V << s.displacement_increment, s.rotation_increment;
+      local_change = std::max(local_change, (V - given_velocity((int)l)).cwiseAbs().maxCoeff());
+    }
+  }
+  PetscCallMPI(MPIU_Allreduce(&local_change, &report->slave_change, 1, MPI_DOUBLE, MPI_MAX, comm_));
+  for (JointState &J : state.joints)
+    for (int c = 0; c < kJointMaxReleased; ++c) J.coordinate_motion[c / 3].velocity(c % 3) = J.increment[c];
+  for (RigidBodyState &body : state.bodies) {
+    const NodeState &s           = state.nodes[body.local_node];
+    body.centre_of_mass.velocity = s.translation_motion.velocity + s.rotation_increment.cross(QuaternionToMatrix(s.rotation_start) * body.offset);
+  }
+  PetscCall(VecDestroy(&y));
+  PetscCall(VecDestroy(&delta));
+  PetscCall(VecDestroy(&R));
+  // Back to the start state (no increments).
+  state.equations = StaticStep(t, t);
+  StateDiscardStep(model, state_);
+  UpdateExpansions();
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+} // namespace msflex

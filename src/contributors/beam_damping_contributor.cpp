@@ -1,0 +1,167 @@
+#include "contributors/beam_damping_contributor.hpp"
+
+#include "elements/beam_rates.hpp"
+
+namespace msflex {
+
+void BeamDampingContributor::Setup(const Model &model, const DofMap &map, const BeamContributor &beams)
+{
+  model_ = &model;
+  map_   = &map;
+  beams_ = &beams;
+  damping_.clear();
+  for (const Section &section : model.sections) damping_.push_back({section.damping_axial_shear, section.damping_torsion_bending});
+  damped_.assign(map.local_elements.size(), 0);
+  any_damped_ = false;
+  for (size_t k = 0; k < map.local_elements.size(); ++k) {
+    damped_[k]  = model.sections[model.elements[map.local_elements[k]].section].Damped() ? 1 : 0;
+    any_damped_ = any_damped_ || damped_[k];
+  }
+  start_strain_.assign(map.local_elements.size(), {Vec3::Zero(), Vec3::Zero()});
+  start_curvature_.assign(map.local_elements.size(), {Vec3::Zero(), Vec3::Zero()});
+}
+
+bool BeamDampingContributor::Strains(const State &state, size_t k, bool start, Vec3 *strain, Vec3 *curvature) const
+{
+  Vec3 positions[kBeamMaxNodes], zero[kBeamMaxNodes], rate[kBeamMaxGauss], curvature_rate[kBeamMaxGauss];
+  Mat3 triads[kBeamMaxNodes];
+  if (start) beams_->StartConfiguration(state, k, positions, triads);
+  else beams_->Configuration(state, k, positions, triads);
+  for (Vec3 &v : zero) v.setZero();
+  return BeamStrainRates(beams_->References()[k], positions, triads, zero, zero, strain, curvature, rate, curvature_rate) == BeamKernelStatus::Ok;
+}
+
+void BeamDampingContributor::BeginStep(const State &state)
+{
+  const StepEquations &eq = state.equations;
+  if (!any_damped_ || !eq.Dynamic() || eq.Midpoint()) return;
+  for (size_t k = 0; k < damped_.size(); ++k)
+    if (damped_[k]) Strains(state, k, true, start_strain_[k].data(), start_curvature_[k].data());
+}
+
+bool BeamDampingContributor::Forces(const State &state, size_t k, double *force, double *tangent) const
+{
+  const StepEquations        &eq      = state.equations;
+  const BeamElement          &element = model_->elements[map_->local_elements[k]];
+  const BeamSectionStiffness &C       = damping_[element.section];
+  const BeamElementReference &ref     = beams_->References()[k];
+  Vec3                        positions[kBeamMaxNodes];
+  Mat3                        triads[kBeamMaxNodes];
+  if (eq.Midpoint()) {
+    Vec3   positions_start[kBeamMaxNodes];
+    Mat3   triads_start[kBeamMaxNodes];
+    double force_mc[kBeamMaxDofs], energy_start, energy_end;
+    beams_->StartConfiguration(state, k, positions_start, triads_start);
+    beams_->Configuration(state, k, positions, triads);
+    const double               dt = eq.scheme.dt;
+    const BeamSectionStiffness scaled{C.axial_shear / dt, C.torsion_bending / dt};
+    // The damping force is the kernel's correction vector with C_d/dt: T*^T D^T C_d (e_{n+1} - e_n)/dt,
+    // and its exact tangent is K_corr.
+    return BeamMidpointInternalForces(ref, scaled, positions_start, triads_start, positions, triads, force_mc, force, nullptr, tangent, nullptr, &energy_start,
+                                      &energy_end) == BeamKernelStatus::Ok;
+  }
+  const BeamStrainMotion &motion  = state.beam_strains[k];
+  BeamElementReference    shifted = ref;
+  BeamSectionStiffness    section = C;
+  if (eq.InitialAcceleration()) {
+    // C_d edot_0 at the start state: the stress C_d (e - (e_0 - edot_0)).
+    beams_->StartConfiguration(state, k, positions, triads);
+    Vec3 strain[kBeamMaxGauss], curvature[kBeamMaxGauss];
+    if (!Strains(state, k, true, strain, curvature)) return false;
+    for (int gp = 0; gp < ref.num_gauss; ++gp) {
+      shifted.strain0[gp] += strain[gp] - motion.strain[gp].velocity;
+      shifted.curvature0[gp] += curvature[gp] - motion.curvature[gp].velocity;
+    }
+    tangent = nullptr;
+  } else {
+    // edot_{n+1} = c_v (e_{n+1} - e_n) + edot*: the stress c_v C_d (e - (e_n - edot*/c_v)).
+    beams_->Configuration(state, k, positions, triads);
+    const double cv = eq.scheme.VelocityCoefficient();
+    section         = {cv * C.axial_shear, cv * C.torsion_bending};
+    for (int gp = 0; gp < ref.num_gauss; ++gp) {
+      const Vec3 strain_rate    = AdvanceMotion(eq.scheme, motion.strain[gp], Vec3::Zero()).velocity;
+      const Vec3 curvature_rate = AdvanceMotion(eq.scheme, motion.curvature[gp], Vec3::Zero()).velocity;
+      shifted.strain0[gp] += start_strain_[k][gp] - strain_rate / cv;
+      shifted.curvature0[gp] += start_curvature_[k][gp] - curvature_rate / cv;
+    }
+  }
+  return BeamInternalForces(shifted, section, positions, triads, force, tangent, nullptr, nullptr) == BeamKernelStatus::Ok;
+}
+
+void BeamDampingContributor::AddElement(const State &state, size_t k, ElementContribution *out)
+{
+  if (!damped_[k] || !state.equations.Inertial()) return;
+  double     force[kBeamMaxDofs], K[kBeamMaxDofs * kBeamMaxDofs];
+  const bool tangent = out->want_tangent && !state.equations.InitialAcceleration();
+  if (!Forces(state, k, force, tangent ? K : nullptr)) {
+    out->evaluable = false;
+    return;
+  }
+  const int nd = 6 * out->num_nodes;
+  for (int i = 0; i < nd; ++i) out->residual[i] += force[i];
+  if (tangent)
+    for (int i = 0; i < nd * nd; ++i) out->tangent[i] += K[i];
+}
+
+void BeamDampingContributor::AddStepDissipation(const State &state, double *dissipation) const
+{
+  if (!state.equations.Dynamic()) return;
+  for (size_t k = 0; k < damped_.size(); ++k) {
+    if (!damped_[k]) continue;
+    double force[kBeamMaxDofs];
+    if (!Forces(state, k, force, nullptr)) continue;
+    const BeamElement &element = model_->elements[map_->local_elements[k]];
+    for (int a = 0; a <= element.order; ++a) {
+      const NodeState &s = state.nodes[map_->node_to_local[element.nodes[a]]];
+      *dissipation += s.displacement_increment.dot(Vec3(&force[6 * a])) + s.tangent_scaled_increment.dot(Vec3(&force[6 * a + 3]));
+    }
+  }
+}
+
+void BeamDampingContributor::StartMotion(State *state)
+{
+  if (!any_damped_ || model_->analysis.type != AnalysisType::Dynamic) return;
+  for (size_t k = 0; k < damped_.size(); ++k) {
+    if (!damped_[k]) continue;
+    const BeamElement &element = model_->elements[map_->local_elements[k]];
+    Vec3               positions[kBeamMaxNodes], v[kBeamMaxNodes], w[kBeamMaxNodes], a[kBeamMaxNodes], wdot[kBeamMaxNodes];
+    Mat3               triads[kBeamMaxNodes];
+    beams_->StartConfiguration(*state, k, positions, triads);
+    for (int n = 0; n <= element.order; ++n) {
+      const NodeState &s = state->nodes[map_->node_to_local[element.nodes[n]]];
+      const Mat3       R = QuaternionToMatrix(s.rotation_start);
+      v[n] = s.translation_motion.velocity, w[n] = R * s.rotation_motion.velocity;
+      a[n] = s.translation_motion.acceleration, wdot[n] = R * s.rotation_motion.acceleration; // d(R W)/dt = R Wdot + w x w
+    }
+    Vec3              strain[kBeamMaxGauss], curvature[kBeamMaxGauss], rate[kBeamMaxGauss], curvature_rate[kBeamMaxGauss];
+    Vec3              acceleration[kBeamMaxGauss], curvature_acceleration[kBeamMaxGauss];
+    BeamStrainMotion &motion = state->beam_strains[k];
+    if (BeamStrainRates(beams_->References()[k], positions, triads, v, w, strain, curvature, rate, curvature_rate) != BeamKernelStatus::Ok ||
+        BeamStrainAccelerations(beams_->References()[k], positions, triads, v, w, a, wdot, acceleration, curvature_acceleration) != BeamKernelStatus::Ok)
+      continue;
+    for (int gp = 0; gp < beams_->References()[k].num_gauss; ++gp) {
+      motion.strain[gp]    = {rate[gp], acceleration[gp], acceleration[gp]};
+      motion.curvature[gp] = {curvature_rate[gp], curvature_acceleration[gp], curvature_acceleration[gp]};
+    }
+  }
+}
+
+void BeamDampingContributor::CommitStep(State *state)
+{
+  const StepEquations &eq = state->equations;
+  if (!any_damped_ || !eq.Dynamic()) return;
+  for (size_t k = 0; k < damped_.size(); ++k) {
+    if (!damped_[k]) continue;
+    Vec3 start_strain[kBeamMaxGauss], start_curvature[kBeamMaxGauss], strain[kBeamMaxGauss], curvature[kBeamMaxGauss];
+    if (!Strains(*state, k, true, start_strain, start_curvature) || !Strains(*state, k, false, strain, curvature)) continue;
+    BeamStrainMotion &motion = state->beam_strains[k];
+    for (int gp = 0; gp < beams_->References()[k].num_gauss; ++gp) {
+      const MotionUpdate s = AdvanceMotion(eq.scheme, motion.strain[gp], strain[gp] - start_strain[gp]);
+      const MotionUpdate c = AdvanceMotion(eq.scheme, motion.curvature[gp], curvature[gp] - start_curvature[gp]);
+      motion.strain[gp]    = {s.velocity, s.acceleration, s.pseudo_acceleration};
+      motion.curvature[gp] = {c.velocity, c.acceleration, c.pseudo_acceleration};
+    }
+  }
+}
+
+} // namespace msflex

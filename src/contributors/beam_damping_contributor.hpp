@@ -1,0 +1,59 @@
+// Structural damping of the beams: viscous section forces on the strain rates,
+//   (N_d, M_d) = C_d (Gammadot, Kdot),   C_d = diag(damping of the section)
+// acting through the same strain operator as the elastic forces (elements/beam.hpp), so that their
+// virtual work is the dissipation C_d edot . edot integrated over the element.
+//
+// Per scheme:
+//  - Newmark family: the strains of each Gauss point are advanced with the scheme's own update,
+//    as one more "displacement" of the scheme (State::beam_strains): edot_{n+1} = c_v (e_{n+1} - e_n)
+//    + edot* (edot* from the history), so the damping stress is c_v C_d (e - e~) with the shifted
+//    reference strain e~ = e_n - edot*/c_v: the internal-force kernel itself with the section
+//    stiffness c_v C_d gives the force and its exact tangent. The start values are the exact strain
+//    rates of the initial velocities and the strain accelerations of the initial motion
+//    (elements/beam_rates.hpp).
+//  - mid-point family: the stress C_d (e_{n+1} - e_n)/dt through the mid-point map, i.e. the
+//    correction vector of the mid-point kernel with the section C_d / dt; its work over (u, alpha)
+//    is the step's dissipation, which the energy balance counts.
+//  - initial-acceleration problem: C_d edot_0 at the start state (no tangent).
+// The tangent of the mid-point form is the end-point one of the stress C_d (e - e_n)/dt (exact
+// once the mid-point kernel's tangent is available to it).
+#pragma once
+
+#include "contributors/beam_contributor.hpp"
+
+#include <array>
+#include <vector>
+
+namespace msflex {
+
+class BeamDampingContributor : public ForceContributor {
+public:
+  void        Setup(const Model &model, const DofMap &map, const BeamContributor &beams);
+  const char *Name() const override { return "beam structural damping"; }
+  bool        Empty() const { return !any_damped_; }
+
+  void BeginStep(const State &state) override;
+  bool ActsOnElements() const override { return any_damped_; }
+  void AddElement(const State &state, size_t k, ElementContribution *out) override;
+  void AddStepDissipation(const State &state, double *dissipation) const override;
+  void StartMotion(State *state) override;
+  void CommitStep(State *state) override;
+
+private:
+  // The damping forces of local element k (6 per node) and, on request, their tangent; false when
+  // the element cannot be evaluated.
+  bool Forces(const State &state, size_t k, double *force, double *tangent) const;
+  // Strains and curvatures of local element k at the Gauss points of its current (or start) configuration.
+  bool Strains(const State &state, size_t k, bool start, Vec3 *strain, Vec3 *curvature) const;
+
+  const Model                      *model_      = nullptr;
+  const DofMap                     *map_        = nullptr;
+  const BeamContributor            *beams_      = nullptr;
+  bool                              any_damped_ = false;
+  std::vector<char>                 damped_;  // per local element
+  std::vector<BeamSectionStiffness> damping_; // per section: C_d
+  // Newmark family, per local element and Gauss point: the strains at the start of the step.
+  std::vector<std::array<Vec3, 2>> start_strain_, start_curvature_;
+};
+
+} // namespace msflex

@@ -1,0 +1,91 @@
+// The force elements of the model (docs/input.md, force_elements; kernels in
+// elements/force_elements.hpp): springs, dampers and actuators on joints' released coordinates,
+// axial spring-dampers and bushings between two nodes. Each element is evaluated by one rank: a
+// coordinate's by the owner of its joint's slave, a node pair's by the owner of its first node.
+//
+// Per problem: statics (springs and actuators at t_{n+1}), the Newmark family (dampers with the
+// scheme's velocities at t_{n+1}: a coordinate's rate is integrated by the scheme like a node's,
+// State::joints' coordinate_motion), the mid-point family (the discrete-gradient forms, rows
+// conjugate to the test quantities), the initial-acceleration problem (the start state's forces,
+// no tangent). Stored energy, dissipation and the actuators' work feed the energy balance.
+#pragma once
+
+#include "contributors/contributor.hpp"
+#include "elements/force_elements.hpp"
+
+#include <vector>
+
+namespace msflex {
+
+class CoordinateForceContributor : public ForceContributor {
+public:
+  void        Setup(const Model &model, const DofMap &map, const State &state);
+  const char *Name() const override { return "joint coordinate force elements"; }
+  bool        Empty() const { return elements_.empty(); }
+
+  void BeginStep(const State &state) override;
+  void AddBlocks(const State &state, bool want_tangent, BlockSink *sink) override;
+  void AddStoredEnergy(const State &state, double *energy) const override;
+  bool StoresSpringEnergy() const override { return true; }
+  void AddStepWork(const State &state, double *work) const override;
+  void AddStepDissipation(const State &state, double *dissipation) const override;
+  void StartMotion(State *state) override;
+  void CommitStep(State *state) override;
+  void AddHistory(const State &state, std::vector<HistoryValue> *values) const override;
+
+private:
+  struct Element {
+    int         element    = -1; // index into the model's force elements
+    int         joint      = -1; // index into State::joints
+    int         coordinate = -1;
+    bool        angle      = false;
+    SpringCurve spring;
+    bool        has_spring = false;
+    double      actuator   = 0.0; // weighted in time for the step
+    // Recorded at the last commit for the history: the generalised force on the coordinate and the
+    // mean power delivered over the step.
+    double force = 0.0, power = 0.0;
+  };
+  CoordinateForceValues Evaluate(const State &state, const Element &element) const;
+
+  const Model         *model_ = nullptr;
+  const DofMap        *map_   = nullptr;
+  std::vector<Element> elements_;
+};
+
+class NodePairForceContributor : public ForceContributor {
+public:
+  void        Setup(const Model &model, const DofMap &map);
+  const char *Name() const override { return "spring-dampers and bushings"; }
+  bool        Empty() const { return elements_.empty(); }
+
+  void AddBlocks(const State &state, bool want_tangent, BlockSink *sink) override;
+  void AddStoredEnergy(const State &state, double *energy) const override;
+  bool StoresSpringEnergy() const override { return true; }
+  void AddStepDissipation(const State &state, double *dissipation) const override;
+  void StartMotion(State *state) override;
+  void CommitStep(State *state) override;
+  void AddHistory(const State &state, std::vector<HistoryValue> *values) const override;
+  void FindNonFiniteBlocks(const State &state, const std::vector<char> &node_finite, TroubleFindings *findings) const override;
+
+private:
+  struct Element {
+    int         element  = -1;       // index into the model's force elements
+    int         nodes[2] = {-1, -1}; // local nodes
+    SpringCurve spring;
+    Vec3        reference_offset = Vec3::Zero(); // bushing: d_ref in bushing axes
+    // Recorded at the last commit: length and tension (spring-damper) or force and moment on the
+    // second node (bushing, global axes), and the mean power delivered over the step.
+    Vec6   recorded = Vec6::Zero();
+    double power    = 0.0;
+  };
+  // Residual (12) and tangent (12x12, may be null) of an element; false when not evaluable. The
+  // recorded quantities and the change of what the damper resists (for the dissipation) on request.
+  bool Evaluate(const State &state, const Element &element, Vec12 *residual, Mat12 *tangent, Vec6 *recorded, double *dissipation) const;
+
+  const Model         *model_ = nullptr;
+  const DofMap        *map_   = nullptr;
+  std::vector<Element> elements_;
+};
+
+} // namespace msflex

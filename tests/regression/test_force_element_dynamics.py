@@ -1,0 +1,118 @@
+"""Force elements, massless nodes and the pinned offset rigid body in dynamics (issue 12):
+- a linear spring-mass-damper on a prismatic joint (inputs/spring_mass_damper.yaml), em at
+  omega_0 dt = 0.031: damped frequency and decay rate against the closed form to 1e-4, and
+  energy - work + dissipated energy constant to 1e-8 of the energy over 1000 steps;
+- every kind of force element at once on a flexible arm (inputs/force_element_energy.yaml: tabulated
+  torsional spring, damper and actuator on a revolute, spring-damper, bushing, structural damping),
+  em over 1000 steps: energy - work + dissipated energy constant to 1e-8 of the largest of them;
+- a pendulum with a massless rod on a revolute joint (input/massless_pendulum.yaml) and a massless cantilever carrying a point
+  mass (no rotary inertia at the joint's node nor at the tips) run with newmark, genalpha, mc and
+  em: quarter period of the pendulum and the cantilever's period against their closed forms;
+- a rigid body spinning about a fixed point away from its centre of mass, no load: newmark and
+  genalpha with rho = 1 keep its energy bounded (no growth), em keeps it to the Newton tolerance;
+- a drive at constant speed without initial conditions (inputs/drive_start.yaml): the projected
+  initial velocities start the arm rotating rigidly with it (kinetic energy at t = 0 against the
+  closed form, on 1 and 2 ranks), so it stays nearly unstrained, unlike with the given velocities."""
+
+import numpy as np
+
+import msflex_testing as mt
+
+args = mt.parse_arguments(__doc__)
+check = mt.Checker("force elements in dynamics")
+inputs = f"{args.source_dir}/tests/regression/inputs"
+
+
+def run(name, label, options=()):
+    output = f"{args.work_dir}/{name}_{label}.h5"
+    folder = "input" if name == "massless_pendulum" else "tests/regression/inputs"
+    mt.run_msflex(args, f"{args.source_dir}/{folder}/{name}.yaml", output, extra=["-quiet", *options])
+    return mt.history(output), output
+
+
+def crossings(t, x, downward):
+    i = np.where((x[:-1] > 0) & (x[1:] <= 0))[0] if downward else np.where((x[:-1] < 0) & (x[1:] >= 0))[0]
+    return t[i] - x[i] * (t[i + 1] - t[i]) / (x[i + 1] - x[i])
+
+
+def balance_drift(h):
+    b = h["energy_balance"]
+    scale = max(np.abs(h["total_energy"]).max(), np.abs(h["external_work"]).max(), np.abs(h.get("dissipated_energy", np.zeros(1))).max())
+    return np.abs(b - b[0]).max() / scale
+
+
+# Spring-mass-damper against its closed form.
+h, _ = run("spring_mass_damper", "em")
+m, k, c = 2.0, 78.95683521, 0.5026548246
+w0 = np.sqrt(k / m)
+zeta = c / (2 * m * w0)
+wd = w0 * np.sqrt(1 - zeta**2)
+t, x = h["time"], h["slide.tx"]
+down = crossings(t, x, True)
+period = np.polyfit(np.arange(len(down)), down, 1)[0]
+peaks = [i for i in range(1, len(x) - 1) if x[i] >= x[i - 1] and x[i] > x[i + 1] and x[i] > 0]
+# the peaks of the sampled response, refined by a parabola through the three samples
+tp, xp = [], []
+for i in peaks:
+    a, b, cc = np.polyfit(t[i - 1:i + 2] - t[i], x[i - 1:i + 2], 2)
+    tp.append(t[i] - b / (2 * a))
+    xp.append(cc - b * b / (4 * a))
+decay = -np.polyfit(tp, np.log(xp), 1)[0]
+print(f"spring-mass-damper: {len(t) - 1} steps, omega_d {2 * np.pi / period:.8f} (exact {wd:.8f}), decay {decay:.8f} (exact {zeta * w0:.8f})")
+check.less("spring-mass-damper: |omega_d - exact| / exact", abs(2 * np.pi / period - wd) / wd, 1e-4)
+check.less("spring-mass-damper: |decay - exact| / exact", abs(decay - zeta * w0) / (zeta * w0), 1e-4)
+check.less("spring-mass-damper: drift of energy - work + dissipated / energy", balance_drift(h), 1e-8)
+check.less("spring-mass-damper: 2000 steps (2000 - steps)", 2000 - (len(t) - 1), 1)
+
+# Every force element with em.
+h, _ = run("force_element_energy", "em")
+drift = balance_drift(h)
+print(f"force elements, em: {len(h['time']) - 1} steps, work {h['external_work'][-1]:.6g} J, dissipated {h['dissipated_energy'][-1]:.6g} J, "
+      f"relative drift {drift:.3e}")
+check.less("force elements, em: drift of energy - work + dissipated / scale", drift, 1e-8)
+check.less("force elements, em: the dampers dissipate (-dissipated)", -h["dissipated_energy"][-1], 0.0)
+check.less("force elements, em: 1000 steps or more (1000 - steps)", 1000 - (len(h["time"]) - 1), 1)
+
+# Massless rod pendulum: first downward zero crossing at a quarter of the period 2.011094 s.
+for integrator in ("newmark", "genalpha", "mc", "em"):
+    h, _ = run("massless_pendulum", integrator, ["-analysis_integrator", integrator, "-analysis_end_time", "0.8"])
+    quarter = crossings(h["time"], h["hinge.rx"], True)
+    value = quarter[0] if len(quarter) else np.inf
+    print(f"massless pendulum, {integrator}: quarter period {value:.6f} s (exact 0.502774)")
+    check.less(f"massless pendulum, {integrator}: |T/4 - exact| / exact", abs(value - 0.502774) / 0.502774, 2e-3)
+
+# Massless cantilever with a tip mass: period 0.513793 s.
+for integrator in ("newmark", "genalpha", "em"):
+    _, output = run("massless_cantilever", integrator, ["-analysis_integrator", integrator])
+    p = mt.probe_history(output, "tip")
+    up = crossings(p["time"], p["displacement"][:, 1], False)
+    value = np.mean(np.diff(up)) if len(up) > 1 else np.inf
+    print(f"massless cantilever, {integrator}: period {value:.6f} s (exact 0.513793)")
+    check.less(f"massless cantilever, {integrator}: |T - exact| / exact", abs(value - 0.513793) / 0.513793, 1e-4)
+
+# Spinning offset body.
+for label, options, limit in (("newmark", ["-analysis_integrator", "newmark"], 2e-5),
+                              ("genalpha rho 1", ["-analysis_integrator", "genalpha", "-analysis_spectral_radius", "1"], 2e-5),
+                              ("em", ["-analysis_integrator", "em"], 1e-9)):
+    h, _ = run("spinning_offset_body", label.replace(" ", "_"), options)
+    E = h["total_energy"]
+    drift = np.abs(E - E[0]).max() / E[0]
+    half = len(E) // 2
+    print(f"spinning offset body, {label}: {len(E) - 1} steps, largest |E - E0| / E0 {drift:.3e}, "
+          f"first half {np.abs(E[:half] - E[0]).max() / E[0]:.3e}, second half {np.abs(E[half:] - E[0]).max() / E[0]:.3e}")
+    check.less(f"spinning offset body, {label}: largest |E - E0| / E0", drift, limit)
+
+# Drive at constant speed: consistent initial velocities.
+runs = {}
+for label, options, ranks in (("projected", [], 1), ("projected, 2 ranks", [], 2), ("given", ["-analysis_initial_velocities", "given"], 1)):
+    output = f"{args.work_dir}/drive_start_{label.replace(', ', '_').replace(' ', '')}.h5"
+    mt.run_msflex(args, f"{inputs}/drive_start.yaml", output, extra=["-quiet", *options], np_ranks=ranks)
+    runs[label] = mt.history(output)
+    print(f"drive start, {label}: kinetic energy at t = 0 {runs[label]['kinetic_energy'][0]:.10f} J (rigid rotation 4.1791667 J), "
+          f"largest strain energy {runs[label]['strain_energy'].max():.4e} J")
+exact = 0.5 * 25.0 * (1.0 / 3.0 + 1e-3)
+for label in ("projected", "projected, 2 ranks"):
+    check.less(f"drive start, {label}: |KE_0 - rigid rotation| / rigid rotation", abs(runs[label]["kinetic_energy"][0] - exact) / exact, 1e-9)
+    check.less(f"drive start, {label}: largest strain energy / KE_0", runs[label]["strain_energy"].max() / exact, 1e-4)
+check.less("drive start, given: the drive's jerk strains the arm (-largest strain energy / KE_0)", -runs["given"]["strain_energy"].max() / exact, -0.1)
+check.finish()
