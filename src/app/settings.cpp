@@ -160,8 +160,8 @@ PetscErrorCode SettingsFromOptions(MPI_Comm comm, Model *model, RunOptions *opti
   PetscCall(PetscOptionsString("-file", OptionDescription("-output_file"), "", file, file, sizeof(file), nullptr));
   PetscCall(PetscOptionsInt("-every", OptionDescription("-output_every"), "", every, &every, nullptr));
   PetscCall(PetscOptionsBool("-overwrite", OptionDescription("-output_overwrite"), "", options->output_overwrite, &options->output_overwrite, nullptr));
-  PetscCall(PetscOptionsReal("-flush_interval", OptionDescription("-output_flush_interval"), "", options->output_flush_interval, &options->output_flush_interval,
-                             nullptr));
+  PetscCall(PetscOptionsReal("-flush_interval", OptionDescription("-output_flush_interval"), "", options->output_flush_interval,
+                             &options->output_flush_interval, nullptr));
   PetscOptionsEnd();
   PetscCheck(every >= 1, comm, PETSC_ERR_USER_INPUT, "option -output_every must be >= 1, got %" PetscInt_FMT, every);
   PetscCheck(std::isfinite(options->output_flush_interval) && options->output_flush_interval >= 0, comm, PETSC_ERR_USER_INPUT,

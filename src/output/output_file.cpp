@@ -220,7 +220,7 @@ struct OutputFile::Impl {
   // rank writing `data` (rows.size() x columns) to its `rows`, with its unit and description.
   PetscErrorCode WriteFrameDataset(hid_t group, const char *name, hsize_t n_rows, hsize_t columns, const std::vector<int> &rows,
                                    const std::vector<double> &data);
-  // Rank 0: fills segment_first from /mesh/segment_element.
+  // Every rank (collective): fills segment_first from /mesh/segment_element.
   PetscErrorCode LoadSegmentTable();
   // Rank 0: opens the existing file, drops the frames after `last_step` and the history and probe
   // rows beyond `history_rows`, rewrites the sidecar and closes it again (OutputFile::Reopen).
@@ -255,7 +255,7 @@ struct OutputFile::Impl {
   std::vector<FrameEntry> frames;          // in the order written
   MPI_Comm                comm = MPI_COMM_NULL;
   PetscMPIInt             rank = 0;
-  // Rank 0, only once a frame that is not distributed arrives (read back from /mesh):
+  // Every rank, once a frame that is not distributed arrives (read back from /mesh):
   // n_elements + 1 entries, the segments of element e are [first[e], first[e + 1]).
   std::vector<int> segment_first;
 
@@ -904,9 +904,11 @@ PetscErrorCode OutputFile::Impl::WriteFrameRows(const OutputFrame &frame, const 
   H5Id                group;
 
   PetscFunctionBeginUser;
-  // A distributed frame numbers its elements' segments; otherwise rank 0 looks them up.
+  // A distributed frame numbers its elements' segments; otherwise the table is read back from
+  // /mesh. Every rank reads it, even one without element rows: with MPI-IO, HDF5's metadata
+  // cache must see the same object opens on every rank, or the next collective call hangs.
   const bool own_segments = frame.distributed;
-  if (!own_segments && !rows.elements.empty() && segment_first.empty()) PetscCall(LoadSegmentTable());
+  if (!own_segments && segment_first.empty()) PetscCall(LoadSegmentTable());
   PetscCheck(!own_segments || (frame.element_first_segment.size() == rows.elements.size() && frame.element_segment_count.size() == rows.elements.size()),
              PETSC_COMM_SELF, PETSC_ERR_ARG_SIZ, "output file '%s': step %d: %zu element rows but %zu/%zu segment numbers", path.c_str(), entry.step,
              rows.elements.size(), frame.element_first_segment.size(), frame.element_segment_count.size());

@@ -11,7 +11,12 @@ and the eigenvalues of every eigenanalysis on 1 and --np ranks:
  - a pinned-pinned beam preloaded by a tension T and by a compression of half its Euler load
    (tension_modes.yaml): omega^2 = [(n pi/L)^4 EI + (n pi/L)^2 T] / rhoA to 1e-4 (5 lowest);
  - with --np > 1, every one of these and the two buckling analyses of test_stability give the same
-   eigenvalues on 1 and --np ranks to 1e-8 relative (rigid modes: to 1e-8 of the first elastic)."""
+   eigenvalues on 1 and --np ranks to 1e-7 relative (rigid modes: must be rigid on both). The
+   limit is the round-off floor of a stiff pencil, not the eigensolver tolerance (1e-12): two
+   factorisations of K - sigma M that differ in pivot order and sum order differ by about
+   eps * kappa in the lowest eigenvalue, kappa = (EA / rhoA) / (dx^2 lambda_1) the ratio of the
+   stiffest axial mode to the lowest bending one, about 4e8 on these meshes (dx = L / 96): eps kappa
+   ~ 1e-7; the half-Euler compression, which halves lambda_1, shows 1.7e-8."""
 
 import math
 
@@ -115,5 +120,5 @@ if args.np > 1:
         check.less(f"{name}: the same modes, rigid ones the same, on np 1 and np {args.np} (0 = yes)", 0.0 if same else 1.0, 0.5)
         if same:
             difference = np.abs(b["eigenvalue"] - a["eigenvalue"]) / np.abs(a["eigenvalue"])
-            check.less(f"{name}: max relative eigenvalue difference np 1 vs np {args.np}", difference[~rigid_a].max(), 1e-8)
+            check.less(f"{name}: max relative eigenvalue difference np 1 vs np {args.np}", difference[~rigid_a].max(), 1e-7)
 check.finish()
