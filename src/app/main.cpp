@@ -2,6 +2,8 @@
 // options and runs the analysis (app/run_analysis.hpp).
 #include "app/settings.hpp"
 #include "core/errors.hpp"
+#include "core/hdf5_util.hpp"
+#include "core/mpi_util.hpp"
 #include "io/input_reader.hpp"
 #include "model/analysis_types.hpp"
 #include "model/joint_kinds.hpp"
@@ -86,6 +88,40 @@ static PetscErrorCode RestoreOptions(const CheckpointRun &run, int argc, char **
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
+// The file-safety policy of the run (docs/options.md, "Files msflex writes"), checked once on
+// rank 0 before any file is created or changed: the run's identity (a restart keeps its
+// checkpoint's), whether a restart continues its result file, and CheckRunFiles. Collective.
+static PetscErrorCode CheckRunFilesOfRun(MPI_Comm comm, const Model &model, const std::string &restart, const CheckpointRun &run, const char *input,
+                                         RunOptions *options)
+{
+  PetscMPIInt rank;
+  int         continue_output = 0;
+  PetscFunctionBeginUser;
+  PetscCallMPI(MPI_Comm_rank(comm, &rank));
+  if (rank == 0) {
+    options->run_id            = restart.empty() ? NewRunId() : run.run_id;
+    options->model_fingerprint = restart.empty() ? ModelFingerprint(model.input_text, options->options_database) : run.model_fingerprint;
+    ResolvedPath output;
+    continue_output = !restart.empty() && ResolvePath(options->output_file, &output).empty() && output.exists ? 1 : 0;
+  }
+  PetscCallMPI(BroadcastString(comm, &options->run_id));
+  PetscCallMPI(BroadcastString(comm, &options->model_fingerprint));
+  PetscCallMPI(MPI_Bcast(&continue_output, 1, MPI_INT, 0, comm));
+  PetscCheck(!options->run_id.empty(), comm, PETSC_ERR_FILE_OPEN, "cannot obtain random bytes for the run's identity (getrandom, /dev/urandom)");
+  options->continue_output = continue_output != 0;
+  RunFiles files;
+  files.input           = restart.empty() ? input : run.input_file;
+  files.mesh            = model.mesh_file;
+  files.restart         = restart;
+  files.output          = options->output_file;
+  files.checkpoint      = options->checkpoint_file;
+  files.overwrite       = options->output_overwrite; // never carried into a restart (RestoreOptions)
+  files.continue_output = options->continue_output;
+  files.run             = restart.empty() ? "" : run.run_id;
+  PetscCall(CheckRunFilesCollective(comm, files));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
 static PetscErrorCode RunMsflex(int argc, char **argv, RunEnd *end)
 {
   MPI_Comm          comm    = PETSC_COMM_WORLD;
@@ -117,6 +153,7 @@ static PetscErrorCode RunMsflex(int argc, char **argv, RunEnd *end)
     SETERRQ(comm, PETSC_ERR_USER_INPUT, "bad option: %s", specific ? specific : "unreadable value");
   }
   options.restart_file = restart;
+  PetscCall(CheckRunFilesOfRun(comm, model, restart, run, argc >= 2 ? argv[1] : "", &options));
   PetscCall(RunAnalysis(comm, std::move(model), options, restart.empty() ? nullptr : &run, end));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
@@ -126,15 +163,19 @@ int main(int argc, char **argv)
   static const std::string help = HelpText();
   PetscCall(PetscInitialize(&argc, &argv, nullptr, help.c_str()));
   PetscCall(PetscPushErrorHandler(ErrorHandler, nullptr));
+  // Nothing of HDF5's error stack is ever printed: every failure is translated into one line
+  // where it happens (core/hdf5_files.hpp).
+  Hdf5SilenceErrorStack();
   PetscBool help_requested = PETSC_FALSE;
   PetscCall(PetscOptionsHasHelp(nullptr, &help_requested));
   const bool     has_input = (argc >= 2 && argv[1][0] != '-') || !RestartFile(argc, argv).empty();
   PetscErrorCode code      = PETSC_SUCCESS;
   RunEnd         end       = RunEnd::Completed;
   if (has_input || !help_requested) code = RunMsflex(argc, argv, &end);
-  // User errors and non-convergence are detected identically on every rank: finish cleanly.
-  // Anything else may have left ranks inside a collective call: abort them all.
-  if (code != PETSC_SUCCESS && code != PETSC_ERR_USER_INPUT && code != PETSC_ERR_NOT_CONVERGED) MPI_Abort(PETSC_COMM_WORLD, (int)code);
+  // User errors, non-convergence and file errors are agreed on by every rank (RunOnRoot,
+  // RunCollective) and reported in one line: finish cleanly. Anything else may have left ranks
+  // inside a collective call: abort them all.
+  if (code != PETSC_SUCCESS && !IsOneLineError(code)) MPI_Abort(PETSC_COMM_WORLD, (int)code);
   PetscCall(PetscFinalize());
   // 75 (EX_TEMPFAIL): stopped by a signal after a checkpoint; a job script may resubmit.
   if (code != PETSC_SUCCESS) return 1;

@@ -13,12 +13,11 @@
 #include <charconv>
 #include <cstdio>
 #include <filesystem>
-#include <fstream>
 #include <sstream>
 
 // Checks the result of an HDF5 call (negative means failure) inside an OutputFile::Impl member,
-// whose `path` names the file in the message. HDF5 prints its own error stack to stderr as well.
-#define PetscCallHDF5(call) PetscCheck((call) >= 0, PETSC_COMM_SELF, PETSC_ERR_FILE_OPEN, "HDF5 call failed on output file '%s': %s", path.c_str(), #call)
+// whose `path` names the file in the one-line message, with HDF5's reason (Hdf5CallProblem).
+#define PetscCallHDF5(call) PetscCheck((call) >= 0, PETSC_COMM_SELF, PETSC_ERR_FILE_WRITE, "%s", Hdf5CallProblem(path, #call).c_str())
 
 namespace msflex {
 
@@ -112,13 +111,11 @@ struct OutputFile::Impl {
     bool   has_section_triads = false; // segment_e1, segment_e2, segment_e3 (distributed frames)
   };
 
-  explicit Impl(const std::string &h5_path)
-      : path(h5_path), xdmf_path(std::filesystem::path(h5_path).replace_extension(".xmf").string()),
-        h5_file_name(std::filesystem::path(h5_path).filename().string())
+  explicit Impl(const std::string &h5_path) : path(h5_path), xdmf_path(SidecarPath(h5_path)), h5_file_name(std::filesystem::path(h5_path).filename().string())
   {
   }
 
-  PetscErrorCode Create(bool overwrite, const std::string &input_file, const std::string &input_text, const OutputMesh &mesh);
+  PetscErrorCode Create(bool overwrite, const std::string &input_file, const std::string &input_text, const OutputMesh &mesh, const FileMarker &marker);
   PetscErrorCode WriteMesh(const OutputMesh &mesh);
   PetscErrorCode CheckHistory(const std::vector<std::string> &names, const std::vector<double> &values, const std::vector<ProbeSample> &probes);
   PetscErrorCode WriteHistory(const std::vector<std::string> &names, const std::vector<double> &values, const std::vector<std::string> &sample_names,
@@ -139,9 +136,11 @@ struct OutputFile::Impl {
   PetscErrorCode WriteRows(hid_t parent, const char *name, hsize_t n_rows, hsize_t columns, const std::vector<int> &rows, const std::vector<double> &data);
   // Rank 0: fills segment_first from /mesh/segment_element.
   PetscErrorCode LoadSegmentTable();
-  // Rank 0: opens the existing file, drops the frames after `last_step` and the history and probe
-  // rows beyond `history_rows`, rewrites the sidecar and closes it again (OutputFile::Reopen).
-  PetscErrorCode Resume(int last_step, long long history_rows);
+  // Rank 0: opens the existing file, checks that it is the result file of run `run_id` holding
+  // the frame of `last_step` and at least `history_rows` rows of every series, and only then
+  // drops the frames after `last_step` and the rows beyond `history_rows`, rewrites the sidecar
+  // and closes the file again (OutputFile::Reopen).
+  PetscErrorCode Resume(int last_step, long long history_rows, const std::string &run_id);
   PetscErrorCode LinkNames(hid_t group, std::vector<std::string> *names) const;
   PetscErrorCode TruncateRows(hid_t parent, const std::string &name, hsize_t rows) const;
   PetscErrorCode Close();
@@ -274,17 +273,28 @@ PetscErrorCode OutputFile::Impl::AppendRow(hid_t parent, const char *name, const
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
-PetscErrorCode OutputFile::Impl::Create(bool overwrite, const std::string &input_file, const std::string &input_text, const OutputMesh &mesh)
+PetscErrorCode OutputFile::Impl::Create(bool overwrite, const std::string &input_file, const std::string &input_text, const OutputMesh &mesh,
+                                        const FileMarker &marker)
 {
-  H5Id            group, string_type;
-  const char     *input_file_c = input_file.c_str();
-  std::error_code unreadable; // not thrown: an unreadable directory shows in H5Fcreate's failure
+  H5Id          group, string_type;
+  const char   *input_file_c = input_file.c_str();
+  TemporaryFile temporary; // removed by its destructor unless committed
+  ExistingFile  existing;
 
   PetscFunctionBeginUser;
-  PetscCheck(overwrite || !std::filesystem::exists(path, unreadable), PETSC_COMM_SELF, PETSC_ERR_USER_INPUT,
+  // The run's policy (CheckRunFiles) decided already; this keeps the rule for any other caller:
+  // only an msflex result file is ever replaced, and only when asked to.
+  const std::string problem = ClassifyExistingFile(path, &existing);
+  PetscCheck(problem.empty(), PETSC_COMM_SELF, PETSC_ERR_FILE_OPEN, "%s", problem.c_str());
+  PetscCheck(existing.kind == ExistingKind::Missing || overwrite, PETSC_COMM_SELF, PETSC_ERR_USER_INPUT,
              "output file '%s' exists; pass -output_overwrite to replace it", path.c_str());
-  PetscCallHDF5(file = H5Fcreate(path.c_str(), overwrite ? H5F_ACC_TRUNC : H5F_ACC_EXCL, H5P_DEFAULT, H5P_DEFAULT));
-
+  PetscCheck(existing.kind == ExistingKind::Missing || existing.kind == ExistingKind::MsflexResult, PETSC_COMM_SELF, PETSC_ERR_FILE_WRITE,
+             "refusing to replace the output file '%s': it is %s; -output_overwrite replaces only msflex result files", path.c_str(),
+             ExistingKindName(existing.kind));
+  // Written under a new name beside the target and renamed over it at the end: an old result
+  // stays intact until the new file is complete.
+  PetscCall(CreateHdf5Temporary(path, &temporary, &file));
+  PetscCall(WriteFileMarkerChecked(path, file, marker));
   PetscCall(WriteStrings(file, "input", {}, {input_text}));
   PetscCall(CreateStringType(&string_type));
   PetscCall(WriteAttribute(file, "input", "file", string_type, string_type, &input_file_c));
@@ -296,6 +306,7 @@ PetscErrorCode OutputFile::Impl::Create(bool overwrite, const std::string &input
   // Rank 0 wrote the replicated part; every rank reopens the file for the collective writes.
   std::vector<int>().swap(segment_element);
   PetscCallHDF5(H5Fclose(file.Release()));
+  PetscCall(CommitHdf5Temporary(&temporary));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
@@ -420,8 +431,7 @@ PetscErrorCode OutputFile::Impl::WriteHistory(const std::vector<std::string> &na
 
 PetscErrorCode OutputFile::Impl::WriteXdmf() const
 {
-  const std::string  h5_name   = XmlEscape(h5_file_name);
-  const std::string  temporary = xdmf_path + ".tmp";
+  const std::string  h5_name = XmlEscape(h5_file_name);
   std::ostringstream xml;
 
   // One <DataItem> referring to a dataset of the .h5 file by its relative name.
@@ -440,6 +450,7 @@ PetscErrorCode OutputFile::Impl::WriteXdmf() const
   xml << "<?xml version=\"1.0\" ?>\n"
       << "<Xdmf Version=\"3.0\">\n"
       << "  <Domain>\n"
+      << "    " << kSidecarMarker << "\n"
       << "    <Grid Name=\"msflex\" GridType=\"Collection\" CollectionType=\"Temporal\">\n";
   for (const FrameEntry &frame : frames) {
     const std::string group = FrameGroupName(frame.step);
@@ -468,13 +479,9 @@ PetscErrorCode OutputFile::Impl::WriteXdmf() const
       << "  </Domain>\n"
       << "</Xdmf>\n";
 
-  // Written aside and renamed over the old sidecar, so a reader never sees a half-written one.
-  std::ofstream out(temporary, std::ios::trunc);
-  out << xml.str();
-  out.close();
-  PetscCheck(out.good(), PETSC_COMM_SELF, PETSC_ERR_FILE_OPEN, "cannot write XDMF sidecar '%s'", temporary.c_str());
-  PetscCheck(std::rename(temporary.c_str(), xdmf_path.c_str()) == 0, PETSC_COMM_SELF, PETSC_ERR_FILE_OPEN, "cannot rename '%s' to '%s'", temporary.c_str(),
-             xdmf_path.c_str());
+  // Written under a new name beside it (O_EXCL, never through a link) and renamed over the old
+  // sidecar, so a reader never sees a half-written one.
+  PetscCall(WriteFileAtomicallyChecked(xdmf_path, xml.str()));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
@@ -609,31 +616,40 @@ PetscErrorCode OutputFile::Impl::TruncateRows(hid_t parent, const std::string &n
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
-PetscErrorCode OutputFile::Impl::Resume(int last_step, long long history_rows)
+PetscErrorCode OutputFile::Impl::Resume(int last_step, long long history_rows, const std::string &run_id)
 {
   H5Id                     frames_group, history, probes;
-  std::vector<std::string> names;
+  std::vector<std::string> names, probe_groups;
+  const char              *p    = path.c_str();
+  const hsize_t            rows = (hsize_t)history_rows;
   PetscFunctionBeginUser;
-  PetscCheck(std::filesystem::exists(path), PETSC_COMM_SELF, PETSC_ERR_USER_INPUT, "output file '%s' of the run to continue does not exist", path.c_str());
-  PetscCallHDF5(file = H5Fopen(path.c_str(), H5F_ACC_RDWR, H5P_DEFAULT));
-  // The sizes of the mesh, from its datasets.
-  const auto rows_of = [&](const char *name, hsize_t *rows) -> PetscErrorCode {
-    H5Id    dataset, space;
-    hsize_t dims[2] = {0, 0};
+  PetscCall(OpenHdf5File(path, H5F_ACC_RDWR, H5P_DEFAULT, &file));
+  // (1) Validation, nothing changes: the run this file belongs to (CheckRunFiles checked it as
+  // well), the mesh, the frame of the checkpoint's last written step and every series' rows.
+  FileMarker        marker;
+  const std::string marker_problem = ReadFileMarker(file, &marker);
+  PetscCheck(marker_problem.empty(), PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "'%s': %s", p, marker_problem.c_str());
+  PetscCheck(run_id.empty() || marker.run.empty() || marker.run == run_id, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED,
+             "the output file '%s' belongs to another run than the checkpoint; continue into a new file with -output_file NEW.h5", p);
+  const auto rows_of = [&](const char *name, int rank, hsize_t *count) -> PetscErrorCode {
+    std::vector<hsize_t> dims;
     PetscFunctionBeginUser;
-    PetscCallHDF5(dataset = H5Dopen2(file, name, H5P_DEFAULT));
-    PetscCallHDF5(space = H5Dget_space(dataset));
-    PetscCallHDF5(H5Sget_simple_extent_dims(space, dims, nullptr));
-    *rows = dims[0];
+    const std::string problem = DatasetDims(file, name, &dims);
+    PetscCheck(problem.empty(), PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "'%s': %s", p, problem.c_str());
+    PetscCheck((int)dims.size() == rank, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "'%s': %s has %d dimensions, expected %d", p, name, (int)dims.size(),
+               rank);
+    *count = dims[0];
     PetscFunctionReturn(PETSC_SUCCESS);
   };
-  PetscCall(rows_of("/mesh/node_coordinates", &n_nodes));
-  PetscCall(rows_of("/mesh/element_order", &n_elements));
-  PetscCall(rows_of("/mesh/segment_element", &n_segments));
-  // Frames up to the checkpoint stay; later ones (written after it) go.
+  PetscCall(rows_of("/mesh/node_coordinates", 2, &n_nodes));
+  PetscCall(rows_of("/mesh/element_order", 1, &n_elements));
+  PetscCall(rows_of("/mesh/segment_element", 1, &n_segments));
+  for (const char *group : {"/frames", "/history", "/probes"})
+    PetscCheck(H5Lexists(file, group, H5P_DEFAULT) > 0, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "'%s' has no group %s", p, group);
   PetscCallHDF5(frames_group = H5Gopen2(file, "/frames", H5P_DEFAULT));
   PetscCall(LinkNames(frames_group, &names));
   frames.clear();
+  std::vector<std::string> later_frames;
   for (const std::string &name : names) {
     FrameEntry entry{0, 0.0, false};
     {
@@ -646,24 +662,43 @@ PetscErrorCode OutputFile::Impl::Resume(int last_step, long long history_rows)
       entry.has_velocities     = H5Lexists(group, "velocity", H5P_DEFAULT) > 0;
       entry.has_section_triads = H5Lexists(group, "segment_e1", H5P_DEFAULT) > 0;
     }
-    if (entry.step > last_step) PetscCallHDF5(H5Ldelete(frames_group, name.c_str(), H5P_DEFAULT));
+    if (entry.step > last_step) later_frames.push_back(name);
     else frames.push_back(entry);
   }
+  PetscCheck(std::any_of(frames.begin(), frames.end(), [&](const FrameEntry &f) { return f.step == last_step; }), PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED,
+             "'%s' has no frame for step %d, the last one the checkpoint wrote", p, last_step);
   std::sort(frames.begin(), frames.end(), [](const FrameEntry &a, const FrameEntry &b) { return a.step < b.step; });
-  // History and probe series: the rows up to the checkpoint.
+  // Every history and probe series (group, name) must hold the checkpoint's rows.
+  std::vector<std::pair<std::string, std::string>> series;
   PetscCallHDF5(history = H5Gopen2(file, "/history", H5P_DEFAULT));
   PetscCall(LinkNames(history, &names));
-  for (const std::string &name : names) PetscCall(TruncateRows(history, name, (hsize_t)history_rows));
+  for (const std::string &name : names) series.emplace_back("/history", name);
   PetscCallHDF5(probes = H5Gopen2(file, "/probes", H5P_DEFAULT));
-  std::vector<std::string> probe_groups;
   PetscCall(LinkNames(probes, &probe_groups));
   for (const std::string &probe : probe_groups) {
     H5Id group;
     PetscCallHDF5(group = H5Gopen2(probes, probe.c_str(), H5P_DEFAULT));
     PetscCall(LinkNames(group, &names));
-    for (const std::string &name : names) PetscCall(TruncateRows(group, name, (hsize_t)history_rows));
+    for (const std::string &name : names) series.emplace_back("/probes/" + probe, name);
   }
-  rows_written = (hsize_t)history_rows;
+  PetscCheck(!series.empty() || rows == 0, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "'%s' has no history, the checkpoint expects %llu rows", p,
+             (unsigned long long)rows);
+  for (const auto &[group, name] : series) {
+    std::vector<hsize_t> dims;
+    const std::string    full    = group + "/" + name;
+    const std::string    problem = DatasetDims(file, full, &dims);
+    PetscCheck(problem.empty(), PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "'%s': %s", p, problem.c_str());
+    PetscCheck(!dims.empty() && dims[0] >= rows, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "'%s': %s has %llu rows, the checkpoint expects %llu", p,
+               full.c_str(), dims.empty() ? 0ULL : (unsigned long long)dims[0], (unsigned long long)rows);
+  }
+  // (2) Changes: frames written after the checkpoint go, the series are cut to its rows.
+  for (const std::string &name : later_frames) PetscCallHDF5(H5Ldelete(frames_group, name.c_str(), H5P_DEFAULT));
+  for (const auto &[group, name] : series) {
+    H5Id parent;
+    PetscCallHDF5(parent = H5Gopen2(file, group.c_str(), H5P_DEFAULT));
+    PetscCall(TruncateRows(parent, name, rows));
+  }
+  rows_written = rows;
   history_names.clear(); // taken from the next row, whose datasets must exist
   probe_names.clear();
   PetscCallHDF5(H5Fflush(file, H5F_SCOPE_LOCAL));
@@ -704,17 +739,17 @@ OutputFile::~OutputFile()
 }
 
 PetscErrorCode OutputFile::Open(MPI_Comm comm, const std::string &path, bool overwrite, const std::string &input_file, const std::string &input_text,
-                                const OutputMesh &mesh)
+                                const OutputMesh &mesh, const std::string &model_fingerprint, const std::string &run_id)
 {
   PetscFunctionBeginUser;
-  PetscCall(OpenWith(comm, path, [&] { return impl_->Create(overwrite, input_file, input_text, mesh); }));
+  PetscCall(OpenWith(comm, path, [&] { return impl_->Create(overwrite, input_file, input_text, mesh, {kResultFormat, model_fingerprint, run_id}); }));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
-PetscErrorCode OutputFile::Reopen(MPI_Comm comm, const std::string &path, int last_step, long long history_rows)
+PetscErrorCode OutputFile::Reopen(MPI_Comm comm, const std::string &path, int last_step, long long history_rows, const std::string &run_id)
 {
   PetscFunctionBeginUser;
-  PetscCall(OpenWith(comm, path, [&] { return impl_->Resume(last_step, history_rows); }));
+  PetscCall(OpenWith(comm, path, [&] { return impl_->Resume(last_step, history_rows, run_id); }));
   long long rows = impl_->rows_written;
   PetscCallMPI(MPI_Bcast(&rows, 1, MPI_LONG_LONG, 0, comm));
   impl_->rows_written = (hsize_t)rows;
