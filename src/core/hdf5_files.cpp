@@ -307,9 +307,11 @@ std::string ClassifyExistingFile(const std::string &path, ExistingFile *file)
       file->legacy = true;
     } else if (LinkExists(hdf5, "/run/format")) {
       std::string format;
-      if (ReadBoundedText(hdf5, "/run/format", 64, &format).empty() && format == "msflex checkpoint 1") {
-        file->kind   = ExistingKind::MsflexCheckpoint;
-        file->legacy = true;
+      // Format 1, and format 2 as written before the markers: the format goes into the marker.
+      if (ReadBoundedText(hdf5, "/run/format", 64, &format).empty() && (format == "msflex checkpoint 1" || format == "msflex checkpoint 2")) {
+        file->kind          = ExistingKind::MsflexCheckpoint;
+        file->legacy        = true;
+        file->marker.format = format;
       }
     }
   }

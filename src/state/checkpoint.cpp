@@ -256,8 +256,11 @@ PetscErrorCode ReadRunRecord(const std::string &path, CheckpointRun *run)
              "'%s' is an msflex result file, not a checkpoint; restart from the run's checkpoint (by default <output name>.ckpt.h5)", p);
   PetscCheck(existing.kind == ExistingKind::MsflexCheckpoint, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "'%s' is not an msflex checkpoint: it is %s", p,
              ExistingKindName(existing.kind));
-  PetscCheck(!existing.legacy && existing.marker.format == kCheckpointFormat, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED,
-             "'%s' has format '%s'; this msflex reads '%s'", p, existing.legacy ? "msflex checkpoint 1" : existing.marker.format.c_str(), kCheckpointFormat);
+  PetscCheck(!existing.legacy, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED,
+             "'%s' has format '%s' without file markers (written by an earlier msflex); this msflex reads '%s' with markers", p, existing.marker.format.c_str(),
+             kCheckpointFormat);
+  PetscCheck(existing.marker.format == kCheckpointFormat, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "'%s' has format '%s'; this msflex reads '%s'", p,
+             existing.marker.format.c_str(), kCheckpointFormat);
   PetscCheck(!existing.marker.run.empty() && !existing.marker.model.empty(), PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED,
              "'%s' is damaged: its marker has no run or model fingerprint", p);
   std::vector<double> numbers; // of the validated length only

@@ -296,7 +296,10 @@ CASES = [
     # (3) corrupted checkpoints, each made from a real one: refused, nothing changes
     restart_case("restart_format_other", set_attribute("msflex_format", "msflex checkpoint 7"),
                  [r"has format 'msflex checkpoint 7'; this msflex reads 'msflex checkpoint 2'"]),
-    restart_case("restart_marker_removed", lambda f: [f.attrs.__delitem__(k) for k in list(f.attrs)], [r"is not an msflex checkpoint"]),
+    restart_case("restart_marker_removed", lambda f: [f.attrs.__delitem__(k) for k in list(f.attrs)],
+                 [r"has format 'msflex checkpoint 2' without file markers \(written by an earlier msflex\)"]),
+    restart_case("restart_format_1", lambda f: ([f.attrs.__delitem__(k) for k in list(f.attrs)], set_text("run/format", b"msflex checkpoint 1")(f)),
+                 [r"has format 'msflex checkpoint 1' without file markers"]),
     restart_case("restart_numbers_missing", delete("run/numbers"), [r"/run/numbers"]),
     restart_case("restart_nan_time", set_number(1, float("nan")), [r"/run/numbers entry 1 is not a finite number"]),
     restart_case("restart_numbers_wrong_length", replace_dataset("run/numbers", lambda f, n: f.create_dataset(n, data=np.ones(100000))),
