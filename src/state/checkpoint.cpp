@@ -331,7 +331,7 @@ PetscErrorCode ValidateTables(const std::string &path, const CheckpointRun &run)
         if (table.columns == (hsize_t)kNodeStateSize) {
           const double norm = std::sqrt(record[3] * record[3] + record[4] * record[4] + record[5] * record[5] + record[6] * record[6]);
           PetscCheck(std::abs(norm - 1.0) <= kUnitQuaternionTolerance, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED,
-                     "'%s': %s row %llu: the rotation is not a unit quaternion (norm %g)", p, table.name, (unsigned long long)(first + r), norm);
+                     "'%s': %s row %llu: the rotation is not a unit quaternion (norm %.6f)", p, table.name, (unsigned long long)(first + r), norm);
         }
       }
     }
