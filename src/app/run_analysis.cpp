@@ -146,31 +146,33 @@ PetscErrorCode Setup(Analysis &a, Model whole)
   PetscCall(PetscLogEventEnd(event_preallocation, 0, 0, 0, 0));
   PetscMPIInt rank;
   PetscCallMPI(MPI_Comm_rank(a.comm, &rank));
-  PetscCall(PetscLogEventBegin(event_output_open, 0, 0, 0, 0));
   std::error_code no_throw;
   a.input_file          = whole.input_file;
   a.input_file_absolute = std::filesystem::absolute(whole.input_file, no_throw).string();
   if (rank == 0) a.input_text = whole.input_text;
-  // A restart continues its result file when it is there (-output_file may name a new one).
-  int continue_output = 0;
-  if (a.restart && rank == 0) {
-    std::error_code no_throw_exists;
-    continue_output = std::filesystem::exists(a.options.output_file, no_throw_exists) ? 1 : 0;
+  // A restart checks everything before any file changes (docs/options.md, "Files msflex
+  // writes"): the checkpoint's sizes against the model, its state tables, the end time; the
+  // result file is reopened (validated, then trimmed) or created only after the state is read.
+  if (a.restart) {
+    const DofMap::GlobalCount &count = whole_map.global_count;
+    const char                *path  = a.options.restart_file.c_str();
+    PetscCheck(a.restart->num_nodes == count.nodes && a.restart->num_joints == count.joints && a.restart->num_rigid_bodies == count.rigid_bodies, a.comm,
+               PETSC_ERR_FILE_UNEXPECTED,
+               "the checkpoint '%s' holds %lld nodes, %lld joints and %lld rigid bodies, but the model has %" PetscInt_FMT ", %" PetscInt_FMT
+               " and %" PetscInt_FMT,
+               path, a.restart->num_nodes, a.restart->num_joints, a.restart->num_rigid_bodies, count.nodes, count.joints, count.rigid_bodies);
+    PetscCall(CheckpointValidateState(a.comm, a.options.restart_file, *a.restart));
+    const bool load_factor_end = whole.analysis.type == AnalysisType::Static && whole.analysis.control == PathControl::ArcLength;
+    PetscCheck(load_factor_end || a.restart->time < whole.analysis.end_time * (1.0 - 1e-14), a.comm, PETSC_ERR_FILE_UNEXPECTED,
+               "the checkpoint '%s' is at t = %g, at or beyond the end time %g; give a later -analysis_end_time", path, a.restart->time,
+               whole.analysis.end_time);
   }
-  PetscCallMPI(MPI_Bcast(&continue_output, 1, MPI_INT, 0, a.comm));
-  a.output.SetFlushInterval(a.options.output_flush_interval);
-  if (continue_output) {
-    PetscCall(a.output.Reopen(a.comm, a.options.output_file, a.restart->last_written, a.restart->history_rows));
-    a.history_rows = a.restart->history_rows;
-  } else {
-    OutputMesh mesh; // taken from rank 0
-    if (rank == 0) {
-      BuildOutputMesh(whole, &mesh);
-      mesh.node_rank = whole_map.node_rank;
-    }
-    PetscCall(a.output.Open(a.comm, a.options.output_file, a.options.output_overwrite, whole.input_file, whole.input_text, mesh));
+  OutputMesh mesh; // rank 0: for a new result file
+  if (!a.options.continue_output && rank == 0) {
+    BuildOutputMesh(whole, &mesh);
+    mesh.node_rank = whole_map.node_rank;
   }
-  PetscCall(PetscLogEventEnd(event_output_open, 0, 0, 0, 0));
+  const std::string input_file = whole.input_file;
   PetscCall(PetscLogEventBegin(event_restrict, 0, 0, 0, 0));
   PetscCall(DofMapRestrictToLocal(whole, whole_map, &a.model, &a.map));
   whole     = Model{};
@@ -181,16 +183,22 @@ PetscErrorCode Setup(Analysis &a, Model whole)
   if (a.Static()) PetscCall(a.path.Setup(a.comm, &a.integrator));
   PetscCall(PetscLogEventEnd(event_integrator_setup, 0, 0, 0, 0));
   if (a.restart) {
-    const DofMap::GlobalCount &count = a.map.global_count;
-    PetscCheck(a.restart->num_nodes == count.nodes && a.restart->num_joints == count.joints && a.restart->num_rigid_bodies == count.rigid_bodies, a.comm,
-               PETSC_ERR_USER_INPUT,
-               "the checkpoint holds %lld nodes, %lld joints and %lld rigid bodies, but the model has %" PetscInt_FMT ", %" PetscInt_FMT " and %" PetscInt_FMT,
-               a.restart->num_nodes, a.restart->num_joints, a.restart->num_rigid_bodies, count.nodes, count.joints, count.rigid_bodies);
     PetscCall(CheckpointReadState(a.comm, a.options.restart_file, a.model, a.map, a.integrator.MutableState()));
     a.integrator.SetExternalWork(a.restart->external_work);
     a.integrator.SetDissipatedEnergy(a.restart->dissipated_energy);
     a.initial_energy = a.restart->initial_energy;
   }
+  // Only now, with the checkpoint read: the result file (the decision to continue it was main's).
+  PetscCall(PetscLogEventBegin(event_output_open, 0, 0, 0, 0));
+  a.output.SetFlushInterval(a.options.output_flush_interval);
+  if (a.options.continue_output) {
+    PetscCall(a.output.Reopen(a.comm, a.options.output_file, a.restart->last_written, a.restart->history_rows, a.options.run_id));
+    a.history_rows = a.restart->history_rows;
+  } else {
+    PetscCall(a.output.Open(a.comm, a.options.output_file, a.options.output_overwrite, input_file, a.input_text, mesh, a.options.model_fingerprint,
+                            a.options.run_id));
+  }
+  PetscCall(PetscLogEventEnd(event_output_open, 0, 0, 0, 0));
   PetscCall(PetscLogStagePop());
   PetscFunctionReturn(PETSC_SUCCESS);
 }
@@ -338,6 +346,7 @@ PetscErrorCode WriteCheckpoint(Analysis &a, int step, double t, int last_written
   run.input_text          = a.input_text;
   run.options             = a.options.options_database;
   run.output_file         = a.options.output_file;
+  run.run_id              = a.options.run_id;
   PetscCall(PetscLogStagePush(a.stage_output));
   PetscCall(a.output.Flush()); // the result file holds run.history_rows rows, which a restart keeps
   PetscCall(CheckpointWrite(a.comm, a.options.checkpoint_file, run, a.integrator.GetState(), a.map));

@@ -26,6 +26,12 @@ struct RunOptions {
   std::string checkpoint_file;
   std::string options_database; // the run's options, stored in checkpoints
   std::string restart_file;     // the checkpoint a restarted run continues from
+  // File safety (docs/options.md, "Files msflex writes"), decided once by main after the run-file
+  // policy passed: whether a restart continues its existing result file, the run's identity
+  // (msflex_run of its result file and checkpoints) and the model fingerprint (msflex_model).
+  bool        continue_output = false;
+  std::string run_id;
+  std::string model_fingerprint;
 };
 
 // How a run ended when it did not fail.

@@ -196,8 +196,8 @@ PetscErrorCode SettingsFromOptions(MPI_Comm comm, Model *model, RunOptions *opti
   PetscCheck(std::isfinite(options->checkpoint_wall_time) && options->checkpoint_wall_time >= 0, comm, PETSC_ERR_USER_INPUT,
              "option -checkpoint_wall_time must be >= 0 seconds, got %g", (double)options->checkpoint_wall_time);
   options->checkpoint_file = checkpoint_file;
-  PetscCheck(options->checkpoint_file != options->output_file, comm, PETSC_ERR_USER_INPUT, "the checkpoint file must differ from the output file '%s'",
-             options->output_file.c_str());
+  // Whether the checkpoint is the output file (or any other file of the run), after links, `.`
+  // and `..`: the run-file policy in main (CheckRunFiles).
   char *database;
   PetscCall(PetscOptionsGetAll(nullptr, &database));
   options->options_database = database;

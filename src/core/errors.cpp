@@ -2,16 +2,22 @@
 
 namespace msflex {
 
+bool IsOneLineError(PetscErrorCode code)
+{
+  return code == PETSC_ERR_USER_INPUT || code == PETSC_ERR_NOT_CONVERGED || code == PETSC_ERR_FILE_OPEN || code == PETSC_ERR_FILE_READ ||
+         code == PETSC_ERR_FILE_WRITE || code == PETSC_ERR_FILE_UNEXPECTED;
+}
+
 PetscErrorCode ErrorHandler(MPI_Comm comm, int line, const char *function, const char *file, PetscErrorCode code, PetscErrorType type, const char *message,
                             void *context)
 {
-  if (code != PETSC_ERR_USER_INPUT && code != PETSC_ERR_NOT_CONVERGED)
-    return PetscTraceBackErrorHandler(comm, line, function, file, code, type, message, context);
+  if (!IsOneLineError(code)) return PetscTraceBackErrorHandler(comm, line, function, file, code, type, message, context);
   if (type == PETSC_ERROR_INITIAL) {
     PetscMPIInt world_rank = 0;
     MPI_Comm_rank(PETSC_COMM_WORLD, &world_rank);
     if (world_rank == 0) {
-      fprintf(stderr, "msflex: %s\n", message);
+      const bool file_error = code != PETSC_ERR_USER_INPUT && code != PETSC_ERR_NOT_CONVERGED;
+      fprintf(stderr, "msflex: %s%s\n", file_error ? "error: " : "", message);
       fflush(stderr);
     }
   }

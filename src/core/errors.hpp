@@ -1,7 +1,11 @@
 // Error conventions. User errors (bad input, impossible models) carry PETSC_ERR_USER_INPUT and a
 // message "file:line: error: ..."; a run that cannot converge stops with PETSC_ERR_NOT_CONVERGED
-// and a message saying where and why. Both are printed as one line by the msflex error handler;
-// anything else gets PETSc's usual trace-back.
+// and a message saying where and why; a file that cannot be read, created or written, or that the
+// run must not write (core/file_safety.hpp), carries PETSC_ERR_FILE_OPEN, _READ, _WRITE or
+// _UNEXPECTED and a message naming the path and the reason ("cannot create 'x/y.h5': No such file
+// or directory"), printed as "msflex: error: <message>". All of these are printed as one line by
+// the msflex error handler and end the run with status 1 on every rank; anything else gets PETSc's
+// usual trace-back.
 #pragma once
 
 #include <petscsys.h>
@@ -26,6 +30,9 @@ namespace msflex {
 
 // Raises the error of a failed call made under MSFLEX_CALL_READING_OPTIONS again, with its message.
 PetscErrorCode OptionsError(MPI_Comm comm, PetscErrorCode status);
+// Whether `code` is one of the errors above that are reported as one line (and end every rank
+// cleanly, exit status 1) rather than with a trace-back and MPI_Abort.
+bool IsOneLineError(PetscErrorCode code);
 
 // Error handler: one clean line for user errors (printed by rank 0 of PETSC_COMM_WORLD, since
 // user errors are detected identically on every rank), PETSc's trace-back otherwise.

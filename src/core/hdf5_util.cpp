@@ -33,13 +33,92 @@ std::vector<size_t> FileOrder(const std::vector<int> &rows)
 
 } // namespace
 
+std::string Hdf5CallProblem(const std::string &label, const char *call)
+{
+  // The called function: the first "H5..." name followed by '(' in the call's text.
+  std::string text = call, function;
+  for (size_t at = text.find("H5"); at != std::string::npos; at = text.find("H5", at + 2)) {
+    const size_t open = text.find('(', at);
+    if (open != std::string::npos && text.find_first_not_of("ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789_", at) == open) {
+      function = text.substr(at, open - at);
+      break;
+    }
+  }
+  std::string reason = Hdf5StackReason();
+  if (reason.empty()) reason = "HDF5 gave no reason";
+  return "HDF5 error on '" + label + "': " + reason + (function.empty() ? "" : " (in " + function + ")");
+}
+
 PetscErrorCode OpenFileCollective(MPI_Comm comm, const std::string &path, H5Id *file)
 {
-  H5Id access;
+  H5Id        access;
+  std::string problem;
   PetscFunctionBeginUser;
+  Hdf5SilenceErrorStack();
   PetscCallHDF5At(path, access = H5Pcreate(H5P_FILE_ACCESS));
   PetscCallHDF5At(path, H5Pset_fapl_mpio(access, comm, MPI_INFO_NULL));
-  PetscCallHDF5At(path, *file = H5Fopen(path.c_str(), H5F_ACC_RDWR, access));
+  *file = Hdf5OpenFile(path, H5F_ACC_RDWR, access, &problem);
+  PetscCheck(problem.empty(), PETSC_COMM_SELF, PETSC_ERR_FILE_OPEN, "%s", problem.c_str());
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode CheckRunFilesCollective(MPI_Comm comm, const RunFiles &files)
+{
+  PetscFunctionBeginUser;
+  PetscCall(RunOnRoot(comm, [&]() -> PetscErrorCode {
+    PetscFunctionBeginUser;
+    const std::string problem = CheckRunFiles(files);
+    PetscCheck(problem.empty(), PETSC_COMM_SELF, PETSC_ERR_FILE_OPEN, "%s", problem.c_str());
+    PetscFunctionReturn(PETSC_SUCCESS);
+  }));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode OpenHdf5File(const std::string &path, unsigned flags, hid_t access, H5Id *file)
+{
+  std::string problem;
+  PetscFunctionBeginUser;
+  *file = Hdf5OpenFile(path, flags, access, &problem);
+  PetscCheck(problem.empty(), PETSC_COMM_SELF, PETSC_ERR_FILE_OPEN, "%s", problem.c_str());
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode CreateHdf5Temporary(const std::string &target, TemporaryFile *temporary, H5Id *file, hid_t access)
+{
+  std::string problem;
+  PetscFunctionBeginUser;
+  problem = temporary->Create(target);
+  if (problem.empty()) problem = temporary->Close(); // HDF5 writes it by name
+  PetscCheck(problem.empty(), PETSC_COMM_SELF, PETSC_ERR_FILE_OPEN, "%s", problem.c_str());
+  // Truncating the empty file this process has just created (and nothing else: CheckStillOurs
+  // is verified before the rename).
+  *file = Hdf5CreateFile(temporary->Path(), H5F_ACC_TRUNC, access, &problem);
+  if (!problem.empty()) temporary->Discard();
+  PetscCheck(problem.empty(), PETSC_COMM_SELF, PETSC_ERR_FILE_OPEN, "%s", problem.c_str());
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode CommitHdf5Temporary(TemporaryFile *temporary)
+{
+  PetscFunctionBeginUser;
+  const std::string problem = temporary->Commit();
+  PetscCheck(problem.empty(), PETSC_COMM_SELF, PETSC_ERR_FILE_WRITE, "%s", problem.c_str());
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode WriteFileAtomicallyChecked(const std::string &target, const std::string &contents)
+{
+  PetscFunctionBeginUser;
+  const std::string problem = WriteFileAtomically(target, contents);
+  PetscCheck(problem.empty(), PETSC_COMM_SELF, PETSC_ERR_FILE_WRITE, "%s", problem.c_str());
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode WriteFileMarkerChecked(const std::string &label, hid_t file, const FileMarker &marker)
+{
+  PetscFunctionBeginUser;
+  const std::string problem = WriteFileMarker(file, marker);
+  PetscCheck(problem.empty(), PETSC_COMM_SELF, PETSC_ERR_FILE_WRITE, "cannot write the msflex marker into '%s': %s", label.c_str(), problem.c_str());
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 

@@ -3,17 +3,25 @@
 // are spread over the ranks.
 #pragma once
 
+#include "core/file_safety.hpp"
+#include "core/hdf5_files.hpp"
+
 #include <hdf5.h>
 #include <petscsys.h>
 
 #include <string>
 #include <vector>
 
-// Checks the result of an HDF5 call (negative means failure); `label` names the file in the message.
-// HDF5 prints its own error stack to stderr as well.
-#define PetscCallHDF5At(label, call) PetscCheck((call) >= 0, PETSC_COMM_SELF, PETSC_ERR_FILE_OPEN, "HDF5 call failed on '%s': %s", (label).c_str(), #call)
+// Checks the result of an HDF5 call (negative means failure); `label` names the file in the
+// one-line message, which gives the reason from HDF5's error stack (Hdf5CallProblem). HDF5's own
+// printing of the stack is off (Hdf5SilenceErrorStack, called by main and by OpenFileCollective).
+#define PetscCallHDF5At(label, call) PetscCheck((call) >= 0, PETSC_COMM_SELF, PETSC_ERR_FILE_WRITE, "%s", msflex::Hdf5CallProblem((label), #call).c_str())
 
 namespace msflex {
+
+// "HDF5 error on '<label>': <reason> (in H5Dcreate2)" for the failed call whose text is `call`;
+// clears the error stack.
+std::string Hdf5CallProblem(const std::string &label, const char *call);
 
 // Owns one HDF5 identifier of any kind (file, group, dataset, dataspace, type, property list):
 // H5Idec_ref closes whatever it refers to, so early returns on errors leak nothing.
@@ -106,8 +114,34 @@ template <class Work> PetscErrorCode RunCollective(MPI_Comm comm, Work &&work)
 }
 
 // Opens the existing file `path` for reading and writing on every rank of `comm` through MPI-IO.
-// Collective.
+// Collective. A failure is one line ("cannot open 'x.h5': Permission denied"), PETSC_ERR_FILE_OPEN.
 PetscErrorCode OpenFileCollective(MPI_Comm comm, const std::string &path, H5Id *file);
+
+// --- File safety in the PETSc idiom (core/file_safety.hpp, core/hdf5_files.hpp) ---
+// Each raises PETSC_ERR_FILE_OPEN / _WRITE with the one-line message on PETSC_COMM_SELF; called
+// on rank 0 inside RunOnRoot (or on every rank inside RunCollective) they become collective.
+
+// The file-safety policy of a run (CheckRunFiles), checked on rank 0 and agreed by every rank of
+// `comm` before anything is created. Collective.
+PetscErrorCode CheckRunFilesCollective(MPI_Comm comm, const RunFiles &files);
+
+// Opens an existing HDF5 file (H5Fopen) without HDF5's printing; one line on failure.
+PetscErrorCode OpenHdf5File(const std::string &path, unsigned flags, hid_t access, H5Id *file);
+
+// Creates a new HDF5 file that will replace `target`: a TemporaryFile beside it (O_EXCL,
+// O_NOFOLLOW, unique name), which HDF5 then fills by name. Write it through *file, close it
+// (H5Fclose), then CommitHdf5Temporary renames it over `target`; until then `target` is untouched,
+// and a failure (or a destroyed TemporaryFile) removes the temporary. `access`: the file access
+// property list HDF5 creates it with (e.g. its format version bounds).
+PetscErrorCode CreateHdf5Temporary(const std::string &target, TemporaryFile *temporary, H5Id *file, hid_t access = H5P_DEFAULT);
+// Checks that the temporary still holds the file created for it and renames it over its target.
+PetscErrorCode CommitHdf5Temporary(TemporaryFile *temporary);
+
+// Replaces `target` by `contents` atomically through a TemporaryFile (the XDMF sidecar).
+PetscErrorCode WriteFileAtomicallyChecked(const std::string &target, const std::string &contents);
+
+// Writes the marker attributes (format, model fingerprint, run id) into the root group of `file`.
+PetscErrorCode WriteFileMarkerChecked(const std::string &label, hid_t file, const FileMarker &marker);
 
 // A dataset transfer property list for collective MPI-IO transfers to the file holding `object`,
 // or the default list when that file is not open through MPI-IO (one rank: the POSIX driver).

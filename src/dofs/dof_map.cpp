@@ -3,8 +3,6 @@
 #include "core/errors.hpp"
 #include "model/joint_geometry.hpp"
 
-#include <functional>
-
 #include <algorithm>
 
 namespace msflex {
@@ -33,20 +31,27 @@ static PetscErrorCode CollectConstraints(const Model &model, DofMap *map)
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
-// Joints in an order where the joint of a master comes before the joints of its slaves.
+// Joints in an order where the joint of a master comes before the joints of its slaves: by depth
+// in their chain, found without recursion (a chain may be deeper than the stack) in O(joints).
 static std::vector<int> JointChainOrder(const Model &model, const std::vector<int> &node_joint)
 {
-  std::vector<int>        depth(model.joints.size(), -1), order(model.joints.size());
-  std::function<int(int)> depth_of = [&](int j) {
-    if (depth[j] >= 0) return depth[j];
-    const int master = model.joints[j].master;
-    depth[j]         = (master >= 0 && node_joint[master] >= 0) ? 1 + depth_of(node_joint[master]) : 0;
-    return depth[j];
-  };
-  for (size_t j = 0; j < order.size(); ++j) {
-    order[j] = (int)j;
-    depth_of((int)j);
+  const size_t     num_joints = model.joints.size();
+  std::vector<int> depth(num_joints, -1), order(num_joints), path;
+  for (size_t start = 0; start < num_joints; ++start) {
+    // Up the chain to a joint whose depth is known (or the top), then down again.
+    int j = (int)start;
+    while (depth[j] < 0) {
+      path.push_back(j);
+      const int master = model.joints[j].master;
+      const int parent = master >= 0 ? node_joint[master] : -1;
+      if (parent < 0) break;
+      j = parent;
+    }
+    int known = depth[j] >= 0 ? depth[j] : -1;
+    for (auto at = path.rbegin(); at != path.rend(); ++at) depth[*at] = ++known;
+    path.clear();
   }
+  for (size_t j = 0; j < num_joints; ++j) order[j] = (int)j;
   std::stable_sort(order.begin(), order.end(), [&](int a, int b) { return depth[a] < depth[b]; });
   return order;
 }
@@ -297,10 +302,14 @@ PetscErrorCode DofMapPreallocation(const DofMap &map, const Model &model, std::v
   PetscFunctionBeginUser;
   // A row r couples with every unknown of every group that contains it: an element's group is the
   // unknowns of all its nodes, a node's group its own unknowns. r is in the groups of its holders,
-  // the nodes whose unknowns include it (its own node, and through chains the slaves that depend
-  // on it), so columns(r) = union over holders h of C(h), with C(h) = the unknowns of h and of
-  // every node sharing an element with h. Most rows have one holder and the rows of a node share
-  // it: C(h) is built once per node.
+  // the nodes whose unknowns include r, so columns(r) = union over holders h of C(h), with C(h) =
+  // the unknowns of h and of every node sharing an element or a two-node force element with h. A slave's unknowns are its
+  // master's followed by its joint's, so the holders of r are the node o(r) that r belongs to (its
+  // own DOF, or its joint's coordinate) and every node hanging from o(r) through joints: its
+  // subtree in the joint forest. Hence columns(r) = D(o(r)) with D(n) = C(n) united with D(c) over
+  // the slaves c of n, built once per node from its slaves' sets. The cost is that of the result
+  // (times a logarithm): a chain of N joints, whose last slave depends on every coordinate, has N^2
+  // nonzeros and takes O(N^2 log N), not the O(N^3) of uniting the holders' sets row by row.
   const PetscInt   first = map.first_owned, last = map.first_owned + map.num_owned;
   const size_t     num_nodes = map.node_unknowns.size();
   std::vector<int> element_start(num_nodes + 1, 0), node_elements; // node -> elements touching it
@@ -312,18 +321,6 @@ PetscErrorCode DofMapPreallocation(const DofMap &map, const Model &model, std::v
     std::vector<int> next(element_start.begin(), element_start.end() - 1);
     for (size_t e = 0; e < model.elements.size(); ++e)
       for (int a = 0; a <= model.elements[e].order; ++a) node_elements[(size_t)next[model.elements[e].nodes[a]]++] = (int)e;
-  }
-  std::vector<int> holder_start(map.num_owned + 1, 0), holders; // owned row -> nodes holding it
-  for (size_t n = 0; n < num_nodes; ++n)
-    for (PetscInt row : map.node_unknowns[n])
-      if (row >= first && row < last) ++holder_start[row - first + 1];
-  for (PetscInt r = 0; r < map.num_owned; ++r) holder_start[r + 1] += holder_start[r];
-  holders.resize((size_t)holder_start[map.num_owned]);
-  {
-    std::vector<int> next(holder_start.begin(), holder_start.end() - 1);
-    for (size_t n = 0; n < num_nodes; ++n)
-      for (PetscInt row : map.node_unknowns[n])
-        if (row >= first && row < last) holders[(size_t)next[row - first]++] = (int)n;
   }
   // Force elements between two nodes couple them like a 2-node element: node -> partners.
   std::vector<int> partner_start(num_nodes + 1, 0), partners;
@@ -339,6 +336,7 @@ PetscErrorCode DofMapPreallocation(const DofMap &map, const Model &model, std::v
         partners[(size_t)next[element.nodes[1]]++] = element.nodes[0];
       }
   }
+  // C(h), unsorted, appended to `columns`.
   const auto add_node_columns = [&](int h, std::vector<PetscInt> *columns) {
     columns->insert(columns->end(), map.node_unknowns[h].begin(), map.node_unknowns[h].end());
     for (int k = partner_start[h]; k < partner_start[h + 1]; ++k)
@@ -349,6 +347,78 @@ PetscErrorCode DofMapPreallocation(const DofMap &map, const Model &model, std::v
         columns->insert(columns->end(), map.node_unknowns[element.nodes[a]].begin(), map.node_unknowns[element.nodes[a]].end());
     }
   };
+  const auto sort_unique = [](std::vector<PetscInt> *columns) {
+    std::sort(columns->begin(), columns->end());
+    columns->erase(std::unique(columns->begin(), columns->end()), columns->end());
+  };
+
+  // o(r) for the owned rows.
+  std::vector<int> row_node(map.num_owned, -1);
+  for (size_t n = 0; n < num_nodes && n < map.node_dofs.size(); ++n)
+    for (PetscInt row : map.node_dofs[n])
+      if (row >= first && row < last) row_node[row - first] = (int)n;
+  for (size_t j = 0; j < map.joint_dofs.size(); ++j)
+    for (PetscInt row : map.joint_dofs[j])
+      if (row >= first && row < last) row_node[row - first] = model.joints[j].slave;
+
+  // The joint forest: the slaves of each node; D is needed apart from C only for nodes with slaves.
+  std::vector<int> slave_start(num_nodes + 1, 0), slaves, master_of(num_nodes, -1);
+  for (size_t n = 0; n < num_nodes; ++n)
+    if (const int j = map.node_joint[n]; j >= 0 && model.joints[j].master >= 0) {
+      master_of[n] = model.joints[j].master;
+      ++slave_start[master_of[n] + 1];
+    }
+  for (size_t n = 0; n < num_nodes; ++n) slave_start[n + 1] += slave_start[n];
+  slaves.resize((size_t)slave_start[num_nodes]);
+  {
+    std::vector<int> next(slave_start.begin(), slave_start.end() - 1);
+    for (size_t n = 0; n < num_nodes; ++n)
+      if (master_of[n] >= 0) slaves[(size_t)next[master_of[n]]++] = (int)n;
+  }
+  const auto has_slaves = [&](int n) { return slave_start[n + 1] > slave_start[n]; };
+  // Nodes with slaves, slaves' subtrees first: masters by decreasing depth in their tree.
+  std::vector<int> tree_nodes, depth(num_nodes, -1), path;
+  for (size_t start = 0; start < num_nodes; ++start) {
+    if (!has_slaves((int)start)) continue;
+    tree_nodes.push_back((int)start);
+    for (int n = (int)start; depth[n] < 0;) {
+      path.push_back(n);
+      if (master_of[n] < 0) break;
+      n = master_of[n];
+    }
+    if (path.empty()) continue; // its depth was set on the walk up from one of its slaves
+    // The depth above the walked path: that of the node the walk stopped at, or -1 above a root.
+    int known = master_of[path.back()] >= 0 ? depth[master_of[path.back()]] : -1;
+    for (auto at = path.rbegin(); at != path.rend(); ++at) depth[*at] = ++known;
+    path.clear();
+  }
+  std::stable_sort(tree_nodes.begin(), tree_nodes.end(), [&](int a, int b) { return depth[a] > depth[b]; });
+  // D of each node with slaves, and the columns of its owned rows, recorded when D is made; a
+  // slave's D is dropped once its master's is made.
+  std::vector<std::vector<PetscInt>> tree_columns(num_nodes), row_columns(map.num_owned);
+  std::vector<char>                  from_tree(map.num_owned, 0);
+  std::vector<int>                   node_first_row(num_nodes, -1);
+  for (PetscInt r = map.num_owned - 1; r >= 0; --r)
+    if (row_node[r] >= 0) node_first_row[row_node[r]] = (int)r;
+  for (const int n : tree_nodes) {
+    std::vector<PetscInt> &columns = tree_columns[n];
+    add_node_columns(n, &columns);
+    for (int k = slave_start[n]; k < slave_start[n + 1]; ++k) {
+      const int c = slaves[(size_t)k];
+      if (has_slaves(c)) {
+        columns.insert(columns.end(), tree_columns[c].begin(), tree_columns[c].end());
+        std::vector<PetscInt>().swap(tree_columns[c]);
+      } else add_node_columns(c, &columns);
+    }
+    sort_unique(&columns);
+    if (node_first_row[n] >= 0)
+      for (PetscInt r = node_first_row[n]; r < map.num_owned && row_node[r] == n; ++r) {
+        row_columns[r] = columns;
+        from_tree[r]   = 1;
+      }
+  }
+  std::vector<std::vector<PetscInt>>().swap(tree_columns);
+
   diagonal_nonzeros->assign(map.num_owned, 0);
   off_diagonal_nonzeros->assign(map.num_owned, 0);
   const bool want_pattern = row_start && pattern_columns;
@@ -356,22 +426,27 @@ PetscErrorCode DofMapPreallocation(const DofMap &map, const Model &model, std::v
     row_start->assign(map.num_owned + 1, 0);
     pattern_columns->clear();
   }
-  std::vector<PetscInt> columns;
-  int                   cached_holder = -1; // columns holds C(cached_holder) when >= 0
+  std::vector<PetscInt> node_columns;
+  int                   cached_node = -1; // node_columns holds C(cached_node) when >= 0
   for (PetscInt r = 0; r < map.num_owned; ++r) {
-    const int count = holder_start[r + 1] - holder_start[r];
-    if (!(count == 1 && holders[(size_t)holder_start[r]] == cached_holder)) {
-      columns.clear();
-      for (int k = holder_start[r]; k < holder_start[r + 1]; ++k) add_node_columns(holders[(size_t)k], &columns);
-      std::sort(columns.begin(), columns.end());
-      columns.erase(std::unique(columns.begin(), columns.end()), columns.end());
-      cached_holder = count == 1 ? holders[(size_t)holder_start[r]] : -1;
+    const std::vector<PetscInt> *columns = &row_columns[r];
+    if (!from_tree[r]) {
+      const int n = row_node[r];
+      PetscCheck(n >= 0, PETSC_COMM_SELF, PETSC_ERR_PLIB, "unknown %" PetscInt_FMT " belongs to no node", first + r);
+      if (n != cached_node) {
+        node_columns.clear();
+        add_node_columns(n, &node_columns);
+        sort_unique(&node_columns);
+        cached_node = n;
+      }
+      columns = &node_columns;
     }
-    for (PetscInt column : columns) ++(column >= first && column < last ? (*diagonal_nonzeros)[r] : (*off_diagonal_nonzeros)[r]);
+    for (PetscInt column : *columns) ++(column >= first && column < last ? (*diagonal_nonzeros)[r] : (*off_diagonal_nonzeros)[r]);
     if (want_pattern) {
-      pattern_columns->insert(pattern_columns->end(), columns.begin(), columns.end());
+      pattern_columns->insert(pattern_columns->end(), columns->begin(), columns->end());
       (*row_start)[r + 1] = (PetscInt)pattern_columns->size();
     }
+    std::vector<PetscInt>().swap(row_columns[r]);
   }
   PetscFunctionReturn(PETSC_SUCCESS);
 }

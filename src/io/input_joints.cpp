@@ -6,6 +6,7 @@
 
 #include <Eigen/Geometry>
 
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <string>
@@ -220,6 +221,7 @@ Joint ReadJoint(const YAML::Node &item, const ReaderContext &context)
   Joint               joint;
   joint.name = entry.String("name");
   joint.mark = context.MarkOf(entry.Mark());
+  if (const std::string problem = JointNameProblem(joint.name); !problem.empty()) FailAt(entry.Required("name").Mark(), problem);
   if (const auto other = context.joint_names.find(joint.name); other != context.joint_names.end())
     FailAt(entry.Required("name").Mark(),
            "duplicate joint name " + Quote(joint.name) + " (first defined at line " + std::to_string(context.model.joints[other->second].mark.line) + ")");
@@ -238,6 +240,13 @@ Joint ReadJoint(const YAML::Node &item, const ReaderContext &context)
 }
 
 } // namespace
+
+std::string JointNameProblem(const std::string &name)
+{
+  const std::string problem = OutputNameProblem(name);
+  if (problem.empty()) return "";
+  return "joint name " + Quote(name) + " cannot begin the names of its history series /history/<name>.tx, ... in the result file: " + problem;
+}
 
 std::string JointParameterProblem(JointKind kind, double parameter)
 {
@@ -291,7 +300,10 @@ Mat3 JointAxesFrom(const Vec3 &axis, const Vec3 *second_axis)
 }
 
 // Every node is the slave of at most one joint, and following masters never leads back to the
-// slave: the joints form a forest whose roots are the ground and nodes that are no slave.
+// slave: the joints form a forest whose roots are the ground and nodes that are no slave. The new
+// joint's slave is no slave yet, so it is the top of its own chain, and the joint closes a cycle
+// exactly when its master's chain leads up to it: one ChainTop look-up, not a walk up the chain,
+// so that reading a chain of N joints takes time linear in N.
 std::string JointTreeProblem(const Joint &joint, const ReaderContext &context, bool *at_slave)
 {
   const Model &model = context.model;
@@ -300,19 +312,18 @@ std::string JointTreeProblem(const Joint &joint, const ReaderContext &context, b
     return "node " + Quote(model.nodes[joint.slave].name) + " is already the slave of joint " + Quote(model.joints[first].name) + " at line " +
            std::to_string(model.joints[first].mark.line) + "; a node can be the slave of only one joint";
   *at_slave = false;
+  if (joint.master < 0 || context.ChainTop(joint.master) != joint.slave) return "";
+  // A cycle: name its joints, from the slave's joint down to the new one (the walk happens once).
   std::vector<std::string> chain;
-  for (int node = joint.master; node >= 0;) {
+  for (int node = joint.master; node != joint.slave;) {
     const int parent = context.JointOfSlave(node);
-    if (parent < 0) break;
-    chain.insert(chain.begin(), Quote(model.joints[parent].name));
+    chain.push_back(Quote(model.joints[parent].name));
     node = model.joints[parent].master;
-    if (node == joint.slave) {
-      chain.push_back(Quote(joint.name));
-      return "joint " + Quote(joint.name) + " closes a cycle of master-slave joints: " + JoinWords(chain) + " lead from node " +
-             Quote(model.nodes[joint.slave].name) + " back to itself";
-    }
   }
-  return "";
+  std::reverse(chain.begin(), chain.end());
+  chain.push_back(Quote(joint.name));
+  return "joint " + Quote(joint.name) + " closes a cycle of master-slave joints: " + JoinWords(chain) + " lead from node " +
+         Quote(model.nodes[joint.slave].name) + " back to itself";
 }
 
 int NamedJointCoordinate(const Joint &joint, const YAML::Node &value, const std::string &where)
@@ -339,6 +350,7 @@ void AppendJoint(Joint joint, ReaderContext &context)
   const int index                     = static_cast<int>(model.joints.size());
   context.joint_of_slave[joint.slave] = index;
   context.joint_names.emplace(joint.name, index);
+  context.LinkChain(joint.slave, joint.master);
   model.joints.push_back(std::move(joint));
 }
 

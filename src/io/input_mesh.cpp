@@ -9,10 +9,12 @@
 // all ranks before anyone goes on, so a failure on one rank cannot leave the others waiting.
 #include "io/input_reader_internal.hpp"
 
+#include "core/hdf5_files.hpp"
 #include "core/mpi_util.hpp"
 
 #include <hdf5.h>
 #include <mpi.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <climits>
@@ -27,6 +29,18 @@ namespace {
 
 // Node indices and counts are int in the model; a mesh keeps well below that.
 constexpr long long kMaxRows = INT_MAX / 4;
+
+// What one generated node and its element take in the reader at least (Node with its name,
+// BeamElement with its reference triads, the name's entry in the namespace): a lower bound, so
+// that a model refused for its size could never have been read.
+constexpr long long kMinBytesPerGeneratedNode = 512;
+
+// The machine's physical memory in bytes, or 0 when unknown.
+long long PhysicalMemoryBytes()
+{
+  const long pages = sysconf(_SC_PHYS_PAGES), page_size = sysconf(_SC_PAGESIZE);
+  return pages > 0 && page_size > 0 ? static_cast<long long>(pages) * page_size : 0;
+}
 
 // Closes an HDF5 identifier when it goes out of scope.
 class Handle {
@@ -181,7 +195,9 @@ public:
     std::string     problem;
     if (!std::filesystem::is_regular_file(path, error)) problem = "cannot open mesh file " + Quote(label_) + " (looked for " + Quote(path.string()) + ")";
     else if (H5Fis_hdf5(path.c_str()) <= 0) problem = "mesh file " + Quote(label_) + " is not an HDF5 file";
-    else if ((file_ = H5Fopen(path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT)) < 0) problem = "cannot open mesh file " + Quote(label_) + " as HDF5 (read-only)";
+    else if ((file_ = H5Fopen(path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT)) < 0)
+      problem = "cannot open mesh file " + Quote(label_) + " as HDF5 (read-only): " + Hdf5StackReason();
+    else if (hsize_t size = 0; H5Fget_filesize(file_, &size) >= 0) file_size_ = size;
     if (!group_.AllOk(problem.empty())) FailAt(mark_, problem.empty() ? "mesh file " + Quote(label_) + " cannot be opened on another rank" : problem);
   }
   ~MeshReader()
@@ -298,6 +314,9 @@ private:
                           (expected_rank == 1 || dims[1] == static_cast<hsize_t>(shape.columns));
     if (!shape_ok) Fail(path, "wrong shape " + (rank <= 0 ? std::string("(scalar)") : FormatShape(dims)) + ", expected " + FormatShape(shape));
     if (dims[0] > static_cast<hsize_t>(kMaxRows)) Fail(path, std::to_string(dims[0]) + " rows are too many (at most " + std::to_string(kMaxRows) + ")");
+    // Before anything is allocated for the rows: the file must hold them (a header may claim
+    // 4e8 rows in a file of 50 KB).
+    if (const std::string problem = DatasetStorageProblem(dataset.id.Get(), file_size_); !problem.empty()) Fail(path, problem);
     *rows = static_cast<long long>(dims[0]);
     return dataset;
   }
@@ -333,10 +352,11 @@ private:
     group_.ShareRows(buffer, rows, row_bytes);
   }
 
-  std::string label_;
-  SourceMark  mark_;
-  ReaderGroup group_;
-  hid_t       file_ = -1;
+  std::string        label_;
+  SourceMark         mark_;
+  ReaderGroup        group_;
+  hid_t              file_      = -1;
+  unsigned long long file_size_ = 0;
 };
 
 std::vector<Vec3> ToVec3(const std::vector<double> &values)
@@ -394,6 +414,7 @@ MeshData ReadMeshFile(const YAML::Node &value, const YAML::Mark &key_mark, const
   mesh.mark  = context.MarkOf(key_mark);
   std::filesystem::path path(mesh.label);
   if (path.is_relative()) path = std::filesystem::path(context.model.input_file).parent_path() / path;
+  mesh.path = path.string();
   const QuietHdf5Errors quiet;
   const MeshReader      file(path, mesh.label, mesh.mark, context.comm);
 
@@ -464,6 +485,11 @@ void AddMeshBeams(const MeshData &mesh, ReaderContext &context)
   if (static_cast<long long>(model.nodes.size()) + generated > kMaxRows)
     FailAt(mesh.mark, mesh.label + ": /beams/elements: the beams would generate " + std::to_string(generated) + " nodes, too many (at most " +
                           std::to_string(kMaxRows) + " in all)");
+  // A small file may describe a model far larger than memory: refused here, with its location,
+  // rather than by an allocation failure later.
+  if (const long long memory = PhysicalMemoryBytes(); memory > 0 && generated > memory / kMinBytesPerGeneratedNode)
+    FailAt(mesh.mark, mesh.label + ": /beams/elements: the beams would generate " + std::to_string(generated) +
+                          " nodes and as many elements, which need more than the " + std::to_string(memory >> 20) + " MiB of memory this machine has");
   model.nodes.reserve(model.nodes.size() + static_cast<size_t>(generated));
   context.names.reserve(context.names.size() + static_cast<size_t>(generated) + mesh.beam_nodes.size());
 
@@ -513,6 +539,7 @@ void AddMeshJoints(const MeshData &mesh, ReaderContext &context)
     joint.name = mesh.joint_names.empty() ? "j" + std::to_string(index) : mesh.joint_names[index];
     joint.mark = mesh.mark;
     if (joint.name.empty()) FailRow(mesh, "/joints/names", row, "empty joint name");
+    if (const std::string problem = JointNameProblem(joint.name); !problem.empty()) FailRow(mesh, "/joints/names", row, problem);
     if (const auto other = context.joint_names.find(joint.name); other != context.joint_names.end())
       FailRow(mesh, mesh.joint_names.empty() ? "/joints/type" : "/joints/names", row,
               "duplicate joint name " + Quote(joint.name) + " (first defined at line " + std::to_string(model.joints[other->second].mark.line) + ")");

@@ -18,11 +18,32 @@
 #include <fstream>
 #include <iterator>
 #include <memory>
+#include <new>
 #include <utility>
 
 namespace msflex {
 
 namespace input_detail {
+
+int ReaderContext::ChainTop(int node) const
+{
+  if (chain_up.size() != joint_of_slave.size()) {
+    chain_up.resize(joint_of_slave.size());
+    for (size_t n = 0; n < chain_up.size(); ++n) chain_up[n] = static_cast<int>(n);
+  }
+  while (node >= 0 && chain_up[static_cast<size_t>(node)] != node) {
+    int &up = chain_up[static_cast<size_t>(node)];
+    if (up >= 0) up = chain_up[static_cast<size_t>(up)]; // path halving
+    node = up;
+  }
+  return node;
+}
+
+void ReaderContext::LinkChain(int slave, int master)
+{
+  ChainTop(slave); // sizes chain_up
+  chain_up[static_cast<size_t>(slave)] = master;
+}
 
 SourceMark ReaderContext::MarkOf(const YAML::Mark &mark) const
 {
@@ -463,6 +484,8 @@ Probe ReadProbe(const YAML::Node &item, const ReaderContext &context)
   Probe               probe;
   probe.name = entry.String("name");
   probe.mark = context.MarkOf(entry.Mark());
+  if (const std::string problem = OutputNameProblem(probe.name); !problem.empty())
+    FailAt(entry.Required("name").Mark(), "probe name " + Quote(probe.name) + " cannot name its group /probes/<name> in the result file: " + problem);
   RequireUniqueName(model.probes, probe.name, "probe", entry);
   const int kinds = int(entry.Has("node")) + int(entry.Has("rigid_body")) + int(entry.Has("reaction")) + int(entry.Has("beam"));
   if (kinds != 1)
@@ -710,6 +733,7 @@ Model ParseModel(const std::string &text, const std::string &file_label, MPI_Com
   // The bulk of a large model may come from an HDF5 mesh file: nodes, straight beams, joints.
   std::unique_ptr<MeshData> mesh;
   if (const YAML::Node *value = top.Find("mesh")) mesh = std::make_unique<MeshData>(ReadMeshFile(*value, KeyMark(top, "mesh"), context));
+  if (mesh != nullptr) model.mesh_file = mesh->path;
   const bool mesh_beams = mesh != nullptr && !mesh->beam_nodes.empty();
   // A model needs something with stiffness or mass: beams, rigid bodies or both. Without beams
   // nothing refers to a section, so `sections` is optional too.
@@ -798,6 +822,8 @@ bool ReadModelString(const std::string &text, const std::string &file_label, Mod
     *error = MakeError(file_label, exception.mark, "YAML syntax error: " + exception.msg + SyntaxErrorContext(text, exception.mark));
   } catch (const YAML::Exception &exception) {
     *error = MakeError(file_label, exception.mark, "YAML error: " + exception.msg);
+  } catch (const std::bad_alloc &) {
+    *error = InputError{file_label, 0, 0, "not enough memory to read the model: it is too large for this machine"};
   } catch (const std::exception &exception) {
     *error = InputError{file_label, 0, 0, std::string("internal error while reading the input: ") + exception.what()};
   } catch (...) {

@@ -229,6 +229,15 @@ bool ReadBool(const YAML::Node &value, const std::string &key)
   return flag;
 }
 
+std::string OutputNameProblem(const std::string &name)
+{
+  if (name.empty()) return "it is empty";
+  if (name == ".") return "'.' means the current group in an HDF5 path";
+  if (name.find('/') != std::string::npos) return "it contains '/', the HDF5 path separator";
+  if (name.find('\0') != std::string::npos) return "it contains a NUL character";
+  return "";
+}
+
 std::string ReadString(const YAML::Node &value, const std::string &key)
 {
   if (!value.IsScalar()) FailAt(value.Mark(), "expected a string for " + Quote(key) + ", got " + DescribeValue(value));

@@ -63,6 +63,11 @@ Vec3        ReadPosition(const YAML::Node &value, const std::string &key);
 int         ReadDofName(const YAML::Node &value, const std::string &key); // ux..rz -> DOF_UX..DOF_RZ
 const char *DofName(int dof);
 
+// "" when `name` can be one component of an HDF5 path in the result file (a probe's group
+// /probes/<name>, a joint's history series /history/<name>.tx, ...; docs/output.md), else what
+// is wrong: it is empty, is ".", or contains '/' or a NUL character.
+std::string OutputNameProblem(const std::string &name);
+
 // The largest coordinate of a point (m). Distances between points then stay far from overflow even
 // when cubed; without a bound, a node at 1e200 would give beams NaN triads (|x|^2 overflows).
 inline constexpr double kMaxCoordinate = 1e100;

@@ -311,6 +311,7 @@ struct OutputSettings {
 struct Model {
   std::string                             input_file;
   std::string                             input_text; // copy of the input, stored in the output for provenance
+  std::string                             mesh_file;  // the HDF5 mesh file read (`mesh:`, as opened: relative to the input's directory), or empty
   std::vector<TimeFunction>               functions;
   std::vector<Section>                    sections;
   std::vector<Node>                       nodes;

@@ -21,12 +21,11 @@
 #include <cstring>
 #include <ctime>
 #include <filesystem>
-#include <fstream>
 #include <sstream>
 
 // Checks the result of an HDF5 call (negative means failure) inside an OutputFile::Impl member,
-// whose `path` names the file in the message. HDF5 prints its own error stack to stderr as well.
-#define PetscCallHDF5(call) PetscCheck((call) >= 0, PETSC_COMM_SELF, PETSC_ERR_FILE_OPEN, "HDF5 call failed on output file '%s': %s", path.c_str(), #call)
+// whose `path` names the file in the one-line message, with HDF5's reason (Hdf5CallProblem).
+#define PetscCallHDF5(call) PetscCheck((call) >= 0, PETSC_COMM_SELF, PETSC_ERR_FILE_WRITE, "%s", Hdf5CallProblem(path, #call).c_str())
 
 namespace msflex {
 
@@ -182,13 +181,11 @@ struct OutputFile::Impl {
     std::vector<int> nodes, elements, bodies, joints;
   };
 
-  explicit Impl(const std::string &h5_path)
-      : path(h5_path), xdmf_path(std::filesystem::path(h5_path).replace_extension(".xmf").string()),
-        h5_file_name(std::filesystem::path(h5_path).filename().string())
+  explicit Impl(const std::string &h5_path) : path(h5_path), xdmf_path(SidecarPath(h5_path)), h5_file_name(std::filesystem::path(h5_path).filename().string())
   {
   }
 
-  PetscErrorCode Create(bool overwrite, const std::string &input_file, const std::string &input_text, const OutputMesh &mesh);
+  PetscErrorCode Create(bool overwrite, const std::string &input_file, const std::string &input_text, const OutputMesh &mesh, const FileMarker &marker);
   PetscErrorCode WriteProvenance(const OutputMesh &mesh);
   PetscErrorCode WriteMesh(const OutputMesh &mesh);
   PetscErrorCode WriteBodies(hid_t group, const OutputMesh &mesh);
@@ -222,9 +219,11 @@ struct OutputFile::Impl {
                                    const std::vector<double> &data);
   // Every rank (collective): fills segment_first from /mesh/segment_element.
   PetscErrorCode LoadSegmentTable();
-  // Rank 0: opens the existing file, drops the frames after `last_step` and the history and probe
-  // rows beyond `history_rows`, rewrites the sidecar and closes it again (OutputFile::Reopen).
-  PetscErrorCode Resume(int last_step, long long history_rows);
+  // Rank 0: opens the existing file, checks that it is the result file of run `run_id` holding
+  // the frame of `last_step` and at least `history_rows` rows of every series, and only then
+  // drops the frames after `last_step` and the rows beyond `history_rows`, rewrites the sidecar
+  // and closes the file again (OutputFile::Reopen).
+  PetscErrorCode Resume(int last_step, long long history_rows, const std::string &run_id);
   PetscErrorCode LinkNames(hid_t group, std::vector<std::string> *names) const;
   PetscErrorCode TruncateRows(hid_t parent, const std::string &name, hsize_t rows) const;
   PetscErrorCode Close();
@@ -372,21 +371,33 @@ PetscErrorCode OutputFile::Impl::Annotate(hid_t parent, const char *name, const 
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
-PetscErrorCode OutputFile::Impl::Create(bool overwrite, const std::string &input_file, const std::string &input_text, const OutputMesh &mesh)
+PetscErrorCode OutputFile::Impl::Create(bool overwrite, const std::string &input_file, const std::string &input_text, const OutputMesh &mesh,
+                                        const FileMarker &marker)
 {
-  H5Id            group;
-  std::error_code unreadable; // not thrown: an unreadable directory shows in H5Fcreate's failure
+  H5Id          group;
+  TemporaryFile temporary; // removed by its destructor unless committed
+  ExistingFile  existing;
 
   PetscFunctionBeginUser;
-  PetscCheck(overwrite || !std::filesystem::exists(path, unreadable), PETSC_COMM_SELF, PETSC_ERR_USER_INPUT,
+  // The run's policy (CheckRunFiles) decided already; this keeps the rule for any other caller:
+  // only an msflex result file is ever replaced, and only when asked to.
+  const std::string problem = ClassifyExistingFile(path, &existing);
+  PetscCheck(problem.empty(), PETSC_COMM_SELF, PETSC_ERR_FILE_OPEN, "%s", problem.c_str());
+  PetscCheck(existing.kind == ExistingKind::Missing || overwrite, PETSC_COMM_SELF, PETSC_ERR_USER_INPUT,
              "output file '%s' exists; pass -output_overwrite to replace it", path.c_str());
+  PetscCheck(existing.kind == ExistingKind::Missing || existing.kind == ExistingKind::MsflexResult, PETSC_COMM_SELF, PETSC_ERR_FILE_WRITE,
+             "refusing to replace the output file '%s': it is %s; -output_overwrite replaces only msflex result files", path.c_str(),
+             ExistingKindName(existing.kind));
   // The HDF5 1.8 file format (readable by every HDF5 since 1.8): its groups index their links
   // compactly, so a new frame group and its datasets cost the same whatever the frame count.
   H5Id create_access;
   PetscCallHDF5(create_access = H5Pcreate(H5P_FILE_ACCESS));
   PetscCallHDF5(H5Pset_libver_bounds(create_access, H5F_LIBVER_V18, H5F_LIBVER_V18));
-  PetscCallHDF5(file = H5Fcreate(path.c_str(), overwrite ? H5F_ACC_TRUNC : H5F_ACC_EXCL, H5P_DEFAULT, create_access));
+  // Written under a new name beside the target and renamed over it at the end: an old result
+  // stays intact until the new file is complete.
+  PetscCall(CreateHdf5Temporary(path, &temporary, &file, create_access));
   dynamic = mesh.analysis_type == "dynamic";
+  PetscCall(WriteFileMarkerChecked(path, file, marker));
   PetscCall(WriteProvenance(mesh));
   PetscCall(WriteStrings(file, "input", {}, {input_text}, ""));
   PetscCall(WriteStringAttribute(file, "input", "file", input_file));
@@ -398,6 +409,7 @@ PetscErrorCode OutputFile::Impl::Create(bool overwrite, const std::string &input
   // Rank 0 wrote the replicated part; every rank reopens the file for the collective writes.
   std::vector<int>().swap(segment_element);
   PetscCallHDF5(H5Fclose(file.Release()));
+  PetscCall(CommitHdf5Temporary(&temporary));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
@@ -671,7 +683,8 @@ std::string OutputFile::Impl::XdmfHead() const
       << "<!-- msflex results (layout: docs/output.md). Each temporal collection of the Domain takes its grids, one per frame, from the\n"
       << "     Information element 'frames' below (XInclude); msflex appends the grids of new frames there. -->\n"
       << "<Xdmf Version=\"3.0\" xmlns:xi=\"http://www.w3.org/2001/XInclude\">\n"
-      << "  <Domain>\n";
+      << "  <Domain>\n"
+      << "    " << kSidecarMarker << "\n";
   for (int kind = 0; kind < kGridKinds; ++kind) {
     // A collection only once a frame has a grid of its kind: an XInclude that finds nothing fails.
     if (!head_kinds[kind]) continue;
@@ -774,8 +787,7 @@ std::string OutputFile::Impl::XdmfFrameGrids(const FrameEntry &frame) const
 // one, so that a reader never sees a half-written file.
 PetscErrorCode OutputFile::Impl::WriteXdmfWhole()
 {
-  const std::string temporary = xdmf_path + ".tmp";
-  std::string       frames_text;
+  std::string frames_text;
 
   PetscFunctionBeginUser;
   for (int kind = 0; kind < kGridKinds; ++kind) head_kinds[kind] = false;
@@ -787,12 +799,9 @@ PetscErrorCode OutputFile::Impl::WriteXdmfWhole()
     frames_text += XdmfFrameGrids(frames[f]);
   }
   const std::string text = XdmfHead() + frames_text + kXdmfTail;
-  std::ofstream     out(temporary, std::ios::trunc | std::ios::binary);
-  out << text;
-  out.close();
-  PetscCheck(out.good(), PETSC_COMM_SELF, PETSC_ERR_FILE_OPEN, "cannot write XDMF sidecar '%s'", temporary.c_str());
-  PetscCheck(std::rename(temporary.c_str(), xdmf_path.c_str()) == 0, PETSC_COMM_SELF, PETSC_ERR_FILE_OPEN, "cannot rename '%s' to '%s'", temporary.c_str(),
-             xdmf_path.c_str());
+  // Written under a new name beside it (O_EXCL, never through a link) and renamed over the old
+  // sidecar, so a reader never sees a half-written one.
+  PetscCall(WriteFileAtomicallyChecked(xdmf_path, text));
   xdmf_size = (long long)text.size();
   PetscFunctionReturn(PETSC_SUCCESS);
 }
@@ -815,7 +824,9 @@ PetscErrorCode OutputFile::Impl::AppendXdmf()
   text += kXdmfTail;
   const long long tail_size = (long long)sizeof kXdmfTail - 1;
   struct stat     status;
-  const int       fd = new_kind ? -1 : ::open(xdmf_path.c_str(), O_WRONLY);
+  // Never through a link: a sidecar replaced by a symbolic link since the last flush is rewritten
+  // whole (atomically, beside it) instead of writing into whatever the link names.
+  const int fd = new_kind ? -1 : ::open(xdmf_path.c_str(), O_WRONLY | O_NOFOLLOW);
   if (fd < 0 || fstat(fd, &status) != 0 || (long long)status.st_size != xdmf_size || xdmf_size < tail_size) {
     if (fd >= 0) ::close(fd);
     frames_listed = frames.size();
@@ -1005,37 +1016,47 @@ PetscErrorCode OutputFile::Impl::TruncateRows(hid_t parent, const std::string &n
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
-PetscErrorCode OutputFile::Impl::Resume(int last_step, long long history_rows)
+PetscErrorCode OutputFile::Impl::Resume(int last_step, long long history_rows, const std::string &run_id)
 {
   H5Id                     frames_group, history, probes;
-  std::vector<std::string> names;
+  std::vector<std::string> names, probe_groups;
+  const char              *p    = path.c_str();
+  const hsize_t            rows = (hsize_t)history_rows;
   PetscFunctionBeginUser;
-  PetscCheck(std::filesystem::exists(path), PETSC_COMM_SELF, PETSC_ERR_USER_INPUT, "output file '%s' of the run to continue does not exist", path.c_str());
   H5Id access;
   PetscCallHDF5(access = H5Pcreate(H5P_FILE_ACCESS));
   PetscCallHDF5(H5Pset_libver_bounds(access, H5F_LIBVER_V18, H5F_LIBVER_V18)); // as in Create
-  PetscCallHDF5(file = H5Fopen(path.c_str(), H5F_ACC_RDWR, access));
-  // The sizes of the mesh, from its datasets (0 for tables a file does not have).
-  const auto rows_of = [&](const char *name, hsize_t *rows) -> PetscErrorCode {
-    H5Id    dataset, space;
-    hsize_t dims[2] = {0, 0};
+  PetscCall(OpenHdf5File(path, H5F_ACC_RDWR, access, &file));
+  // (1) Validation, nothing changes: the run this file belongs to (CheckRunFiles checked it as
+  // well), the mesh, the frame of the checkpoint's last written step and every series' rows.
+  FileMarker        marker;
+  const std::string marker_problem = ReadFileMarker(file, &marker);
+  PetscCheck(marker_problem.empty(), PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "'%s': %s", p, marker_problem.c_str());
+  PetscCheck(run_id.empty() || marker.run.empty() || marker.run == run_id, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED,
+             "the output file '%s' belongs to another run than the checkpoint; continue into a new file with -output_file NEW.h5", p);
+  // The sizes of the mesh, from its datasets; an optional table (rigid bodies, joints, ground
+  // markers) a file does not have counts 0.
+  const auto rows_of = [&](const char *name, int rank, bool optional, hsize_t *count) -> PetscErrorCode {
+    std::vector<hsize_t> dims;
     PetscFunctionBeginUser;
-    *rows               = 0;
-    const htri_t exists = H5Lexists(file, name, H5P_DEFAULT);
-    PetscCallHDF5(exists);
-    if (!exists) PetscFunctionReturn(PETSC_SUCCESS);
-    PetscCallHDF5(dataset = H5Dopen2(file, name, H5P_DEFAULT));
-    PetscCallHDF5(space = H5Dget_space(dataset));
-    PetscCallHDF5(H5Sget_simple_extent_dims(space, dims, nullptr));
-    *rows = dims[0];
+    *count = 0;
+    if (optional && H5Lexists(file, name, H5P_DEFAULT) <= 0) PetscFunctionReturn(PETSC_SUCCESS);
+    const std::string problem = DatasetDims(file, name, &dims);
+    PetscCheck(problem.empty(), PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "'%s': %s", p, problem.c_str());
+    PetscCheck((int)dims.size() == rank, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "'%s': %s has %d dimensions, expected %d", p, name, (int)dims.size(),
+               rank);
+    *count = dims[0];
     PetscFunctionReturn(PETSC_SUCCESS);
   };
-  PetscCall(rows_of("/mesh/node_coordinates", &n_nodes));
-  PetscCall(rows_of("/mesh/element_order", &n_elements));
-  PetscCall(rows_of("/mesh/segment_element", &n_segments));
-  PetscCall(rows_of("/mesh/joint_names", &n_joints));
-  PetscCall(rows_of("/mesh/body_names", &n_bodies));
-  PetscCall(rows_of("/mesh/ground_names", &n_ground));
+  PetscCheck(H5Lexists(file, "/mesh", H5P_DEFAULT) > 0, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "'%s' has no group /mesh", p);
+  PetscCall(rows_of("/mesh/node_coordinates", 2, false, &n_nodes));
+  PetscCall(rows_of("/mesh/element_order", 1, false, &n_elements));
+  PetscCall(rows_of("/mesh/segment_element", 1, false, &n_segments));
+  PetscCall(rows_of("/mesh/joint_names", 1, true, &n_joints));
+  PetscCall(rows_of("/mesh/body_names", 1, true, &n_bodies));
+  PetscCall(rows_of("/mesh/ground_names", 1, true, &n_ground));
+  for (const char *group : {"/frames", "/history", "/probes"})
+    PetscCheck(H5Lexists(file, group, H5P_DEFAULT) > 0, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "'%s' has no group %s", p, group);
   {
     // The kind of analysis, for the units of the history series still to be created.
     dynamic             = false;
@@ -1053,10 +1074,10 @@ PetscErrorCode OutputFile::Impl::Resume(int last_step, long long history_rows)
       dynamic = std::string(text.c_str()) == "dynamic";
     }
   }
-  // Frames up to the checkpoint stay; later ones (written after it) go.
   PetscCallHDF5(frames_group = H5Gopen2(file, "/frames", H5P_DEFAULT));
   PetscCall(LinkNames(frames_group, &names));
   frames.clear();
+  std::vector<std::string> later_frames;
   for (const std::string &name : names) {
     FrameEntry entry{0, 0.0, false};
     {
@@ -1071,24 +1092,45 @@ PetscErrorCode OutputFile::Impl::Resume(int last_step, long long history_rows)
       entry.has_bodies         = H5Lexists(group, "body_center", H5P_DEFAULT) > 0;
       entry.has_joints         = H5Lexists(group, "joint_position", H5P_DEFAULT) > 0;
     }
-    if (entry.step > last_step) PetscCallHDF5(H5Ldelete(frames_group, name.c_str(), H5P_DEFAULT));
+    if (entry.step > last_step) later_frames.push_back(name);
     else frames.push_back(entry);
   }
+  PetscCheck(std::any_of(frames.begin(), frames.end(), [&](const FrameEntry &f) { return f.step == last_step; }), PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED,
+             "'%s' has no frame for step %d, the last one the checkpoint wrote", p, last_step);
   std::sort(frames.begin(), frames.end(), [](const FrameEntry &a, const FrameEntry &b) { return a.step < b.step; });
-  // History and probe series: the rows up to the checkpoint.
+  // Every history and probe series (group, name) must hold the checkpoint's rows.
+  std::vector<std::pair<std::string, std::string>> series;
   PetscCallHDF5(history = H5Gopen2(file, "/history", H5P_DEFAULT));
   PetscCall(LinkNames(history, &names));
-  for (const std::string &name : names) PetscCall(TruncateRows(history, name, (hsize_t)history_rows));
+  for (const std::string &name : names) series.emplace_back("/history", name);
   PetscCallHDF5(probes = H5Gopen2(file, "/probes", H5P_DEFAULT));
-  std::vector<std::string> probe_groups;
   PetscCall(LinkNames(probes, &probe_groups));
   for (const std::string &probe : probe_groups) {
     H5Id group;
     PetscCallHDF5(group = H5Gopen2(probes, probe.c_str(), H5P_DEFAULT));
     PetscCall(LinkNames(group, &names));
-    for (const std::string &name : names) PetscCall(TruncateRows(group, name, (hsize_t)history_rows));
+    for (const std::string &name : names) series.emplace_back("/probes/" + probe, name);
   }
-  rows_written = (hsize_t)history_rows;
+  PetscCheck(!series.empty() || rows == 0, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "'%s' has no history, the checkpoint expects %llu rows", p,
+             (unsigned long long)rows);
+  for (const auto &[group, name] : series) {
+    std::vector<hsize_t> dims;
+    const std::string    full    = group + "/" + name;
+    const std::string    problem = DatasetDims(file, full, &dims);
+    PetscCheck(problem.empty(), PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "'%s': %s", p, problem.c_str());
+    PetscCheck(!dims.empty() && dims[0] >= rows, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "'%s': %s has %llu rows, the checkpoint expects %llu", p,
+               full.c_str(), dims.empty() ? 0ULL : (unsigned long long)dims[0], (unsigned long long)rows);
+  }
+  // (2) Changes: frames written after the checkpoint go, the series are cut to its rows.
+  for (const std::string &name : later_frames) PetscCallHDF5(H5Ldelete(frames_group, name.c_str(), H5P_DEFAULT));
+  for (const auto &[group, name] : series) {
+    H5Id parent;
+    PetscCallHDF5(parent = H5Gopen2(file, group.c_str(), H5P_DEFAULT));
+    PetscCall(TruncateRows(parent, name, rows));
+  }
+  rows_written = rows;
+  history_names.clear(); // taken from the next row, whose datasets must exist
+  probe_names.clear();
   PetscCallHDF5(H5Fflush(file, H5F_SCOPE_LOCAL));
   frames_listed = frames.size();
   PetscCall(WriteXdmfWhole());
@@ -1128,17 +1170,17 @@ OutputFile::~OutputFile()
 }
 
 PetscErrorCode OutputFile::Open(MPI_Comm comm, const std::string &path, bool overwrite, const std::string &input_file, const std::string &input_text,
-                                const OutputMesh &mesh)
+                                const OutputMesh &mesh, const std::string &model_fingerprint, const std::string &run_id)
 {
   PetscFunctionBeginUser;
-  PetscCall(OpenWith(comm, path, [&] { return impl_->Create(overwrite, input_file, input_text, mesh); }));
+  PetscCall(OpenWith(comm, path, [&] { return impl_->Create(overwrite, input_file, input_text, mesh, {kResultFormat, model_fingerprint, run_id}); }));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
-PetscErrorCode OutputFile::Reopen(MPI_Comm comm, const std::string &path, int last_step, long long history_rows)
+PetscErrorCode OutputFile::Reopen(MPI_Comm comm, const std::string &path, int last_step, long long history_rows, const std::string &run_id)
 {
   PetscFunctionBeginUser;
-  PetscCall(OpenWith(comm, path, [&] { return impl_->Resume(last_step, history_rows); }));
+  PetscCall(OpenWith(comm, path, [&] { return impl_->Resume(last_step, history_rows, run_id); }));
   long long rows = (long long)impl_->rows_written;
   PetscCallMPI(MPI_Bcast(&rows, 1, MPI_LONG_LONG, 0, comm));
   impl_->rows_written = (hsize_t)rows;

@@ -102,15 +102,20 @@ public:
   OutputFile &operator=(const OutputFile &) = delete;
   ~OutputFile();
 
-  // Creates `path` (an existing file is an error unless overwrite) and its sidecar
-  // `path` with the extension replaced by .xmf. Writes /input, /mesh and the provenance
-  // attributes of the root group (version, git commit, command line, options, ranks, start time).
+  // Creates `path` (an existing file is an error unless overwrite, and only an msflex result file
+  // is ever replaced) and its sidecar `path` with the extension replaced by .xmf. Writes the
+  // marker (msflex_format "msflex result 1", msflex_model `model_fingerprint`, msflex_run
+  // `run_id`), the provenance attributes of the root group (version, git commit, command line,
+  // options, ranks, start time), /input and /mesh into a new temporary file renamed over `path`
+  // when complete.
   PetscErrorCode Open(MPI_Comm comm, const std::string &path, bool overwrite, const std::string &input_file, const std::string &input_text,
-                      const OutputMesh &mesh);
+                      const OutputMesh &mesh, const std::string &model_fingerprint, const std::string &run_id);
   // Continues the result file of an interrupted run (a restart): keeps the frames up to step
   // `last_step` and the first `history_rows` rows of the history and probe series, drops the
   // rest, rewrites the sidecar, and opens the file as Open does.
-  PetscErrorCode Reopen(MPI_Comm comm, const std::string &path, int last_step, long long history_rows);
+  // Nothing changes unless the file is the result of run `run_id` and holds the frame of
+  // `last_step` and `history_rows` rows of every series (one line naming what is missing).
+  PetscErrorCode Reopen(MPI_Comm comm, const std::string &path, int last_step, long long history_rows, const std::string &run_id);
   // Writes /frames/<step>; the sidecar lists it from the next flush on.
   PetscErrorCode WriteFrame(const OutputFrame &frame);
   // Appends one row to /history (one extensible 1-D dataset per name; the set of names must be

@@ -1,16 +1,26 @@
 #include "state/checkpoint.hpp"
 
+#include "core/format.hpp"
 #include "core/hdf5_util.hpp"
 #include "core/mpi_util.hpp"
 
+#include <algorithm>
+#include <climits>
+#include <cmath>
 #include <cstdio>
 
 namespace msflex {
 
 namespace {
 
-constexpr const char *kFormat     = "msflex checkpoint 3";
-constexpr int         kRunNumbers = 12;
+constexpr int kRunNumbers = 12;
+// Limits of the stored texts (ReadBoundedText): far above any real input, options database or
+// path, and small enough that a damaged size can never exhaust the memory.
+constexpr size_t kMaxInputBytes = size_t(256) << 20, kMaxOptionsBytes = size_t(16) << 20, kMaxPathBytes = size_t(64) << 10;
+// A stored rotation is a unit quaternion to round-off; anything further off is damage.
+constexpr double kUnitQuaternionTolerance = 1e-6;
+// Rows read at once while validating the state tables.
+constexpr hsize_t kValidationBlockRows = 4096;
 
 // The run record's numbers, in a fixed order.
 void PackNumbers(const CheckpointRun &run, double *numbers)
@@ -30,8 +40,25 @@ void PackNumbers(const CheckpointRun &run, double *numbers)
   std::copy(values, values + kRunNumbers, numbers);
 }
 
-void UnpackNumbers(const double *numbers, CheckpointRun *run)
+// "" when `value` is an integer in [lo, hi], else the one-line problem naming `what`.
+std::string IntegerProblem(const char *what, double value, double lo, double hi)
 {
+  if (value == std::floor(value) && value >= lo && value <= hi) return "";
+  return Format("%s %g is not an integer in [%.0f, %.0f]", what, value, lo, hi);
+}
+
+// Validates the numbers (every entry finite already: ReadExactDoubles) and unpacks them; "" or
+// the problem. Every cast happens after its range check.
+std::string UnpackNumbers(const std::vector<double> &numbers, CheckpointRun *run)
+{
+  const double kMaxCount = INT_MAX;
+  const struct {
+    const char *what;
+    int         index;
+  } integers[] = {{"the step", 0},       {"the last written step", 3}, {"the history row count", 4}, {"the run of easy steps", 6},
+                  {"the node count", 7}, {"the joint count", 8},       {"the rigid-body count", 9}};
+  for (const auto &field : integers)
+    if (std::string problem = IntegerProblem(field.what, numbers[field.index], 0.0, kMaxCount); !problem.empty()) return problem;
   run->step                = (int)numbers[0];
   run->time                = numbers[1];
   run->external_work       = numbers[2];
@@ -44,6 +71,13 @@ void UnpackNumbers(const double *numbers, CheckpointRun *run)
   run->num_rigid_bodies    = (long long)numbers[9];
   run->initial_energy      = numbers[10];
   run->dissipated_energy   = numbers[11];
+  // One history row per converged step plus the initial state's.
+  if (run->history_rows != (long long)run->step + 1)
+    return Format("history rows %lld do not match step %d (expected %lld)", run->history_rows, run->step, (long long)run->step + 1);
+  if (run->last_written > run->step) return Format("the last written step %d is beyond the step %d", run->last_written, run->step);
+  if (!(run->controller_step > 0.0)) return Format("the step controller's step %g is not positive", run->controller_step);
+  if (run->num_nodes == 0) return "the model has no nodes";
+  return "";
 }
 
 // Text as a 1-D dataset of bytes (any length, also 0).
@@ -55,20 +89,6 @@ PetscErrorCode WriteText(const std::string &label, hid_t parent, const char *nam
   PetscCallHDF5At(label, space = H5Screate_simple(1, &size, nullptr));
   PetscCallHDF5At(label, dataset = H5Dcreate2(parent, name, H5T_NATIVE_CHAR, space, H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT));
   if (size > 0) PetscCallHDF5At(label, H5Dwrite(dataset, H5T_NATIVE_CHAR, H5S_ALL, H5S_ALL, H5P_DEFAULT, text.data()));
-  PetscFunctionReturn(PETSC_SUCCESS);
-}
-
-PetscErrorCode ReadText(const std::string &label, hid_t parent, const char *name, std::string *text)
-{
-  H5Id dataset, space;
-  PetscFunctionBeginUser;
-  PetscCheck(H5Lexists(parent, name, H5P_DEFAULT) > 0, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "'%s' is not an msflex checkpoint: no %s", label.c_str(),
-             name);
-  PetscCallHDF5At(label, dataset = H5Dopen2(parent, name, H5P_DEFAULT));
-  PetscCallHDF5At(label, space = H5Dget_space(dataset));
-  const hssize_t size = H5Sget_simple_extent_npoints(space);
-  text->assign((size_t)std::max<hssize_t>(size, 0), '\0');
-  if (size > 0) PetscCallHDF5At(label, H5Dread(dataset, H5T_NATIVE_CHAR, H5S_ALL, H5S_ALL, H5P_DEFAULT, text->data()));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
@@ -192,31 +212,35 @@ PetscErrorCode ImportState(const std::vector<double> &nodes, const std::vector<d
 
 PetscErrorCode CheckpointWrite(MPI_Comm comm, const std::string &path, const CheckpointRun &run, const State &state, const DofMap &map)
 {
-  PetscMPIInt       rank;
-  const std::string temporary = path + ".tmp";
+  PetscMPIInt   rank;
+  TemporaryFile temporary; // rank 0; removed by its destructor unless committed
+  std::string   temporary_path;
   PetscFunctionBeginUser;
-  // Rank 0: the run record.
+  // Rank 0: a new file beside the checkpoint, with the marker and the run record.
   PetscCall(RunOnRoot(comm, [&]() -> PetscErrorCode {
     H5Id   file, group;
     double numbers[kRunNumbers];
     PetscFunctionBeginUser;
-    PetscCallHDF5At(temporary, file = H5Fcreate(temporary.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT));
-    PetscCallHDF5At(temporary, group = H5Gcreate2(file, "/run", H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT));
-    PetscCall(WriteText(temporary, group, "format", kFormat));
+    PetscCall(CreateHdf5Temporary(path, &temporary, &file));
+    PetscCall(WriteFileMarkerChecked(path, file, {kCheckpointFormat, ModelFingerprint(run.input_text, run.options), run.run_id}));
+    PetscCallHDF5At(path, group = H5Gcreate2(file, "/run", H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT));
+    PetscCall(WriteText(path, group, "format", kCheckpointFormat));
     PackNumbers(run, numbers);
     const hsize_t count = kRunNumbers;
     H5Id          space, dataset;
-    PetscCallHDF5At(temporary, space = H5Screate_simple(1, &count, nullptr));
-    PetscCallHDF5At(temporary, dataset = H5Dcreate2(group, "numbers", H5T_IEEE_F64LE, space, H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT));
-    PetscCallHDF5At(temporary, H5Dwrite(dataset, H5T_NATIVE_DOUBLE, H5S_ALL, H5S_ALL, H5P_DEFAULT, numbers));
-    PetscCall(WriteText(temporary, group, "input_file", run.input_file));
-    PetscCall(WriteText(temporary, group, "input_text", run.input_text));
-    PetscCall(WriteText(temporary, group, "options", run.options));
-    PetscCall(WriteText(temporary, group, "output_file", run.output_file));
-    PetscCallHDF5At(temporary, H5Fclose(file.Release()));
+    PetscCallHDF5At(path, space = H5Screate_simple(1, &count, nullptr));
+    PetscCallHDF5At(path, dataset = H5Dcreate2(group, "numbers", H5T_IEEE_F64LE, space, H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT));
+    PetscCallHDF5At(path, H5Dwrite(dataset, H5T_NATIVE_DOUBLE, H5S_ALL, H5S_ALL, H5P_DEFAULT, numbers));
+    PetscCall(WriteText(path, group, "input_file", run.input_file));
+    PetscCall(WriteText(path, group, "input_text", run.input_text));
+    PetscCall(WriteText(path, group, "options", run.options));
+    PetscCall(WriteText(path, group, "output_file", run.output_file));
+    PetscCallHDF5At(path, H5Fclose(file.Release()));
+    temporary_path = temporary.Path();
     PetscFunctionReturn(PETSC_SUCCESS);
   }));
-  // Every rank: the state records it owns, collectively.
+  PetscCallMPI(BroadcastString(comm, &temporary_path));
+  // Every rank: the state records it owns, collectively, into the temporary (by its unique name).
   StateRecords nodes, joints, bodies, strains;
   PetscCallMPI(MPI_Comm_rank(comm, &rank));
   ExportState(state, map, rank, &nodes, &joints, &bodies);
@@ -226,51 +250,148 @@ PetscErrorCode CheckpointWrite(MPI_Comm comm, const std::string &path, const Che
   PetscCall(RunCollective(comm, [&]() -> PetscErrorCode {
     H5Id file;
     PetscFunctionBeginUser;
-    PetscCall(OpenFileCollective(comm, temporary, &file));
-    PetscCall(WriteRowsCollective(temporary, file, "nodes", (hsize_t)run.num_nodes, kNodeStateSize, nodes.numbers, nodes.values));
-    PetscCall(WriteRowsCollective(temporary, file, "joints", (hsize_t)run.num_joints, kJointStateSize, joints.numbers, joints.values));
-    PetscCall(WriteRowsCollective(temporary, file, "rigid_bodies", (hsize_t)run.num_rigid_bodies, kRigidBodyStateSize, bodies.numbers, bodies.values));
+    PetscCall(OpenFileCollective(comm, temporary_path, &file));
+    PetscCall(WriteRowsCollective(path, file, "nodes", (hsize_t)run.num_nodes, kNodeStateSize, nodes.numbers, nodes.values));
+    PetscCall(WriteRowsCollective(path, file, "joints", (hsize_t)run.num_joints, kJointStateSize, joints.numbers, joints.values));
+    PetscCall(WriteRowsCollective(path, file, "rigid_bodies", (hsize_t)run.num_rigid_bodies, kRigidBodyStateSize, bodies.numbers, bodies.values));
     if (damped)
-      PetscCall(WriteRowsCollective(temporary, file, "beam_strains", (hsize_t)map.global_count.elements, kBeamStrainSize, strains.numbers, strains.values));
-    PetscCallHDF5At(temporary, H5Fclose(file.Release()));
+      PetscCall(WriteRowsCollective(path, file, "beam_strains", (hsize_t)map.global_count.elements, kBeamStrainSize, strains.numbers, strains.values));
+    PetscCallHDF5At(path, H5Fclose(file.Release()));
     PetscFunctionReturn(PETSC_SUCCESS);
   }));
+  // Rank 0: the complete file replaces the previous checkpoint in one rename.
   PetscCall(RunOnRoot(comm, [&]() -> PetscErrorCode {
     PetscFunctionBeginUser;
-    PetscCheck(std::rename(temporary.c_str(), path.c_str()) == 0, PETSC_COMM_SELF, PETSC_ERR_FILE_WRITE, "cannot rename checkpoint '%s' to '%s'",
-               temporary.c_str(), path.c_str());
+    PetscCall(CommitHdf5Temporary(&temporary));
     PetscFunctionReturn(PETSC_SUCCESS);
   }));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
+namespace {
+
+// Rank 0's part of CheckpointReadRun: every check before anything is taken from the file.
+PetscErrorCode ReadRunRecord(const std::string &path, CheckpointRun *run)
+{
+  const char *p = path.c_str();
+  H5Id        file;
+  PetscFunctionBeginUser;
+  PetscCall(OpenHdf5File(path, H5F_ACC_RDONLY, H5P_DEFAULT, &file));
+  ExistingFile existing;
+  std::string  problem = ClassifyExistingFile(path, &existing);
+  PetscCheck(problem.empty(), PETSC_COMM_SELF, PETSC_ERR_FILE_OPEN, "%s", problem.c_str());
+  PetscCheck(existing.kind != ExistingKind::MsflexResult, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED,
+             "'%s' is an msflex result file, not a checkpoint; restart from the run's checkpoint (by default <output name>.ckpt.h5)", p);
+  PetscCheck(existing.kind == ExistingKind::MsflexCheckpoint, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "'%s' is not an msflex checkpoint: it is %s", p,
+             ExistingKindName(existing.kind));
+  PetscCheck(!existing.legacy, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED,
+             "'%s' has format '%s' without file markers (written by an earlier msflex); this msflex reads '%s' with markers", p, existing.marker.format.c_str(),
+             kCheckpointFormat);
+  PetscCheck(existing.marker.format == kCheckpointFormat, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "'%s' has format '%s'; this msflex reads '%s'", p,
+             existing.marker.format.c_str(), kCheckpointFormat);
+  PetscCheck(!existing.marker.run.empty() && !existing.marker.model.empty(), PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED,
+             "'%s' is damaged: its marker has no run or model fingerprint", p);
+  std::vector<double> numbers; // of the validated length only
+  problem = ReadExactDoubles(file, "/run/numbers", kRunNumbers, &numbers);
+  PetscCheck(problem.empty(), PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "'%s': %s", p, problem.c_str());
+  problem = UnpackNumbers(numbers, run);
+  PetscCheck(problem.empty(), PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "'%s': %s", p, problem.c_str());
+  const struct {
+    const char  *name;
+    size_t       limit;
+    std::string *text;
+  } texts[] = {{"/run/input_file", kMaxPathBytes, &run->input_file},
+               {"/run/input_text", kMaxInputBytes, &run->input_text},
+               {"/run/options", kMaxOptionsBytes, &run->options},
+               {"/run/output_file", kMaxPathBytes, &run->output_file}};
+  for (const auto &text : texts) {
+    problem = ReadBoundedText(file, text.name, text.limit, text.text);
+    PetscCheck(problem.empty(), PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "'%s': %s", p, problem.c_str());
+  }
+  run->model_fingerprint = existing.marker.model;
+  run->run_id            = existing.marker.run;
+  PetscCheck(ModelFingerprint(run->input_text, run->options) == run->model_fingerprint, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED,
+             "'%s' is damaged: its stored input and options do not match its fingerprint", p);
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+// Reads rows [first, first + rows) of the 2-D float64 dataset into *block (rows x columns).
+PetscErrorCode ReadBlock(const std::string &path, hid_t dataset, hsize_t first, hsize_t rows, hsize_t columns, std::vector<double> *block)
+{
+  H5Id          file_space, memory_space;
+  const hsize_t start[2] = {first, 0}, count[2] = {rows, columns};
+  PetscFunctionBeginUser;
+  block->resize(rows * columns);
+  PetscCallHDF5At(path, file_space = H5Dget_space(dataset));
+  PetscCallHDF5At(path, H5Sselect_hyperslab(file_space, H5S_SELECT_SET, start, nullptr, count, nullptr));
+  PetscCallHDF5At(path, memory_space = H5Screate_simple(2, count, nullptr));
+  PetscCallHDF5At(path, H5Dread(dataset, H5T_NATIVE_DOUBLE, memory_space, file_space, H5P_DEFAULT, block->data()));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+// Rank 0's part of CheckpointValidateState.
+PetscErrorCode ValidateTables(const std::string &path, const CheckpointRun &run)
+{
+  const char *p = path.c_str();
+  H5Id        file;
+  PetscFunctionBeginUser;
+  PetscCall(OpenHdf5File(path, H5F_ACC_RDONLY, H5P_DEFAULT, &file));
+  const struct {
+    const char *name;
+    long long   rows;
+    hsize_t     columns;
+  } tables[] = {
+      {"/nodes", run.num_nodes, kNodeStateSize}, {"/joints", run.num_joints, kJointStateSize}, {"/rigid_bodies", run.num_rigid_bodies, kRigidBodyStateSize}};
+  for (const auto &table : tables) {
+    const std::string problem = CheckTableShape(file, table.name, (hsize_t)table.rows, table.columns);
+    PetscCheck(problem.empty(), PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "'%s': %s", p, problem.c_str());
+    H5Id                dataset;
+    std::vector<double> block;
+    PetscCallHDF5At(path, dataset = H5Dopen2(file, table.name, H5P_DEFAULT));
+    for (hsize_t first = 0; first < (hsize_t)table.rows; first += kValidationBlockRows) {
+      const hsize_t rows = std::min<hsize_t>(kValidationBlockRows, (hsize_t)table.rows - first);
+      PetscCall(ReadBlock(path, dataset, first, rows, table.columns, &block));
+      for (hsize_t r = 0; r < rows; ++r) {
+        const double *record = &block[r * table.columns];
+        for (hsize_t c = 0; c < table.columns; ++c)
+          PetscCheck(std::isfinite(record[c]), PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "'%s': %s row %llu holds a value that is not a finite number", p,
+                     table.name, (unsigned long long)(first + r));
+        if (table.columns == (hsize_t)kNodeStateSize) {
+          const double norm = std::sqrt(record[3] * record[3] + record[4] * record[4] + record[5] * record[5] + record[6] * record[6]);
+          PetscCheck(std::abs(norm - 1.0) <= kUnitQuaternionTolerance, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED,
+                     "'%s': %s row %llu: the rotation is not a unit quaternion (norm %.6f)", p, table.name, (unsigned long long)(first + r), norm);
+        }
+      }
+    }
+  }
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+} // namespace
+
 PetscErrorCode CheckpointReadRun(MPI_Comm comm, const std::string &path, CheckpointRun *run)
 {
-  double numbers[kRunNumbers] = {0};
   PetscFunctionBeginUser;
-  PetscCall(RunOnRoot(comm, [&]() -> PetscErrorCode {
-    H5Id        file, group, dataset;
-    std::string format;
-    PetscFunctionBeginUser;
-    PetscCheck(H5Fis_hdf5(path.c_str()) > 0, PETSC_COMM_SELF, PETSC_ERR_USER_INPUT, "restart file '%s' does not exist or is not an HDF5 file", path.c_str());
-    PetscCallHDF5At(path, file = H5Fopen(path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT));
-    PetscCheck(H5Lexists(file, "run", H5P_DEFAULT) > 0, PETSC_COMM_SELF, PETSC_ERR_USER_INPUT, "restart file '%s' is not an msflex checkpoint (no /run)",
-               path.c_str());
-    PetscCallHDF5At(path, group = H5Gopen2(file, "/run", H5P_DEFAULT));
-    PetscCall(ReadText(path, group, "format", &format));
-    PetscCheck(format == kFormat, PETSC_COMM_SELF, PETSC_ERR_USER_INPUT, "restart file '%s' has format '%s', this msflex reads '%s'", path.c_str(),
-               format.c_str(), kFormat);
-    PetscCallHDF5At(path, dataset = H5Dopen2(group, "numbers", H5P_DEFAULT));
-    PetscCallHDF5At(path, H5Dread(dataset, H5T_NATIVE_DOUBLE, H5S_ALL, H5S_ALL, H5P_DEFAULT, numbers));
-    PetscCall(ReadText(path, group, "input_file", &run->input_file));
-    PetscCall(ReadText(path, group, "input_text", &run->input_text));
-    PetscCall(ReadText(path, group, "options", &run->options));
-    PetscCall(ReadText(path, group, "output_file", &run->output_file));
-    PetscFunctionReturn(PETSC_SUCCESS);
-  }));
-  PetscCallMPI(MPI_Bcast(numbers, kRunNumbers, MPI_DOUBLE, 0, comm));
-  UnpackNumbers(numbers, run);
-  for (std::string *text : {&run->input_file, &run->input_text, &run->options, &run->output_file}) PetscCallMPI(BroadcastString(comm, text));
+  PetscCall(RunOnRoot(comm, [&] { return ReadRunRecord(path, run); }));
+  // The record travels as its (validated) numbers and texts.
+  std::vector<double> numbers(kRunNumbers);
+  PackNumbers(*run, numbers.data());
+  PetscCallMPI(MPI_Bcast(numbers.data(), kRunNumbers, MPI_DOUBLE, 0, comm));
+  PetscMPIInt rank;
+  PetscCallMPI(MPI_Comm_rank(comm, &rank));
+  if (rank != 0) {
+    const std::string problem = UnpackNumbers(numbers, run);
+    PetscCheck(problem.empty(), PETSC_COMM_SELF, PETSC_ERR_PLIB, "the broadcast run record does not validate: %s", problem.c_str());
+  }
+  for (std::string *text : {&run->input_file, &run->input_text, &run->options, &run->output_file, &run->run_id, &run->model_fingerprint})
+    PetscCallMPI(BroadcastString(comm, text));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode CheckpointValidateState(MPI_Comm comm, const std::string &path, const CheckpointRun &run)
+{
+  PetscFunctionBeginUser;
+  PetscCall(RunOnRoot(comm, [&] { return ValidateTables(path, run); }));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
@@ -286,14 +407,34 @@ PetscErrorCode CheckpointReadState(MPI_Comm comm, const std::string &path, const
   for (size_t k = 0; k < state->beam_strains.size(); ++k) element_numbers.push_back(map.global_elements[map.local_elements[k]]);
   int local_damped = state->beam_strains.empty() ? 0 : 1, damped;
   PetscCallMPI(MPI_Allreduce(&local_damped, &damped, 1, MPI_INT, MPI_MAX, comm));
+  const DofMap::GlobalCount &count = map.global_count;
   PetscCall(RunCollective(comm, [&]() -> PetscErrorCode {
     H5Id file;
     PetscFunctionBeginUser;
-    PetscCallHDF5At(path, file = H5Fopen(path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT));
+    PetscCall(OpenHdf5File(path, H5F_ACC_RDONLY, H5P_DEFAULT, &file));
+    // The shapes once more against this model's counts (CheckpointValidateState checked the
+    // values against the record's), so that no row number reads beyond a table.
+    const struct {
+      const char *name;
+      hsize_t     rows, columns;
+    } tables[] = {{"/nodes", (hsize_t)count.nodes, kNodeStateSize},
+                  {"/joints", (hsize_t)count.joints, kJointStateSize},
+                  {"/rigid_bodies", (hsize_t)count.rigid_bodies, kRigidBodyStateSize}};
+    for (const auto &table : tables) {
+      const std::string problem = CheckTableShape(file, table.name, table.rows, table.columns);
+      PetscCheck(problem.empty(), PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "'%s': %s", path.c_str(), problem.c_str());
+    }
     PetscCall(ReadRows(path, file, "nodes", kNodeStateSize, node_numbers, &nodes));
     PetscCall(ReadRows(path, file, "joints", kJointStateSize, joint_numbers, &joints));
     PetscCall(ReadRows(path, file, "rigid_bodies", kRigidBodyStateSize, body_numbers, &bodies));
-    if (damped) PetscCall(ReadRows(path, file, "beam_strains", kBeamStrainSize, element_numbers, &strains));
+    if (damped) {
+      const std::string problem = CheckTableShape(file, "/beam_strains", (hsize_t)count.elements, kBeamStrainSize);
+      PetscCheck(problem.empty(), PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "'%s': %s (the model has damped beams)", path.c_str(), problem.c_str());
+      PetscCall(ReadRows(path, file, "beam_strains", kBeamStrainSize, element_numbers, &strains));
+    }
+    for (const std::vector<double> *values : {&nodes, &joints, &bodies, &strains})
+      PetscCheck(std::all_of(values->begin(), values->end(), [](double v) { return std::isfinite(v); }), PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED,
+                 "'%s': a state record holds a value that is not a finite number", path.c_str());
     PetscFunctionReturn(PETSC_SUCCESS);
   }));
   PetscCall(ImportState(nodes, joints, bodies, state));

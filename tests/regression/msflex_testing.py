@@ -24,6 +24,17 @@ def parse_arguments(description):
     return args
 
 
+def mpi_launcher(mpiexec, np_ranks):
+    """The command prefix that starts np_ranks ranks (nothing for one rank); oversubscribes when
+    there are more ranks than cores."""
+    if np_ranks <= 1:
+        return []
+    command = [mpiexec, "-n", str(np_ranks)]
+    if np_ranks > (os.cpu_count() or 1):
+        command.append("--oversubscribe")
+    return command
+
+
 def run_msflex(args, input_file, output_file, extra=(), np_ranks=None, expect_success=True):
     """Runs msflex and returns (returncode, stdout, stderr)."""
     np_ranks = args.np if np_ranks is None else np_ranks

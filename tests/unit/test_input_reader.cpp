@@ -1183,6 +1183,9 @@ TEST(InputMesh, BadMeshesNameFileDatasetAndRow)
        "mesh.h5: /joints/names: expected strings"},
       {"duplicate joint name", [](MeshSpec &spec) { spec["/joints/names"].strings[3] = "base"; }, "mesh.h5: /joints/names row 3: duplicate joint name 'base'"},
       {"slave is master", [](MeshSpec &spec) { spec["/joints/slave"].integers[1] = 2; }, "mesh.h5: /joints/slave row 1: the slave is the master, node 'p2'"},
+      {"joint name with a slash", [](MeshSpec &spec) { spec["/joints/names"].strings[1] = "arm/hinge"; },
+       "mesh.h5: /joints/names row 1: joint name 'arm/hinge' cannot begin the names of its history series /history/<name>.tx, ... in the result file: it "
+       "contains '/', the HDF5 path separator"},
   };
   for (const BadMeshCase &bad : cases) {
     SCOPED_TRACE(bad.label);
@@ -1215,6 +1218,86 @@ TEST(InputMesh, UnconnectedMeshNodeAndMissingOrBrokenFile)
   ASSERT_FALSE(ReadModelString(kMeshYaml, (directory / "model.yaml").string(), &model, &error));
   EXPECT_NE(error.message.find("mesh file 'mesh.h5' is not an HDF5 file"), std::string::npos) << error.Format();
   std::filesystem::remove_all(directory);
+}
+
+// A dataset whose header claims `rows` x 3 numbers but whose chunks were never written: a small
+// file that would make the reader allocate gigabytes.
+void AddHollowDataset(const std::filesystem::path &path, const char *name, hsize_t rows)
+{
+  const hid_t file = H5Fopen(path.c_str(), H5F_ACC_RDWR, H5P_DEFAULT);
+  ASSERT_GE(file, 0);
+  const hsize_t dims[2] = {rows, 3}, chunk[2] = {4096, 3};
+  const hid_t   space  = H5Screate_simple(2, dims, nullptr);
+  const hid_t   create = H5Pcreate(H5P_DATASET_CREATE);
+  H5Pset_chunk(create, 2, chunk);
+  const hid_t links = H5Pcreate(H5P_LINK_CREATE);
+  H5Pset_create_intermediate_group(links, 1);
+  const hid_t dataset = H5Dcreate2(file, name, H5T_IEEE_F64LE, space, links, create, H5P_DEFAULT);
+  EXPECT_GE(dataset, 0);
+  H5Dclose(dataset);
+  H5Pclose(links);
+  H5Pclose(create);
+  H5Sclose(space);
+  H5Fclose(file);
+}
+
+TEST(InputMesh, CountsAreCheckedAgainstTheFileBeforeAllocating)
+{
+  MeshSpec spec = MeshSpecOfEquivalentYaml();
+  spec.erase("/nodes/coordinates");
+  spec.erase("/nodes/names");
+  const std::filesystem::path directory = MeshTestDirectory();
+  WriteMesh(directory / "mesh.h5", spec);
+  AddHollowDataset(directory / "mesh.h5", "/nodes/coordinates", 400000000);
+  Model      model;
+  InputError error;
+  ASSERT_FALSE(ReadModelString(kMeshYaml, (directory / "model.yaml").string(), &model, &error));
+  EXPECT_NE(error.message.find("mesh.h5: /nodes/coordinates: claims 1200000000 entries (9600000000 bytes) but the file holds only 0 bytes of them"),
+            std::string::npos)
+      << error.Format();
+  EXPECT_EQ(error.line, kMeshKeyLine) << error.Format();
+  std::filesystem::remove_all(directory);
+}
+
+TEST(InputMesh, ModelRemembersItsMeshFile)
+{
+  Model      model;
+  InputError error;
+  ASSERT_TRUE(ReadWithMesh(MeshSpecOfEquivalentYaml(), kMeshYaml, &model, &error)) << error.Format();
+  EXPECT_EQ(std::filesystem::path(model.mesh_file).filename(), "mesh.h5");
+  EXPECT_EQ(ReadValid(kEquivalentYaml).mesh_file, "");
+}
+
+// ---- Long joint chains -------------------------------------------------------------------
+
+// A chain of n rigid bodies, body k hanging from body k - 1 by a revolute joint, the first from
+// the ground; `extra` is appended to the joints.
+std::string RigidChainYaml(int n, const std::string &extra = "")
+{
+  std::string yaml = "nodes:\n";
+  for (int k = 0; k < n; ++k) yaml += "  n" + std::to_string(k) + ": [" + std::to_string(k) + ", 0, 0]\n";
+  yaml += "rigid_bodies:\n";
+  for (int k = 0; k < n; ++k) yaml += "  - {node: n" + std::to_string(k) + ", mass: 1, inertia: [1, 1, 1]}\n";
+  yaml += "joints:\n  - {name: j0, type: revolute, master: ground, slave: n0, axis: [0, 0, 1]}\n";
+  for (int k = 1; k < n; ++k)
+    yaml +=
+        "  - {name: j" + std::to_string(k) + ", type: revolute, master: n" + std::to_string(k - 1) + ", slave: n" + std::to_string(k) + ", axis: [0, 0, 1]}\n";
+  return yaml + extra + "analysis: {type: dynamic}\n";
+}
+
+TEST(InputJoints, LongChainsReadAndCyclesAreStillFound)
+{
+  const int   n     = 5000;
+  const Model model = ReadValid(RigidChainYaml(n));
+  ASSERT_EQ(model.joints.size(), static_cast<size_t>(n));
+  EXPECT_EQ(model.joints.back().master, NodeIndex(model, "n" + std::to_string(n - 2)));
+  // The same chain rooted at n0 instead of the ground, closed by a joint from its last body back to n0.
+  std::string yaml = RigidChainYaml(4);
+  yaml.replace(yaml.find("master: ground"), 14, "master: n3");
+  const InputError error = ReadInvalid(yaml);
+  EXPECT_NE(error.message.find("joint 'j3' closes a cycle of master-slave joints: 'j0', 'j1', 'j2', 'j3' lead from node 'n3' back to itself"),
+            std::string::npos)
+      << error.message;
 }
 
 // ---- The bad-input corpus ----------------------------------------------------------------

@@ -20,6 +20,10 @@
 namespace msflex {
 namespace {
 
+// The markers of the files these tests write (a run writes its model fingerprint and run id).
+const std::string kFingerprint = "sha256:" + std::string(64, '0');
+const std::string kRunId       = std::string(32, 'a');
+
 namespace fs = std::filesystem;
 
 const std::vector<std::string> kHistoryNames = {"time", "load_factor", "newton_iterations"};
@@ -187,7 +191,8 @@ protected:
   // Opens `path` as the solver does: only rank 0 passes the mesh.
   PetscErrorCode OpenTiny(OutputFile *out, bool overwrite)
   {
-    return out->Open(PETSC_COMM_WORLD, h5_path().string(), overwrite, "tiny.yaml", "analysis: {type: static}\n", IsRoot() ? TinyMesh() : OutputMesh{});
+    return out->Open(PETSC_COMM_WORLD, h5_path().string(), overwrite, "tiny.yaml", "analysis: {type: static}\n", IsRoot() ? TinyMesh() : OutputMesh{},
+                     kFingerprint, kRunId);
   }
 
   fs::path h5_path() const { return directory_ / "output.h5"; }
@@ -623,7 +628,8 @@ TEST_F(OutputFileTest, CostPerFrameDoesNotGrowWithTheFrameCount)
 TEST_F(OutputFileTest, WritesRigidBodiesJointsAndGround)
 {
   OutputFile out;
-  ASSERT_EQ(out.Open(PETSC_COMM_WORLD, h5_path().string(), false, "mechanism.yaml", "analysis: {type: dynamic}\n", IsRoot() ? MechanismMesh() : OutputMesh{}),
+  ASSERT_EQ(out.Open(PETSC_COMM_WORLD, h5_path().string(), false, "mechanism.yaml", "analysis: {type: dynamic}\n", IsRoot() ? MechanismMesh() : OutputMesh{},
+                     kFingerprint, kRunId),
             PETSC_SUCCESS);
   for (int step = 0; step < 2; ++step) ASSERT_EQ(out.WriteFrame(IsRoot() ? MechanismFrame(step) : OutputFrame{}), PETSC_SUCCESS);
   ASSERT_EQ(out.WriteFrame(DistributedPart(MechanismFrame(2), WorldRank(), WorldSize())), PETSC_SUCCESS);
@@ -694,7 +700,8 @@ TEST_F(OutputFileTest, WritesRigidBodiesJointsAndGround)
 TEST_F(OutputFileTest, EveryDatasetHasAUnitAndADescription)
 {
   OutputFile out;
-  ASSERT_EQ(out.Open(PETSC_COMM_WORLD, h5_path().string(), false, "mechanism.yaml", "analysis: {type: dynamic}\n", IsRoot() ? MechanismMesh() : OutputMesh{}),
+  ASSERT_EQ(out.Open(PETSC_COMM_WORLD, h5_path().string(), false, "mechanism.yaml", "analysis: {type: dynamic}\n", IsRoot() ? MechanismMesh() : OutputMesh{},
+                     kFingerprint, kRunId),
             PETSC_SUCCESS);
   ASSERT_EQ(out.WriteFrame(DistributedPart(MechanismFrame(0), WorldRank(), WorldSize())), PETSC_SUCCESS);
   const std::vector<std::string> names = {"time",          "kinetic_energy", "linear_momentum_x", "angular_momentum_z", "hinge.rx",
@@ -808,7 +815,7 @@ TEST_F(OutputFileTest, ReopenKeepsTheCheckpointedRowsAndFramesAndGoesOn)
     ASSERT_EQ(out.Close(), PETSC_SUCCESS);
   }
   OutputFile out;
-  ASSERT_EQ(out.Reopen(PETSC_COMM_WORLD, h5_path().string(), 5, 10), PETSC_SUCCESS);
+  ASSERT_EQ(out.Reopen(PETSC_COMM_WORLD, h5_path().string(), 5, 10, kRunId), PETSC_SUCCESS);
   EXPECT_EQ(out.HistoryRows(), 10);
   for (int row = 10; row < 13; ++row) {
     if (row == 11) {

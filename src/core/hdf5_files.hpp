@@ -1,0 +1,134 @@
+// HDF5 files without HDF5's own error reports: every failure becomes one line naming the file and
+// the reason ("cannot open 'x.h5': No such file or directory", "cannot open 'y.h5': not an HDF5
+// file"), and msflex's own files are told apart from everything else by a marker (the root-group
+// attributes of core/file_safety.hpp, specified in docs/output.md).
+//
+// HDF5 prints its error stack to stderr on every failed call unless told not to: msflex turns
+// that off for the whole process (Hdf5SilenceErrorStack, first thing after start-up) and reads the
+// stack itself (Hdf5StackReason). Plain HDF5 + POSIX: no PETSc, no MPI calls, unit tested in
+// tests/unit/test_file_safety.cpp; the PETSc-idiom checks on top are in output/hdf5_util.hpp.
+#pragma once
+
+#include <hdf5.h>
+
+#include <string>
+#include <vector>
+
+namespace msflex {
+
+// Turns off HDF5's automatic error printing for the process (H5Eset_auto2 with no function).
+void Hdf5SilenceErrorStack();
+
+// Turns it off for a scope and restores the previous setting (library code, tests).
+class Hdf5QuietScope {
+public:
+  Hdf5QuietScope();
+  ~Hdf5QuietScope();
+  Hdf5QuietScope(const Hdf5QuietScope &)            = delete;
+  Hdf5QuietScope &operator=(const Hdf5QuietScope &) = delete;
+
+private:
+  H5E_auto2_t function_ = nullptr;
+  void       *data_     = nullptr;
+};
+
+// Why the last HDF5 call failed, from the default error stack, which is then cleared: the
+// operating system's reason when a file driver recorded an errno ("Permission denied"), "not an
+// HDF5 file", "the file is locked by another process", or HDF5's innermost message. Empty when
+// the stack is empty.
+std::string Hdf5StackReason();
+
+// One line for a failed H5Fopen/H5Fcreate of `path`: "cannot <action> '<path>': <reason>", the
+// reason from the error stack or, when that has none, from the file system (stat, open).
+std::string Hdf5FileProblem(const std::string &action, const std::string &path);
+
+// H5Fopen / H5Fcreate that print nothing: a negative id and *problem (one line) on failure.
+hid_t Hdf5OpenFile(const std::string &path, unsigned flags, hid_t access, std::string *problem);
+hid_t Hdf5CreateFile(const std::string &path, unsigned flags, hid_t access, std::string *problem);
+
+// --- Markers ---
+
+// The root-group attributes msflex writes into its result files and checkpoints.
+struct FileMarker {
+  std::string format; // kResultFormat, kCheckpointFormat
+  std::string model;  // ModelFingerprint(input text, options)
+  std::string run;    // NewRunId() of the result file (a checkpoint: of the result file it belongs to)
+};
+
+// Writes the marker as variable-length UTF-8 string attributes of "/"; "" or the problem.
+std::string WriteFileMarker(hid_t file, const FileMarker &marker);
+// Reads the marker attributes of "/" (absent ones stay empty); "" or the problem.
+std::string ReadFileMarker(hid_t file, FileMarker *marker);
+
+// What is at a path that msflex is about to write.
+enum class ExistingKind {
+  Missing,          // nothing
+  MsflexResult,     // an msflex result file (marker, or the layout of files written before it)
+  MsflexCheckpoint, // an msflex checkpoint (marker, or /run/format "msflex checkpoint 1" to "3")
+  MsflexSidecar,    // an XDMF sidecar written by msflex
+  Foreign,          // any other file, including HDF5 files of other programs
+  NotRegular,       // a directory, device, FIFO or socket
+};
+struct ExistingFile {
+  ExistingKind kind = ExistingKind::Missing;
+  FileMarker   marker;         // for msflex HDF5 files; empty fields for files written before the marker
+  bool         legacy = false; // recognised by layout, without a marker
+};
+const char *ExistingKindName(ExistingKind kind); // "an msflex result file", "a file that msflex did not write", ...
+// Classifies the file at `path` (following symbolic links); "" or the problem (one line).
+std::string ClassifyExistingFile(const std::string &path, ExistingFile *file);
+
+// The XDMF sidecar of a result file: the path with its extension replaced by .xmf (as the writer
+// names it).
+std::string SidecarPath(const std::string &result_path);
+
+// The files of one run, for CheckRunFiles.
+struct RunFiles {
+  std::string input;                   // the input file read (empty on a restart: the input is in the checkpoint)
+  std::string mesh;                    // the mesh file the input names, as the reader opened it (empty: none)
+  std::string restart;                 // the checkpoint a restart reads (empty: not a restart)
+  std::string output;                  // the result file; its sidecar is SidecarPath(output)
+  std::string checkpoint;              // the checkpoint file the run writes (on schedule, signal or failure)
+  bool        overwrite       = false; // -output_overwrite
+  bool        continue_output = false; // a restart that appends to the existing `output`
+  std::string run;                     // a restart: the checkpoint's msflex_run, which `output` must carry
+};
+
+// The file-safety policy of a run, checked on one rank before anything is created or read for
+// writing; "" or the one-line problem. (1) No file the run writes (output, sidecar, checkpoint) is
+// the same file as another file of the run (CheckRunPaths; a restart may write its checkpoints
+// where it read one), and each is a writable place (CheckWritableTarget). (2) An existing output
+// file is replaced only with -output_overwrite and only when it is an msflex result file; a
+// restart continues only an msflex result of the checkpoint's run. (3) An existing sidecar is
+// replaced only when msflex wrote it, and only with -output_overwrite or when continuing. (4) An
+// existing checkpoint file (other than the one restarted from) is replaced only when it is an
+// msflex checkpoint, of this run or with -output_overwrite.
+std::string CheckRunFiles(const RunFiles &files);
+
+// --- Validated reading (checkpoints, mesh files): sizes are checked before anything is allocated ---
+
+// "" when the dataset's size is plausible for the file that holds it, else why not: its data
+// must be stored in the file itself (no external files, no virtual datasets), and the bytes its
+// elements take (elements x size of the file type) must be stored — all of them for a dataset
+// without filters, at least 1/kMaxCompressionRatio of them for a compressed one (deflate cannot do
+// better than about 1030:1) — and the storage must fit in the file (`file_size` bytes). A header
+// that claims 4e8 rows in a 50 KB file fails here instead of in the allocation.
+inline constexpr double kMaxCompressionRatio = 1100.0;
+std::string             DatasetStorageProblem(hid_t dataset, unsigned long long file_size);
+
+// The dimensions of dataset `name` under `parent`; "" or the problem ("no dataset /run/numbers",
+// "... is not a dataset").
+std::string DatasetDims(hid_t parent, const std::string &name, std::vector<hsize_t> *dims);
+
+// Reads the 1-D float64 dataset `name` holding exactly `count` finite numbers; "" or the problem,
+// e.g. "/run/numbers has 100000 entries, expected 11", "/run/numbers entry 1 is not finite".
+std::string ReadExactDoubles(hid_t parent, const std::string &name, size_t count, std::vector<double> *values);
+
+// Reads the 1-D byte dataset `name` as text of at most `max_bytes` (and no more than its storage
+// and the file hold); "" or the problem, e.g. "/run/input_text claims 1099511627776 bytes".
+std::string ReadBoundedText(hid_t parent, const std::string &name, size_t max_bytes, std::string *text);
+
+// "" when `name` is a 2-D float64 table of `rows` x `columns` whose storage the file holds.
+std::string CheckTableShape(hid_t parent, const std::string &name, hsize_t rows, hsize_t columns);
+
+} // namespace msflex

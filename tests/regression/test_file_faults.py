@@ -1,0 +1,449 @@
+"""File faults through the executable (issue 16, docs/options.md "Files msflex writes"): each case
+sets up files in a scratch directory, records every file's bytes (and every symbolic link's
+target), runs msflex on 1 rank and on --np ranks, and checks
+
+  - the exit status (1 for a fault, on every rank; 0 for the cases that must simply not write
+    through a link),
+  - exactly one line 'msflex: ...' holding 'error' and the case's expected fragments (the path
+    and the reason), and no trace-back: no 'PETSC ERROR', 'HDF5-DIAG', 'MPI_ABORT', '#0' or
+    'Traceback',
+  - every file that existed before is unchanged byte for byte, and a failed run leaves no new
+    file (no temporary either).
+
+The cases cover every rule of issue 16: aliases of the run's files (also through links and
+`..`), foreign files that must not be replaced, symbolic links at temporary names, missing,
+unwritable and directory paths, names that are not HDF5 path components, counts beyond what a
+file holds, and corrupted checkpoints of many kinds made from a real one; a control restart from
+an intact checkpoint must continue the run. "Unwritable" is /sys (the tests run as root, which
+permission bits do not stop; sysfs refuses every new file).
+
+Each rank runs through a small wrapper that records its own exit status and exits 0, so that
+mpiexec lets every rank finish (see test_bad_input_cli.py)."""
+
+import argparse
+import concurrent.futures
+import hashlib
+import os
+import re
+import shutil
+import signal
+import subprocess
+import sys
+import time
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import msflex_testing  # noqa: E402
+
+import h5py  # noqa: E402
+import numpy as np  # noqa: E402
+
+parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+parser.add_argument("--msflex", required=True, help="path of the msflex executable")
+parser.add_argument("--source-dir", required=True, help="repository root")
+parser.add_argument("--work-dir", required=True, help="directory for this test's runs")
+parser.add_argument("--mpiexec", default="mpiexec", help="MPI launcher")
+parser.add_argument("--np", type=int, default=2, help="ranks of the parallel runs (1: serial runs only)")
+parser.add_argument("--jobs", type=int, default=2, help="cases run at the same time")
+parser.add_argument("--only", nargs="*", help="case names to run")
+parser.add_argument("--timeout", type=float, default=120.0)
+args = parser.parse_args()
+args.msflex = os.path.abspath(args.msflex)
+
+TRACE_MARKERS = ["PETSC ERROR", "HDF5-DIAG", "MPI_ABORT", "#0", "Traceback"]
+STATUS_PREFIX = "rank-status."
+
+MODEL = """sections:
+  - {name: steel, EA: 1.0e7, GA2: 4.0e6, GA3: 4.0e6, GJ: 8.0e5, EI2: 8.0e5, EI3: 8.0e5, rhoA: 1.0, rhoJ: [0.1, 0.05, 0.05]}
+nodes:
+  root: [0, 0, 0]
+  tip: [1, 0, 0]
+beams:
+  - {name: arm, section: steel, from: root, to: tip, elements: 4}
+supports:
+  - {nodes: root, fix: all}
+loads:
+  - {nodes: tip, force: [0, 0, -1]}
+probes:
+  - {name: PROBE, node: tip}
+analysis: {type: dynamic, integrator: newmark, end_time: 0.04, initial_step: 0.01, max_step: 0.01}
+"""
+# Line and column of the probe's name in MODEL (for located errors).
+PROBE_LINE = 13
+
+
+def write(path, text):
+    with open(path, "w") as f:
+        f.write(text)
+
+
+def model(directory, name="model.yaml", probe="tip", extra=""):
+    write(os.path.join(directory, name), MODEL.replace("{name: PROBE", "{name: " + probe) + extra)
+    return name
+
+
+def run_plain(directory, command):
+    """A set-up run (serial), which must succeed."""
+    result = subprocess.run([args.msflex] + command, cwd=directory, capture_output=True, text=True, timeout=args.timeout)
+    if result.returncode != 0:
+        raise RuntimeError(f"set-up run failed ({result.returncode}): {result.stdout}{result.stderr}")
+
+
+def checkpointed_run(directory):
+    """model.yaml run to the end with a checkpoint every step: out.h5, out.xmf, out.ckpt.h5."""
+    model(directory)
+    run_plain(directory, ["model.yaml", "-output_file", "out.h5", "-checkpoint_every", "1", "-quiet"])
+
+
+def corrupt(path, edit):
+    with h5py.File(path, "r+") as f:
+        edit(f)
+
+
+def set_number(index, value):
+    def edit(f):
+        numbers = f["run/numbers"][()]
+        numbers[index] = value
+        f["run/numbers"][...] = numbers
+    return edit
+
+
+def replace_dataset(name, make):
+    def edit(f):
+        del f[name]
+        make(f, name)
+    return edit
+
+
+def hollow(shape, dtype="f8"):
+    """A chunked dataset of `shape` whose chunks are never written: big header, tiny file."""
+    def make(f, name):
+        f.create_dataset(name, shape=shape, dtype=dtype, chunks=tuple(min(s, 1024) for s in shape))
+    return make
+
+
+class Case:
+    def __init__(self, name, setup, fragments, status=1, may_change=(), verify=None):
+        self.name, self.setup, self.fragments, self.status = name, setup, fragments, status
+        self.may_change, self.verify = may_change, verify
+
+
+def located(file, line):
+    return rf"{re.escape(file)}:{line}:\d+: error: "
+
+
+# ---- the cases -------------------------------------------------------------------------------
+# setup(directory) writes the files and returns the command-line arguments; fragments are regular
+# expressions that the one error line must match (path and reason).
+
+def mesh_hollow(directory):
+    write(os.path.join(directory, "model.yaml"), """mesh: mesh.h5
+sections:
+  - {name: steel, EA: 1.0e7, GA2: 4.0e6, GA3: 4.0e6, GJ: 8.0e5, EI2: 8.0e5, EI3: 8.0e5}
+supports:
+  - {nodes: n0, fix: all}
+""")
+    with h5py.File(os.path.join(directory, "mesh.h5"), "w") as f:
+        f.create_dataset("nodes/coordinates", shape=(400000000, 3), dtype="f8", chunks=(4096, 3))
+        f.create_dataset("beams/nodes", data=np.array([[0, 1]], dtype=np.int64))
+    return ["model.yaml"]
+
+
+def link_victim(directory, link):
+    write(os.path.join(directory, "victim.txt"), "precious\n")
+    os.symlink("victim.txt", os.path.join(directory, link))
+
+
+def fingerprint(input_text, options):
+    """ModelFingerprint (src/core/file_safety.cpp): SHA-256 of a tag and each field with its length."""
+    digest = hashlib.sha256(b"msflex model 1\n")
+    for field in (input_text, options):
+        digest.update(len(field).to_bytes(8, "little"))
+        digest.update(field)
+    return "sha256:" + digest.hexdigest()
+
+
+def set_text(name, text, refingerprint=False):
+    """Replaces the stored text `name` (bytes); with refingerprint the marker is made to match."""
+    def edit(f):
+        del f[name]
+        f.create_dataset(name, data=np.frombuffer(text, dtype=np.int8))
+        if refingerprint:
+            f.attrs["msflex_model"] = fingerprint(f["run/input_text"][()].tobytes(), f["run/options"][()].tobytes())
+    return edit
+
+
+def append_text(name, extra):
+    def edit(f):
+        set_text(name, f[name][()].tobytes() + extra)(f)
+    return edit
+
+
+def set_attribute(name, value):
+    def edit(f):
+        f.attrs[name] = value
+    return edit
+
+
+def delete(name):
+    def edit(f):
+        del f[name]
+    return edit
+
+
+def restart_case(name, edit, fragments, arguments=("-analysis_end_time", "0.08"), result_edit=None):
+    """A run checkpointed at every step; `edit` corrupts its checkpoint (or `result_edit` its
+    result file); then the restart, which must refuse it and change nothing."""
+    def setup(d):
+        checkpointed_run(d)
+        if edit:
+            corrupt(os.path.join(d, "out.ckpt.h5"), edit)
+        if result_edit:
+            corrupt(os.path.join(d, "out.h5"), result_edit)
+        return ["--restart", "out.ckpt.h5"] + list(arguments)
+    return Case(name, setup, [r"out\.ckpt\.h5"] + fragments if not result_edit else fragments)
+
+
+def foreign_checkpoint(d):
+    with h5py.File(os.path.join(d, "c.h5"), "w") as f:
+        f.create_dataset("run/numbers", data=np.zeros(11))
+    return ["--restart", "c.h5"]
+
+
+def foreign_output_restart(d):
+    checkpointed_run(d)
+    os.remove(os.path.join(d, "out.h5"))
+    with h5py.File(os.path.join(d, "out.h5"), "w") as f:
+        f.create_dataset("data", data=np.arange(10.0))
+    return ["--restart", "out.ckpt.h5", "-analysis_end_time", "0.08"]
+
+
+def restart_continues_check(d):
+    """The control: a valid checkpoint restarts and the result file grows to the new end."""
+    with h5py.File(os.path.join(d, "out.h5"), "r") as f:
+        rows = f["history/time"].shape[0]
+        end = f["history/time"][-1]
+        frames = len(f["frames"])
+    failures = []
+    if rows != 9 or abs(end - 0.08) > 1e-12 or frames != 9:
+        failures.append(f"after the restart: {rows} history rows to t = {end}, {frames} frames; expected 9 rows to 0.08 and 9 frames")
+    return failures
+
+
+CASES = [
+    # (4) names that are not HDF5 path components: located errors of the reader
+    Case("probe_name_slash", lambda d: [model(d, probe="a/b")],
+         [located("model.yaml", PROBE_LINE), r"probe name 'a/b' cannot name its group /probes/<name>", r"contains '/'"]),
+    Case("probe_name_dot", lambda d: [model(d, probe=".")],
+         [located("model.yaml", PROBE_LINE), r"probe name '\.'", r"'\.' means the current group"]),
+    Case("probe_name_root", lambda d: [model(d, probe="/")], [located("model.yaml", PROBE_LINE), r"probe name '/'"]),
+    Case("joint_name_slash",
+         lambda d: [model(d, extra="joints:\n  - {name: arm/hinge, type: rigid, master: ground, slave: tip}\n")],
+         [located("model.yaml", 16), r"joint name 'arm/hinge' cannot begin the names of its history series", r"contains '/'"]),
+    # (5) counts the file cannot hold
+    Case("mesh_counts_beyond_file", mesh_hollow,
+         [located("model.yaml", 1), r"mesh\.h5: /nodes/coordinates: claims 1200000000 entries \(9600000000 bytes\) but the file holds only 0 bytes"]),
+    # (1) never write over what the run did not create
+    Case("checkpoint_is_input", lambda d: [model(d), "-checkpoint_file", "model.yaml"],
+         [r"checkpoint file 'model\.yaml' is the same file as the input file 'model\.yaml'"]),
+    Case("checkpoint_is_unrelated_file", lambda d: (write(os.path.join(d, "notes.txt"), "keep\n"), [model(d), "-checkpoint_file", "notes.txt"])[1],
+         [r"refusing to replace the checkpoint file 'notes\.txt': it is a file that msflex did not write"]),
+    Case("output_is_input", lambda d: [model(d), "-output_file", "model.yaml", "-output_overwrite"],
+         [r"output file 'model\.yaml' is the same file as the input file 'model\.yaml'"]),
+    Case("output_is_input_by_link", lambda d: (model(d), os.symlink("model.yaml", os.path.join(d, "link.h5")),
+                                               ["model.yaml", "-output_file", "link.h5", "-output_overwrite"])[-1],
+         [r"output file 'link\.h5' is the same file as the input file 'model\.yaml'"]),
+    Case("checkpoint_is_output", lambda d: [model(d), "-output_file", "out.h5", "-checkpoint_file", "./out.h5"],
+         [r"checkpoint file '\./out\.h5' is the same file as the output file 'out\.h5'"]),
+    Case("checkpoint_is_output_by_dotdot", lambda d: (os.mkdir(os.path.join(d, "sub")), [model(d), "-output_file", "out.h5", "-checkpoint_file", "sub/../out.h5"])[1],
+         [r"checkpoint file 'sub/\.\./out\.h5' is the same file as the output file 'out\.h5'"]),
+    Case("output_is_mesh",
+         lambda d: (mesh_hollow(d), write(os.path.join(d, "model.yaml"), "mesh: model.h5\n"), os.rename(os.path.join(d, "mesh.h5"), os.path.join(d, "model.h5")),
+                    ["model.yaml", "-output_overwrite"])[-1],
+         [r"(output file 'model\.h5' is the same file as the mesh file|claims)"]),
+    Case("sidecar_exists", lambda d: (write(os.path.join(d, "out.xmf"), "<my notes/>\n"), [model(d), "-output_file", "out.h5"])[1],
+         [r"refusing to replace the XDMF sidecar 'out\.xmf': it is a file that msflex did not write"]),
+    Case("sidecar_exists_overwrite", lambda d: (write(os.path.join(d, "out.xmf"), "<my notes/>\n"), [model(d), "-output_file", "out.h5", "-output_overwrite"])[1],
+         [r"refusing to replace the XDMF sidecar 'out\.xmf'"]),
+    Case("overwrite_foreign_hdf5", lambda d: (h5py.File(os.path.join(d, "out.h5"), "w").close(), [model(d), "-output_file", "out.h5", "-output_overwrite"])[1],
+         [r"refusing to replace the output file 'out\.h5': it is a file that msflex did not write"]),
+    Case("output_exists_without_overwrite", lambda d: (checkpointed_run(d), ["model.yaml", "-output_file", "out.h5"])[-1],
+         [r"output file 'out\.h5' exists; pass -output_overwrite to replace it"]),
+    # (2) temporaries are new files: a link at the old fixed names is never written through
+    Case("sidecar_temporary_is_link", lambda d: (link_victim(d, "out.xmf.tmp"), [model(d), "-output_file", "out.h5", "-quiet"])[1], [], status=0),
+    Case("checkpoint_temporary_is_link",
+         lambda d: (link_victim(d, "out.ckpt.h5.tmp"), [model(d), "-output_file", "out.h5", "-checkpoint_every", "1", "-quiet"])[1], [], status=0),
+    Case("result_temporary_is_link", lambda d: (link_victim(d, "out.h5.tmp"), [model(d), "-output_file", "out.h5", "-quiet"])[1], [], status=0),
+    # (4) file-system errors are one line with the path and the reason
+    Case("output_missing_directory", lambda d: [model(d), "-output_file", "nowhere/out.h5"],
+         [r"cannot create output file 'nowhere/out\.h5': No such file or directory"]),
+    Case("output_is_directory", lambda d: (os.mkdir(os.path.join(d, "adir")), [model(d), "-output_file", "adir"])[1],
+         [r"cannot create output file 'adir': Is a directory"]),
+    Case("output_under_a_file", lambda d: [model(d), "-output_file", "model.yaml/out.h5"], [r"cannot create output file 'model\.yaml/out\.h5': Not a directory"]),
+    # Unwritable: the tests run as root, which access(2) and chmod do not stop; sysfs refuses
+    # every new file (EACCES) whoever asks.
+    Case("output_unwritable", lambda d: [model(d), "-output_file", "/sys/msflex-out.h5"], [r"cannot create '/sys/msflex-out\.h5\.tmp\.\w+': Permission denied"]),
+    Case("output_empty_name", lambda d: [model(d), "-output_file", ""], [r"the output file name is empty"]),
+    Case("checkpoint_missing_directory", lambda d: [model(d), "-checkpoint_file", "nowhere/c.h5"],
+         [r"cannot create checkpoint file 'nowhere/c\.h5': No such file or directory"]),
+    Case("checkpoint_under_a_file", lambda d: [model(d), "-checkpoint_file", "model.yaml/c.h5"],
+         [r"cannot create checkpoint file 'model\.yaml/c\.h5': Not a directory"]),
+    Case("output_is_device", lambda d: [model(d), "-output_file", "/dev/null"], [r"'/dev/null': it exists and is not a regular file"]),
+    Case("restart_missing", lambda d: ["--restart", "none.ckpt.h5"], [r"cannot open 'none\.ckpt\.h5': No such file or directory"]),
+    Case("restart_is_directory", lambda d: (os.mkdir(os.path.join(d, "adir")), ["--restart", "adir"])[1], [r"cannot open 'adir': Is a directory"]),
+    Case("restart_not_hdf5", lambda d: (write(os.path.join(d, "c.h5"), "text\n"), ["--restart", "c.h5"])[1], [r"cannot open 'c\.h5': not an HDF5 file"]),
+    Case("restart_foreign_hdf5", foreign_checkpoint, [r"'c\.h5' is not an msflex checkpoint: it is a file that msflex did not write"]),
+    Case("restart_from_result_file", lambda d: (checkpointed_run(d), ["--restart", "out.h5"])[-1], [r"'out\.h5' is an msflex result file, not a checkpoint"]),
+    # (3) corrupted checkpoints, each made from a real one: refused, nothing changes
+    restart_case("restart_format_other", set_attribute("msflex_format", "msflex checkpoint 7"),
+                 [r"has format 'msflex checkpoint 7'; this msflex reads 'msflex checkpoint 3'"]),
+    restart_case("restart_marker_removed", lambda f: [f.attrs.__delitem__(k) for k in list(f.attrs)],
+                 [r"has format 'msflex checkpoint 3' without file markers \(written by an earlier msflex\)"]),
+    restart_case("restart_format_1", lambda f: ([f.attrs.__delitem__(k) for k in list(f.attrs)], set_text("run/format", b"msflex checkpoint 1")(f)),
+                 [r"has format 'msflex checkpoint 1' without file markers"]),
+    restart_case("restart_numbers_missing", delete("run/numbers"), [r"/run/numbers"]),
+    restart_case("restart_nan_time", set_number(1, float("nan")), [r"/run/numbers entry 1 is not a finite number"]),
+    restart_case("restart_numbers_wrong_length", replace_dataset("run/numbers", lambda f, n: f.create_dataset(n, data=np.ones(100000))),
+                 [r"/run/numbers has 100000 entries, expected 11"]),
+    restart_case("restart_step_huge", set_number(0, 1e30), [r"the step 1e\+30 is not an integer"]),
+    restart_case("restart_step_negative", set_number(0, -1), [r"the step -1 is not an integer"]),
+    restart_case("restart_step_fraction", set_number(0, 2.5), [r"the step 2\.5 is not an integer"]),
+    restart_case("restart_history_rows_inconsistent", set_number(4, 999), [r"history rows 999 do not match step 4 \(expected 5\)"]),
+    restart_case("restart_last_written_beyond_step", set_number(3, 7), [r"the last written step 7 is beyond the step 4"]),
+    restart_case("restart_controller_step_zero", set_number(5, 0.0), [r"step controller's step 0 is not positive"]),
+    restart_case("restart_node_count_changed", set_number(7, 9), [r"holds 9 nodes, 0 joints and 0 rigid bodies, but the model has 5"]),
+    restart_case("restart_input_text_huge", replace_dataset("run/input_text", hollow((1 << 40,), "i1")), [r"/run/input_text claims 1099511627776 entries"]),
+    restart_case("restart_input_altered", append_text("run/input_text", b"# edited\n"), [r"is damaged: its stored input and options do not match its fingerprint"]),
+    restart_case("restart_options_altered", append_text("run/options", b" -analysis_end_time 9"),
+                 [r"is damaged: its stored input and options do not match its fingerprint"]),
+    restart_case("restart_input_unreadable", set_text("run/input_text", b"nodes: [1, 2\n", refingerprint=True),
+                 [r"model\.yaml:\d+:\d+: error: ", r"\(the input stored in out\.ckpt\.h5\)"]),
+    restart_case("restart_nodes_wrong_shape", replace_dataset("nodes", lambda f, n: f.create_dataset(n, data=np.zeros((3, 31)))),
+                 [r"/nodes has shape \(3, 31\), expected \(5, 31\)"]),
+    restart_case("restart_nodes_hollow", replace_dataset("nodes", hollow((5, 31))), [r"/nodes claims 155 entries \(1240 bytes\) but the file holds only 0 bytes"]),
+    restart_case("restart_node_state_nan", lambda f: f["nodes"].__setitem__((0, 0), float("nan")), [r"/nodes row 0 holds a value that is not a finite number"]),
+    restart_case("restart_rotation_not_unit", lambda f: f["nodes"].__setitem__((2, 3), 2.0), [r"/nodes row 2: the rotation is not a unit quaternion"]),
+    Case("restart_other_run",
+         lambda d: (checkpointed_run(d), shutil.copy(os.path.join(d, "out.ckpt.h5"), os.path.join(d, "old.ckpt.h5")),
+                    run_plain(d, ["model.yaml", "-output_file", "out.h5", "-output_overwrite", "-quiet"]),
+                    ["--restart", "old.ckpt.h5", "-analysis_end_time", "0.08"])[-1], [r"out\.h5' belongs to another run than the checkpoint 'old\.ckpt\.h5'"]),
+    Case("restart_into_foreign_output", foreign_output_restart, [r"refusing to replace the output file 'out\.h5': it is a file that msflex did not write"]),
+    restart_case("restart_result_history_short", None, [r"'out\.h5': /history/\w+ has 3 rows, the checkpoint expects 5"],
+                 result_edit=lambda f: [f["history/" + k].resize(3, axis=0) for k in f["history"]]),
+    restart_case("restart_result_frame_missing", None, [r"'out\.h5' has no frame for step 4"],
+                 result_edit=lambda f: [f["frames"].__delitem__(k) for k in list(f["frames"]) if f["frames"][k].attrs["step"] == 4]),
+    restart_case("restart_end_before_checkpoint", None, [r"is at t = 0\.04, at or beyond the end time 0\.01"], arguments=("-analysis_end_time", "0.01")),
+    # The control: the same restart from an intact checkpoint continues the run.
+    Case("restart_continues", lambda d: (checkpointed_run(d), ["--restart", "out.ckpt.h5", "-analysis_end_time", "0.08", "-quiet"])[-1], [], status=0,
+         may_change=("out.h5", "out.xmf", "out.ckpt.h5"), verify=restart_continues_check),
+]
+
+
+def snapshot(directory):
+    """Every entry below `directory`: file bytes, link targets (links are not followed), directories."""
+    entries = {}
+    for root, dirs, files in os.walk(directory):
+        for name in dirs + files:
+            path = os.path.join(root, name)
+            relative = os.path.relpath(path, directory)
+            if relative.startswith(STATUS_PREFIX):
+                continue
+            if os.path.islink(path):
+                entries[relative] = ("link", os.readlink(path))
+            elif os.path.isdir(path):
+                entries[relative] = ("dir", None)
+            else:
+                with open(path, "rb") as f:
+                    entries[relative] = ("file", f.read())
+    return entries
+
+
+def run_case(case, ranks):
+    directory = os.path.join(args.work_dir, f"{case.name}-np{ranks}")
+    shutil.rmtree(directory, ignore_errors=True)
+    os.makedirs(directory)
+    try:
+        arguments = case.setup(directory)
+    except Exception as exception:  # a broken set-up must fail the case, not hide the others
+        return [f"set-up failed: {exception!r}"], ""
+    before = snapshot(directory)
+    command = [args.msflex] + arguments
+    if ranks > 1:
+        wrapper = f'"$@"; echo $? > {STATUS_PREFIX}${{OMPI_COMM_WORLD_RANK:-$PMI_RANK}}; exit 0'
+        command = msflex_testing.mpi_launcher(args.mpiexec, ranks) + ["sh", "-c", wrapper, "sh"] + command
+    process = subprocess.Popen(command, cwd=directory, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, errors="replace",
+                               start_new_session=True)
+    try:
+        stdout, stderr = process.communicate(timeout=args.timeout)
+    except subprocess.TimeoutExpired:
+        os.killpg(process.pid, signal.SIGTERM)
+        try:
+            process.communicate(timeout=10)
+        except subprocess.TimeoutExpired:
+            os.killpg(process.pid, signal.SIGKILL)
+            process.communicate()
+        return [f"no result within {args.timeout:.0f} s"], ""
+    failures = []
+    if ranks > 1:
+        if process.returncode != 0:
+            failures.append(f"mpiexec exit status {process.returncode}")
+        for rank in range(ranks):
+            status_file = os.path.join(directory, f"{STATUS_PREFIX}{rank}")
+            status = open(status_file).read().strip() if os.path.exists(status_file) else "none"
+            if status != str(case.status):
+                failures.append(f"rank {rank} exit status {status}, expected {case.status}")
+    elif process.returncode != case.status:
+        failures.append(f"exit status {process.returncode}, expected {case.status}")
+    output = stdout + stderr
+    for marker in TRACE_MARKERS:
+        if marker in output:
+            failures.append(f"trace-back marker {marker!r} printed")
+    error_lines = [line for line in output.splitlines() if line.startswith("msflex:") and "error" in line]
+    summary = error_lines[0] if error_lines else ""
+    if case.status == 0:
+        if error_lines:
+            failures.append(f"error lines: {error_lines}")
+    else:
+        other = [line for line in output.splitlines() if "error" in line.lower() and line not in error_lines]
+        if len(error_lines) != 1 or other:
+            failures.append(f"{len(error_lines)} 'msflex: ... error ...' lines and {len(other)} other error lines")
+        for fragment in case.fragments:
+            if not error_lines or not re.search(fragment, error_lines[0]):
+                failures.append(f"the error line does not match {fragment!r}")
+    after = snapshot(directory)
+    for name, entry in before.items():
+        if name in case.may_change:
+            continue
+        if after.get(name) != entry:
+            failures.append(f"pre-existing {name} changed" if name in after else f"pre-existing {name} removed")
+    created = sorted(set(after) - set(before))
+    if case.status != 0 and created:
+        failures.append(f"a failed run created {', '.join(created)}")
+    if case.verify and not failures:
+        failures += case.verify(directory)
+    leftovers = [name for name in created if ".tmp" in name]
+    if leftovers:
+        failures.append(f"temporaries left: {', '.join(leftovers)}")
+    if failures:
+        failures.append("output: " + output.strip()[:500])
+    else:
+        shutil.rmtree(directory)
+    return failures, summary
+
+
+os.makedirs(args.work_dir, exist_ok=True)
+selected = CASES if not args.only else [case for case in CASES if case.name in args.only]
+ranks_list = [1] + ([args.np] if args.np > 1 else [])
+runs = [(case, ranks) for case in selected for ranks in ranks_list]
+started = time.monotonic()
+# Cases run side by side (each in its own directory); the results print in the cases' order.
+with concurrent.futures.ThreadPoolExecutor(max_workers=args.jobs) as pool:
+    results = list(pool.map(lambda run: run_case(*run), runs))
+failed = 0
+for (case, ranks), (failures, summary) in zip(runs, results):
+    if failures:
+        failed += 1
+        print(f"FAIL np {ranks} {case.name}: " + "; ".join(failures))
+    else:
+        print(f"ok   np {ranks} {case.name}: {summary}")
+print(f"{len(selected)} cases on {ranks_list} ranks in {time.monotonic() - started:.1f} s: {len(runs) - failed} runs passed, {failed} failed")
+sys.exit(1 if failed else 0)
