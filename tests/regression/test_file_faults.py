@@ -303,7 +303,7 @@ CASES = [
     restart_case("restart_numbers_missing", delete("run/numbers"), [r"/run/numbers"]),
     restart_case("restart_nan_time", set_number(1, float("nan")), [r"/run/numbers entry 1 is not a finite number"]),
     restart_case("restart_numbers_wrong_length", replace_dataset("run/numbers", lambda f, n: f.create_dataset(n, data=np.ones(100000))),
-                 [r"/run/numbers has 100000 entries, expected 11"]),
+                 [r"/run/numbers has 100000 entries, expected 12"]),
     restart_case("restart_step_huge", set_number(0, 1e30), [r"the step 1e\+30 is not an integer"]),
     restart_case("restart_step_negative", set_number(0, -1), [r"the step -1 is not an integer"]),
     restart_case("restart_step_fraction", set_number(0, 2.5), [r"the step 2\.5 is not an integer"]),
