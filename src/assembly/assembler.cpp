@@ -787,18 +787,6 @@ PetscErrorCode Assembler::AssembleJacobian(Mat jacobian, PetscBool *geometry_ok)
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
-PetscErrorCode Assembler::ApplyOperator(Vec x, Vec y)
-{
-  PetscFunctionBeginUser;
-  PetscCall(MatMult(jacobian_, x, y));
-  if (rank_one_active_) {
-    PetscScalar dot;
-    PetscCall(VecDot(rank_one_right_, x, &dot));
-    PetscCall(VecAXPY(y, dot, rank_one_left_));
-  }
-  PetscFunctionReturn(PETSC_SUCCESS);
-}
-
 PetscErrorCode Assembler::AssembleMassMatrix(Mat mass, PetscBool *geometry_ok)
 {
   PetscFunctionBeginUser;

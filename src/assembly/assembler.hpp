@@ -72,10 +72,9 @@ public:
   // Exact tangent at the current unknowns, in every problem and scheme. In the energy-momentum
   // scheme the residual R = R_mc + beta(X) R_corr has the tangent K_mc + beta K_corr (assembled)
   // plus the rank-one term R_corr (grad beta)^T, which couples every element (beta of eq. 20 is a
-  // global ratio); ApplyOperator applies the whole operator, RankOneTerm gives its two vectors.
+  // global ratio); RankOneTerm gives its two vectors (the Newton solve applies them by
+  // Sherman-Morrison, integrators/newton.cpp).
   PetscErrorCode AssembleJacobian(Mat jacobian, PetscBool *geometry_ok);
-  // y = J x + a (b . x): the assembled tangent with em's rank-one term (when active). Collective.
-  PetscErrorCode ApplyOperator(Vec x, Vec y);
   // The rank-one term a b^T of the last tangent: a = R_corr, b = grad beta in the unknowns;
   // *active = false when there is none (not em, or beta = 0 at round-off).
   void RankOneTerm(Vec *a, Vec *b, bool *active) const

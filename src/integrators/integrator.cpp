@@ -8,6 +8,7 @@ Integrator::~Integrator()
 {
   VecDestroy(&increments_);
   SNESDestroy(&snes_);
+  VecDestroy(&newton_context_.rank_one_solution);
 }
 
 PetscErrorCode Integrator::Setup(MPI_Comm comm, const Model &model, const DofMap &map, MatrixPattern pattern, NodalMass nodal_mass,

@@ -44,6 +44,7 @@ PetscErrorCode FormJacobian(SNES snes, Vec increments, Mat jacobian, Mat precond
   if (context->assembly_stage >= 0) PetscCall(PetscLogStagePush(context->assembly_stage));
   PetscCall(context->assembler->SetIncrements(increments));
   PetscCall(context->assembler->AssembleJacobian(preconditioner, &geometry_ok));
+  context->rank_one_solution_current = false;
   PetscCall(MPIU_Allreduce(&geometry_ok, &all_ok, 1, MPIU_BOOL, MPI_LAND, context->comm));
   if (context->assembly_stage >= 0) PetscCall(PetscLogStagePop());
   if (!all_ok) PetscCall(SNESSetJacobianDomainError(snes));
@@ -119,25 +120,37 @@ PetscErrorCode ForceScaledConvergenceTest(SNES snes, PetscInt iteration, PetscRe
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
-// em's linear solves: the preconditioned operator P^{-1} A = I + P^{-1} a b^T is the identity plus a
-// rank-one matrix, so GMRES is exact after two iterations in exact arithmetic; after a third,
-// what is left is round-off of an ill-conditioned tangent (Newton's own test judges the step),
-// so the solve counts as converged there instead of iterating against round-off.
-PetscErrorCode RankOneConvergenceTest(KSP ksp, PetscInt iteration, PetscReal residual_norm, KSPConvergedReason *reason, void *ctx)
+// em's linear solves (Sherman-Morrison): the Newton operator is K + a b^T, K the assembled
+// tangent and a b^T the rank-one term of beta (Assembler::RankOneTerm). The KSP solves K y = r
+// with K's factorisation; this hook turns y into the solution of the whole operator,
+//   x = y - c (b^T y) / (1 + b^T c),   c = K^{-1} a,
+// with c solved once per tangent: two triangular solves per Newton iteration, against the three
+// of GMRES on the preconditioned operator I + K^{-1} a b^T. When the KSP's operator is not K
+// itself (-snes_mf_operator: the Krylov method already solved the whole operator) it does nothing.
+PetscErrorCode ShermanMorrisonCorrection(KSP ksp, Vec rhs, Vec x, void *ctx)
 {
+  NewtonContext *context = static_cast<NewtonContext *>(ctx);
+  Mat            operator_matrix, preconditioner_matrix;
+  Vec            a, b;
+  bool           active;
   PetscFunctionBeginUser;
-  PetscCall(KSPConvergedDefault(ksp, iteration, residual_norm, reason, ctx));
-  if (*reason == KSP_CONVERGED_ITERATING && iteration >= 3) *reason = KSP_CONVERGED_ITS;
-  PetscFunctionReturn(PETSC_SUCCESS);
-}
-
-// The operator of em's Newton step: the assembled tangent plus its rank-one term (Assembler::ApplyOperator).
-PetscErrorCode ApplyRankOneOperator(Mat shell, Vec x, Vec y)
-{
-  NewtonContext *context;
-  PetscFunctionBeginUser;
-  PetscCall(MatShellGetContext(shell, &context));
-  PetscCall(context->assembler->ApplyOperator(x, y));
+  (void)rhs;
+  context->assembler->RankOneTerm(&a, &b, &active);
+  PetscCall(KSPGetOperators(ksp, &operator_matrix, &preconditioner_matrix));
+  if (!active || operator_matrix != preconditioner_matrix) PetscFunctionReturn(PETSC_SUCCESS);
+  if (!context->rank_one_solution) PetscCall(VecDuplicate(x, &context->rank_one_solution));
+  if (!context->rank_one_solution_current) {
+    PC pc;
+    PetscCall(KSPGetPC(ksp, &pc));
+    PetscCall(PCApply(pc, a, context->rank_one_solution));
+    context->rank_one_solution_current = true;
+  }
+  PetscScalar b_dot_y, b_dot_c;
+  PetscCall(VecDot(b, x, &b_dot_y));
+  PetscCall(VecDot(b, context->rank_one_solution, &b_dot_c));
+  // 1 + b^T c = 0 would make K + a b^T singular: the step is then K's alone (inexact, and
+  // Newton's own test judges it) rather than a division by zero.
+  if (std::abs(1.0 + PetscRealPart(b_dot_c)) > 1e-14) PetscCall(VecAXPY(x, -b_dot_y / (1.0 + b_dot_c), context->rank_one_solution));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
@@ -216,16 +229,8 @@ PetscErrorCode NewtonSolverCreate(MPI_Comm comm, const AnalysisSettings &analysi
   PetscCall(VecDuplicate(context->assembler->SolutionTemplate(), &residual));
   PetscCall(SNESSetFunction(*snes, residual, FormResidual, context));
   PetscCall(VecDestroy(&residual));
-  Mat tangent = context->assembler->Jacobian(), op = tangent;
-  if (newton_operator == NewtonOperator::AssembledWithRankOne) {
-    PetscInt rows, columns, global_rows, global_columns;
-    PetscCall(MatGetLocalSize(tangent, &rows, &columns));
-    PetscCall(MatGetSize(tangent, &global_rows, &global_columns));
-    PetscCall(MatCreateShell(comm, rows, columns, global_rows, global_columns, context, &op));
-    PetscCall(MatShellSetOperation(op, MATOP_MULT, (void (*)(void))ApplyRankOneOperator));
-  }
-  PetscCall(SNESSetJacobian(*snes, op, tangent, FormJacobian, context));
-  if (op != tangent) PetscCall(MatDestroy(&op)); // SNES keeps its reference
+  Mat tangent = context->assembler->Jacobian();
+  PetscCall(SNESSetJacobian(*snes, tangent, tangent, FormJacobian, context));
   // stol: a relative update below 1e-12 means the iterate is at round-off.
   PetscCall(SNESSetTolerances(*snes, analysis.newton_atol, analysis.newton_rtol, 1e-12, analysis.max_newton_iterations, PETSC_DEFAULT));
   // No divergence test on |R|: in a large-rotation beam step the first, correct iteration can
@@ -238,17 +243,8 @@ PetscErrorCode NewtonSolverCreate(MPI_Comm comm, const AnalysisSettings &analysi
   PetscCall(SNESLineSearchSetType(linesearch, SNESLINESEARCHSHELL));
   PetscCall(SNESLineSearchShellSetUserFunc(linesearch, SafeguardedNewtonStep, context));
   PetscCall(SNESGetKSP(*snes, &ksp));
-  if (newton_operator == NewtonOperator::AssembledWithRankOne) {
-    // The preconditioned operator is the identity plus a rank-one matrix: GMRES on the LU of the
-    // assembled tangent solves it exactly in at most two iterations.
-    void *default_context;
-    PetscCall(KSPSetType(ksp, KSPGMRES));
-    PetscCall(KSPSetTolerances(ksp, 1e-13, 0.0, PETSC_DEFAULT, 20));
-    PetscCall(KSPConvergedDefaultCreate(&default_context));
-    PetscCall(KSPSetConvergenceTest(ksp, RankOneConvergenceTest, default_context, KSPConvergedDefaultDestroy));
-  } else {
-    PetscCall(KSPSetType(ksp, KSPPREONLY));
-  }
+  PetscCall(KSPSetType(ksp, KSPPREONLY));
+  if (newton_operator == NewtonOperator::AssembledWithRankOne) PetscCall(KSPSetPostSolve(ksp, ShermanMorrisonCorrection, context));
   PetscCall(KSPGetPC(ksp, &pc));
   PetscCall(PCSetType(pc, PCLU));
   // The direct solver by structure is opt-in (-newton_solver_by_structure): MUMPS stays the

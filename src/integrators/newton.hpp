@@ -45,10 +45,14 @@ struct NewtonContext {
   enum class StepTrouble { None, Unevaluable, NonFinite };
   StepTrouble line_search_trouble     = StepTrouble::None;
   double      line_search_last_lambda = 0.0;
+  // em: K^{-1} a for the Sherman-Morrison solve of (K + a b^T) x = r, made once per tangent
+  // (rank_one_solution_current is cleared whenever the tangent is assembled).
+  Vec  rank_one_solution         = nullptr;
+  bool rank_one_solution_current = false;
 };
 
 // The Newton step's operator: the assembled tangent, or (em) the assembled tangent plus its
-// rank-one term.
+// rank-one term a b^T, solved exactly by Sherman-Morrison on the tangent's factorisation.
 enum class NewtonOperator { Assembled, AssembledWithRankOne };
 
 // Also keeps the residual norms of every solve (SNESGetConvergenceHistory).
