@@ -219,7 +219,7 @@ hid_t Hdf5OpenFile(const std::string &path, unsigned flags, hid_t access, std::s
   return file;
 }
 
-hid_t Hdf5CreateFile(const std::string &path, unsigned flags, hid_t access, std::string *problem)
+hid_t Hdf5CreateFile(const std::string &path, unsigned flags, hid_t access, std::string *problem, hid_t creation)
 {
   const Hdf5QuietScope quiet;
   H5Eclear2(H5E_DEFAULT);
@@ -228,7 +228,7 @@ hid_t Hdf5CreateFile(const std::string &path, unsigned flags, hid_t access, std:
     *problem = "cannot create '': the file name is empty";
     return H5I_INVALID_HID;
   }
-  const hid_t file = H5Fcreate(path.c_str(), flags, H5P_DEFAULT, access);
+  const hid_t file = H5Fcreate(path.c_str(), flags, creation, access);
   if (file < 0) *problem = Hdf5FileProblem("create", path);
   return file;
 }

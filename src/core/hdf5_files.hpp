@@ -44,7 +44,7 @@ std::string Hdf5FileProblem(const std::string &action, const std::string &path);
 
 // H5Fopen / H5Fcreate that print nothing: a negative id and *problem (one line) on failure.
 hid_t Hdf5OpenFile(const std::string &path, unsigned flags, hid_t access, std::string *problem);
-hid_t Hdf5CreateFile(const std::string &path, unsigned flags, hid_t access, std::string *problem);
+hid_t Hdf5CreateFile(const std::string &path, unsigned flags, hid_t access, std::string *problem, hid_t creation = H5P_DEFAULT);
 
 // --- Markers ---
 

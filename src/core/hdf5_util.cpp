@@ -83,7 +83,7 @@ PetscErrorCode OpenHdf5File(const std::string &path, unsigned flags, hid_t acces
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
-PetscErrorCode CreateHdf5Temporary(const std::string &target, TemporaryFile *temporary, H5Id *file, hid_t access)
+PetscErrorCode CreateHdf5Temporary(const std::string &target, TemporaryFile *temporary, H5Id *file, hid_t access, hid_t creation)
 {
   std::string problem;
   PetscFunctionBeginUser;
@@ -92,7 +92,7 @@ PetscErrorCode CreateHdf5Temporary(const std::string &target, TemporaryFile *tem
   PetscCheck(problem.empty(), PETSC_COMM_SELF, PETSC_ERR_FILE_OPEN, "%s", problem.c_str());
   // Truncating the empty file this process has just created (and nothing else: CheckStillOurs
   // is verified before the rename).
-  *file = Hdf5CreateFile(temporary->Path(), H5F_ACC_TRUNC, access, &problem);
+  *file = Hdf5CreateFile(temporary->Path(), H5F_ACC_TRUNC, access, &problem, creation);
   if (!problem.empty()) temporary->Discard();
   PetscCheck(problem.empty(), PETSC_COMM_SELF, PETSC_ERR_FILE_OPEN, "%s", problem.c_str());
   PetscFunctionReturn(PETSC_SUCCESS);

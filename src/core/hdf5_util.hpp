@@ -131,9 +131,9 @@ PetscErrorCode OpenHdf5File(const std::string &path, unsigned flags, hid_t acces
 // Creates a new HDF5 file that will replace `target`: a TemporaryFile beside it (O_EXCL,
 // O_NOFOLLOW, unique name), which HDF5 then fills by name. Write it through *file, close it
 // (H5Fclose), then CommitHdf5Temporary renames it over `target`; until then `target` is untouched,
-// and a failure (or a destroyed TemporaryFile) removes the temporary. `access`: the file access
-// property list HDF5 creates it with (e.g. its format version bounds).
-PetscErrorCode CreateHdf5Temporary(const std::string &target, TemporaryFile *temporary, H5Id *file, hid_t access = H5P_DEFAULT);
+// and a failure (or a destroyed TemporaryFile) removes the temporary. `access`, `creation`: the
+// file access and creation property lists HDF5 creates it with (format version bounds, B-tree sizes).
+PetscErrorCode CreateHdf5Temporary(const std::string &target, TemporaryFile *temporary, H5Id *file, hid_t access = H5P_DEFAULT, hid_t creation = H5P_DEFAULT);
 // Checks that the temporary still holds the file created for it and renames it over its target.
 PetscErrorCode CommitHdf5Temporary(TemporaryFile *temporary);
 

@@ -31,8 +31,20 @@ namespace msflex {
 
 namespace {
 
-// Rows per chunk of the extensible history and probe datasets (8 KiB per chunk of a series).
-constexpr hsize_t kHistoryChunkRows = 1024;
+// Rows per chunk of the extensible history and probe datasets: 1024 (8 KiB per chunk of a
+// series), fewer when the series are many, so that one chunk of every series together stays
+// within kHistoryChunkBudget bytes: HDF5 allocates a whole chunk at the first row, and a model of
+// 10^4 joints has 7 x 10^4 series (1024 rows each would make a 570 MB file of a one-step run).
+constexpr hsize_t  kHistoryChunkRows = 1024, kHistoryChunkMinRows = 16;
+constexpr double   kHistoryChunkBudget = 8.0 * 1024 * 1024;
+constexpr unsigned kHistoryChunkIndexK = 4;
+
+hsize_t HistoryChunkRows(size_t values_per_row)
+{
+  hsize_t rows = kHistoryChunkRows;
+  while (rows > kHistoryChunkMinRows && 8.0 * (double)rows * (double)values_per_row > kHistoryChunkBudget) rows /= 2;
+  return rows;
+}
 // History rows kept in memory at most: a run that makes more steps than this between two timed
 // flushes is flushed every so many rows (about 2 MB for 30 series).
 constexpr hsize_t kMaxBufferedRows = 8192;
@@ -393,9 +405,16 @@ PetscErrorCode OutputFile::Impl::Create(bool overwrite, const std::string &input
   H5Id create_access;
   PetscCallHDF5(create_access = H5Pcreate(H5P_FILE_ACCESS));
   PetscCallHDF5(H5Pset_libver_bounds(create_access, H5F_LIBVER_V18, H5F_LIBVER_V18));
+  // The chunk index of every history series is a B-tree whose nodes hold 2 istore_k entries;
+  // HDF5's default (k = 32, a 2 KiB node) costs more than a short series' data, and a model of
+  // many joints has tens of thousands of series. k = 4 keeps a node at about 300 bytes; a long
+  // series (many chunks) has a deeper tree, one more level per factor 8.
+  H5Id creation;
+  PetscCallHDF5(creation = H5Pcreate(H5P_FILE_CREATE));
+  PetscCallHDF5(H5Pset_istore_k(creation, kHistoryChunkIndexK));
   // Written under a new name beside the target and renamed over it at the end: an old result
   // stays intact until the new file is complete.
-  PetscCall(CreateHdf5Temporary(path, &temporary, &file, create_access));
+  PetscCall(CreateHdf5Temporary(path, &temporary, &file, create_access, creation));
   dynamic = mesh.analysis_type == "dynamic";
   PetscCall(WriteFileMarkerChecked(path, file, marker));
   PetscCall(WriteProvenance(mesh));
@@ -601,7 +620,7 @@ PetscErrorCode OutputFile::Impl::ExtendSeries(hid_t parent, const char *name, co
     std::vector<hsize_t> max_dims = dims, chunk = dims;
     H5Id                 properties;
     max_dims[0] = H5S_UNLIMITED;
-    chunk[0]    = kHistoryChunkRows;
+    chunk[0]    = HistoryChunkRows(history_names.size() + probe_names.size() * kProbeValues);
     PetscCallHDF5(file_space = H5Screate_simple(space_rank, dims.data(), max_dims.data()));
     PetscCallHDF5(properties = H5Pcreate(H5P_DATASET_CREATE));
     PetscCallHDF5(H5Pset_chunk(properties, space_rank, chunk.data()));

@@ -21,6 +21,7 @@
    checkpoint of an intermediate step, from which the restart again ends bitwise equal."""
 
 import os
+import shutil
 import signal
 import subprocess
 import time
@@ -34,6 +35,10 @@ args = mt.parse_arguments(__doc__)
 check = mt.Checker("checkpoint and restart")
 env = dict(os.environ, OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1")
 work = args.work_dir
+# A fresh directory: files of an earlier run of this test (results, sidecars, checkpoints) would be
+# existing files that msflex rightly refuses to replace.
+shutil.rmtree(work)
+os.makedirs(work)
 
 
 def command(ranks, *arguments):
