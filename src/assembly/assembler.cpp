@@ -400,17 +400,13 @@ PetscErrorCode Assembler::BeginStep(const StepEquations &equations)
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
-PetscErrorCode Assembler::FindMasslessUnknowns()
+PetscErrorCode Assembler::EmptyRowsOfJacobian(std::vector<PetscInt> *rows) const
 {
   Vec       row_max;
-  PetscBool ok;
   PetscReal largest;
-  PetscInt  first, count = 0;
+  PetscInt  first;
   PetscFunctionBeginUser;
-  // The mass matrix is the tangent of the initial-acceleration problem (the accelerations enter
-  // linearly, so it does not depend on them). A zero row is an unknown no mass reaches; the mass
-  // matrix is symmetric, so its column is zero too and the other equations do not see it.
-  PetscCall(AssembleJacobian(jacobian_, &ok));
+  rows->clear();
   PetscCall(VecDuplicate(solution_template_, &row_max));
   PetscCall(MatGetRowMaxAbs(jacobian_, row_max, nullptr));
   PetscCall(VecMax(row_max, nullptr, &largest));
@@ -418,9 +414,22 @@ PetscErrorCode Assembler::FindMasslessUnknowns()
   const PetscScalar *values;
   PetscCall(VecGetArrayRead(row_max, &values));
   for (PetscInt i = 0; i < map_->num_owned; ++i)
-    if (!(PetscAbsScalar(values[i]) > 1e-14 * largest)) massless_rows_.push_back(first + i);
+    if (!(PetscAbsScalar(values[i]) > 1e-14 * largest)) rows->push_back(first + i);
   PetscCall(VecRestoreArrayRead(row_max, &values));
   PetscCall(VecDestroy(&row_max));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode Assembler::FindMasslessUnknowns()
+{
+  PetscBool ok;
+  PetscInt  count = 0;
+  PetscFunctionBeginUser;
+  // The mass matrix is the tangent of the initial-acceleration problem (the accelerations enter
+  // linearly, so it does not depend on them). A zero row is an unknown no mass reaches; the mass
+  // matrix is symmetric, so its column is zero too and the other equations do not see it.
+  PetscCall(AssembleJacobian(jacobian_, &ok));
+  PetscCall(EmptyRowsOfJacobian(&massless_rows_));
   const PetscInt local = (PetscInt)massless_rows_.size();
   PetscCallMPI(MPIU_Allreduce(&local, &count, 1, MPIU_INT, MPI_SUM, comm_));
   num_massless_unknowns_ = count;

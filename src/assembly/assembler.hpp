@@ -196,6 +196,9 @@ private:
   PetscErrorCode CreateCsrDestinations();
   // The zero rows of the initial-acceleration problem's mass matrix (NumMasslessUnknowns).
   PetscErrorCode FindMasslessUnknowns();
+  // The owned global rows of the assembled tangent whose largest entry is below 1e-14 of the
+  // tangent's largest: unknowns that no term reaches.
+  PetscErrorCode EmptyRowsOfJacobian(std::vector<PetscInt> *rows) const;
   // Replaces the massless rows of the initial-acceleration problem by acceleration = 0.
   PetscErrorCode SetMasslessResidualRows(Vec residual);
   // The six rigid-body modes in the unknowns (u = t + w x (X - centroid), omega = w at every

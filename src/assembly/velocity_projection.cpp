@@ -156,25 +156,15 @@ PetscErrorCode Assembler::ProjectInitialVelocities(double t, InitialVelocityRepo
 
   // Rows no term reaches stay at rest; held rows stay at their given values.
   {
-    Vec       row_max;
-    PetscReal largest;
-    PetscInt  first;
-    PetscCall(VecDuplicate(solution_template_, &row_max));
-    PetscCall(MatGetRowMaxAbs(jacobian_, row_max, nullptr));
-    PetscCall(VecMax(row_max, nullptr, &largest));
-    PetscCall(VecGetOwnershipRange(row_max, &first, nullptr));
-    const PetscScalar *values;
-    PetscCall(VecGetArrayRead(row_max, &values));
-    std::vector<PetscInt> sorted_held = held;
+    std::vector<PetscInt> empty_rows, sorted_held = held;
+    PetscCall(EmptyRowsOfJacobian(&empty_rows));
     std::sort(sorted_held.begin(), sorted_held.end());
     PetscInt at_rest = 0;
-    for (PetscInt i = 0; i < map.num_owned; ++i)
-      if (!(PetscAbsScalar(values[i]) > 1e-14 * largest) && !std::binary_search(sorted_held.begin(), sorted_held.end(), first + i)) {
-        held.push_back(first + i);
+    for (const PetscInt row : empty_rows)
+      if (!std::binary_search(sorted_held.begin(), sorted_held.end(), row)) {
+        held.push_back(row);
         ++at_rest;
       }
-    PetscCall(VecRestoreArrayRead(row_max, &values));
-    PetscCall(VecDestroy(&row_max));
     const PetscInt counts[2] = {(PetscInt)held.size() - at_rest, at_rest};
     PetscInt       totals[2];
     PetscCallMPI(MPIU_Allreduce(counts, totals, 2, MPIU_INT, MPI_SUM, comm_));

@@ -159,7 +159,8 @@ inline constexpr const char *kRunAttribute     = "msflex_run";    // NewRunId() 
 inline constexpr const char *kResultFormat     = "msflex result 1";
 inline constexpr const char *kCheckpointFormat = "msflex checkpoint 3";
 // The XDMF sidecar carries this element right after <Domain>; a sidecar without it is still
-// recognised by the collection grid msflex names "msflex" (files written before the marker).
+// recognised by the collection grid msflex names "msflex" or the comment opening the incremental
+// layout (files written before the marker).
 inline constexpr const char *kSidecarMarker = "<Information Name=\"msflex_format\" Value=\"msflex result 1\"/>";
 // Whether `head` (the first bytes of a file, ReadFileHead) is an XDMF sidecar written by msflex.
 bool IsMsflexSidecar(const std::string &head);

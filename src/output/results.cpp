@@ -39,6 +39,23 @@ BodyPrincipalAxes RigidBodyPrincipalAxes(const RigidBody &body)
 }
 
 // The rigid bodies: what they are (mass, inertia, where) and their principal axes.
+// Rank 0 receives every rank's `count` items of `type` (element_size bytes each), in rank order,
+// into *received; the other ranks receive nothing. Collective.
+static PetscErrorCode GatherToRoot(MPI_Comm comm, const void *send, int count, MPI_Datatype type, std::vector<char> *received, size_t element_size)
+{
+  PetscMPIInt rank, size;
+  PetscFunctionBeginUser;
+  PetscCallMPI(MPI_Comm_rank(comm, &rank));
+  PetscCallMPI(MPI_Comm_size(comm, &size));
+  std::vector<int> counts(rank == 0 ? size : 0), offsets(rank == 0 ? size : 0);
+  PetscCallMPI(MPI_Gather(&count, 1, MPI_INT, counts.data(), 1, MPI_INT, 0, comm));
+  int total = 0;
+  for (int r = 0; r < (int)counts.size(); ++r) offsets[r] = total, total += counts[r];
+  received->resize(element_size * (size_t)total);
+  PetscCallMPI(MPI_Gatherv(send, count, type, received->data(), counts.data(), offsets.data(), type, 0, comm));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
 static void AddRigidBodiesToMesh(const Model &model, OutputMesh *mesh)
 {
   for (const RigidBody &body : model.rigid_bodies) {
@@ -305,15 +322,8 @@ PetscErrorCode JointHistory(MPI_Comm comm, const Model &model, const DofMap &map
     for (int i = 0; i < 6; ++i) add(reaction_names[i], J->reaction(i));
   }
   // Gather to rank 0, which writes the history; the ranks' parts follow in slot order.
-  auto gather = [&](const void *send, int count, MPI_Datatype type, std::vector<char> *received, size_t element_size) -> PetscErrorCode {
-    std::vector<int> counts(rank == 0 ? size : 0), offsets(rank == 0 ? size : 0);
-    PetscFunctionBeginUser;
-    PetscCallMPI(MPI_Gather(&count, 1, MPI_INT, counts.data(), 1, MPI_INT, 0, comm));
-    int total = 0;
-    for (int r = 0; r < (int)counts.size(); ++r) offsets[r] = total, total += counts[r];
-    received->resize(element_size * (size_t)total);
-    PetscCallMPI(MPI_Gatherv(send, count, type, received->data(), counts.data(), offsets.data(), type, 0, comm));
-    PetscFunctionReturn(PETSC_SUCCESS);
+  auto gather = [&](const void *send, int count, MPI_Datatype type, std::vector<char> *received, size_t element_size) {
+    return GatherToRoot(comm, send, count, type, received, element_size);
   };
   if (need_names) {
     std::vector<char> gathered;
@@ -387,15 +397,8 @@ PetscErrorCode GatherHistory(MPI_Comm comm, const std::vector<HistoryValue> &loc
   PetscFunctionBeginUser;
   PetscCallMPI(MPI_Comm_rank(comm, &rank));
   PetscCallMPI(MPI_Comm_size(comm, &size));
-  auto gather = [&](const void *send, int count, MPI_Datatype type, std::vector<char> *received, size_t element_size) -> PetscErrorCode {
-    std::vector<int> counts(rank == 0 ? size : 0), offsets(rank == 0 ? size : 0);
-    PetscFunctionBeginUser;
-    PetscCallMPI(MPI_Gather(&count, 1, MPI_INT, counts.data(), 1, MPI_INT, 0, comm));
-    int total = 0;
-    for (int r = 0; r < (int)counts.size(); ++r) offsets[r] = total, total += counts[r];
-    received->resize(element_size * (size_t)total);
-    PetscCallMPI(MPI_Gatherv(send, count, type, received->data(), counts.data(), offsets.data(), type, 0, comm));
-    PetscFunctionReturn(PETSC_SUCCESS);
+  auto gather = [&](const void *send, int count, MPI_Datatype type, std::vector<char> *received, size_t element_size) {
+    return GatherToRoot(comm, send, count, type, received, element_size);
   };
   if (!cache->gathered) {
     std::string         local_names; // '\0'-terminated

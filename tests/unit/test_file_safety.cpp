@@ -448,6 +448,8 @@ TEST(SidecarTest, RecognisesMsflexSidecars)
 {
   EXPECT_TRUE(IsMsflexSidecar(std::string("<?xml version=\"1.0\" ?>\n<Xdmf Version=\"3.0\">\n  <Domain>\n    ") + kSidecarMarker));
   EXPECT_TRUE(IsMsflexSidecar("<?xml version=\"1.0\" ?>\n<Xdmf Version=\"3.0\">\n  <Domain>\n    <Grid Name=\"msflex\" GridType=\"Collection\" "));
+  EXPECT_TRUE(
+      IsMsflexSidecar("<?xml version=\"1.0\" ?>\n<!-- msflex results (layout: docs/output.md). Each temporal collection of the Domain takes its grids"));
   EXPECT_FALSE(IsMsflexSidecar("<?xml version=\"1.0\" ?>\n<Xdmf><Domain><Grid Name=\"other\"/>"));
   EXPECT_FALSE(IsMsflexSidecar("sections:\n  - {name: steel}\n"));
   EXPECT_EQ(SidecarPath("dir/out.h5"), "dir/out.xmf");
