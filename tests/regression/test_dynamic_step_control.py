@@ -16,7 +16,7 @@ _, stdout, _ = mt.run_msflex(args, f"{args.source_dir}/input/flying_spaghetti.ya
                              extra=["-analysis_initial_step", "0.5", "-analysis_max_step", "0.5", "-analysis_end_time", "7.5"])
 halvings = len(re.findall(r"rejected: .*; halving", stdout))
 print(f"halvings reported: {halvings}")
-check.less("halvings reported (at least 1): 1 / count", 1.0 / max(halvings, 1e-300), 1.01)
+check.true(f"at least 1 halving reported ({halvings})", halvings >= 1)
 h = mt.history(output)
 for t in (2.5, 5.0, 7.5):
     mt.row_at_time(h, t)

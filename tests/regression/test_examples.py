@@ -30,13 +30,13 @@ if "--only" in sys.argv:
 args = mt.parse_arguments(__doc__)
 check = mt.Checker("examples" + (" (full)" if full else ""))
 examples = sorted(glob.glob(f"{args.source_dir}/input/*.yaml"))
-check.less("examples found (1 / count)", 1.0 / max(len(examples), 1e-300), 1.0 / 12 + 1e-12)
+check.true(f"at least 12 examples found ({len(examples)})", len(examples) >= 12)
 for source in examples:
     name = os.path.basename(source)[:-5]
     if only and name not in only:
         continue
     entries = mt.expected_results(source)
-    check.less(f"{name}: expected results (1 / count)", 1.0 / max(len(entries), 1e-300), 1.0 + 1e-12)
+    check.true(f"{name}: at least 1 expected result ({len(entries)})", len(entries) >= 1)
     end_time = None if full else SHORTENED.get(name)
     options = ["-output_every", "1000000", "-quiet"] + (["-analysis_end_time", str(end_time)] if end_time else [])
     output = f"{args.work_dir}/{name}.h5"
@@ -44,5 +44,5 @@ for source in examples:
     mt.run_msflex(args, source, output, extra=options)
     print(f"{name}: ran in {time.monotonic() - started:.1f} s ({' '.join(options)})")
     checked, skipped = mt.check_expected(check, source, output, name, end_time)
-    check.less(f"{name}: expected results checked (1 / count)", 1.0 / max(checked, 1e-300), 1.0 + 1e-12)
+    check.true(f"{name}: at least 1 expected result checked ({checked})", checked >= 1)
 check.finish()

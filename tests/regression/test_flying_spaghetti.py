@@ -56,7 +56,7 @@ h, free = free_flight("newmark", 10.0)
 energy = h["total_energy"][free]
 print(f"newmark: energy drift over free flight {(energy[-1] - energy[0]) / energy[0]:.3e}, "
       f"angular momentum drift {momentum_drift(h, free, 'angular')[0]:.3e} (not claimed)")
-check.less("newmark: completes with finite energy (1 / finite)", 0.0 if np.all(np.isfinite(energy)) else 2.0, 1.0)
+check.true("newmark: completes with finite energy", bool(np.all(np.isfinite(energy))))
 h_default = h_em
 h, free = free_flight("em", 15.0, ["-analysis_em_correction", "forces"])
 energy = h["total_energy"][free]

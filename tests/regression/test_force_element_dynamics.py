@@ -62,7 +62,7 @@ print(f"spring-mass-damper: {len(t) - 1} steps, omega_d {2 * np.pi / period:.8f}
 check.less("spring-mass-damper: |omega_d - exact| / exact", abs(2 * np.pi / period - wd) / wd, 1e-4)
 check.less("spring-mass-damper: |decay - exact| / exact", abs(decay - zeta * w0) / (zeta * w0), 1e-4)
 check.less("spring-mass-damper: drift of energy - work + dissipated / energy", balance_drift(h), 1e-8)
-check.less("spring-mass-damper: 2000 steps (2000 - steps)", 2000 - (len(t) - 1), 1)
+check.true(f"spring-mass-damper: at least 2000 steps ({len(t) - 1})", len(t) - 1 >= 2000)
 
 # Every force element with em.
 h, _ = run("force_element_energy", "em")
@@ -71,7 +71,7 @@ print(f"force elements, em: {len(h['time']) - 1} steps, work {h['external_work']
       f"relative drift {drift:.3e}")
 check.less("force elements, em: drift of energy - work + dissipated / scale", drift, 1e-8)
 check.less("force elements, em: the dampers dissipate (-dissipated)", -h["dissipated_energy"][-1], 0.0)
-check.less("force elements, em: 1000 steps or more (1000 - steps)", 1000 - (len(h["time"]) - 1), 1)
+check.true(f"force elements, em: at least 1000 steps ({len(h['time']) - 1})", len(h["time"]) - 1 >= 1000)
 
 # Massless rod pendulum: first downward zero crossing at a quarter of the period 2.011094 s.
 for integrator in ("newmark", "genalpha", "mc", "em"):

@@ -89,7 +89,7 @@ for label, example, options in cases:
     orders = [p for p in (error_order([x for _, x in s]) for s in solves) if p is not None]
     print(f"{label}: {len(solves)} solves, iterations {min(len(s) - 1 for s in solves)}..{max(len(s) - 1 for s in solves)}, "
           f"observed orders {' '.join(f'{p:.2f}' for p in orders)}")
-    check.less(f"{label}: solves with an observed order", 0, len(orders))
+    check.true(f"{label}: at least 1 solve with an observed order ({len(orders)})", len(orders) >= 1)
     check.less(f"{label}: 1 / median observed order (order >= 1.8)", 1.0 / statistics.median(orders), 1.0 / 1.8)
     check.less(f"{label}: most Newton iterations of a step", max(len(s) - 1 for s in solves), 11)
 check.finish()

@@ -22,15 +22,15 @@ for name, phrases, failed_time in cases:
         stop = [line for line in stderr.splitlines() if line.startswith("msflex:") and "stopped at" in line]
         text = stdout + stderr
         print(f"np {ranks} {name}: exit {code}: {stop[0][:400] if stop else stderr[-400:]}")
-        check.less(f"np {ranks} {name}: |exit status - 1|", abs(code - 1), 0.5)
-        check.less(f"np {ranks} {name}: stop messages - 1", abs(len(stop) - 1), 0.5)
-        check.less(f"np {ranks} {name}: PETSc trace-back lines", stderr.count("PETSC ERROR"), 0.5)
+        check.equal(f"np {ranks} {name}: exit status", code, 1)
+        check.equal(f"np {ranks} {name}: stop messages", len(stop), 1)
+        check.equal(f"np {ranks} {name}: PETSc trace-back lines", stderr.count("PETSC ERROR"), 0)
         for phrase in phrases:
-            check.less(f"np {ranks} {name}: message lacks {phrase!r} (0 = has it)", 0.0 if phrase in text else 1.0, 0.5)
-        check.less(f"np {ranks} {name}: stop message lacks 'the step to {failed_time}' (0 = has it)",
-                   0.0 if stop and f"the step to {failed_time}" in stop[0] else 1.0, 0.5)
+            check.true(f"np {ranks} {name}: the message has {phrase!r}", phrase in text)
+        check.true(f"np {ranks} {name}: the stop message has 'the step to {failed_time}'",
+                   bool(stop) and f"the step to {failed_time}" in stop[0])
         with h5py.File(output, "r") as f:
             frames = len(f["frames"])
-        check.less(f"np {ranks} {name}: frames in the result file (1 / count)", 1.0 / max(frames, 1e-300), 1.0 + 1e-12)
-        check.less(f"np {ranks} {name}: checkpoint written (0 = yes)", 0.0 if os.path.exists(output[:-3] + ".ckpt.h5") else 1.0, 0.5)
+        check.true(f"np {ranks} {name}: at least 1 frame in the result file ({frames})", frames >= 1)
+        check.true(f"np {ranks} {name}: checkpoint written", os.path.exists(output[:-3] + ".ckpt.h5"))
 check.finish()

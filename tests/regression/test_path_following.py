@@ -64,7 +64,7 @@ check.less("arc length: max |lambda P_ref - P(w)| / P_ref", np.abs(lam * P_REF -
 check.less("arc length: max |u - w - P / k|", np.abs(u - w - lam * P_REF / K_SPRING).max(), 1e-10)
 limits = history["critical_load_factor"][history["critical_point"] == 1]
 print(f"arc length: limit points at {limits}, {len(lam) - 1} steps")
-check.less("arc length: |limit points found - 2|", abs(len(limits) - 2), 0.5)
+check.equal("arc length: limit points found", len(limits), 2)
 if len(limits) == 2:
     check.less("arc length: first limit load relative error", abs(limits[0] / LIMIT - 1), 1e-6)
     check.less("arc length: second limit load relative error", abs(limits[1] / -LIMIT - 1), 1e-6)
@@ -72,9 +72,9 @@ pivots = history["negative_pivots"]
 expected = np.where((w > LIMIT_W + 1e-9) & (w < 2 * H - LIMIT_W - 1e-9), 1, 0)
 far = np.abs(w - LIMIT_W) > 1e-3
 far &= np.abs(w - (2 * H - LIMIT_W)) > 1e-3
-check.less("arc length: states with the wrong number of negative pivots", np.count_nonzero(pivots[far] != expected[far]), 0.5)
+check.equal("arc length: states with the wrong number of negative pivots", np.count_nonzero(pivots[far] != expected[far]), 0)
 snap_back = np.any(np.diff(u) < -1e-3)
-check.less("arc length: the top of the spring moves back (snap-back) (0 = yes)", 0.0 if snap_back else 1.0, 0.5)
+check.true("arc length: the top of the spring moves back (snap-back)", bool(snap_back))
 check.less("arc length: |final load factor - 1|", abs(lam[-1] - 1.0), 1e-12)
 check.less("arc length: |final w - closed form|", abs(w[-1] - deflection_at(1.0, 2 * H - LIMIT_W, 3.0)), 1e-8)
 
@@ -87,9 +87,9 @@ branch = np.array([deflection_at(x, 0.0, LIMIT_W) for x in lam[before]])
 check.less("load control: max |w - w(lambda) on the rising branch|", np.abs(w[before] - branch).max(), 1e-8)
 jumps = np.nonzero(history["critical_point"] == 3)[0]
 print(f"load control: jump named at steps {jumps}, load factors {lam[jumps]}")
-check.less("load control: jumps named - 1", abs(len(jumps) - 1), 0.5)
+check.equal("load control: jumps named", len(jumps), 1)
 if len(jumps):
-    check.less("load control: the jump is the first step past the limit point (0 = yes)", 0.0 if lam[jumps[0]] > LIMIT > lam[jumps[0] - 1] else 1.0, 0.5)
+    check.true("load control: the jump is the first step past the limit point", bool(lam[jumps[0]] > LIMIT > lam[jumps[0] - 1]))
 
 # Load control that cannot jump: it stops at the limit point and says so.
 code, _, stderr = mt.run_msflex(args, truss, f"{args.work_dir}/stop.h5",
@@ -97,8 +97,8 @@ code, _, stderr = mt.run_msflex(args, truss, f"{args.work_dir}/stop.h5",
                                 expect_success=False)
 message = " ".join(line for line in stderr.splitlines() if line.startswith("msflex:"))
 print("load control stop message:", message[:600])
-check.less("stopped run: |exit status - 1|", abs(code - 1), 0.5)
-check.less("stop message names a limit point and arc length (0 = yes)", 0.0 if "limit point" in message and "arc_length" in message else 1.0, 0.5)
+check.equal("stopped run: exit status", code, 1)
+check.true("the stop message names a limit point and arc length", "limit point" in message and "arc_length" in message)
 
 # Displacement control of the apex: through both limit points.
 history, w, u = run("apex", ["-analysis_control", "displacement", "-analysis_control_node", "apex", "-analysis_control_dof", "uy",
@@ -108,7 +108,7 @@ check.less("apex control: max |lambda P_ref - P(w)| / P_ref", np.abs(lam * P_REF
 check.less("apex control: max |w - control_value t|", np.abs(w - history["time"]).max(), 1e-10)
 limits = history["critical_load_factor"][history["critical_point"] == 1]
 print(f"apex control: limit points at {limits}")
-check.less("apex control: |limit points found - 2|", abs(len(limits) - 2), 0.5)
+check.equal("apex control: limit points found", len(limits), 2)
 if len(limits) == 2:
     # Steps of 0.075 in w: the cubic through the ends of the step locates the maximum to ~3e-5.
     check.less("apex control: limit loads relative error", max(abs(limits[0] / LIMIT - 1), abs(limits[1] / -LIMIT - 1)), 2e-4)
@@ -118,5 +118,5 @@ history, w, u = run("top", ["-analysis_control", "displacement", "-analysis_cont
                             "-analysis_control_value", "-1", "-analysis_initial_step", "0.05"])
 jumps = np.nonzero(history["critical_point"] == 3)[0]
 print(f"top control: jump named at u = {u[jumps]}")
-check.less("top control: jumps named (at least 1): 1 / count", 1.0 / max(len(jumps), 1e-300), 1.01)
+check.true(f"top control: at least 1 jump named ({len(jumps)})", len(jumps) >= 1)
 check.finish()

@@ -32,8 +32,8 @@ for block in blocks:
         if pending.strip() and not pending.strip().startswith("#"):
             commands.append(pending.strip())
         pending = ""
-check.less("README command blocks (1 / count)", 1.0 / max(len(blocks), 1e-300), 1.0 + 1e-12)
-check.less("README commands (1 / count)", 1.0 / max(len(commands), 1e-300), 1.0 + 1e-12)
+check.true(f"at least 1 README command block ({len(blocks)})", len(blocks) >= 1)
+check.true(f"at least 1 README command ({len(commands)})", len(commands) >= 1)
 
 scratch = os.path.join(args.work_dir, "scratch")
 shutil.rmtree(scratch, ignore_errors=True)
@@ -59,5 +59,5 @@ for command in commands:
     print(f"exit {result.returncode} in {seconds:.1f} s: {command}")
     if result.returncode != 0:
         sys.stdout.write(result.stdout[-3000:] + result.stderr[-3000:])
-    check.less(f"exit status of: {command}", abs(result.returncode), 0.5)
+    check.equal(f"exit status of: {command}", result.returncode, 0)
 check.finish()

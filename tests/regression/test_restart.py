@@ -127,8 +127,8 @@ for label, source, settings in cases:
     got = read_all(continued)
     difference, compared = largest_difference(expected, got)
     print(f"{label}: restart at step {checkpoint_step}, serial: {compared} datasets, largest difference {difference:.3e}")
-    check.less(f"{label}: checkpoint step > 0 (1 / step)", 1.0 / max(checkpoint_step, 1e-300), 1.0)
-    check.less(f"{label}: same datasets as the uninterrupted run (missing count)", float(len(set(expected) ^ set(got))), 0.5)
+    check.true(f"{label}: checkpoint step > 0 ({checkpoint_step})", checkpoint_step > 0)
+    check.equal(f"{label}: datasets in only one of this and the uninterrupted run", len(set(expected) ^ set(got)), 0)
     check.less(f"{label}: serial restart, largest difference", difference, 1e-300)
 
     # 2. The same checkpoint continued on 2 ranks into a new file.
@@ -146,7 +146,7 @@ for label, source, settings in cases:
     history_difference, _ = largest_difference(expected, got, history_names, relative=True, rows=rows)
     print(f"{label}: restart on 2 ranks from step {first_step - 1}: {frame_count} frame datasets, largest relative difference {frame_difference:.3e}; "
           f"history {history_difference:.3e}")
-    check.less(f"{label}: 2-rank restart writes the steps after the checkpoint (first step - checkpoint step - 1)", abs(first_step - checkpoint_step - 1), 0.5)
+    check.equal(f"{label}: 2-rank restart writes the steps after the checkpoint (first step = checkpoint step + 1)", first_step, checkpoint_step + 1)
     check.less(f"{label}: 2-rank restart, frames, largest relative difference", frame_difference, 1e-8)
     check.less(f"{label}: 2-rank restart, history, largest relative difference", history_difference, 1e-8)
 
@@ -167,12 +167,12 @@ def interrupt(ranks, send, label, source, settings, expected):
     send(process)
     remaining, errors = process.communicate(timeout=300)
     print(f"{label}: exit {process.returncode}; {remaining.strip().splitlines()[-1] if remaining.strip() else errors.strip()[-300:]}")
-    check.less(f"{label}: exit status 75 (|status - 75|)", abs(process.returncode - 75), 0.5)
+    check.equal(f"{label}: exit status", process.returncode, 75)
     with h5py.File(checkpoint, "r") as f:
         stopped_at = int(f["run/numbers"][0])
     with h5py.File(output, "r") as f:
         history_steps = f["history/step"][()]
-    check.less(f"{label}: the result file's history ends at the checkpoint (|last step - checkpoint step|)", abs(history_steps[-1] - stopped_at), 0.5)
+    check.equal(f"{label}: the result file's history ends at the checkpoint (last step = checkpoint step)", history_steps[-1], stopped_at)
     run(ranks, "--restart", checkpoint, "-quiet")
     got = read_all(output)
     difference, compared = largest_difference(expected, got)
@@ -204,9 +204,9 @@ with h5py.File(output, "r") as f:
     last_frame = f["frames"][sorted(f["frames"].keys())[-1]]
     positions = last_frame["position"][()]
 print(f"SIGKILL: file readable, {len(steps)} history rows to step {int(steps[-1])}, last frame {positions.shape} finite {np.isfinite(positions).all()}")
-check.less("SIGKILL: history rows >= 80 (80 / rows)", 80.0 / len(steps), 1.0 + 1e-12)
+check.true(f"SIGKILL: history rows >= 80 ({len(steps)})", len(steps) >= 80)
 check.less("SIGKILL: rows equal the reference (largest difference)", float(np.abs(times - expected["history/time"][: len(times)]).max()), 1e-300)
-check.less("SIGKILL: last frame finite (0 = yes)", 0.0 if np.isfinite(positions).all() else 1.0, 0.5)
+check.true("SIGKILL: last frame finite", bool(np.isfinite(positions).all()))
 
 # 5. By wall time.
 output = f"{work}/by_wall_time.h5"
@@ -220,7 +220,7 @@ with h5py.File(output, "r") as f:
     last_step = int(f["history/step"][-1])
 print(f"wall-time checkpoints: run of {elapsed:.1f} s, last checkpoint at step {checkpoint_step} of {last_step}")
 if elapsed > 1.0:
-    check.less("wall time: checkpoint of an intermediate step (0 = yes)", 0.0 if 0 < checkpoint_step < last_step else 1.0, 0.5)
+    check.true(f"wall time: checkpoint of an intermediate step (0 < {checkpoint_step} < {last_step})", 0 < checkpoint_step < last_step)
 run(1, "--restart", checkpoint)
 difference, compared = largest_difference(expected, read_all(output))
 check.less("wall time: restarted run equals the uninterrupted one", difference, 1e-300)

@@ -20,7 +20,7 @@ rollup = f"{args.source_dir}/input/cantilever_rollup.yaml"
 _, stdout, _ = mt.run_msflex(args, rollup, f"{args.work_dir}/halving.h5", extra=["-analysis_initial_step", "0.5", "-analysis_max_step", "0.5"])
 halvings = len(re.findall(r"rejected: a nodal rotation increment of \S+ rad exceeds max_rotation_increment = \S+ rad; halving", stdout))
 print(f"halvings reported: {halvings}")
-check.less("halvings reported (at least 1): 1 / count", 1.0 / max(halvings, 1e-300), 1.01)
+check.true(f"at least 1 halving reported ({halvings})", halvings >= 1)
 tip = mt.probe_history(f"{args.work_dir}/halving.h5", "tip")
 for t in (0.25, 0.5, 0.75, 1.0):
     mt.row_at_time(tip, t)
@@ -30,9 +30,9 @@ code, _, stderr = mt.run_msflex(args, rollup, f"{args.work_dir}/stopped.h5",
                                 extra=["-analysis_initial_step", "0.5", "-analysis_max_step", "0.5", "-analysis_min_step", "0.4"], expect_success=False)
 message = [line for line in stderr.splitlines() if line.startswith("msflex:")]
 print("stop message:", message[0] if message else stderr[:300])
-check.less("|exit status - 1|", abs(code - 1), 0.5)
+check.equal("exit status", code, 1)
 named = bool(message) and all(word in message[0] for word in ("stopped at t = 0", "rotation increment", "min_step = 0.4", "stopped.h5"))
-check.less("message names time, reason, min_step and file (0 = yes)", 0.0 if named else 1.0, 0.5)
+check.true("the message names time, reason, min_step and file", named)
 with h5py.File(f"{args.work_dir}/stopped.h5", "r") as f:
-    check.less("frames in the stopped run's file - 1", abs(len(f["frames"]) - 1), 0.5)
+    check.equal("frames in the stopped run's file", len(f["frames"]), 1)
 check.finish()
