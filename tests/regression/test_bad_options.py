@@ -1,6 +1,8 @@
 """Bad option values through the executable, serially and on --np ranks: a value that is not a
 number, a step larger than max_step, a negative Newton tolerance, and -analysis_type static on a
-free-flying dynamic model (which the reader only checked for dynamics) each stop the run with
+free-flying dynamic model (which the reader only checked for dynamics), and a factorisation package
+that does not exist (-pc_factor_mat_solver_type foo, found by PETSc only at the first
+factorisation) each stop the run with
 exit status 1 and one line 'msflex: bad option: ...' naming the option or the model's problem,
 without a PETSc trace-back and without creating a result file."""
 
@@ -15,7 +17,8 @@ spaghetti = f"{args.source_dir}/input/flying_spaghetti.yaml"
 cases = [(bend, ["-analysis_end_time", "abc"], "Input string abc has no numeric value"),
          (bend, ["-analysis_initial_step", "2"], "initial_step 2. is larger than max_step 1."),
          (bend, ["-analysis_newton_atol", "-1"], "-analysis_newton_atol must be >= 0"),
-         (spaghetti, ["-analysis_type", "static"], "with -analysis_type static: " + spaghetti + ":")]
+         (spaghetti, ["-analysis_type", "static"], "with -analysis_type static: " + spaghetti + ":"),
+         (bend, ["-pc_factor_mat_solver_type", "foo"], "-pc_factor_mat_solver_type foo: no LU factorisation of that name")]
 for source, options, expected in cases:
     for ranks in sorted({1, args.np}):
         output = f"{args.work_dir}/never_written.h5"
