@@ -183,6 +183,7 @@ PetscErrorCode Assembler::Setup(MPI_Comm comm, const Model &model, const DofMap 
     max_unknowns = std::max(max_unknowns, m);
   }
   expansion_scratch_.assign(max_unknowns * max_unknowns, 0.0);
+  expansion_product_scratch_.assign(6 * std::max<size_t>(max_unknowns, 6), 0.0);
   joint_geometric_scratch_.assign(3 * (6 + kJointMaxReleased) * max_unknowns + max_unknowns * max_unknowns, 0.0);
   PetscCall(VecCreateMPI(comm, 12 * (PetscInt)map.num_owned_joints, 12 * map.global_count.joints, &joint_output_));
   IS from_is;

@@ -223,6 +223,7 @@ private:
   std::vector<Vec6>                slave_correction_residual_; // per local node: em's correction vector gathered on slaves
   Vec                              joint_output_ = nullptr;    // 12 per joint slot (DofMap::joint_slot): reaction (6), rates (6)
   std::vector<double>              expansion_scratch_;         // work space for expanded blocks
+  std::vector<double>              expansion_product_scratch_; // a block times a column map, 6 x unknowns
   std::vector<double>              joint_geometric_scratch_;   // work space of AddJointGeometricStiffness
   std::vector<PetscInt>            expanded_indices_scratch_;  // work space: an expanded element's unknowns
   // Per local element: the residual and em's correction vector of the residual's first pass.

@@ -149,12 +149,19 @@ PetscErrorCode Assembler::AddNodeBlock(Mat jacobian, int l, const Mat6 &block)
   const std::vector<PetscInt> &unknowns = map_->node_unknowns[node];
   const int                    m        = (int)unknowns.size();
   const double                *rows = expansion_rows_[l].data(), *columns = expansion_columns_[l].data();
-  double                      *values = expansion_scratch_.data();
+  double                      *values = expansion_scratch_.data(), *block_columns = expansion_product_scratch_.data();
+  // R^T (block C) with block C (6 x m) formed once: 36 m + 6 m^2 products rather than 36 m^2 (a
+  // slave deep in a chain of joints depends on many unknowns).
+  for (int i = 0; i < 6; ++i)
+    for (int b = 0; b < m; ++b) {
+      double v = 0.0;
+      for (int j = 0; j < 6; ++j) v += block(i, j) * columns[j * m + b];
+      block_columns[i * m + b] = v;
+    }
   for (int a = 0; a < m; ++a)
     for (int b = 0; b < m; ++b) {
       double v = 0.0;
-      for (int i = 0; i < 6; ++i)
-        for (int j = 0; j < 6; ++j) v += rows[i * m + a] * block(i, j) * columns[j * m + b];
+      for (int i = 0; i < 6; ++i) v += rows[i * m + a] * block_columns[i * m + b];
       values[a * m + b] = v;
     }
   PetscCall(MatSetValues(jacobian, m, unknowns.data(), m, unknowns.data(), values, ADD_VALUES));
@@ -180,18 +187,23 @@ PetscErrorCode Assembler::AddExpandedMatrix(Mat jacobian, int num_nodes, const i
   const int M = (int)indices.size();
   if ((int)expansion_scratch_.size() < M * M) expansion_scratch_.resize(M * M);
   double *values = expansion_scratch_.data();
+  if ((int)expansion_product_scratch_.size() < 6 * M) expansion_product_scratch_.resize(6 * M);
+  double *block_columns = expansion_product_scratch_.data();
   for (int a = 0; a < num_nodes; ++a) {
     const int ma = offset[a + 1] - offset[a];
     for (int b = 0; b < num_nodes; ++b) {
       const int mb = offset[b + 1] - offset[b];
+      // K_ab C_b (6 x mb) once, then R_a^T times it.
+      for (int i = 0; i < 6; ++i)
+        for (int r = 0; r < mb; ++r) {
+          double Kc = 0.0;
+          for (int j = 0; j < 6; ++j) Kc += K[(6 * a + i) * nd + 6 * b + j] * columns[b][j * mb + r];
+          block_columns[i * mb + r] = Kc;
+        }
       for (int p = 0; p < ma; ++p)
         for (int r = 0; r < mb; ++r) {
           double v = 0.0;
-          for (int i = 0; i < 6; ++i) {
-            double Kc = 0.0;
-            for (int j = 0; j < 6; ++j) Kc += K[(6 * a + i) * nd + 6 * b + j] * columns[b][j * mb + r];
-            v += rows[a][i * ma + p] * Kc;
-          }
+          for (int i = 0; i < 6; ++i) v += rows[a][i * ma + p] * block_columns[i * mb + r];
           values[(offset[a] + p) * M + offset[b] + r] = v;
         }
     }
