@@ -4,6 +4,7 @@ exactly (Checker.equal) or asserts a yes/no condition (Checker.true)."""
 
 import argparse
 import os
+import signal
 import subprocess
 import sys
 
@@ -34,6 +35,25 @@ def mpi_launcher(mpiexec, np_ranks):
     if np_ranks > (os.cpu_count() or 1):
         command.append("--oversubscribe")
     return command
+
+
+def run_with_timeout(command, cwd, timeout):
+    """Runs command in its own session; returns (stdout, stderr, exit status), or None when it did
+    not end within `timeout` s. A hung run gets SIGTERM first (mpiexec then takes its ranks down
+    with it, which SIGKILL would not let it do), SIGKILL after 10 s more."""
+    process = subprocess.Popen(command, cwd=cwd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, errors="replace",
+                               start_new_session=True)
+    try:
+        stdout, stderr = process.communicate(timeout=timeout)
+    except subprocess.TimeoutExpired:
+        os.killpg(process.pid, signal.SIGTERM)
+        try:
+            process.communicate(timeout=10)
+        except subprocess.TimeoutExpired:
+            os.killpg(process.pid, signal.SIGKILL)
+            process.communicate()
+        return None
+    return stdout, stderr, process.returncode
 
 
 def run_msflex(args, input_file, output_file, extra=(), np_ranks=None, expect_success=True):

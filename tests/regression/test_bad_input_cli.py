@@ -19,10 +19,10 @@ import concurrent.futures
 import os
 import re
 import shutil
-import signal
-import subprocess
 import sys
 import time
+
+import msflex_testing as mt
 
 parser = argparse.ArgumentParser(description=__doc__)
 parser.add_argument("--msflex", required=True, help="path of the msflex executable")
@@ -90,31 +90,22 @@ def run(name, ranks, plain):
             command = ["sh", "-c", wrapper, "sh"] + command
         command = launcher + command
     started = time.monotonic()
-    process = subprocess.Popen(command, cwd=run_dir, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-                               errors="replace", start_new_session=True)
-    try:
-        stdout, stderr = process.communicate(timeout=args.timeout)
-    except subprocess.TimeoutExpired:
-        # SIGTERM first: mpiexec then takes its ranks down with it, which SIGKILL would not let it do.
-        os.killpg(process.pid, signal.SIGTERM)
-        try:
-            process.communicate(timeout=10)
-        except subprocess.TimeoutExpired:
-            os.killpg(process.pid, signal.SIGKILL)
-            process.communicate()
+    result = mt.run_with_timeout(command, run_dir, args.timeout)
+    if result is None:
         return [f"no result within {args.timeout:.0f} s (hang)"], "hung"
+    stdout, stderr, returncode = result
     seconds = time.monotonic() - started
     failures = []
     if ranks > 1 and not plain:
-        if process.returncode != 0:
-            failures.append(f"mpiexec exit status {process.returncode} (the wrapper exits 0)")
+        if returncode != 0:
+            failures.append(f"mpiexec exit status {returncode} (the wrapper exits 0)")
         for rank in range(ranks):
             status_file = os.path.join(run_dir, f"{STATUS_PREFIX}{rank}")
             status = open(status_file).read().strip() if os.path.exists(status_file) else "none"
             if status != "1":
                 failures.append(f"rank {rank} exit status {status}")
-    elif process.returncode != 1:
-        failures.append(f"exit status {process.returncode}")
+    elif returncode != 1:
+        failures.append(f"exit status {returncode}")
     output = stdout + stderr
     error_lines = [line for line in output.splitlines() if line.startswith("msflex:") or "error" in line.lower()]
     if len(error_lines) != 1:

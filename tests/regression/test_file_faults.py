@@ -26,7 +26,6 @@ import hashlib
 import os
 import re
 import shutil
-import signal
 import subprocess
 import sys
 import time
@@ -386,29 +385,21 @@ def run_case(case, ranks):
     if ranks > 1:
         wrapper = f'"$@"; echo $? > {STATUS_PREFIX}${{OMPI_COMM_WORLD_RANK:-$PMI_RANK}}; exit 0'
         command = msflex_testing.mpi_launcher(args.mpiexec, ranks) + ["sh", "-c", wrapper, "sh"] + command
-    process = subprocess.Popen(command, cwd=directory, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, errors="replace",
-                               start_new_session=True)
-    try:
-        stdout, stderr = process.communicate(timeout=args.timeout)
-    except subprocess.TimeoutExpired:
-        os.killpg(process.pid, signal.SIGTERM)
-        try:
-            process.communicate(timeout=10)
-        except subprocess.TimeoutExpired:
-            os.killpg(process.pid, signal.SIGKILL)
-            process.communicate()
+    result = msflex_testing.run_with_timeout(command, directory, args.timeout)
+    if result is None:
         return [f"no result within {args.timeout:.0f} s"], ""
+    stdout, stderr, returncode = result
     failures = []
     if ranks > 1:
-        if process.returncode != 0:
-            failures.append(f"mpiexec exit status {process.returncode}")
+        if returncode != 0:
+            failures.append(f"mpiexec exit status {returncode}")
         for rank in range(ranks):
             status_file = os.path.join(directory, f"{STATUS_PREFIX}{rank}")
             status = open(status_file).read().strip() if os.path.exists(status_file) else "none"
             if status != str(case.status):
                 failures.append(f"rank {rank} exit status {status}, expected {case.status}")
-    elif process.returncode != case.status:
-        failures.append(f"exit status {process.returncode}, expected {case.status}")
+    elif returncode != case.status:
+        failures.append(f"exit status {returncode}, expected {case.status}")
     output = stdout + stderr
     for marker in TRACE_MARKERS:
         if marker in output:
