@@ -36,4 +36,27 @@ PetscErrorCode OptionsError(MPI_Comm comm, PetscErrorCode status)
   SETERRQ(comm, PETSC_ERR_USER_INPUT, "bad option: %s", message);
 }
 
+PetscErrorCode CheckFactorSolverAvailable(KSP ksp, Mat matrix)
+{
+  PC            pc;
+  PetscBool     lu, cholesky, available;
+  MatSolverType package;
+  MatType       matrix_type;
+  const char   *prefix;
+  PetscFunctionBeginUser;
+  PetscCall(KSPGetPC(ksp, &pc));
+  PetscCall(PetscObjectTypeCompare((PetscObject)pc, PCLU, &lu));
+  PetscCall(PetscObjectTypeCompare((PetscObject)pc, PCCHOLESKY, &cholesky));
+  if (!lu && !cholesky) PetscFunctionReturn(PETSC_SUCCESS);
+  PetscCall(PCFactorGetMatSolverType(pc, &package));
+  if (!package) PetscFunctionReturn(PETSC_SUCCESS);
+  PetscCall(PCGetOptionsPrefix(pc, &prefix));
+  PetscCall(MatGetType(matrix, &matrix_type));
+  PetscCall(MatGetFactorAvailable(matrix, package, lu ? MAT_FACTOR_LU : MAT_FACTOR_CHOLESKY, &available));
+  PetscCheck(available, PetscObjectComm((PetscObject)ksp), PETSC_ERR_USER_INPUT,
+             "bad option: -%spc_factor_mat_solver_type %s: no %s factorisation of that name for matrix type %s (mumps always is)", prefix ? prefix : "",
+             package, lu ? "LU" : "Cholesky", matrix_type);
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
 } // namespace msflex

@@ -8,7 +8,7 @@
 // usual trace-back.
 #pragma once
 
-#include <petscsys.h>
+#include <petscksp.h>
 
 // PetscCheck for a model error located by a SourceMark.
 #define MSFLEX_INPUT_CHECK(cond, mark, fmt, ...)                                                                                                               \
@@ -33,6 +33,12 @@ PetscErrorCode OptionsError(MPI_Comm comm, PetscErrorCode status);
 // Whether `code` is one of the errors above that are reported as one line (and end every rank
 // cleanly, exit status 1) rather than with a trace-back and MPI_Abort.
 bool IsOneLineError(PetscErrorCode code);
+
+// The factorisation package the options name for `ksp` (-[prefix]pc_factor_mat_solver_type) must
+// exist for LU or Cholesky of `matrix`'s type: PETSc would find out only at the first
+// factorisation, deep inside the first step or eigensolve, with a trace-back. Checked once the
+// options are read, it is one line "bad option: ..." before anything is written.
+PetscErrorCode CheckFactorSolverAvailable(KSP ksp, Mat matrix);
 
 // Error handler: one clean line for user errors (printed by rank 0 of PETSC_COMM_WORLD, since
 // user errors are detected identically on every rank), PETSc's trace-back otherwise.

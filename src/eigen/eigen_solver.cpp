@@ -32,6 +32,18 @@ PetscErrorCode UseCholesky(EPS eps)
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
+// The factorisation package of the spectral transformation must exist (-st_pc_factor_mat_solver_type).
+PetscErrorCode CheckFactorSolverAvailable(EPS eps, Mat matrix)
+{
+  ST  st;
+  KSP ksp;
+  PetscFunctionBeginUser;
+  PetscCall(EPSGetST(eps, &st));
+  PetscCall(STGetKSP(st, &ksp));
+  PetscCall(msflex::CheckFactorSolverAvailable(ksp, matrix));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
 // The converged pairs (at most `count`), their backward errors and vectors, with value(theta).
 template <class Value> PetscErrorCode CollectPairs(EPS eps, Mat A, int count, Value value, bool keep_positive_only, EigenPairs *pairs)
 {
@@ -83,6 +95,7 @@ PetscErrorCode SolveModesAt(Mat K, Mat M, int count, double sigma, EigenPairs *p
   PetscCall(STSetType(st, STSINVERT));
   PetscCall(UseCholesky(eps));
   MSFLEX_CALL_READING_OPTIONS(PetscObjectComm((PetscObject)eps), EPSSetFromOptions(eps));
+  PetscCall(CheckFactorSolverAvailable(eps, K));
   PetscErrorCode code = PETSC_SUCCESS;
   if (failed) {
     PetscCall(PetscPushErrorHandler(PetscReturnErrorHandler, nullptr));
@@ -228,6 +241,7 @@ PetscErrorCode SolveBucklingModes(Mat K, Mat K_sigma, int count, EigenPairs *pai
   PetscCall(EPSSetWhichEigenpairs(eps, EPS_LARGEST_REAL));
   PetscCall(UseCholesky(eps));
   MSFLEX_CALL_READING_OPTIONS(PetscObjectComm((PetscObject)eps), EPSSetFromOptions(eps));
+  PetscCall(CheckFactorSolverAvailable(eps, K));
   PetscCall(EPSSolve(eps));
   pairs->solves = 1;
   PetscCall(CollectPairs(

@@ -214,30 +214,6 @@ PetscErrorCode   ChooseDirectSolver(Mat tangent, PC pc)
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
-// A factorisation package the options name (-pc_factor_mat_solver_type) must exist for the
-// tangent's matrix type: PETSc would find out only at the first factorisation, deep inside the
-// first step, with a trace-back. Checked here, it is one line before anything is written.
-PetscErrorCode CheckFactorSolverAvailable(KSP ksp, Mat tangent)
-{
-  PC            pc;
-  PetscBool     lu, cholesky, available;
-  MatSolverType package;
-  MatType       matrix_type;
-  PetscFunctionBeginUser;
-  PetscCall(KSPGetPC(ksp, &pc));
-  PetscCall(PetscObjectTypeCompare((PetscObject)pc, PCLU, &lu));
-  PetscCall(PetscObjectTypeCompare((PetscObject)pc, PCCHOLESKY, &cholesky));
-  if (!lu && !cholesky) PetscFunctionReturn(PETSC_SUCCESS);
-  PetscCall(PCFactorGetMatSolverType(pc, &package));
-  if (!package) PetscFunctionReturn(PETSC_SUCCESS);
-  PetscCall(MatGetType(tangent, &matrix_type));
-  PetscCall(MatGetFactorAvailable(tangent, package, lu ? MAT_FACTOR_LU : MAT_FACTOR_CHOLESKY, &available));
-  PetscCheck(available, PetscObjectComm((PetscObject)ksp), PETSC_ERR_USER_INPUT,
-             "bad option: -pc_factor_mat_solver_type %s: no %s factorisation of that name for matrix type %s (mumps always is)", package,
-             lu ? "LU" : "Cholesky", matrix_type);
-  PetscFunctionReturn(PETSC_SUCCESS);
-}
-
 } // namespace
 
 PetscErrorCode NewtonSolverCreate(MPI_Comm comm, const AnalysisSettings &analysis, NewtonOperator newton_operator, NewtonContext *context, SNES *snes)

@@ -2,7 +2,7 @@
 number, a step larger than max_step, a negative Newton tolerance, and -analysis_type static on a
 free-flying dynamic model (which the reader only checked for dynamics), and a factorisation package
 that does not exist (-pc_factor_mat_solver_type foo, found by PETSc only at the first
-factorisation) each stop the run with
+factorisation; -st_pc_factor_mat_solver_type foo for an eigenanalysis) each stop the run with
 exit status 1 and one line 'msflex: bad option: ...' naming the option or the model's problem,
 without a PETSc trace-back and without creating a result file."""
 
@@ -33,4 +33,19 @@ for source, options, expected in cases:
         check.true(f"{label}: the message has the expected text", bool(lines) and "bad option: " in lines[0] and expected in lines[0])
         check.equal(f"{label}: PETSc trace-back lines", stderr.count("PETSC ERROR"), 0)
         check.true(f"{label}: no result file created", not os.path.exists(output))
+# The eigensolver's factorisation package (-st_pc_factor_mat_solver_type) is checked once SLEPc has
+# read its options, after the result file (mesh only) is made: one line, exit 1, no trace.
+modes = f"{args.source_dir}/input/hinged_beam_modes.yaml"
+for ranks in sorted({1, args.np}):
+    output = f"{args.work_dir}/modes_bad_package.h5"
+    code, _, stderr = mt.run_msflex(args, modes, output, extra=["-st_pc_factor_mat_solver_type", "foo"], np_ranks=ranks,
+                                    expect_success=False)
+    lines = [line for line in stderr.splitlines() if line.startswith("msflex:")]
+    label = f"np {ranks} modes -st_pc_factor_mat_solver_type foo"
+    print(f"{label}: exit {code}: {lines[0] if lines else stderr.strip()[:300]}")
+    check.equal(f"{label}: exit status", code, 1)
+    check.equal(f"{label}: message lines", len(lines), 1)
+    check.true(f"{label}: the message names the option",
+               bool(lines) and "bad option: -st_pc_factor_mat_solver_type foo: no Cholesky factorisation of that name" in lines[0])
+    check.equal(f"{label}: PETSc trace-back lines", stderr.count("PETSC ERROR"), 0)
 check.finish()
