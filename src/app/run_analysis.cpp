@@ -290,6 +290,17 @@ PetscErrorCode WriteFrame(Analysis &a, int step, double time, double *strain_ene
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
+// Closes the result file (the last flush: buffered frames and rows, sidecar) in the Output stage.
+PetscErrorCode CloseOutput(Analysis &a)
+{
+  PetscFunctionBeginUser;
+  PetscCall(PetscLogStagePush(a.stage_output));
+  const PetscErrorCode closed = a.output.Close();
+  PetscCall(PetscLogStagePop());
+  PetscCall(closed);
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
 // The state after a converged step: frame (when due), history row, progress line.
 PetscErrorCode RecordStep(Analysis &a, const StepRecord &record, bool write_frame)
 {
@@ -446,7 +457,7 @@ PetscErrorCode RunAnalysis(MPI_Comm comm, Model model, const RunOptions &options
   a.integrator.SetQuiet(options.quiet);
   if (IsEigenAnalysis(analysis.type)) {
     PetscCall(RunEigenAnalysis(comm, a.model, a.map, a.integrator, a.output, options.quiet));
-    PetscCall(a.output.Close());
+    PetscCall(CloseOutput(a));
     if (!options.quiet) PetscCall(PetscPrintf(comm, "msflex: results in %s\n", options.output_file.c_str()));
     PetscFunctionReturn(PETSC_SUCCESS);
   }
@@ -501,7 +512,7 @@ PetscErrorCode RunAnalysis(MPI_Comm comm, Model model, const RunOptions &options
         bool stop = false;
         PetscCall(CheckpointIfDue(a, step, t, last_written, controller, &stop));
         if (stop) {
-          PetscCall(a.output.Close());
+          PetscCall(CloseOutput(a));
           if (!options.quiet) PetscCall(a.summary.Print(comm, a.run_wall_start, a.Dynamic()));
           *end = RunEnd::StoppedBySignal;
           PetscFunctionReturn(PETSC_SUCCESS);
@@ -520,7 +531,7 @@ PetscErrorCode RunAnalysis(MPI_Comm comm, Model model, const RunOptions &options
           last_written = step;
         }
         PetscCall(WriteCheckpoint(a, step, t, last_written, controller));
-        PetscCall(a.output.Close());
+        PetscCall(CloseOutput(a));
         if (!options.quiet) PetscCall(a.summary.Print(comm, a.run_wall_start, a.Dynamic()));
         const std::string advice = a.Static() ? a.path.StopAdvice() : std::string();
         SETERRQ(comm, PETSC_ERR_NOT_CONVERGED,
@@ -532,7 +543,7 @@ PetscErrorCode RunAnalysis(MPI_Comm comm, Model model, const RunOptions &options
       dt = controller.Propose(t, target);
     }
   }
-  PetscCall(a.output.Close());
+  PetscCall(CloseOutput(a));
   if (!options.quiet && arc_length && a.path.StoppedByMaxSteps())
     PetscCall(PetscPrintf(comm, "msflex: stopped after max_steps = %d steps at load factor %g without reaching end_time = %g\n", analysis.max_steps,
                           a.path.LoadFactor(), analysis.end_time));
