@@ -396,14 +396,12 @@ PetscErrorCode CheckpointIfDue(Analysis &a, int step, double t, int last_written
 PetscErrorCode RunStaticStage(Analysis &a)
 {
   const AnalysisSettings &analysis = a.model.analysis;
-  StepControllerSettings  settings;
+  // The analysis' growth rules over the load factor 0 .. 1, in steps of its own.
+  StepControllerSettings settings = StepControllerSettingsOf(analysis);
   PetscFunctionBeginUser;
-  settings.initial_step       = 1.0 / analysis.static_stage_steps;
-  settings.max_step           = 1.0;
-  settings.min_step           = std::min(1e-6, settings.initial_step);
-  settings.growth_factor      = analysis.growth_factor;
-  settings.easy_iterations    = analysis.easy_iterations;
-  settings.easy_steps_to_grow = analysis.easy_steps_to_grow;
+  settings.initial_step = 1.0 / analysis.static_stage_steps;
+  settings.max_step     = 1.0;
+  settings.min_step     = std::min(1e-6, settings.initial_step);
   StepController controller(settings);
   double         factor = 0.0;
   int            steps  = 0;
@@ -470,14 +468,8 @@ PetscErrorCode RunAnalysis(MPI_Comm comm, Model model, const RunOptions &options
     PetscCall(RecordStep(a, StepRecord{}, true));
   }
 
-  StepControllerSettings controller_settings;
-  controller_settings.initial_step       = analysis.initial_step;
-  controller_settings.min_step           = analysis.min_step;
-  controller_settings.max_step           = analysis.max_step;
-  controller_settings.growth_factor      = analysis.growth_factor;
-  controller_settings.easy_iterations    = analysis.easy_iterations;
-  controller_settings.easy_steps_to_grow = analysis.easy_steps_to_grow;
-  const bool arc_length                  = a.Static() && analysis.control == PathControl::ArcLength;
+  StepControllerSettings controller_settings = StepControllerSettingsOf(analysis);
+  const bool             arc_length          = a.Static() && analysis.control == PathControl::ArcLength;
   if (arc_length) controller_settings.desired_iterations = analysis.desired_iterations;
   StepController controller(controller_settings);
 

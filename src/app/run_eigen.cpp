@@ -19,16 +19,9 @@ namespace {
 PetscErrorCode Preload(MPI_Comm comm, const Model &model, Integrator &integrator, bool quiet, double *lambda)
 {
   const AnalysisSettings &a = model.analysis;
-  StepControllerSettings  settings;
-  settings.initial_step       = a.initial_step;
-  settings.min_step           = a.min_step;
-  settings.max_step           = a.max_step;
-  settings.growth_factor      = a.growth_factor;
-  settings.easy_iterations    = a.easy_iterations;
-  settings.easy_steps_to_grow = a.easy_steps_to_grow;
-  StepController controller(settings);
-  double         t    = 0.0;
-  int            step = 0;
+  StepController          controller(StepControllerSettingsOf(a));
+  double                  t    = 0.0;
+  int                     step = 0;
   PetscFunctionBeginUser;
   while (t < a.end_time * (1.0 - 1e-14)) {
     const double dt = controller.Propose(t, a.end_time);

@@ -124,6 +124,22 @@ void CoordinateForce(const SpringCurve *spring, double damping, const Coordinate
   out->actuator_work  = step.actuator * step.increment;
 }
 
+namespace {
+
+// The tangent of a pair residual (-f at a, f at b) with f a function of d = x_b - x_a only: with
+// block = df/dd, the 12 x 12 tangent (a's and b's positions at rows and columns 0 and 6, the
+// rotations untouched) is [block, -block; -block, block].
+void SetPairTangent(const Mat3 &block, Mat12 *tangent)
+{
+  tangent->setZero();
+  tangent->block<3, 3>(0, 0) = block;
+  tangent->block<3, 3>(0, 6) = -block;
+  tangent->block<3, 3>(6, 0) = -block;
+  tangent->block<3, 3>(6, 6) = block;
+}
+
+} // namespace
+
 bool AxialSpringDamperEndPoint(const SpringCurve &spring, double damping, const Vec3 &x_a, const Vec3 &x_b, const Vec3 &v_a, const Vec3 &v_b,
                                double velocity_coefficient, AxialSpringValues *out, Mat12 *tangent)
 {
@@ -145,11 +161,7 @@ bool AxialSpringDamperEndPoint(const SpringCurve &spring, double damping, const 
   const Mat3 P     = Mat3::Identity() - e * e.transpose();
   const Vec3 dT    = k * e + damping * (P * dv / l + velocity_coefficient * e);
   const Mat3 block = e * dT.transpose() + out->tension * P / l;
-  tangent->setZero();
-  tangent->block<3, 3>(0, 0) = block;
-  tangent->block<3, 3>(0, 6) = -block;
-  tangent->block<3, 3>(6, 0) = -block;
-  tangent->block<3, 3>(6, 6) = block;
+  SetPairTangent(block, tangent);
   return true;
 }
 
@@ -174,11 +186,7 @@ bool AxialSpringDamperMidpoint(const SpringCurve &spring, double damping, const 
   const Vec3 dT    = (mean_derivative + damping / dt) * e1;
   const Mat3 de    = Mat3::Identity() / sum - (d0 + d1) * e1.transpose() / (sum * sum);
   const Mat3 block = e_bar * dT.transpose() + out->tension * de;
-  tangent->setZero();
-  tangent->block<3, 3>(0, 0) = block;
-  tangent->block<3, 3>(0, 6) = -block;
-  tangent->block<3, 3>(6, 0) = -block;
-  tangent->block<3, 3>(6, 6) = block;
+  SetPairTangent(block, tangent);
   return true;
 }
 

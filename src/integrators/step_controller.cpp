@@ -5,6 +5,18 @@
 
 namespace msflex {
 
+StepControllerSettings StepControllerSettingsOf(const AnalysisSettings &analysis)
+{
+  StepControllerSettings settings;
+  settings.initial_step       = analysis.initial_step;
+  settings.min_step           = analysis.min_step;
+  settings.max_step           = analysis.max_step;
+  settings.growth_factor      = analysis.growth_factor;
+  settings.easy_iterations    = analysis.easy_iterations;
+  settings.easy_steps_to_grow = analysis.easy_steps_to_grow;
+  return settings;
+}
+
 double StepController::Propose(double t, double target) const
 {
   const double remaining = target - t;

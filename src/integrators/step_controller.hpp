@@ -3,6 +3,8 @@
 // load-factor / pseudo-time increment) and dynamics.
 #pragma once
 
+#include "model/model.hpp"
+
 namespace msflex {
 
 struct StepControllerSettings {
@@ -17,6 +19,10 @@ struct StepControllerSettings {
   // instead of growing after runs of easy steps.
   int desired_iterations = 0;
 };
+
+// The analysis' step settings (initial, min and max step, growth, easy iterations and steps);
+// desired_iterations stays 0 (the caller sets it for arc length).
+StepControllerSettings StepControllerSettingsOf(const AnalysisSettings &analysis);
 
 class StepController {
 public:
