@@ -55,6 +55,7 @@ const OptionInfo kOptions[] = {
     {"-output_file", "FILE.h5", "result file (default: the input's output.file, or <input name>.h5)"},
     {"-output_every", "N", "write a frame every N-th converged step"},
     {"-output_overwrite", "", "replace an existing result file"},
+    {"-output_xdmf", "xdmf3|xdmf2", "syntax of the .xmf sidecar: xdmf3 (ParaView's default readers) or xdmf2 (ParaView's XDMF Reader, VisIt)"},
     {"-output_flush_interval", "S", "seconds of wall time between flushes of the result file (default 10; 0: every frame and row)"},
     {"-progress_every", "N", "a progress line every N steps"},
     {"-quiet", "", "no progress lines and no summary"},

@@ -16,7 +16,8 @@ struct RunOptions {
   std::string output_file;
   PetscBool   output_overwrite      = PETSC_FALSE;
   PetscInt    output_every          = 1;
-  PetscReal   output_flush_interval = 10.0; // wall-time seconds between flushes of the result file (0: every step); set from output.flush_interval
+  std::string output_xdmf           = "xdmf3"; // the sidecar's syntax, xdmf3 or xdmf2; set from output.xdmf
+  PetscReal   output_flush_interval = 10.0;    // wall-time seconds between flushes of the result file (0: every step); set from output.flush_interval
   PetscBool   quiet                 = PETSC_FALSE;
   PetscInt    progress_every        = 1;
   // Checkpoints (docs/options.md): every n converged steps, every so many seconds of wall time

@@ -156,13 +156,18 @@ PetscErrorCode SettingsFromOptions(MPI_Comm comm, Model *model, RunOptions *opti
   PetscInt every = model->output.every; // default: the input's output.every
   PetscCall(PetscStrncpy(file, model->output.file.c_str(), sizeof(file)));
   options->output_flush_interval = model->output.flush_interval; // default: the input's output.flush_interval
+  char xdmf[16];
+  PetscCall(PetscStrncpy(xdmf, model->output.xdmf.c_str(), sizeof(xdmf))); // default: the input's output.xdmf
   PetscOptionsBegin(comm, "output_", "Output settings", "msflex");
   PetscCall(PetscOptionsString("-file", OptionDescription("-output_file"), "", file, file, sizeof(file), nullptr));
   PetscCall(PetscOptionsInt("-every", OptionDescription("-output_every"), "", every, &every, nullptr));
   PetscCall(PetscOptionsBool("-overwrite", OptionDescription("-output_overwrite"), "", options->output_overwrite, &options->output_overwrite, nullptr));
   PetscCall(PetscOptionsReal("-flush_interval", OptionDescription("-output_flush_interval"), "", options->output_flush_interval,
                              &options->output_flush_interval, nullptr));
+  PetscCall(PetscOptionsString("-xdmf", OptionDescription("-output_xdmf"), "", xdmf, xdmf, sizeof(xdmf), nullptr));
   PetscOptionsEnd();
+  PetscCheck(!strcmp(xdmf, "xdmf3") || !strcmp(xdmf, "xdmf2"), comm, PETSC_ERR_USER_INPUT, "option -output_xdmf must be xdmf3 or xdmf2, got '%s'", xdmf);
+  options->output_xdmf = xdmf;
   PetscCheck(every >= 1, comm, PETSC_ERR_USER_INPUT, "option -output_every must be >= 1, got %" PetscInt_FMT, every);
   PetscCheck(std::isfinite(options->output_flush_interval) && options->output_flush_interval >= 0, comm, PETSC_ERR_USER_INPUT,
              "option -output_flush_interval must be >= 0 seconds, got %g", (double)options->output_flush_interval);

@@ -300,6 +300,9 @@ struct OutputSettings {
   // Wall-time seconds between flushes of buffered history rows to the file (0: every step); a
   // killed run loses at most this much (docs/output.md).
   double flush_interval = 10.0;
+  // Syntax of the XDMF sidecar (docs/output.md): "xdmf3" (ParaView's default readers) or "xdmf2"
+  // (ParaView's "XDMF Reader", VisIt).
+  std::string xdmf = "xdmf3";
   // Checkpoints for restarts (docs/options.md): every n converged steps and/or every so many
   // seconds of wall time (0: never); file default: the output file with .ckpt.h5.
   int         checkpoint_every     = 0;

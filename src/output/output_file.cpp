@@ -124,11 +124,63 @@ std::vector<std::string> ProbeNames(const std::vector<ProbeSample> &probes)
   return names;
 }
 
-std::string FrameGroupName(int step)
+// What a frame holds besides the nodes and elements: bits of /frames/contents.
+enum FrameContent : int { kHasVelocities = 1, kHasSectionTriads = 2, kHasBodies = 4, kHasJoints = 8 };
+
+// The tables a frame's rows index: /mesh's nodes, elements, visualisation segments, rigid bodies
+// and joints.
+enum RowKind { kNodeRows, kElementRows, kSegmentRows, kBodyRows, kJointRows, kRowKinds };
+
+// The per-frame datasets of /frames: each is frames x rows x columns, one frame appended per
+// written frame; `content` is the bit of /frames/contents a frame must have for the dataset to
+// hold its values (0: every frame), else its entries of that frame are 0.
+struct FrameField {
+  const char *name;
+  int         columns;
+  RowKind     rows;
+  int         content;
+};
+constexpr FrameField kFrameFields[] = {
+    {"position", 3, kNodeRows, 0},
+    {"displacement", 3, kNodeRows, 0},
+    {"rotation", 4, kNodeRows, 0},
+    {"element_resultants", 6, kElementRows, 0},
+    {"element_strains", 6, kElementRows, 0},
+    {"segment_force", 3, kSegmentRows, 0},
+    {"segment_moment", 3, kSegmentRows, 0},
+    {"segment_e1", 3, kSegmentRows, kHasSectionTriads},
+    {"segment_e2", 3, kSegmentRows, kHasSectionTriads},
+    {"segment_e3", 3, kSegmentRows, kHasSectionTriads},
+    {"velocity", 3, kNodeRows, kHasVelocities},
+    {"angular_velocity", 3, kNodeRows, kHasVelocities},
+    {"body_center", 3, kBodyRows, kHasBodies},
+    {"body_axis_1", 3, kBodyRows, kHasBodies},
+    {"body_axis_2", 3, kBodyRows, kHasBodies},
+    {"body_axis_3", 3, kBodyRows, kHasBodies},
+    {"body_rotation", 4, kBodyRows, kHasBodies},
+    {"joint_position", 3, kJointRows, kHasJoints},
+    {"joint_a1", 3, kJointRows, kHasJoints},
+    {"joint_a2", 3, kJointRows, kHasJoints},
+    {"joint_a3", 3, kJointRows, kHasJoints},
+};
+constexpr int kFrameFieldCount = (int)(sizeof kFrameFields / sizeof kFrameFields[0]);
+
+// Frames kept in memory before they are written: at most kFrameBufferBytes of the whole model's
+// frames (so a small model gathers thousands of frames into one write per dataset, and a model
+// whose frame alone is larger writes every frame as it comes).
+constexpr double kFrameBufferBytes = 32.0 * 1024 * 1024;
+// Chunks of the frame datasets: about kFrameChunkBytes, whole frames of a small model (at most
+// kFrameChunkFrames of them, so that a short run's file stays small), row blocks of a large one.
+constexpr double  kFrameChunkBytes  = 1024.0 * 1024;
+constexpr hsize_t kFrameChunkFrames = 32;
+
+// The chunk (frames, rows, columns) of a frame dataset of `rows` x `columns` per frame.
+std::vector<hsize_t> FrameChunk(hsize_t rows, hsize_t columns)
 {
-  char name[32];
-  std::snprintf(name, sizeof name, "/frames/%06d", step);
-  return name;
+  const double  row_bytes  = 8.0 * (double)columns;
+  const hsize_t chunk_rows = std::max<hsize_t>(1, std::min<hsize_t>(rows, (hsize_t)(kFrameChunkBytes / row_bytes)));
+  const hsize_t frames     = std::max<hsize_t>(1, std::min<hsize_t>(kFrameChunkFrames, (hsize_t)(kFrameChunkBytes / (row_bytes * (double)chunk_rows))));
+  return {frames, chunk_rows, columns};
 }
 
 // The current time, ISO 8601 in UTC: 2024-05-01T12:34:56Z.
@@ -181,16 +233,33 @@ std::string OptionsText()
 // RunCollective (work on every rank) make them collective.
 struct OutputFile::Impl {
   struct FrameEntry {
-    int    step;
-    double time;
-    bool   has_velocities;
-    bool   has_section_triads = false; // segment_e1, segment_e2, segment_e3 (distributed frames)
-    bool   has_bodies         = false; // body_center, body_axis_1..3, body_rotation
-    bool   has_joints         = false; // joint_position, joint_a1..a3
+    int     step;
+    double  time;
+    bool    has_velocities;
+    bool    has_section_triads = false; // segment_e1, segment_e2, segment_e3 (distributed frames)
+    bool    has_bodies         = false; // body_center, body_axis_1..3, body_rotation
+    bool    has_joints         = false; // joint_position, joint_a1..a3
+    hsize_t index              = 0;     // its row in the /frames datasets
+
+    int Contents() const
+    {
+      return (has_velocities ? kHasVelocities : 0) | (has_section_triads ? kHasSectionTriads : 0) | (has_bodies ? kHasBodies : 0) |
+             (has_joints ? kHasJoints : 0);
+    }
   };
-  // The rows of a frame this rank writes.
+  // The rows of a frame this rank writes (WriteFrame: in the caller's order; in the buffer, sorted).
   struct FrameRows {
-    std::vector<int> nodes, elements, bodies, joints;
+    std::vector<int> nodes, elements, bodies, joints, segments;
+
+    const std::vector<int> &Of(RowKind kind) const
+    {
+      const std::vector<int> *table[kRowKinds] = {&nodes, &elements, &segments, &bodies, &joints};
+      return *table[kind];
+    }
+    bool operator==(const FrameRows &other) const
+    {
+      return nodes == other.nodes && elements == other.elements && bodies == other.bodies && joints == other.joints && segments == other.segments;
+    }
   };
 
   explicit Impl(const std::string &h5_path) : path(h5_path), xdmf_path(SidecarPath(h5_path)), h5_file_name(std::filesystem::path(h5_path).filename().string())
@@ -216,19 +285,33 @@ struct OutputFile::Impl {
   PetscErrorCode WriteXdmfWhole();
   PetscErrorCode AppendXdmf();
   std::string    XdmfHead() const;
-  std::string    XdmfFrameGrids(const FrameEntry &frame) const;
-  // A frame's step must be non-negative and not written before.
+  // Appends the grids of a frame to *text.
+  void AppendXdmfFrameGrids(const FrameEntry &frame, std::string *text);
+  // The grids of a frame with these contents, with `index`, `count` (index + 1) and `time` as given.
+  std::string XdmfFramePattern(const FrameEntry &frame, const std::string &index, const std::string &count, const std::string &time) const;
+  // A frame's step must be non-negative and above the last frame's.
   PetscErrorCode CheckNewStep(int step) const;
   // Parallel build: opens the file created by rank 0 on every rank through MPI-IO.
   PetscErrorCode OpenParallel();
   // Checks this rank's part of a frame (`rows`: the rows it writes; the totals over the ranks).
   PetscErrorCode CheckFrame(const OutputFrame &frame, int step, bool has_velocities, const FrameRows &rows, const hsize_t totals[4]) const;
-  // Writes a frame collectively, each rank its rows.
-  PetscErrorCode WriteFrameRows(const OutputFrame &frame, const FrameEntry &entry, const FrameRows &rows);
-  // Creates the float64 dataset `name` (n_rows x columns) under the frame group collectively, each
-  // rank writing `data` (rows.size() x columns) to its `rows`, with its unit and description.
-  PetscErrorCode WriteFrameDataset(hid_t group, const char *name, hsize_t n_rows, hsize_t columns, const std::vector<int> &rows,
-                                   const std::vector<double> &data);
+  // This rank's part of a frame in file order: `sorted` receives its rows (segments included),
+  // `values` the values of every frame field for them (empty for a field the frame does not have).
+  PetscErrorCode SortFrame(const OutputFrame &frame, const FrameEntry &entry, const FrameRows &rows, FrameRows *sorted,
+                           std::vector<double> values[kFrameFieldCount]);
+  // Appends a sorted frame to the buffer (its rows must be the buffer's, or the buffer empty).
+  void BufferFrame(const FrameEntry &entry, const FrameRows &sorted, std::vector<double> values[kFrameFieldCount]);
+  // Writes the buffered frames: every frame dataset extended once and written with one collective
+  // transfer; /frames/step, time and contents from rank 0. Collective.
+  PetscErrorCode WriteFrameBlock();
+  // Number of rows of a kind of table in the model.
+  hsize_t RowCount(RowKind kind) const
+  {
+    const hsize_t counts[kRowKinds] = {n_nodes, n_elements, n_segments, n_bodies, n_joints};
+    return counts[kind];
+  }
+  // Frames of the whole model that fit the buffer (at least 1).
+  hsize_t FramesPerBlock() const;
   // Every rank (collective): fills segment_first from /mesh/segment_element.
   PetscErrorCode LoadSegmentTable();
   // Rank 0: opens the existing file, checks that it is the result file of run `run_id` holding
@@ -258,14 +341,23 @@ struct OutputFile::Impl {
   std::string             path;         // the .h5 file, as given to Open
   std::string             xdmf_path;    // the sidecar: path with the extension replaced by .xmf
   std::string             h5_file_name; // base name of path, by which the sidecar refers to it
+  XdmfFlavour             xdmf_flavour = XdmfFlavour::Xdmf3;
   H5Id                    file;
   H5Id                    frame_transfer; // collective with MPI-IO (more than one rank), else the default
   hsize_t                 n_nodes = 0, n_elements = 0, n_segments = 0, n_bodies = 0, n_joints = 0, n_ground = 0;
   bool                    dynamic = false; // time in s (else the load factor)
   std::vector<int>        segment_element; // rank 0, during Create: element of each 2-node visualisation segment
-  std::vector<FrameEntry> frames;          // in the order written
-  MPI_Comm                comm = MPI_COMM_NULL;
-  PetscMPIInt             rank = 0;
+  std::vector<FrameEntry> frames;          // in the order written (buffered ones included)
+  // Frame buffer (every rank, its rows): the frames not yet in the file (their entries are the
+  // last frames_buffered of `frames`), their rows (the same for each), and per field the values,
+  // frame after frame. frames_written: frames in the file. field_exists: the frame datasets the
+  // file has (the same on every rank).
+  hsize_t             frames_written = 0, frames_buffered = 0;
+  FrameRows           buffered_rows;
+  std::vector<double> buffered_fields[kFrameFieldCount];
+  bool                field_exists[kFrameFieldCount]{};
+  MPI_Comm            comm = MPI_COMM_NULL;
+  PetscMPIInt         rank = 0;
   // Every rank, once a frame that is not distributed arrives (read back from /mesh):
   // n_elements + 1 entries, the segments of element e are [first[e], first[e + 1]).
   std::vector<int> segment_first;
@@ -289,6 +381,12 @@ struct OutputFile::Impl {
   size_t    frames_listed = 0;
   long long xdmf_size     = -1;
   bool      head_kinds[kGridKinds]{};
+  // AppendXdmfFrameGrids' texts cut at their markers, per value of FrameEntry::Contents().
+  struct XdmfPattern {
+    std::vector<std::string> pieces;
+    std::vector<char>        markers;
+  };
+  XdmfPattern xdmf_patterns[16];
 };
 
 PetscErrorCode OutputFile::Impl::CreateStringType(H5Id *type)
@@ -572,8 +670,9 @@ PetscErrorCode OutputFile::Impl::CheckNewStep(int step) const
 {
   PetscFunctionBeginUser;
   PetscCheck(step >= 0, PETSC_COMM_SELF, PETSC_ERR_ARG_OUTOFRANGE, "output file '%s': negative step %d", path.c_str(), step);
-  for (const FrameEntry &written : frames)
-    PetscCheck(written.step != step, PETSC_COMM_SELF, PETSC_ERR_ARG_WRONG, "output file '%s': frame of step %d already written", path.c_str(), step);
+  // The frames' steps rise (a restart keeps the frames up to its step by that order).
+  PetscCheck(frames.empty() || step > frames.back().step, PETSC_COMM_SELF, PETSC_ERR_ARG_WRONG,
+             "output file '%s': frame of step %d after the frame of step %d (already written, or out of order)", path.c_str(), step, frames.back().step);
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
@@ -705,10 +804,10 @@ std::string OutputFile::Impl::XdmfHead() const
       << "  <Domain>\n"
       << "    " << kSidecarMarker << "\n";
   for (int kind = 0; kind < kGridKinds; ++kind) {
-    // A collection only once a frame has a grid of its kind: an XInclude that finds nothing fails.
     if (!head_kinds[kind]) continue;
+    // An XInclude that finds nothing is an error without its (empty) fallback.
     xml << "    <Grid Name=\"" << kGridNames[kind] << "\" GridType=\"Collection\" CollectionType=\"Temporal\">\n"
-        << "      <xi:include xpointer=\"xpointer(/Xdmf/Information[@Name='frames']/Grid[@Name='" << kGridNames[kind] << "'])\"/>\n"
+        << "      <xi:include xpointer=\"xpointer(/Xdmf/Information[@Name='frames']/Grid[@Name='" << kGridNames[kind] << "'])\"><xi:fallback/></xi:include>\n"
         << "    </Grid>\n";
   }
   xml << "  </Domain>\n"
@@ -716,11 +815,37 @@ std::string OutputFile::Impl::XdmfHead() const
   return xml.str();
 }
 
-std::string OutputFile::Impl::XdmfFrameGrids(const FrameEntry &frame) const
+// A frame's grids differ from those of another frame with the same contents only in its time,
+// its index and the frame count declared with it: the text is made once per kind of frame with
+// markers there (kIndexMarker, ...) and filled in per frame, so that listing a frame costs a copy.
+namespace {
+constexpr char kIndexMarker = '\x01', kCountMarker = '\x02', kTimeMarker = '\x03';
+}
+
+void OutputFile::Impl::AppendXdmfFrameGrids(const FrameEntry &frame, std::string *text)
+{
+  XdmfPattern &pattern = xdmf_patterns[frame.Contents()];
+  if (pattern.pieces.empty()) {
+    // Cut at the markers once: pieces[k] is followed by markers[k] (the last piece by nothing).
+    const std::string whole = XdmfFramePattern(frame, std::string(1, kIndexMarker), std::string(1, kCountMarker), std::string(1, kTimeMarker));
+    size_t            from  = 0;
+    for (size_t at = whole.find_first_of("\x01\x02\x03"); at != std::string::npos; at = whole.find_first_of("\x01\x02\x03", from)) {
+      pattern.pieces.push_back(whole.substr(from, at - from));
+      pattern.markers.push_back(whole[at]);
+      from = at + 1;
+    }
+    pattern.pieces.push_back(whole.substr(from));
+  }
+  const std::string index = std::to_string(frame.index), count = std::to_string(frame.index + 1), time = ShortestDecimal(frame.time);
+  for (size_t k = 0; k < pattern.pieces.size(); ++k) {
+    *text += pattern.pieces[k];
+    if (k < pattern.markers.size()) *text += pattern.markers[k] == kIndexMarker ? index : pattern.markers[k] == kCountMarker ? count : time;
+  }
+}
+
+std::string OutputFile::Impl::XdmfFramePattern(const FrameEntry &frame, const std::string &index, const std::string &count, const std::string &time) const
 {
   const std::string  h5_name = XmlEscape(h5_file_name);
-  const std::string  group   = FrameGroupName(frame.step);
-  const std::string  time    = ShortestDecimal(frame.time);
   std::ostringstream xml;
 
   // One <DataItem> referring to a dataset of the .h5 file by its relative name.
@@ -732,6 +857,34 @@ std::string OutputFile::Impl::XdmfFrameGrids(const FrameEntry &frame) const
     return item.str();
   };
   const auto floats = [&](hsize_t rows, int columns, const std::string &dataset) { return data_item("Float", 8, rows, columns, dataset); };
+  // This frame's rows x columns of the frame dataset /frames/<field> (frames x rows x columns).
+  // The file's frame count is declared as this frame's index + 1, which it has at least (both
+  // readers select by start and count and accept a dataset longer than declared).
+  const auto frame_slab = [&](const char *field, hsize_t rows, int columns, const std::string &name = "") {
+    std::ostringstream item;
+    if (xdmf_flavour == XdmfFlavour::Xdmf3) {
+      // Xdmf3: the selection in the data item's text, `|start:stride:count:dataset dims`.
+      item << "<DataItem Format=\"HDF\" NumberType=\"Float\" Precision=\"8\" Dimensions=\"" << rows << " " << columns << "\">" << h5_name << ":/frames/"
+           << field << "|" << index << " 0 0:1 1 1:1 " << rows << " " << columns << ":" << count << " " << rows << " " << columns << "</DataItem>";
+      return item.str();
+    }
+    // Xdmf2: a HyperSlab item (the selection's Format is XML and the data's NumberType Float,
+    // XDMF's defaults).
+    item << "<DataItem" << (name.empty() ? "" : " Name=\"" + name + "\"") << " ItemType=\"HyperSlab\" Dimensions=\"" << rows << " " << columns << "\">"
+         << "<DataItem Dimensions=\"3 3\">" << index << " 0 0 1 1 1 1 " << rows << " " << columns << "</DataItem>"
+         << "<DataItem Format=\"HDF\" Precision=\"8\" Dimensions=\"" << count << " " << rows << " " << columns << "\">" << h5_name << ":/frames/" << field
+         << "</DataItem></DataItem>";
+    return item.str();
+  };
+  // A grid's points. Xdmf2: ParaView's XDMF reader keys its geometry cache by the text of the
+  // geometry's first DataItem, so the hyperslab (which has none) is named beside the grids and
+  // referred to; the Xdmf3 item's text names the frame already.
+  const auto geometry_of = [&](const char *field, hsize_t rows) {
+    if (xdmf_flavour == XdmfFlavour::Xdmf3) return frame_slab(field, rows, 3);
+    const std::string name = std::string(field) + "_" + index;
+    xml << "    " << frame_slab(field, rows, 3, name) << "\n";
+    return "<DataItem Reference=\"XML\">/Xdmf/Information[@Name='frames']/DataItem[@Name='" + name + "']</DataItem>";
+  };
   // An attribute named with its unit (what ParaView shows in legends), the unit that of `dataset`.
   const auto attribute = [&](const std::string &name, const char *type, const char *center, const char *unit_group, const std::string &unit_name,
                              const std::string &item) {
@@ -747,38 +900,44 @@ std::string OutputFile::Impl::XdmfFrameGrids(const FrameEntry &frame) const
         << "        " << data_item("Int", 4, count, 1, vertices) << "\n"
         << "      </Topology>\n"
         << "      <Geometry GeometryType=\"XYZ\">\n"
-        << "        " << floats(count, 3, positions) << "\n"
+        << "        " << positions << "\n"
         << "      </Geometry>\n";
   };
 
   // The beams: polylines through the nodes.
+  const std::string beam_points = geometry_of("position", n_nodes);
   xml << "    <Grid Name=\"beams\" GridType=\"Uniform\">\n"
       << "      <Time Value=\"" << time << "\"/>\n"
       << "      <Topology TopologyType=\"Polyline\" NodesPerElement=\"2\" NumberOfElements=\"" << n_segments << "\">\n"
       << "        " << data_item("Int", 4, n_segments, 2, "/mesh/segments") << "\n"
       << "      </Topology>\n"
       << "      <Geometry GeometryType=\"XYZ\">\n"
-      << "        " << floats(n_nodes, 3, group + "/position") << "\n"
+      << "        " << beam_points << "\n"
       << "      </Geometry>\n";
-  attribute("displacement", "Vector", "Node", "frames", "displacement", floats(n_nodes, 3, group + "/displacement"));
-  attribute("rotation", "Matrix", "Node", "frames", "rotation", floats(n_nodes, 4, group + "/rotation"));
+  attribute("displacement", "Vector", "Node", "frames", "displacement", frame_slab("displacement", n_nodes, 3));
+  attribute("rotation", "Matrix", "Node", "frames", "rotation", frame_slab("rotation", n_nodes, 4));
   if (frame.has_velocities) {
-    attribute("velocity", "Vector", "Node", "frames", "velocity", floats(n_nodes, 3, group + "/velocity"));
-    attribute("angular_velocity", "Vector", "Node", "frames", "angular_velocity", floats(n_nodes, 3, group + "/angular_velocity"));
+    attribute("velocity", "Vector", "Node", "frames", "velocity", frame_slab("velocity", n_nodes, 3));
+    attribute("angular_velocity", "Vector", "Node", "frames", "angular_velocity", frame_slab("angular_velocity", n_nodes, 3));
   }
-  attribute("force", "Vector", "Cell", "frames", "segment_force", floats(n_segments, 3, group + "/segment_force"));
-  attribute("moment", "Vector", "Cell", "frames", "segment_moment", floats(n_segments, 3, group + "/segment_moment"));
+  attribute("force", "Vector", "Cell", "frames", "segment_force", frame_slab("segment_force", n_segments, 3));
+  attribute("moment", "Vector", "Cell", "frames", "segment_moment", frame_slab("segment_moment", n_segments, 3));
   if (frame.has_section_triads)
-    for (const char *axis : {"e1", "e2", "e3"})
-      attribute(std::string("section_") + axis, "Vector", "Cell", "frames", std::string("segment_") + axis, floats(n_segments, 3, group + "/segment_" + axis));
+    for (const char *axis : {"e1", "e2", "e3"}) {
+      const std::string field = std::string("segment_") + axis;
+      attribute(std::string("section_") + axis, "Vector", "Cell", "frames", field, frame_slab(field.c_str(), n_segments, 3));
+    }
   xml << "    </Grid>\n";
 
   // Rigid bodies: a point at each centre of mass with the principal axes (scaled by the semi-axes).
   if (frame.has_bodies) {
-    vertex_grid(kBodies, n_bodies, "/mesh/body_vertices", group + "/body_center");
-    for (const char *axis : {"1", "2", "3"})
-      attribute(std::string("axis_") + axis, "Vector", "Node", "frames", std::string("body_axis_") + axis, floats(n_bodies, 3, group + "/body_axis_" + axis));
-    attribute("rotation", "Matrix", "Node", "frames", "body_rotation", floats(n_bodies, 4, group + "/body_rotation"));
+    const std::string points = geometry_of("body_center", n_bodies);
+    vertex_grid(kBodies, n_bodies, "/mesh/body_vertices", points);
+    for (const char *axis : {"1", "2", "3"}) {
+      const std::string field = std::string("body_axis_") + axis;
+      attribute(std::string("axis_") + axis, "Vector", "Node", "frames", field, frame_slab(field.c_str(), n_bodies, 3));
+    }
+    attribute("rotation", "Matrix", "Node", "frames", "body_rotation", frame_slab("body_rotation", n_bodies, 4));
     attribute("semi_axes", "Vector", "Node", "mesh", "body_semi_axes", floats(n_bodies, 3, "/mesh/body_semi_axes"));
     attribute("mass", "Scalar", "Node", "mesh", "body_mass", floats(n_bodies, 0, "/mesh/body_mass"));
     attribute("body", "Scalar", "Node", "mesh", "body_vertices", data_item("Int", 4, n_bodies, 1, "/mesh/body_vertices"));
@@ -786,15 +945,18 @@ std::string OutputFile::Impl::XdmfFrameGrids(const FrameEntry &frame) const
   }
   // Joints: a point at each slave node with the joint axes in their current orientation.
   if (frame.has_joints) {
-    vertex_grid(kJoints, n_joints, "/mesh/joint_vertices", group + "/joint_position");
-    for (const char *axis : {"a1", "a2", "a3"})
-      attribute(axis, "Vector", "Node", "frames", std::string("joint_") + axis, floats(n_joints, 3, group + "/joint_" + axis));
+    const std::string points = geometry_of("joint_position", n_joints);
+    vertex_grid(kJoints, n_joints, "/mesh/joint_vertices", points);
+    for (const char *axis : {"a1", "a2", "a3"}) {
+      const std::string field = std::string("joint_") + axis;
+      attribute(axis, "Vector", "Node", "frames", field, frame_slab(field.c_str(), n_joints, 3));
+    }
     attribute("joint", "Scalar", "Node", "mesh", "joint_vertices", data_item("Int", 4, n_joints, 1, "/mesh/joint_vertices"));
     xml << "    </Grid>\n";
   }
   // The ground: fixed markers, repeated in every frame so that every reader shows them at every time.
   if (n_ground > 0) {
-    vertex_grid(kGround, n_ground, "/mesh/ground_vertices", "/mesh/ground_position");
+    vertex_grid(kGround, n_ground, "/mesh/ground_vertices", floats(n_ground, 3, "/mesh/ground_position"));
     for (const char *axis : {"a1", "a2", "a3"})
       attribute(axis, "Vector", "Node", "mesh", std::string("ground_") + axis, floats(n_ground, 3, std::string("/mesh/ground_") + axis));
     xml << "    </Grid>\n";
@@ -806,18 +968,26 @@ std::string OutputFile::Impl::XdmfFrameGrids(const FrameEntry &frame) const
 // one, so that a reader never sees a half-written file.
 PetscErrorCode OutputFile::Impl::WriteXdmfWhole()
 {
-  std::string frames_text;
+  std::string text;
 
   PetscFunctionBeginUser;
-  for (int kind = 0; kind < kGridKinds; ++kind) head_kinds[kind] = false;
+  // A collection for every kind of grid the mesh has, from the start: later frames are appended
+  // (no rewrite, no sync) whatever they hold. A collection with no frame yet is empty (its
+  // XInclude falls back to nothing).
+  head_kinds[kBeams]  = true;
+  head_kinds[kBodies] = n_bodies > 0;
+  head_kinds[kJoints] = n_joints > 0;
+  head_kinds[kGround] = n_ground > 0;
   for (size_t f = 0; f < frames_listed; ++f) {
-    head_kinds[kBeams] = true;
     head_kinds[kBodies] |= frames[f].has_bodies;
     head_kinds[kJoints] |= frames[f].has_joints;
-    head_kinds[kGround] |= n_ground > 0;
-    frames_text += XdmfFrameGrids(frames[f]);
   }
-  const std::string text = XdmfHead() + frames_text + kXdmfTail;
+  text = XdmfHead();
+  for (size_t f = 0; f < frames_listed; ++f) {
+    AppendXdmfFrameGrids(frames[f], &text);
+    if (f == 0) text.reserve(text.size() * (frames_listed + 1)); // one allocation for all frames
+  }
+  text += kXdmfTail;
   // Written under a new name beside it (O_EXCL, never through a link) and renamed over the old
   // sidecar, so a reader never sees a half-written one.
   PetscCall(WriteFileAtomicallyChecked(xdmf_path, text));
@@ -835,12 +1005,16 @@ PetscErrorCode OutputFile::Impl::AppendXdmf()
   if (frames_listed == frames.size()) PetscFunctionReturn(PETSC_SUCCESS);
   bool        new_kind = false;
   std::string text;
-  for (size_t f = frames_listed; f < frames.size(); ++f) {
+  for (size_t f = frames_listed; f < frames.size(); ++f)
     new_kind |= !head_kinds[kBeams] || (frames[f].has_bodies && !head_kinds[kBodies]) || (frames[f].has_joints && !head_kinds[kJoints]) ||
                 (n_ground > 0 && !head_kinds[kGround]);
-    text += XdmfFrameGrids(frames[f]);
+  if (!new_kind) {
+    for (size_t f = frames_listed; f < frames.size(); ++f) {
+      AppendXdmfFrameGrids(frames[f], &text);
+      if (f == frames_listed) text.reserve(text.size() * (frames.size() - frames_listed + 1));
+    }
+    text += kXdmfTail;
   }
-  text += kXdmfTail;
   const long long tail_size = (long long)sizeof kXdmfTail - 1;
   struct stat     status;
   // Never through a link: a sidecar replaced by a symbolic link since the last flush is rewritten
@@ -880,16 +1054,6 @@ PetscErrorCode OutputFile::Impl::OpenParallel()
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
-PetscErrorCode OutputFile::Impl::WriteFrameDataset(hid_t group, const char *name, hsize_t n_rows, hsize_t columns, const std::vector<int> &rows,
-                                                   const std::vector<double> &data)
-{
-  H5Id dataset;
-  PetscFunctionBeginUser;
-  PetscCall(WriteRowsCollective(path, group, name, n_rows, columns, rows, data, frame_transfer, &dataset));
-  PetscCall(Annotate(dataset, ".", DatasetQuantity("frames", name, dynamic)));
-  PetscFunctionReturn(PETSC_SUCCESS);
-}
-
 PetscErrorCode OutputFile::Impl::CheckFrame(const OutputFrame &frame, int step, bool has_velocities, const FrameRows &rows, const hsize_t totals[4]) const
 {
   const size_t nr = rows.nodes.size(), er = rows.elements.size(), br = rows.bodies.size(), jr = rows.joints.size();
@@ -926,12 +1090,11 @@ PetscErrorCode OutputFile::Impl::CheckFrame(const OutputFrame &frame, int step, 
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
-PetscErrorCode OutputFile::Impl::WriteFrameRows(const OutputFrame &frame, const FrameEntry &entry, const FrameRows &rows)
+PetscErrorCode OutputFile::Impl::SortFrame(const OutputFrame &frame, const FrameEntry &entry, const FrameRows &rows, FrameRows *sorted,
+                                           std::vector<double> values[kFrameFieldCount])
 {
-  const std::string   group_name = FrameGroupName(entry.step);
   std::vector<int>    segment_rows;
   std::vector<double> segment_force, segment_moment, segment_axes[3];
-  H5Id                group;
 
   PetscFunctionBeginUser;
   // A distributed frame numbers its elements' segments; otherwise the table is read back from
@@ -962,44 +1125,169 @@ PetscErrorCode OutputFile::Impl::WriteFrameRows(const OutputFrame &frame, const 
       for (int axis = 0; axis < 3; ++axis)
         segment_axes[axis].insert(segment_axes[axis].end(), &frame.segment_triads[9 * s + 3 * axis], &frame.segment_triads[9 * s + 3 * axis + 3]);
   }
-  PetscCallHDF5(group = H5Gcreate2(file, group_name.c_str(), H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT));
-  PetscCall(WriteAttribute(group, ".", "step", H5T_STD_I32LE, H5T_NATIVE_INT, &entry.step));
-  PetscCall(WriteAttribute(group, ".", "time", H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, &entry.time));
-  PetscCall(WriteFrameDataset(group, "position", n_nodes, 3, rows.nodes, frame.position));
-  PetscCall(WriteFrameDataset(group, "displacement", n_nodes, 3, rows.nodes, frame.displacement));
-  PetscCall(WriteFrameDataset(group, "rotation", n_nodes, 4, rows.nodes, frame.rotation));
-  PetscCall(WriteFrameDataset(group, "element_resultants", n_elements, 6, rows.elements, frame.element_resultants));
-  PetscCall(WriteFrameDataset(group, "element_strains", n_elements, 6, rows.elements, frame.element_strains));
-  PetscCall(WriteFrameDataset(group, "segment_force", n_segments, 3, segment_rows, segment_force));
-  PetscCall(WriteFrameDataset(group, "segment_moment", n_segments, 3, segment_rows, segment_moment));
-  if (own_segments) {
-    PetscCall(WriteFrameDataset(group, "segment_e1", n_segments, 3, segment_rows, segment_axes[0]));
-    PetscCall(WriteFrameDataset(group, "segment_e2", n_segments, 3, segment_rows, segment_axes[1]));
-    PetscCall(WriteFrameDataset(group, "segment_e3", n_segments, 3, segment_rows, segment_axes[2]));
-  }
-  if (entry.has_velocities) {
-    PetscCall(WriteFrameDataset(group, "velocity", n_nodes, 3, rows.nodes, frame.velocity));
-    PetscCall(WriteFrameDataset(group, "angular_velocity", n_nodes, 3, rows.nodes, frame.angular_velocity));
-  }
   // Tables of 9 values per row (three vectors) go to three datasets of 3, one per vector.
   const auto split = [](const std::vector<double> &rows_of_nine, int part) {
     std::vector<double> out;
     for (size_t r = 0; r + 9 <= rows_of_nine.size(); r += 9) out.insert(out.end(), &rows_of_nine[r + 3 * part], &rows_of_nine[r + 3 * part + 3]);
     return out;
   };
-  if (entry.has_bodies) {
-    PetscCall(WriteFrameDataset(group, "body_center", n_bodies, 3, rows.bodies, frame.body_center));
-    PetscCall(WriteFrameDataset(group, "body_axis_1", n_bodies, 3, rows.bodies, split(frame.body_axes, 0)));
-    PetscCall(WriteFrameDataset(group, "body_axis_2", n_bodies, 3, rows.bodies, split(frame.body_axes, 1)));
-    PetscCall(WriteFrameDataset(group, "body_axis_3", n_bodies, 3, rows.bodies, split(frame.body_axes, 2)));
-    PetscCall(WriteFrameDataset(group, "body_rotation", n_bodies, 4, rows.bodies, frame.body_rotation));
+  const std::vector<double> body_axes[3]  = {split(frame.body_axes, 0), split(frame.body_axes, 1), split(frame.body_axes, 2)};
+  const std::vector<double> joint_axes[3] = {split(frame.joint_axes, 0), split(frame.joint_axes, 1), split(frame.joint_axes, 2)};
+  // The values of each field in the caller's row order, in kFrameFields' order.
+  const std::vector<double> *given[kFrameFieldCount] = {
+      &frame.position,  &frame.displacement, &frame.rotation,      &frame.element_resultants, &frame.element_strains,  &segment_force,     &segment_moment,
+      &segment_axes[0], &segment_axes[1],    &segment_axes[2],     &frame.velocity,           &frame.angular_velocity, &frame.body_center, &body_axes[0],
+      &body_axes[1],    &body_axes[2],       &frame.body_rotation, &frame.joint_position,     &joint_axes[0],          &joint_axes[1],     &joint_axes[2]};
+  FrameRows with_segments = rows;
+  with_segments.segments  = std::move(segment_rows);
+  // Each table's rows in file order (ascending), and every field's values permuted alike.
+  std::vector<size_t> order[kRowKinds];
+  for (int kind = 0; kind < kRowKinds; ++kind) {
+    const std::vector<int> &unsorted = with_segments.Of((RowKind)kind);
+    order[kind].resize(unsorted.size());
+    for (size_t k = 0; k < unsorted.size(); ++k) order[kind][k] = k;
+    std::sort(order[kind].begin(), order[kind].end(), [&](size_t a, size_t b) { return unsorted[a] < unsorted[b]; });
   }
-  if (entry.has_joints) {
-    PetscCall(WriteFrameDataset(group, "joint_position", n_joints, 3, rows.joints, frame.joint_position));
-    PetscCall(WriteFrameDataset(group, "joint_a1", n_joints, 3, rows.joints, split(frame.joint_axes, 0)));
-    PetscCall(WriteFrameDataset(group, "joint_a2", n_joints, 3, rows.joints, split(frame.joint_axes, 1)));
-    PetscCall(WriteFrameDataset(group, "joint_a3", n_joints, 3, rows.joints, split(frame.joint_axes, 2)));
+  const auto sorted_rows = [&](RowKind kind) {
+    const std::vector<int> &unsorted = with_segments.Of(kind);
+    std::vector<int>        out(unsorted.size());
+    for (size_t k = 0; k < out.size(); ++k) out[k] = unsorted[order[kind][k]];
+    return out;
+  };
+  *sorted            = {sorted_rows(kNodeRows), sorted_rows(kElementRows), sorted_rows(kBodyRows), sorted_rows(kJointRows), sorted_rows(kSegmentRows)};
+  const int contents = entry.Contents();
+  for (int f = 0; f < kFrameFieldCount; ++f) {
+    const FrameField          &field = kFrameFields[f];
+    const std::vector<size_t> &perm  = order[field.rows];
+    values[f].clear();
+    if (field.content && !(contents & field.content)) continue;
+    const std::vector<double> &data = *given[f];
+    PetscCheck(data.size() == perm.size() * (size_t)field.columns, PETSC_COMM_SELF, PETSC_ERR_ARG_SIZ,
+               "output file '%s': step %d: %zu values of %s for %zu rows", path.c_str(), entry.step, data.size(), field.name, perm.size());
+    values[f].resize(data.size());
+    for (size_t k = 0; k < perm.size(); ++k) std::copy_n(&data[perm[k] * field.columns], field.columns, &values[f][k * field.columns]);
   }
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+void OutputFile::Impl::BufferFrame(const FrameEntry &entry, const FrameRows &sorted, std::vector<double> values[kFrameFieldCount])
+{
+  if (frames_buffered == 0) buffered_rows = sorted;
+  for (int f = 0; f < kFrameFieldCount; ++f) {
+    // A field the frame does not have holds zeros in it (its rows are the buffer's).
+    const size_t size = buffered_rows.Of(kFrameFields[f].rows).size() * (size_t)kFrameFields[f].columns;
+    if (values[f].empty()) buffered_fields[f].resize(buffered_fields[f].size() + size, 0.0);
+    else buffered_fields[f].insert(buffered_fields[f].end(), values[f].begin(), values[f].end());
+  }
+  frames.push_back(entry);
+  ++frames_buffered;
+}
+
+hsize_t OutputFile::Impl::FramesPerBlock() const
+{
+  double bytes = 0;
+  for (const FrameField &field : kFrameFields) bytes += 8.0 * (double)field.columns * (double)RowCount(field.rows);
+  return std::max<hsize_t>(1, (hsize_t)(kFrameBufferBytes / std::max(bytes, 1.0)));
+}
+
+PetscErrorCode OutputFile::Impl::WriteFrameBlock()
+{
+  const hsize_t first = frames_written, count = frames_buffered, total = first + count;
+  H5Id          group;
+
+  PetscFunctionBeginUser;
+  if (count == 0) PetscFunctionReturn(PETSC_SUCCESS);
+  PetscCallHDF5(group = H5Gopen2(file, "/frames", H5P_DEFAULT));
+  // Opens dataset `name` of /frames extended to `total` frames, creating it (chunked, filled with
+  // 0, with its unit) when it does not exist; `entry` is the shape of one frame.
+  const auto extended = [&](const char *name, hid_t type, const std::vector<hsize_t> &entry, bool exists, H5Id *dataset) -> PetscErrorCode {
+    std::vector<hsize_t> dims{total};
+    PetscFunctionBeginUser;
+    dims.insert(dims.end(), entry.begin(), entry.end());
+    if (exists) {
+      PetscCallHDF5(*dataset = H5Dopen2(group, name, H5P_DEFAULT));
+      PetscCallHDF5(H5Dset_extent(*dataset, dims.data()));
+      PetscFunctionReturn(PETSC_SUCCESS);
+    }
+    std::vector<hsize_t> max_dims = dims, chunk;
+    max_dims[0]                   = H5S_UNLIMITED;
+    if (entry.empty()) chunk = {HistoryChunkRows(1)};
+    else chunk = FrameChunk(entry[0], entry[1]);
+    H5Id         space, properties;
+    const double zero = 0.0;
+    PetscCallHDF5(space = H5Screate_simple((int)dims.size(), dims.data(), max_dims.data()));
+    PetscCallHDF5(properties = H5Pcreate(H5P_DATASET_CREATE));
+    PetscCallHDF5(H5Pset_chunk(properties, (int)chunk.size(), chunk.data()));
+    // Frames written before the dataset existed (a static stage without velocities) read as 0.
+    if (H5Tequal(type, H5T_IEEE_F64LE) > 0) PetscCallHDF5(H5Pset_fill_value(properties, H5T_NATIVE_DOUBLE, &zero));
+    PetscCallHDF5(*dataset = H5Dcreate2(group, name, type, space, H5P_DEFAULT, properties, H5P_DEFAULT));
+    PetscCall(Annotate(*dataset, ".", DatasetQuantity("frames", name, dynamic)));
+    PetscFunctionReturn(PETSC_SUCCESS);
+  };
+  // Rank 0 writes the step, time and contents of every buffered frame.
+  {
+    std::vector<int>    steps, contents;
+    std::vector<double> times;
+    for (hsize_t k = frames.size() - count; k < frames.size(); ++k) {
+      steps.push_back(frames[k].step);
+      times.push_back(frames[k].time);
+      contents.push_back(frames[k].Contents());
+    }
+    const struct {
+      const char *name;
+      hid_t       file_type, memory_type;
+      const void *data;
+    } columns[] = {{"step", H5T_STD_I32LE, H5T_NATIVE_INT, steps.data()},
+                   {"time", H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, times.data()},
+                   {"contents", H5T_STD_I32LE, H5T_NATIVE_INT, contents.data()}};
+    for (const auto &column : columns) {
+      H5Id dataset, file_space, memory_space;
+      PetscCall(extended(column.name, column.file_type, {}, first > 0, &dataset));
+      PetscCallHDF5(file_space = H5Dget_space(dataset));
+      PetscCallHDF5(memory_space = H5Screate_simple(1, &count, nullptr));
+      if (rank != 0) {
+        PetscCallHDF5(H5Sselect_none(file_space));
+        PetscCallHDF5(H5Sselect_none(memory_space));
+      } else PetscCallHDF5(H5Sselect_hyperslab(file_space, H5S_SELECT_SET, &first, nullptr, &count, nullptr));
+      PetscCallHDF5(H5Dwrite(dataset, column.memory_type, memory_space, file_space, frame_transfer, column.data));
+    }
+  }
+  // Every field: the buffered frames x this rank's rows, one hyperslab per run of consecutive rows.
+  int block_contents = 0;
+  for (hsize_t k = frames.size() - count; k < frames.size(); ++k) block_contents |= frames[k].Contents();
+  for (int f = 0; f < kFrameFieldCount; ++f) {
+    const FrameField &field = kFrameFields[f];
+    const hsize_t     rows = RowCount(field.rows), columns = (hsize_t)field.columns;
+    const bool        wanted = !field.content || (block_contents & field.content);
+    if (rows == 0 || (!field_exists[f] && !wanted)) continue;
+    H5Id dataset;
+    PetscCall(extended(field.name, H5T_IEEE_F64LE, {rows, columns}, field_exists[f], &dataset));
+    field_exists[f] = true;
+    if (!wanted) continue; // the new frames read as 0
+    const std::vector<int> &mine = buffered_rows.Of(field.rows);
+    H5Id                    file_space, memory_space;
+    PetscCallHDF5(file_space = H5Dget_space(dataset));
+    if (mine.empty()) PetscCallHDF5(H5Sselect_none(file_space));
+    for (size_t k = 0; k < mine.size();) {
+      size_t end = k + 1;
+      while (end < mine.size() && mine[end] == mine[end - 1] + 1) ++end;
+      const hsize_t start[3] = {first, (hsize_t)mine[k], 0}, block[3] = {count, end - k, columns};
+      PetscCallHDF5(H5Sselect_hyperslab(file_space, k == 0 ? H5S_SELECT_SET : H5S_SELECT_OR, start, nullptr, block, nullptr));
+      k = end;
+    }
+    const hsize_t values  = std::max<hsize_t>(1, buffered_fields[f].size());
+    const double  nothing = 0.0;
+    PetscCallHDF5(memory_space = H5Screate_simple(1, &values, nullptr));
+    if (buffered_fields[f].empty()) PetscCallHDF5(H5Sselect_none(memory_space));
+    PetscCheck(buffered_fields[f].size() == count * mine.size() * columns, PETSC_COMM_SELF, PETSC_ERR_PLIB,
+               "output file '%s': %zu buffered values of %s for %llu frames of %zu rows", path.c_str(), buffered_fields[f].size(), field.name,
+               (unsigned long long)count, mine.size());
+    PetscCallHDF5(
+        H5Dwrite(dataset, H5T_NATIVE_DOUBLE, memory_space, file_space, frame_transfer, buffered_fields[f].empty() ? &nothing : buffered_fields[f].data()));
+  }
+  frames_written  = total;
+  frames_buffered = 0;
+  for (std::vector<double> &values : buffered_fields) values.clear();
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
@@ -1093,30 +1381,58 @@ PetscErrorCode OutputFile::Impl::Resume(int last_step, long long history_rows, c
       dynamic = std::string(text.c_str()) == "dynamic";
     }
   }
+  // The frames: /frames/step, time and contents list them in the order written (steps rising).
+  PetscCheck(marker.format.empty() || marker.format == kResultFormat, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED,
+             "'%s' is an older msflex result file ('%s': a group per frame), which a restart cannot continue; continue into a new file with "
+             "-output_file NEW.h5",
+             p, marker.format.c_str());
   PetscCallHDF5(frames_group = H5Gopen2(file, "/frames", H5P_DEFAULT));
-  PetscCall(LinkNames(frames_group, &names));
   frames.clear();
-  std::vector<std::string> later_frames;
-  for (const std::string &name : names) {
-    FrameEntry entry{0, 0.0, false};
-    {
-      H5Id group, step, time;
-      PetscCallHDF5(group = H5Gopen2(frames_group, name.c_str(), H5P_DEFAULT));
-      PetscCallHDF5(step = H5Aopen(group, "step", H5P_DEFAULT));
-      PetscCallHDF5(H5Aread(step, H5T_NATIVE_INT, &entry.step));
-      PetscCallHDF5(time = H5Aopen(group, "time", H5P_DEFAULT));
-      PetscCallHDF5(H5Aread(time, H5T_NATIVE_DOUBLE, &entry.time));
-      entry.has_velocities     = H5Lexists(group, "velocity", H5P_DEFAULT) > 0;
-      entry.has_section_triads = H5Lexists(group, "segment_e1", H5P_DEFAULT) > 0;
-      entry.has_bodies         = H5Lexists(group, "body_center", H5P_DEFAULT) > 0;
-      entry.has_joints         = H5Lexists(group, "joint_position", H5P_DEFAULT) > 0;
+  hsize_t kept = 0, stored = 0;
+  {
+    std::vector<hsize_t> dims[3];
+    const char          *columns[3] = {"/frames/step", "/frames/time", "/frames/contents"};
+    for (int c = 0; c < 3; ++c) {
+      const std::string problem = DatasetDims(file, columns[c], &dims[c]);
+      PetscCheck(problem.empty(), PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "'%s': %s", p, problem.c_str());
+      PetscCheck(dims[c].size() == 1 && dims[c][0] == dims[0][0], PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "'%s': %s is not a list of %llu frames", p,
+                 columns[c], (unsigned long long)dims[0][0]);
     }
-    if (entry.step > last_step) later_frames.push_back(name);
-    else frames.push_back(entry);
+    stored = dims[0][0];
+    std::vector<int>    steps(stored), contents(stored);
+    std::vector<double> times(stored);
+    if (stored > 0) {
+      H5Id step, time, content;
+      PetscCallHDF5(step = H5Dopen2(file, columns[0], H5P_DEFAULT));
+      PetscCallHDF5(time = H5Dopen2(file, columns[1], H5P_DEFAULT));
+      PetscCallHDF5(content = H5Dopen2(file, columns[2], H5P_DEFAULT));
+      PetscCallHDF5(H5Dread(step, H5T_NATIVE_INT, H5S_ALL, H5S_ALL, H5P_DEFAULT, steps.data()));
+      PetscCallHDF5(H5Dread(time, H5T_NATIVE_DOUBLE, H5S_ALL, H5S_ALL, H5P_DEFAULT, times.data()));
+      PetscCallHDF5(H5Dread(content, H5T_NATIVE_INT, H5S_ALL, H5S_ALL, H5P_DEFAULT, contents.data()));
+    }
+    // The frames up to the checkpoint's last written step stay; they come first, as steps rise.
+    while (kept < stored && steps[kept] <= last_step) {
+      FrameEntry entry{steps[kept], times[kept], (contents[kept] & kHasVelocities) != 0};
+      entry.has_section_triads = (contents[kept] & kHasSectionTriads) != 0;
+      entry.has_bodies         = (contents[kept] & kHasBodies) != 0;
+      entry.has_joints         = (contents[kept] & kHasJoints) != 0;
+      entry.index              = kept;
+      frames.push_back(entry);
+      ++kept;
+    }
   }
-  PetscCheck(std::any_of(frames.begin(), frames.end(), [&](const FrameEntry &f) { return f.step == last_step; }), PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED,
+  PetscCheck(kept > 0 && frames.back().step == last_step, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED,
              "'%s' has no frame for step %d, the last one the checkpoint wrote", p, last_step);
-  std::sort(frames.begin(), frames.end(), [](const FrameEntry &a, const FrameEntry &b) { return a.step < b.step; });
+  // Every frame dataset must hold the listed frames.
+  std::vector<std::string> frame_datasets;
+  PetscCall(LinkNames(frames_group, &frame_datasets));
+  for (const std::string &name : frame_datasets) {
+    std::vector<hsize_t> dims;
+    const std::string    problem = DatasetDims(file, "/frames/" + name, &dims);
+    PetscCheck(problem.empty(), PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "'%s': %s", p, problem.c_str());
+    PetscCheck(!dims.empty() && dims[0] == stored, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "'%s': /frames/%s has %llu frames, /frames/step %llu", p,
+               name.c_str(), dims.empty() ? 0ULL : (unsigned long long)dims[0], (unsigned long long)stored);
+  }
   // Every history and probe series (group, name) must hold the checkpoint's rows.
   std::vector<std::pair<std::string, std::string>> series;
   PetscCallHDF5(history = H5Gopen2(file, "/history", H5P_DEFAULT));
@@ -1141,7 +1457,10 @@ PetscErrorCode OutputFile::Impl::Resume(int last_step, long long history_rows, c
                full.c_str(), dims.empty() ? 0ULL : (unsigned long long)dims[0], (unsigned long long)rows);
   }
   // (2) Changes: frames written after the checkpoint go, the series are cut to its rows.
-  for (const std::string &name : later_frames) PetscCallHDF5(H5Ldelete(frames_group, name.c_str(), H5P_DEFAULT));
+  for (const std::string &name : frame_datasets) PetscCall(TruncateRows(frames_group, name, kept));
+  frames_written = kept;
+  for (int f = 0; f < kFrameFieldCount; ++f)
+    field_exists[f] = std::find(frame_datasets.begin(), frame_datasets.end(), kFrameFields[f].name) != frame_datasets.end();
   for (const auto &[group, name] : series) {
     H5Id parent;
     PetscCallHDF5(parent = H5Gopen2(file, group.c_str(), H5P_DEFAULT));
@@ -1203,6 +1522,16 @@ PetscErrorCode OutputFile::Reopen(MPI_Comm comm, const std::string &path, int la
   long long rows = (long long)impl_->rows_written;
   PetscCallMPI(MPI_Bcast(&rows, 1, MPI_LONG_LONG, 0, comm));
   impl_->rows_written = (hsize_t)rows;
+  // The frames kept (every rank numbers the next ones alike) and the frame datasets the file has.
+  long long frames = (long long)impl_->frames.size();
+  PetscCallMPI(MPI_Bcast(&frames, 1, MPI_LONG_LONG, 0, comm));
+  impl_->frames.resize((size_t)frames);
+  PetscCallMPI(MPI_Bcast(impl_->frames.data(), (int)(frames * (long long)sizeof(Impl::FrameEntry)), MPI_BYTE, 0, comm));
+  impl_->frames_written = (hsize_t)frames;
+  int exists[kFrameFieldCount];
+  for (int f = 0; f < kFrameFieldCount; ++f) exists[f] = impl_->field_exists[f];
+  PetscCallMPI(MPI_Bcast(exists, kFrameFieldCount, MPI_INT, 0, comm));
+  for (int f = 0; f < kFrameFieldCount; ++f) impl_->field_exists[f] = exists[f] != 0;
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
@@ -1210,10 +1539,11 @@ template <class RootWork> PetscErrorCode OutputFile::OpenWith(MPI_Comm comm, con
 {
   PetscFunctionBeginUser;
   PetscCheck(!impl_, comm, PETSC_ERR_ARG_WRONGSTATE, "cannot open output file '%s': '%s' is still open", path.c_str(), path_.c_str());
-  comm_       = comm;
-  path_       = path;
-  impl_       = new Impl(path);
-  impl_->comm = comm;
+  comm_               = comm;
+  path_               = path;
+  impl_               = new Impl(path);
+  impl_->xdmf_flavour = xdmf_flavour_;
+  impl_->comm         = comm;
   PetscCallMPI(MPI_Comm_rank(comm, &impl_->rank));
   // Rank 0 prepares the file (creates it with /input and /mesh — replicated, small, partly
   // variable-length strings, which MPI-IO cannot write — or trims an existing one); then every
@@ -1264,20 +1594,30 @@ PetscErrorCode OutputFile::WriteFrame(const OutputFrame &frame)
   if (distributed) {
     const int mine = frame.velocity.empty() ? 0 : 1;
     PetscCallMPI(MPI_Allreduce(&mine, &has_velocities, 1, MPI_INT, MPI_LOR, comm_));
-    rows = {frame.node_rows, frame.element_rows, frame.body_rows, frame.joint_rows};
+    rows = {frame.node_rows, frame.element_rows, frame.body_rows, frame.joint_rows, {}};
   } else if (impl_->rank == 0) {
     // Rank 0 holds the whole frame (CheckFrame reports arrays of other sizes); the bodies and
     // joints when it has their arrays.
-    rows = {all_rows(impl_->n_nodes), all_rows(impl_->n_elements), all_rows(frame.body_center.empty() ? 0 : impl_->n_bodies),
-            all_rows(frame.joint_position.empty() ? 0 : impl_->n_joints)};
+    rows = {all_rows(impl_->n_nodes),
+            all_rows(impl_->n_elements),
+            all_rows(frame.body_center.empty() ? 0 : impl_->n_bodies),
+            all_rows(frame.joint_position.empty() ? 0 : impl_->n_joints),
+            {}};
   }
   unsigned long long local[4] = {rows.nodes.size(), rows.elements.size(), rows.bodies.size(), rows.joints.size()}, total[4];
   PetscCallMPI(MPI_Allreduce(local, total, 4, MPI_UNSIGNED_LONG_LONG, MPI_SUM, comm_));
   const hsize_t    totals[4] = {total[0], total[1], total[2], total[3]};
   Impl::FrameEntry entry{step, time, has_velocities != 0, distributed, total[2] > 0, total[3] > 0};
+  entry.index = impl_->frames.size();
+  Impl::FrameRows     sorted;
+  std::vector<double> values[kFrameFieldCount];
   PetscCall(RunCollective(comm_, [&] { return impl_->CheckFrame(frame, step, has_velocities, rows, totals); }));
-  PetscCall(RunCollective(comm_, [&] { return impl_->WriteFrameRows(frame, entry, rows); }));
-  impl_->frames.push_back(entry);
+  PetscCall(RunCollective(comm_, [&] { return impl_->SortFrame(frame, entry, rows, &sorted, values); }));
+  // The buffer takes frames of the same rows on every rank, as many as fit; else it is written first.
+  int full = impl_->frames_buffered > 0 && (impl_->frames_buffered >= impl_->FramesPerBlock() || !(sorted == impl_->buffered_rows)), any_full = 0;
+  PetscCallMPI(MPI_Allreduce(&full, &any_full, 1, MPI_INT, MPI_LOR, comm_));
+  if (any_full) PetscCall(RunCollective(comm_, [&] { return impl_->WriteFrameBlock(); }));
+  impl_->BufferFrame(entry, sorted, values);
   impl_->dirty = true;
   PetscCall(FlushIfDue());
   PetscFunctionReturn(PETSC_SUCCESS);
@@ -1318,6 +1658,7 @@ PetscErrorCode OutputFile::Flush()
   PetscCheck(impl_, PETSC_COMM_SELF, PETSC_ERR_ARG_WRONGSTATE, "Flush: no output file is open");
   if (!impl_->dirty) PetscFunctionReturn(PETSC_SUCCESS);
   PetscCall(RunCollective(comm_, [&] { return impl_->WriteHistoryBlock(); }));
+  PetscCall(RunCollective(comm_, [&] { return impl_->WriteFrameBlock(); }));
   PetscCall(RunCollective(comm_, [&]() -> PetscErrorCode {
     const std::string &path = impl_->path; // for PetscCallHDF5's message
     PetscFunctionBeginUser;

@@ -7,8 +7,8 @@
 // probes are taken from rank 0 (other ranks may pass empty arrays); after Open no rank keeps any
 // per-node or per-element table.
 //
-// Cost and safety: history rows are kept in memory and written in blocks, every series extended
-// once per block; frames are written when they come. Flush writes the buffered rows, makes the
+// Cost and safety: history rows and frames are kept in memory and written in blocks, every series
+// and frame dataset extended once per block. Flush writes the buffered rows and frames, makes the
 // file consistent on disk (H5Fflush) and appends the frames written since the last flush to the
 // XDMF sidecar (constant cost per frame; the sidecar is a complete XDMF file at every moment and
 // lists only flushed frames). Flushes happen at Close, when Flush is called (checkpoints), and,
@@ -22,6 +22,12 @@
 #include <vector>
 
 namespace msflex {
+
+// The syntax of the XDMF sidecar's per-frame data items (docs/output.md): `Xdmf3` selects a
+// frame's rows of a /frames dataset with the `file.h5:/path|start:stride:count:dims` form that
+// ParaView's Xdmf3 readers (its default for .xmf) read; `Xdmf2` with HyperSlab data items, which
+// ParaView's "XDMF Reader" and VisIt read. Neither reader reads the other's form.
+enum class XdmfFlavour { Xdmf3, Xdmf2 };
 
 struct OutputMesh {
   std::vector<double>      node_coordinates; // n_nodes * 3, reference positions
@@ -104,7 +110,7 @@ public:
 
   // Creates `path` (an existing file is an error unless overwrite, and only an msflex result file
   // is ever replaced) and its sidecar `path` with the extension replaced by .xmf. Writes the
-  // marker (msflex_format "msflex result 1", msflex_model `model_fingerprint`, msflex_run
+  // marker (msflex_format "msflex result 2", msflex_model `model_fingerprint`, msflex_run
   // `run_id`), the provenance attributes of the root group (version, git commit, command line,
   // options, ranks, start time), /input and /mesh into a new temporary file renamed over `path`
   // when complete.
@@ -116,7 +122,8 @@ public:
   // Nothing changes unless the file is the result of run `run_id` and holds the frame of
   // `last_step` and `history_rows` rows of every series (one line naming what is missing).
   PetscErrorCode Reopen(MPI_Comm comm, const std::string &path, int last_step, long long history_rows, const std::string &run_id);
-  // Writes /frames/<step>; the sidecar lists it from the next flush on.
+  // Appends a frame to the /frames datasets (one row each): kept in memory and written in blocks,
+  // at the latest at the next flush, from which on the sidecar lists it.
   PetscErrorCode WriteFrame(const OutputFrame &frame);
   // Appends one row to /history (one extensible 1-D dataset per name; the set of names must be
   // the same on every call, "time" first) and one sample per probe to /probes/<name>/..., in
@@ -132,6 +139,8 @@ public:
   // The same value on every rank. May be called before Open or at any time.
   void   SetFlushInterval(double seconds) { flush_interval_ = seconds; }
   double FlushInterval() const { return flush_interval_; }
+  // The sidecar's syntax (default Xdmf3). Before Open or Reopen.
+  void SetXdmfFlavour(XdmfFlavour flavour) { xdmf_flavour_ = flavour; }
   // Number of history rows written so far, including the buffered ones.
   long long HistoryRows() const;
 
@@ -144,6 +153,7 @@ private:
   PetscErrorCode FlushIfDue();
   Impl          *impl_           = nullptr;
   double         flush_interval_ = 10.0;
+  XdmfFlavour    xdmf_flavour_   = XdmfFlavour::Xdmf3;
   MPI_Comm       comm_           = MPI_COMM_NULL;
   std::string    path_;
 };

@@ -8,7 +8,7 @@ struct Entry {
   const char *group, *name, *unit, *description;
 };
 
-// Every dataset of the root (group ""), /mesh, /frames/<step> and /probes/<probe>. "TIME" in a unit stands for the unit
+// Every dataset of the root (group ""), /mesh, /frames and /probes/<probe>. "TIME" in a unit stands for the unit
 // of time: s in dynamics, 1 (the load factor) in statics.
 const Entry kDatasets[] = {
     {"", "input", "", "the input file's text (YAML), verbatim"},
@@ -44,6 +44,9 @@ const Entry kDatasets[] = {
     {"mesh", "ground_a2", "1", "second axis of each ground marker: the joint's a2, or y for a support"},
     {"mesh", "ground_a3", "1", "third axis of each ground marker: the joint's a3, or z for a support"},
     {"mesh", "ground_vertices", "1", "point index of each ground marker (the vertex cells of the XDMF ground grid)"},
+    {"frames", "step", "1", "step number of each frame (0: the initial state)"},
+    {"frames", "time", "TIME", "time of each frame (statics: the load factor)"},
+    {"frames", "contents", "1", "what each frame holds besides nodes and elements, bits: 1 velocities, 2 section triads, 4 rigid bodies, 8 joints"},
     {"frames", "position", "m", "current position of each node"},
     {"frames", "displacement", "m", "current minus reference position of each node"},
     {"frames", "rotation", "1", "rotation of each node from the reference configuration, unit quaternion (w, x, y, z)"},

@@ -1,5 +1,5 @@
 // The units and descriptions of everything the result file holds, in one place: every dataset of
-// /mesh, /frames/<step>, /probes/<probe> and /history gets them as its `unit` and `description`
+// /mesh, /frames, /probes/<probe> and /history gets them as its `unit` and `description`
 // attributes (docs/output.md), and the XDMF sidecar puts the unit into the array names ParaView
 // shows ("displacement [m]").
 //
@@ -18,7 +18,7 @@ struct Quantity {
   std::string description;
 };
 
-// A dataset of the root, /mesh, /frames/<step> or /probes/<probe> (`group` "", "mesh", "frames" or "probes",
+// A dataset of the root, /mesh, /frames or /probes/<probe> (`group` "", "mesh", "frames" or "probes",
 // `name` the dataset's name there). `dynamic`: the analysis is dynamic (time in s) rather than static (pseudo-time, the
 // load factor, dimensionless). Unknown names give an empty unit and description.
 Quantity DatasetQuantity(const std::string &group, const std::string &name, bool dynamic);

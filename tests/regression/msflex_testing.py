@@ -86,14 +86,72 @@ def history(path):
         return {name: dataset[()] for name, dataset in f["history"].items()}
 
 
+# The result file's frames ("msflex result 2"): /frames/step, /frames/time and /frames/contents
+# list the frames in the order written (steps rising); every other dataset of /frames is
+# frames x rows x columns, frame k being its entry [k]. A dataset exists when any frame has it; a
+# frame without it (its bit of /frames/contents not set) holds zeros there. FRAME_CONTENT_BIT: the
+# bit each per-frame dataset needs (0: every frame has it).
+FRAME_LISTS = ("step", "time", "contents")
+FRAME_CONTENT_BIT = {
+    "position": 0, "displacement": 0, "rotation": 0, "element_resultants": 0, "element_strains": 0, "segment_force": 0, "segment_moment": 0,
+    "velocity": 1, "angular_velocity": 1,
+    "segment_e1": 2, "segment_e2": 2, "segment_e3": 2,
+    "body_center": 4, "body_axis_1": 4, "body_axis_2": 4, "body_axis_3": 4, "body_rotation": 4,
+    "joint_position": 8, "joint_a1": 8, "joint_a2": 8, "joint_a3": 8,
+}
+
+
+def frame_count(h5file):
+    """Number of frames in an open result file (the length of /frames/step)."""
+    return len(h5file["frames/step"])
+
+
+def _frame_datasets(h5file):
+    """The per-frame datasets of /frames by name; raises on a dataset this table does not know
+    (so that a new output field is added to FRAME_CONTENT_BIT rather than read blindly)."""
+    datasets = {name: dataset for name, dataset in h5file["frames"].items() if name not in FRAME_LISTS}
+    unknown = sorted(set(datasets) - set(FRAME_CONTENT_BIT))
+    if unknown:
+        raise SystemExit(f"{h5file.filename}: unknown frame datasets {unknown}; add them to FRAME_CONTENT_BIT")
+    return datasets
+
+
+def _frame_dict(step, time, contents, values):
+    """One frame's dict: step, time, and the values (name -> array of that frame) whose bit is set."""
+    data = {"step": int(step), "time": float(time)}
+    for name, value in values.items():
+        bit = FRAME_CONTENT_BIT[name]
+        if bit == 0 or (contents & bit):
+            data[name] = value
+    return data
+
+
+def frame(h5file, k):
+    """Frame k (0-based, in the order written; negative counts from the end) of an open result
+    file: a dict with "step" (int), "time" (float) and each per-frame dataset that the frame has
+    (name -> numpy array of its rows x columns)."""
+    count = frame_count(h5file)
+    if not -count <= k < count:
+        raise IndexError(f"{h5file.filename}: frame {k} of {count}")
+    k = k % count
+    lists = h5file["frames"]
+    return _frame_dict(lists["step"][k], lists["time"][k], int(lists["contents"][k]),
+                       {name: dataset[k] for name, dataset in _frame_datasets(h5file).items()})
+
+
+def frames(h5file):
+    """Every frame of an open result file, in the order written: a list of frame(h5file, k) dicts
+    (each dataset is read once)."""
+    lists = h5file["frames"]
+    steps, times, contents = (lists[name][()] for name in FRAME_LISTS)
+    data = {name: dataset[()] for name, dataset in _frame_datasets(h5file).items()}
+    return [_frame_dict(steps[k], times[k], int(contents[k]), {name: values[k] for name, values in data.items()}) for k in range(len(steps))]
+
+
 def final_frame(path):
-    """The last frame's datasets and attributes."""
+    """The last frame of the result file `path`: frame(f, -1), its datasets with "step" and "time"."""
     with h5py.File(path, "r") as f:
-        frames = f["frames"]
-        last = frames[sorted(frames.keys())[-1]]
-        data = {name: dataset[()] for name, dataset in last.items()}
-        data["time"] = float(last.attrs["time"])
-        return data
+        return frame(f, -1)
 
 
 def skew(v):

@@ -24,10 +24,10 @@ with h5py.File(output, "r") as f:
     masters, slaves = f["mesh/joint_master"][()], f["mesh/joint_slave"][()]
     axes, offsets = f["mesh/joint_axes"][()], f["mesh/joint_offset"][()]
     reference = f["mesh/node_coordinates"][()]
-    frames = [f["frames"][k] for k in sorted(f["frames"].keys())]
-    times = [float(g.attrs["time"]) for g in frames]
-    positions = [g["position"][()] for g in frames]
-    rotations = [g["rotation"][()] for g in frames]
+    frames = mt.frames(f)
+    times = [frame["time"] for frame in frames]
+    positions = [frame["position"] for frame in frames]
+    rotations = [frame["rotation"] for frame in frames]
 check.equal("frames written at every step: frames = history rows", len(frames), len(h["time"]))
 
 pitch, rack_radius, cam_radius = 0.3, 0.2, 0.15  # as in the input

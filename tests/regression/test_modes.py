@@ -61,10 +61,11 @@ runs.append(("cantilever", f"{inputs}/cantilever_modes.yaml", ()))
 history = mt.history(path)
 compare("cantilever", history["angular_frequency"], bending(CANTILEVER, EI2) + bending(CANTILEVER, EI3), 1e-4)
 with h5py.File(path, "r") as f:
-    check.equal("cantilever: frames (equilibrium + 8 modes)", len(f["frames"]), 9)
-    frame = f["frames"][sorted(f["frames"].keys(), key=int)[1]]
-    shape = frame["displacement"][()]
-    position = frame["position"][()] - shape
+    check.equal("cantilever: frames (equilibrium + 8 modes)", mt.frame_count(f), 9)
+    frame = mt.frame(f, 1)
+    check.equal("cantilever: the first mode's frame is step 1", frame["step"], 1)
+    shape = frame["displacement"]
+    position = frame["position"] - shape
     x = position[:, 0] / L
 beta = CANTILEVER[0]
 s = (math.cosh(beta) + math.cos(beta)) / (math.sinh(beta) + math.sin(beta))

@@ -2,16 +2,19 @@
 
 Two runs: input/flying_spaghetti.yaml (em, dt = 0.01) to t = 7.5 with a frame every 50 steps (with
 the input's output_times 2.5, 5, 7.5: 16 frames), beams only; and input/driven_screw.yaml to
-t = 0.3 (a frame every step), with a rigid body, four joints and two joints to the ground. Each
-.xmf sidecar is opened with ParaView's two XDMF readers (XDMFReader and Xdmf3ReaderS) in pvpython
-(paraview_read.py, which dumps what ParaView sees into a .npz file) and compared with the HDF5 file
-read by h5py:
- - time steps: one per /frames group, at the frames' `time` attributes;
+t = 0.3 (a frame every step), with a rigid body, four joints and two joints to the ground; each
+twice, with the default sidecar (-output_xdmf xdmf3) and with -output_xdmf xdmf2. The xdmf3
+sidecars are opened with ParaView's Xdmf3 readers (Xdmf3ReaderS and Xdmf3ReaderT), the xdmf2 ones
+with its XDMF Reader (XDMFReader), in pvpython (paraview_read.py, which dumps what ParaView sees
+into a .npz file), and compared with the HDF5 file read by h5py:
+ - time steps: one per frame (/frames/step), at the frames' times (/frames/time);
  - per time step, the grids in order: beams, then bodies, joints and ground when the model has
    them (XDMFReader names its blocks so; a single grid comes alone);
  - beams: n_nodes points at the frame's `position`, n_segments 2-node poly-line cells with the point
    ids of /mesh/segments; point arrays displacement [m], rotation (4 components), velocity [m/s],
-   angular_velocity [rad/s], cell arrays force [N], moment [N m] and section_e1..e3, and no others;
+   angular_velocity [rad/s], cell arrays force [N], moment [N m] and section_e1..e3, and no others
+   (velocities and section triads where the frame's /frames/contents has them: in every frame of
+   these dynamic runs);
  - bodies: a vertex at each centre of mass (`body_center`) with axis_1..3 [m] (`body_axis_1..3`),
    rotation (`body_rotation`), semi_axes [m] and mass [kg] (/mesh/body_semi_axes, body_mass) and
    the body index; joints: a vertex at each slave node (`joint_position`) with a1..a3 (`joint_a1..3`)
@@ -19,7 +22,7 @@ read by h5py:
  - values: every array at every time step equals its dataset, difference 0.
 Then renders PNGs with postproc/render-paraview (the spaghetti's last frame coloured by
 displacement; t = 2.5 in grey with the section triads; the driven screw with its body, joints and
-ground) and checks that each has the requested size and is not blank, that the triads put red,
+ground, from both sidecars) and checks that each has the requested size and is not blank, that the triads put red,
 green and blue pixels into the second and the joint axes (magenta), body (orange) and ground
 (brown) show in the third; and a movie of the driven screw (--movie, every 4th frame): the PNG
 series and an .mp4 file made by ffmpeg."""
@@ -44,37 +47,45 @@ pvpython = shutil.which("pvpython")
 if not pvpython:
     raise SystemExit("pvpython not found: scripts/setup installs it (Debian package paraview)")
 
-spaghetti = os.path.join(args.work_dir, "flying_spaghetti.h5")
-mt.run_msflex(args, f"{args.source_dir}/input/flying_spaghetti.yaml", spaghetti,
-              extra=["-analysis_end_time", "7.5", "-output_every", "50", "-quiet"])
-screw = os.path.join(args.work_dir, "driven_screw.h5")
-mt.run_msflex(args, f"{args.source_dir}/input/driven_screw.yaml", screw, extra=["-analysis_end_time", "0.3", "-quiet"])
+results = {}  # (model, flavour) -> result file
+for flavour in ("xdmf3", "xdmf2"):
+    suffix = "" if flavour == "xdmf3" else "_xdmf2"
+    results["spaghetti", flavour] = os.path.join(args.work_dir, f"flying_spaghetti{suffix}.h5")
+    mt.run_msflex(args, f"{args.source_dir}/input/flying_spaghetti.yaml", results["spaghetti", flavour],
+                  extra=["-analysis_end_time", "7.5", "-output_every", "50", "-quiet", "-output_xdmf", flavour])
+    results["screw", flavour] = os.path.join(args.work_dir, f"driven_screw{suffix}.h5")
+    mt.run_msflex(args, f"{args.source_dir}/input/driven_screw.yaml", results["screw", flavour],
+                  extra=["-analysis_end_time", "0.3", "-quiet", "-output_xdmf", flavour])
+spaghetti, screw = results["spaghetti", "xdmf3"], results["screw", "xdmf3"]
 
 
 def expected_grids(path):
     """Per frame, per grid kind: points, cells (None: one vertex per point), point and cell arrays
-    (XDMF name -> values), all from the HDF5 file."""
+    (XDMF name -> values), all from the HDF5 file. A frame has the velocities, section triads,
+    bodies and joints that its bit of /frames/contents says (mt.frame leaves out the others)."""
     with h5py.File(path, "r") as f:
         mesh = f["mesh"]
-        frames = [f["frames"][name] for name in sorted(f["frames"])]
-        times = np.array([float(frame.attrs["time"]) for frame in frames])
+        frames = mt.frames(f)
+        times = f["frames/time"][()]
         result = []
         for frame in frames:
-            grids = {"beams": {"points": frame["position"][()], "cells": mesh["segments"][()],
-                               "point": {"displacement [m]": frame["displacement"][()], "rotation": frame["rotation"][()],
-                                         "velocity [m/s]": frame["velocity"][()], "angular_velocity [rad/s]": frame["angular_velocity"][()]},
-                               "cell": {"force [N]": frame["segment_force"][()], "moment [N m]": frame["segment_moment"][()],
-                                        **{f"section_e{k}": frame[f"segment_e{k}"][()] for k in (1, 2, 3)}}}}
-            if "body_names" in mesh:
+            point = {"displacement [m]": frame["displacement"], "rotation": frame["rotation"]}
+            if "velocity" in frame:
+                point.update({"velocity [m/s]": frame["velocity"], "angular_velocity [rad/s]": frame["angular_velocity"]})
+            cell = {"force [N]": frame["segment_force"], "moment [N m]": frame["segment_moment"]}
+            if "segment_e1" in frame:
+                cell.update({f"section_e{k}": frame[f"segment_e{k}"] for k in (1, 2, 3)})
+            grids = {"beams": {"points": frame["position"], "cells": mesh["segments"][()], "point": point, "cell": cell}}
+            if "body_center" in frame:
                 n = len(mesh["body_names"])
-                grids["bodies"] = {"points": frame["body_center"][()], "cells": None, "cell": {},
-                                   "point": {**{f"axis_{k} [m]": frame[f"body_axis_{k}"][()] for k in (1, 2, 3)},
-                                             "rotation": frame["body_rotation"][()], "semi_axes [m]": mesh["body_semi_axes"][()],
+                grids["bodies"] = {"points": frame["body_center"], "cells": None, "cell": {},
+                                   "point": {**{f"axis_{k} [m]": frame[f"body_axis_{k}"] for k in (1, 2, 3)},
+                                             "rotation": frame["body_rotation"], "semi_axes [m]": mesh["body_semi_axes"][()],
                                              "mass [kg]": mesh["body_mass"][()].reshape(n, 1), "body": np.arange(n).reshape(n, 1)}}
-            if "joint_names" in mesh:
+            if "joint_position" in frame:
                 n = len(mesh["joint_names"])
-                grids["joints"] = {"points": frame["joint_position"][()], "cells": None, "cell": {},
-                                   "point": {**{f"a{k}": frame[f"joint_a{k}"][()] for k in (1, 2, 3)}, "joint": np.arange(n).reshape(n, 1)}}
+                grids["joints"] = {"points": frame["joint_position"], "cells": None, "cell": {},
+                                   "point": {**{f"a{k}": frame[f"joint_a{k}"] for k in (1, 2, 3)}, "joint": np.arange(n).reshape(n, 1)}}
             if "ground_names" in mesh:
                 grids["ground"] = {"points": mesh["ground_position"][()], "cells": None, "cell": {},
                                    "point": {f"a{k}": mesh[f"ground_a{k}"][()] for k in (1, 2, 3)}}
@@ -90,12 +101,15 @@ def difference(paraview, hdf5):
     return float(np.abs(paraview - hdf5).max()) if paraview.size else 0.0
 
 
-def compare(name, h5, expected_kinds):
+def compare(name, h5, expected_kinds, readers):
     times_h5, frames = expected_grids(h5)
     xmf = os.path.splitext(h5)[0] + ".xmf"
     print(f"{name}: {len(times_h5)} frames, t = {times_h5[0]:g} .. {times_h5[-1]:g}, grids {', '.join(frames[0])}")
     check.true(f"{name}: grids {expected_kinds} in the file", list(frames[0]) == expected_kinds)
-    for reader in ("XDMFReader", "Xdmf3ReaderS"):
+    partial = [k for k, grids in enumerate(frames) if list(grids) != expected_kinds or "velocity [m/s]" not in grids["beams"]["point"]
+               or "section_e1" not in grids["beams"]["cell"]]
+    check.equal(f"{name}: frames without all grids, velocities and section triads ({partial[:5]})", len(partial), 0)
+    for reader in readers:
         dump = os.path.join(args.work_dir, f"{name}.{reader}.npz")
         result = subprocess.run([pvpython, os.path.join(here, "paraview_read.py"), xmf, dump, "--reader", reader],
                                 capture_output=True, text=True, timeout=600)
@@ -155,8 +169,9 @@ def compare(name, h5, expected_kinds):
             check.less(f"{name}, {reader}: {kind} arrays vs their datasets, max difference over {steps} steps", value, 1e-300)
 
 
-compare("flying_spaghetti", spaghetti, ["beams"])
-compare("driven_screw", screw, ["beams", "bodies", "joints", "ground"])
+for flavour, readers in (("xdmf3", ("Xdmf3ReaderS", "Xdmf3ReaderT")), ("xdmf2", ("XDMFReader",))):
+    compare(f"flying_spaghetti ({flavour})", results["spaghetti", flavour], ["beams"], readers)
+    compare(f"driven_screw ({flavour})", results["screw", flavour], ["beams", "bodies", "joints", "ground"], readers)
 xmf = os.path.splitext(spaghetti)[0] + ".xmf"
 
 
@@ -198,20 +213,23 @@ for colour, count in (("red", (r > 0.4) & (g < 0.2) & (b < 0.2)), ("green", (g >
                       ("blue", (b > 0.4) & (r < 0.2) & (g < 0.2))):
     check.true(f"triads.png: {colour} arrows drawn (more than 50 {colour} pixels: {count.sum()})", bool(count.sum() > 50))
 
-# The driven screw: joint axes (magenta), the rigid body (orange) and the ground (brown) show.
-png = os.path.join(args.work_dir, "driven_screw.png")
-command = [sys.executable, render_paraview, os.path.splitext(screw)[0] + ".xmf", "-o", png, "--xvfb", "--size", "640", "480", "--inertia",
-           "--color", "none", "--zoom", "1.5"]
-result = subprocess.run(command, capture_output=True, text=True, timeout=600)
-if result.returncode != 0:
-    sys.stderr.write(result.stdout + result.stderr[-4000:])
-    raise SystemExit(f"render-paraview failed ({result.returncode}): {' '.join(command)}")
-image = matplotlib.image.imread(png)[:, :, :3]
-pixel_size_check("driven_screw.png", image, (640, 480))
-r, g, b = image[:, :, 0], image[:, :, 1], image[:, :, 2]
-for what, count in (("joint axes (magenta)", (r > 0.4) & (b > 0.4) & (g < 0.2)), ("rigid body (orange)", (r > 0.6) & (g > 0.3) & (g < 0.6) & (b < 0.2)),
-                    ("ground (brown)", (r > 0.15) & (r < 0.45) & (g > 0.1) & (g < 0.4) & (b < 0.3) & (r > b + 0.04))):
-    check.true(f"driven_screw.png: {what} drawn (more than 30 pixels: {count.sum()})", bool(count.sum() > 30))
+# The driven screw: joint axes (magenta), the rigid body (orange) and the ground (brown) show,
+# whichever reader render-paraview picks for the sidecar.
+for flavour in ("xdmf3", "xdmf2"):
+    png = os.path.join(args.work_dir, f"driven_screw_{flavour}.png")
+    command = [sys.executable, render_paraview, os.path.splitext(results["screw", flavour])[0] + ".xmf", "-o", png, "--xvfb", "--size", "640", "480",
+               "--inertia", "--color", "none", "--zoom", "1.5"]
+    result = subprocess.run(command, capture_output=True, text=True, timeout=600)
+    if result.returncode != 0:
+        sys.stderr.write(result.stdout + result.stderr[-4000:])
+        raise SystemExit(f"render-paraview failed ({result.returncode}): {' '.join(command)}")
+    image = matplotlib.image.imread(png)[:, :, :3]
+    pixel_size_check(os.path.basename(png), image, (640, 480))
+    r, g, b = image[:, :, 0], image[:, :, 1], image[:, :, 2]
+    for what, count in (("joint axes (magenta)", (r > 0.4) & (b > 0.4) & (g < 0.2)),
+                        ("rigid body (orange)", (r > 0.6) & (g > 0.3) & (g < 0.6) & (b < 0.2)),
+                        ("ground (brown)", (r > 0.15) & (r < 0.45) & (g > 0.1) & (g < 0.4) & (b < 0.3) & (r > b + 0.04))):
+        check.true(f"{os.path.basename(png)}: {what} drawn (more than 30 pixels: {count.sum()})", bool(count.sum() > 30))
 
 # A movie of every 4th frame: the PNG series and an .mp4 by ffmpeg.
 movie = os.path.join(args.work_dir, "driven_screw.mp4")
@@ -221,7 +239,7 @@ if result.returncode != 0:
     sys.stderr.write(result.stdout + result.stderr[-4000:])
     raise SystemExit(f"render-paraview failed ({result.returncode}): {' '.join(command)}")
 with h5py.File(screw, "r") as f:
-    n_frames = len(f["frames"])
+    n_frames = mt.frame_count(f)
 expected_pngs = len(range(0, n_frames, 4)) + (0 if (n_frames - 1) % 4 == 0 else 1)
 pngs = sorted(p for p in os.listdir(os.path.join(args.work_dir, "driven_screw_frames")) if p.endswith(".png"))
 mp4_bytes = os.path.getsize(movie) if os.path.isfile(movie) else 0

@@ -114,6 +114,21 @@ std::vector<double> ReadDoubles(hid_t file, const std::string &name, std::vector
 
 std::vector<int> ReadInts(hid_t file, const std::string &name, std::vector<hsize_t> *dims) { return ReadDataset<int>(file, name, H5T_NATIVE_INT, dims); }
 
+// Frame `index` of the frame dataset /frames/<field> (frames x rows x columns): its values, and
+// in *dims its shape (rows, columns).
+std::vector<double> ReadFrame(hid_t file, const std::string &field, size_t index, std::vector<hsize_t> *dims)
+{
+  std::vector<hsize_t>      all;
+  const std::vector<double> values = ReadDoubles(file, "/frames/" + field, &all);
+  if (all.size() != 3 || index >= all[0]) {
+    dims->clear();
+    return {};
+  }
+  *dims                  = {all[1], all[2]};
+  const size_t per_frame = all[1] * all[2];
+  return std::vector<double>(values.begin() + index * per_frame, values.begin() + (index + 1) * per_frame);
+}
+
 // The in-memory type of the file's strings: HDF5 does not convert between character sets.
 hid_t CreateUtf8StringType()
 {
@@ -236,24 +251,27 @@ TEST_F(OutputFileTest, WritesMeshFramesHistoryAndSidecar)
   EXPECT_EQ(dims, (Shape{3, 2}));
   EXPECT_EQ(ReadInts(file, "/mesh/segment_element", &dims), (std::vector<int>{0, 0, 1}));
 
-  for (const int step : kFrameSteps) {
-    const OutputFrame expected = FrameOfStep(step);
-    const std::string group    = step == 0 ? "/frames/000000" : "/frames/000003";
-    EXPECT_EQ(ReadAttribute<int>(file, group, "step", H5T_NATIVE_INT), step);
-    EXPECT_EQ(ReadAttribute<double>(file, group, "time", H5T_NATIVE_DOUBLE), FrameTime(step));
-    EXPECT_EQ(ReadDoubles(file, group + "/position", &dims), expected.position);
+  std::vector<int> steps;
+  for (const int step : kFrameSteps) steps.push_back(step);
+  EXPECT_EQ(ReadInts(file, "/frames/step", &dims), steps);
+  EXPECT_EQ(dims, Shape{steps.size()});
+  EXPECT_EQ(ReadDoubles(file, "/frames/time", &dims), (std::vector<double>{FrameTime(steps[0]), FrameTime(steps[1])}));
+  EXPECT_EQ(ReadInts(file, "/frames/contents", &dims), (std::vector<int>{0, 0})) << "static frames of rank 0: no velocities, triads, bodies, joints";
+  for (size_t k = 0; k < steps.size(); ++k) {
+    const OutputFrame expected = FrameOfStep(steps[k]);
+    EXPECT_EQ(ReadFrame(file, "position", k, &dims), expected.position);
     EXPECT_EQ(dims, (Shape{3, 3}));
-    EXPECT_EQ(ReadDoubles(file, group + "/displacement", &dims), expected.displacement);
-    EXPECT_EQ(ReadDoubles(file, group + "/rotation", &dims), expected.rotation);
+    EXPECT_EQ(ReadFrame(file, "displacement", k, &dims), expected.displacement);
+    EXPECT_EQ(ReadFrame(file, "rotation", k, &dims), expected.rotation);
     EXPECT_EQ(dims, (Shape{3, 4}));
-    EXPECT_EQ(ReadDoubles(file, group + "/element_resultants", &dims), expected.element_resultants);
+    EXPECT_EQ(ReadFrame(file, "element_resultants", k, &dims), expected.element_resultants);
     EXPECT_EQ(dims, (Shape{2, 6}));
-    EXPECT_EQ(ReadDoubles(file, group + "/element_strains", &dims), expected.element_strains);
+    EXPECT_EQ(ReadFrame(file, "element_strains", k, &dims), expected.element_strains);
     // Segments 0 and 1 belong to element 0, segment 2 to element 1.
     const std::vector<double> &r = expected.element_resultants;
-    EXPECT_EQ(ReadDoubles(file, group + "/segment_force", &dims), (std::vector<double>{r[0], r[1], r[2], r[0], r[1], r[2], r[6], r[7], r[8]}));
+    EXPECT_EQ(ReadFrame(file, "segment_force", k, &dims), (std::vector<double>{r[0], r[1], r[2], r[0], r[1], r[2], r[6], r[7], r[8]}));
     EXPECT_EQ(dims, (Shape{3, 3}));
-    EXPECT_EQ(ReadDoubles(file, group + "/segment_moment", &dims), (std::vector<double>{r[3], r[4], r[5], r[3], r[4], r[5], r[9], r[10], r[11]}));
+    EXPECT_EQ(ReadFrame(file, "segment_moment", k, &dims), (std::vector<double>{r[3], r[4], r[5], r[3], r[4], r[5], r[9], r[10], r[11]}));
   }
 
   for (size_t i = 0; i < kHistoryNames.size(); ++i) {
@@ -274,10 +292,29 @@ TEST_F(OutputFileTest, WritesMeshFramesHistoryAndSidecar)
   ASSERT_TRUE(fs::exists(xdmf_path()));
   const std::string xdmf = ReadText(xdmf_path());
   EXPECT_NE(xdmf.find("CollectionType=\"Temporal\""), std::string::npos);
-  for (const char *expected : {"<Time Value=\"0\"/>", "<Time Value=\"0.75\"/>", ">output.h5:/frames/000000/position<", ">output.h5:/frames/000003/position<",
-                               ">output.h5:/frames/000003/segment_force<", ">output.h5:/mesh/segments<"})
+  // The default syntax, xdmf3: frame k of a dataset of K frames as `|k 0 0:1 1 1:1 rows cols:K rows cols`.
+  for (const char *expected :
+       {"<Time Value=\"0\"/>", "<Time Value=\"0.75\"/>", ">output.h5:/frames/position|0 0 0:1 1 1:1 3 3:1 3 3<",
+        ">output.h5:/frames/position|1 0 0:1 1 1:1 3 3:2 3 3<", ">output.h5:/frames/segment_force|1 0 0:1 1 1:1 3 3:2 3 3<", ">output.h5:/mesh/segments<"})
     EXPECT_NE(xdmf.find(expected), std::string::npos) << "sidecar lacks " << expected << ":\n" << xdmf;
+  EXPECT_EQ(xdmf.find("HyperSlab"), std::string::npos) << "an xdmf3 sidecar has no HyperSlab items:\n" << xdmf;
   EXPECT_EQ(xdmf.find(directory_.string()), std::string::npos) << "the sidecar must refer to the .h5 by its relative name";
+}
+
+// With XdmfFlavour::Xdmf2 the frames are HyperSlab items, the points named and referred to.
+TEST_F(OutputFileTest, Xdmf2SidecarUsesHyperSlabs)
+{
+  OutputFile out;
+  out.SetXdmfFlavour(XdmfFlavour::Xdmf2);
+  ASSERT_EQ(OpenTiny(&out, false), PETSC_SUCCESS);
+  for (const int step : kFrameSteps) ASSERT_EQ(out.WriteFrame(IsRoot() ? FrameOfStep(step) : OutputFrame{}), PETSC_SUCCESS);
+  ASSERT_EQ(out.Close(), PETSC_SUCCESS);
+  if (!IsRoot()) return;
+  const std::string xdmf = ReadText(xdmf_path());
+  for (const char *expected : {"<DataItem Name=\"position_0\"", "<DataItem Name=\"position_1\"", "[@Name='position_1']", ">1 0 0 1 1 1 1 3 3<",
+                               ">output.h5:/frames/segment_force<", ">output.h5:/mesh/segments<"})
+    EXPECT_NE(xdmf.find(expected), std::string::npos) << "sidecar lacks " << expected << ":\n" << xdmf;
+  EXPECT_EQ(xdmf.find("|"), std::string::npos) << "an xdmf2 sidecar has no xdmf3 selections:\n" << xdmf;
 }
 
 TEST_F(OutputFileTest, ExistingFileNeedsOverwrite)
@@ -660,23 +697,26 @@ TEST_F(OutputFileTest, WritesRigidBodiesJointsAndGround)
   EXPECT_EQ(ReadDoubles(file, "/mesh/ground_position", &dims), mesh.ground_position);
   for (int axis = 0; axis < 3; ++axis)
     EXPECT_EQ(ReadDoubles(file, "/mesh/ground_a" + std::to_string(axis + 1), &dims), Part(mesh.ground_axes, axis)) << "ground axis " << axis + 1;
-  for (int step = 0; step < 3; ++step) {
-    const OutputFrame expected = MechanismFrame(step);
-    const std::string group    = "/frames/00000" + std::to_string(step);
-    EXPECT_EQ(ReadDoubles(file, group + "/body_center", &dims), expected.body_center) << group;
+  EXPECT_EQ(ReadInts(file, "/frames/step", &dims), (std::vector<int>{0, 1, 2, 3}));
+  // Bodies and joints in frames 0-2 (velocities in all, section triads in the distributed frame 2).
+  EXPECT_EQ(ReadInts(file, "/frames/contents", &dims), (std::vector<int>{1 | 4 | 8, 1 | 4 | 8, 1 | 2 | 4 | 8, 1}));
+  for (size_t step = 0; step < 3; ++step) {
+    const OutputFrame expected = MechanismFrame((int)step);
+    const std::string frame    = "frame " + std::to_string(step);
+    EXPECT_EQ(ReadFrame(file, "body_center", step, &dims), expected.body_center) << frame;
     EXPECT_EQ(dims, (Shape{2, 3}));
     for (int axis = 0; axis < 3; ++axis) {
-      EXPECT_EQ(ReadDoubles(file, group + "/body_axis_" + std::to_string(axis + 1), &dims), Part(expected.body_axes, axis)) << group << " axis " << axis;
-      EXPECT_EQ(ReadDoubles(file, group + "/joint_a" + std::to_string(axis + 1), &dims), Part(expected.joint_axes, axis)) << group << " axis " << axis;
+      EXPECT_EQ(ReadFrame(file, "body_axis_" + std::to_string(axis + 1), step, &dims), Part(expected.body_axes, axis)) << frame << " axis " << axis;
+      EXPECT_EQ(ReadFrame(file, "joint_a" + std::to_string(axis + 1), step, &dims), Part(expected.joint_axes, axis)) << frame << " axis " << axis;
     }
-    EXPECT_EQ(ReadDoubles(file, group + "/body_rotation", &dims), expected.body_rotation) << group;
+    EXPECT_EQ(ReadFrame(file, "body_rotation", step, &dims), expected.body_rotation) << frame;
     EXPECT_EQ(dims, (Shape{2, 4}));
-    EXPECT_EQ(ReadDoubles(file, group + "/joint_position", &dims), expected.joint_position) << group;
-    EXPECT_EQ(ReadDoubles(file, group + "/position", &dims), expected.position) << group;
-    EXPECT_EQ(ReadDoubles(file, group + "/velocity", &dims), expected.velocity) << group;
+    EXPECT_EQ(ReadFrame(file, "joint_position", step, &dims), expected.joint_position) << frame;
+    EXPECT_EQ(ReadFrame(file, "position", step, &dims), expected.position) << frame;
+    EXPECT_EQ(ReadFrame(file, "velocity", step, &dims), expected.velocity) << frame;
   }
-  EXPECT_EQ(H5Lexists(file, "/frames/000003/body_center", H5P_DEFAULT), 0) << "a frame without rigid-body rows has no rigid-body datasets";
-  EXPECT_EQ(H5Lexists(file, "/frames/000003/joint_position", H5P_DEFAULT), 0);
+  EXPECT_EQ(ReadFrame(file, "body_center", 3, &dims), std::vector<double>(6, 0.0)) << "a frame without rigid-body rows holds zeros there";
+  EXPECT_EQ(ReadFrame(file, "joint_position", 3, &dims), std::vector<double>(6, 0.0));
   EXPECT_GE(H5Fclose(file), 0);
 
   // The sidecar: four collections; bodies and joints in the first three frames, the ground in all.
@@ -692,7 +732,7 @@ TEST_F(OutputFileTest, WritesRigidBodiesJointsAndGround)
   for (const char *name : {"\"displacement [m]\"", "\"velocity [m/s]\"", "\"angular_velocity [rad/s]\"", "\"force [N]\"", "\"moment [N m]\"", "\"axis_1 [m]\"",
                            "\"mass [kg]\"", "\"semi_axes [m]\"", "\"a1\"", "\"rotation\"", "\"section_e1\""})
     EXPECT_NE(xdmf.find(std::string("Attribute Name=") + name), std::string::npos) << "no attribute " << name;
-  EXPECT_NE(xdmf.find(">output.h5:/frames/000002/body_axis_3<"), std::string::npos);
+  EXPECT_NE(xdmf.find(">output.h5:/frames/body_axis_3|2 0 0:1 1 1:1 2 3:3 2 3<"), std::string::npos);
   EXPECT_NE(xdmf.find(">output.h5:/mesh/ground_position<"), std::string::npos);
 }
 
@@ -741,13 +781,16 @@ TEST_F(OutputFileTest, EveryDatasetHasAUnitAndADescription)
       {"/mesh/body_inertia", "kg m^2"},
       {"/mesh/body_mass", "kg"},
       {"/mesh/node_names", ""},
-      {"/frames/000000/position", "m"},
-      {"/frames/000000/velocity", "m/s"},
-      {"/frames/000000/angular_velocity", "rad/s"},
-      {"/frames/000000/element_resultants", "N, N, N, N m, N m, N m"},
-      {"/frames/000000/segment_moment", "N m"},
-      {"/frames/000000/body_axis_1", "m"},
-      {"/frames/000000/joint_a2", "1"},
+      {"/frames/step", "1"},
+      {"/frames/time", "s"},
+      {"/frames/contents", "1"},
+      {"/frames/position", "m"},
+      {"/frames/velocity", "m/s"},
+      {"/frames/angular_velocity", "rad/s"},
+      {"/frames/element_resultants", "N, N, N, N m, N m, N m"},
+      {"/frames/segment_moment", "N m"},
+      {"/frames/body_axis_1", "m"},
+      {"/frames/joint_a2", "1"},
       {"/input", ""},
   };
   for (const auto &[dataset, unit] : units) EXPECT_EQ(ReadStringAttribute(file, dataset, "unit"), unit) << dataset;
@@ -832,15 +875,17 @@ TEST_F(OutputFileTest, ReopenKeepsTheCheckpointedRowsAndFramesAndGoesOn)
   for (int row = 0; row < 13; ++row) expected.push_back(HistoryRow(row < 10 ? row : 100 + row)[2]);
   EXPECT_EQ(ReadDoubles(file, "/history/newton_iterations", &dims), expected);
   EXPECT_EQ(ReadDoubles(file, "/probes/tip/rotation_angle", &dims).size(), 13u);
-  for (const char *frame : {"/frames/000000", "/frames/000005", "/frames/000011"}) EXPECT_GT(H5Lexists(file, frame, H5P_DEFAULT), 0) << frame;
-  EXPECT_EQ(H5Lexists(file, "/frames/000012", H5P_DEFAULT), 0) << "the frame after the checkpoint is dropped";
+  EXPECT_EQ(ReadInts(file, "/frames/step", &dims), (std::vector<int>{0, 5, 11})) << "the frame after the checkpoint (12) is dropped";
+  EXPECT_EQ(ReadFrame(file, "position", 2, &dims), FrameOfStep(11).position);
+  ReadDoubles(file, "/frames/element_strains", &dims);
+  EXPECT_EQ(dims, (std::vector<hsize_t>{3, 2, 6})) << "every frame dataset holds the kept frames";
   EXPECT_EQ(ReadStringAttribute(file, "/history/time", "unit"), "1");
   EXPECT_GE(H5Fclose(file), 0);
   const std::string xdmf = ReadText(xdmf_path());
   std::string       why;
   EXPECT_TRUE(WellFormedXml(xdmf, &why)) << why;
   EXPECT_EQ(CountOf(xdmf, "<Grid Name=\"beams\" GridType=\"Uniform\">"), 3u);
-  EXPECT_EQ(xdmf.find("/frames/000012/"), std::string::npos);
+  EXPECT_EQ(xdmf.find("<Time Value=\"3\"/>"), std::string::npos) << "the dropped frame (t = 3) is not listed";
 }
 
 } // namespace
