@@ -397,6 +397,7 @@ PetscErrorCode Assembler::BeginStep(const StepEquations &equations)
   UpdateExpansions();
   for (ForceContributor *c : contributors_) c->BeginStep(*state_);
   massless_rows_.clear();
+  num_massless_unknowns_ = 0;
   if (equations.InitialAcceleration()) PetscCall(FindMasslessUnknowns());
   PetscFunctionReturn(PETSC_SUCCESS);
 }
@@ -788,7 +789,8 @@ PetscErrorCode Assembler::AssembleJacobian(Mat jacobian, PetscBool *geometry_ok)
   PetscCall(MatAssemblyBegin(jacobian, MAT_FINAL_ASSEMBLY));
   PetscCall(MatAssemblyEnd(jacobian, MAT_FINAL_ASSEMBLY));
   if (beta != 0.0) PetscCall(MatAXPY(jacobian, beta, correction_jacobian_, SAME_NONZERO_PATTERN));
-  if (state_->equations.InitialAcceleration() && !mass_matrix_only_ && !massless_rows_.empty()) {
+  // (The global count: MatZeroRows is collective, also on a rank that owns no massless row.)
+  if (state_->equations.InitialAcceleration() && !mass_matrix_only_ && num_massless_unknowns_ > 0) {
     // Massless unknowns: acceleration = 0 (the pattern is kept for the direct CSR assembly).
     PetscCall(MatSetOption(jacobian, MAT_KEEP_NONZERO_PATTERN, PETSC_TRUE));
     PetscCall(MatZeroRows(jacobian, (PetscInt)massless_rows_.size(), massless_rows_.data(), 1.0, nullptr, nullptr));
