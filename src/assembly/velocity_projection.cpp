@@ -14,6 +14,7 @@
 // squares), so A delta = -R is consistent; conjugate gradients from delta = 0 give its minimum-norm
 // solution: no component along the motions nothing determines.
 #include "assembly/assembler.hpp"
+#include "core/errors.hpp"
 
 #include "contributors/beam_contributor.hpp"
 #include "elements/beam_rates.hpp"
@@ -198,9 +199,7 @@ PetscErrorCode Assembler::ProjectInitialVelocities(double t, InitialVelocityRepo
   PetscCall(KSPSetType(ksp, KSPCG));
   PetscCall(KSPGetPC(ksp, &pc));
   PetscCall(PCSetType(pc, PCLU));
-#if defined(PETSC_HAVE_MUMPS)
-  PetscCall(PCFactorSetMatSolverType(pc, MATSOLVERMUMPS));
-#endif
+  PetscCall(SetDefaultFactorSolver(pc, P));
   PetscCall(KSPSetTolerances(ksp, 1e-12, 0.0, PETSC_DEFAULT, 200));
   PetscCall(KSPSetFromOptions(ksp));
   PetscCall(VecZeroEntries(delta));

@@ -250,11 +250,10 @@ PetscErrorCode NewtonSolverCreate(MPI_Comm comm, const AnalysisSettings &analysi
   // The direct solver by structure is opt-in (-newton_solver_by_structure): MUMPS stays the
   // default, whose account of a singular tangent (INFOG) the failure messages and tests rely on.
   // A dense tangent always goes to LAPACK (MUMPS takes sparse matrices only).
-  PetscBool by_structure = PETSC_FALSE, dense;
+  PetscBool by_structure = PETSC_FALSE;
   PetscCall(PetscOptionsGetBool(nullptr, nullptr, "-newton_solver_by_structure", &by_structure, nullptr));
-  PetscCall(PetscObjectTypeCompareAny((PetscObject)tangent, &dense, MATSEQDENSE, MATMPIDENSE, ""));
-  if (by_structure || dense) PetscCall(ChooseDirectSolver(tangent, pc));
-  else PetscCall(PCFactorSetMatSolverType(pc, MATSOLVERMUMPS));
+  if (by_structure) PetscCall(ChooseDirectSolver(tangent, pc));
+  else PetscCall(SetDefaultFactorSolver(pc, tangent));
   MSFLEX_CALL_READING_OPTIONS(PetscObjectComm((PetscObject)*snes), SNESSetFromOptions(*snes));
   PetscCall(CheckFactorSolverAvailable(ksp, tangent));
   PetscFunctionReturn(PETSC_SUCCESS);

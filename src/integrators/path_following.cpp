@@ -63,13 +63,14 @@ PetscErrorCode PathFollower::Setup(MPI_Comm comm, Integrator *integrator)
   double length;
   PetscCall(ModelLength(comm, *model_, *map_, &length));
   PetscCall(UnknownWeights(comm, *model_, *map_, integrator->GetState(), length, weights_));
-  // The corrector's linear solver: as Newton's, MUMPS LU (options -path_ksp_*, -path_pc_*).
+  // The corrector's linear solver: as Newton's, MUMPS LU, or LAPACK's for a dense tangent
+  // (options -path_ksp_*, -path_pc_*).
   PetscCall(KSPCreate(comm, &ksp_));
   PetscCall(KSPSetOptionsPrefix(ksp_, "path_"));
   PetscCall(KSPSetType(ksp_, KSPPREONLY));
   PetscCall(KSPGetPC(ksp_, &pc));
   PetscCall(PCSetType(pc, PCLU));
-  PetscCall(PCFactorSetMatSolverType(pc, MATSOLVERMUMPS));
+  PetscCall(SetDefaultFactorSolver(pc, assembler.Jacobian()));
   MSFLEX_CALL_READING_OPTIONS(PetscObjectComm((PetscObject)ksp_), KSPSetFromOptions(ksp_));
   if (control_ == PathControl::Displacement) {
     // The controlled unknown: a free DOF of an independent node or a released joint coordinate

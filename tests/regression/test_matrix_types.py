@@ -1,6 +1,9 @@
-"""Jacobian matrix formats through the executable (input/bend45.yaml, serially and on --np ranks):
--jacobian_mat_type baij (and dense on one rank) give the tip history of the default aij to 1e-9 of
-the tip displacement; sbaij (one triangle of a symmetric matrix; the tangent is not symmetric), and
+"""Jacobian matrix formats through the executable, serially and on --np ranks: -jacobian_mat_type
+baij (and dense on one rank) give the probe histories of the default aij to 1e-9 of the largest
+displacement, on input/bend45.yaml (load control), input/massless_pendulum.yaml to t = 0.5
+(dynamics with a joint and a rigid body: the projection of the initial velocities and the initial
+accelerations solve with the tangent's format too) and input/von_mises_truss.yaml (arc length, whose
+corrector has a solver of its own); sbaij (one triangle of a symmetric matrix; the tangent is not symmetric), and
 dense on more than one rank, stop the run with exit status 1 and one line
 'msflex: bad option: -jacobian_mat_type ...', without a PETSc trace-back or a crash."""
 
@@ -11,18 +14,23 @@ import msflex_testing as mt
 args = mt.parse_arguments(__doc__)
 check = mt.Checker("Jacobian matrix types")
 bend = f"{args.source_dir}/input/bend45.yaml"
+models = (("bend45", bend, "tip", []),
+          ("massless_pendulum", f"{args.source_dir}/input/massless_pendulum.yaml", "bob", ["-analysis_end_time", "0.5"]),
+          ("von_mises_truss", f"{args.source_dir}/input/von_mises_truss.yaml", "apex", []))
 for ranks in sorted({1, args.np}):
-    reference = None
-    for mat_type in ("aij", "baij", "dense") if ranks == 1 else ("aij", "baij"):
-        output = f"{args.work_dir}/bend45_{mat_type}_np{ranks}.h5"
-        mt.run_msflex(args, bend, output, extra=["-jacobian_mat_type", mat_type], np_ranks=ranks)
-        tip = mt.probe_history(output, "tip")["displacement"]
-        if reference is None:
-            reference = tip
-            continue
-        difference = np.abs(tip - reference).max() / np.abs(reference).max() if tip.shape == reference.shape else np.inf
-        print(f"np {ranks} {mat_type}: {tip.shape[0]} steps, largest tip difference from aij / max |u| = {difference:.3g}")
-        check.less(f"np {ranks} {mat_type}: tip history difference from aij", difference, 1e-9)
+    for name, path, probe, extra in models:
+        reference = None
+        for mat_type in ("aij", "baij", "dense") if ranks == 1 else ("aij", "baij"):
+            output = f"{args.work_dir}/{name}_{mat_type}_np{ranks}.h5"
+            mt.run_msflex(args, path, output, extra=["-jacobian_mat_type", mat_type, *extra], np_ranks=ranks)
+            displacement = mt.probe_history(output, probe)["displacement"]
+            if reference is None:
+                reference = displacement
+                continue
+            same_shape = displacement.shape == reference.shape
+            difference = np.abs(displacement - reference).max() / np.abs(reference).max() if same_shape else np.inf
+            print(f"{name}, np {ranks} {mat_type}: {displacement.shape[0]} rows, largest {probe} difference from aij / max |u| = {difference:.3g}")
+            check.less(f"{name}, np {ranks} {mat_type}: {probe} history difference from aij", difference, 1e-9)
     for mat_type in ("sbaij",) if ranks == 1 else ("sbaij", "dense"):
         code, _, stderr = mt.run_msflex(args, bend, f"{args.work_dir}/never.h5", extra=["-jacobian_mat_type", mat_type], np_ranks=ranks, expect_success=False)
         lines = [line for line in stderr.splitlines() if line.startswith("msflex:")]
