@@ -103,7 +103,18 @@ PetscErrorCode Assembler::Setup(MPI_Comm comm, const Model &model, const DofMap 
   // Matrix with exact preallocation; a missed preallocation is a bug, so make it an error.
   PetscCall(MatCreate(comm, &jacobian_));
   PetscCall(MatSetSizes(jacobian_, map.num_owned, map.num_owned, map.num_global, map.num_global));
-  PetscCall(MatSetType(jacobian_, MATAIJ));
+  // -jacobian_dense_below N: a model of at most N unknowns on one rank gets a dense tangent,
+  // factored by LAPACK, for which a sparse factorisation's set-up costs far more than the
+  // arithmetic (a heavy top, 3 unknowns: 0.62 ms of MUMPS against 0.03 ms per step; the turning
+  // arm, 49 unknowns: 2.5 against 0.3 ms; docs/solvers.md). Off by default: PETSc's dense LU
+  // stops the run at an exactly singular tangent (an error, not a failed step that is halved).
+  // -jacobian_mat_type wins.
+  PetscMPIInt ranks;
+  PetscCallMPI(MPI_Comm_size(comm, &ranks));
+  PetscInt dense_below = 0; // default: never
+  MSFLEX_CALL_READING_OPTIONS(comm, PetscOptionsGetInt(nullptr, "jacobian_", "-dense_below", &dense_below, nullptr));
+  PetscCheck(dense_below >= 0, comm, PETSC_ERR_USER_INPUT, "bad option: -jacobian_dense_below %" PetscInt_FMT ": must be >= 0 (0: never)", dense_below);
+  PetscCall(MatSetType(jacobian_, ranks == 1 && map.num_global <= dense_below ? MATSEQDENSE : MATAIJ));
   PetscCall(MatSetOptionsPrefix(jacobian_, "jacobian_"));
   MSFLEX_CALL_READING_OPTIONS(PetscObjectComm((PetscObject)jacobian_), MatSetFromOptions(jacobian_));
   // -jacobian_mat_type: AIJ (the default), BAIJ with block size 1 (the unknowns of a node are not
@@ -118,8 +129,6 @@ PetscErrorCode Assembler::Setup(MPI_Comm comm, const Model &model, const DofMap 
   PetscCall(PetscObjectTypeCompareAny((PetscObject)jacobian_, &is_dense, MATSEQDENSE, MATMPIDENSE, ""));
   PetscCheck(is_aij || is_baij || is_dense, comm, PETSC_ERR_USER_INPUT,
              "bad option: -jacobian_mat_type %s is not supported (the tangent is not symmetric): use aij (the default), baij or dense", type);
-  PetscMPIInt ranks;
-  PetscCallMPI(MPI_Comm_size(comm, &ranks));
   PetscCheck(!is_dense || ranks == 1, comm, PETSC_ERR_USER_INPUT,
              "bad option: -jacobian_mat_type dense runs on one rank only (no parallel dense LU): use aij or baij");
   if (is_aij) {

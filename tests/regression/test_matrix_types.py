@@ -3,9 +3,13 @@ baij (and dense on one rank) give the probe histories of the default aij to 1e-9
 displacement, on input/bend45.yaml (load control), input/massless_pendulum.yaml to t = 0.5
 (dynamics with a joint and a rigid body: the projection of the initial velocities and the initial
 accelerations solve with the tangent's format too) and input/von_mises_truss.yaml (arc length, whose
-corrector has a solver of its own); sbaij (one triangle of a symmetric matrix; the tangent is not symmetric), and
+corrector has a solver of its own); -jacobian_dense_below N makes the pendulum's tangent (13
+unknowns) dense from N = 13 on, not at N = 12 (-ksp_view names the type), with the same answer;
+sbaij (one triangle of a symmetric matrix; the tangent is not symmetric), and
 dense on more than one rank, stop the run with exit status 1 and one line
 'msflex: bad option: -jacobian_mat_type ...', without a PETSc trace-back or a crash."""
+
+import re
 
 import numpy as np
 
@@ -31,6 +35,20 @@ for ranks in sorted({1, args.np}):
             difference = np.abs(displacement - reference).max() / np.abs(reference).max() if same_shape else np.inf
             print(f"{name}, np {ranks} {mat_type}: {displacement.shape[0]} rows, largest {probe} difference from aij / max |u| = {difference:.3g}")
             check.less(f"{name}, np {ranks} {mat_type}: {probe} history difference from aij", difference, 1e-9)
+    if ranks == 1:
+        pendulum = f"{args.source_dir}/input/massless_pendulum.yaml"
+        for below, expected in ((12, "seqaij"), (13, "seqdense")):
+            output = f"{args.work_dir}/pendulum_dense_below_{below}.h5"
+            _, stdout, _ = mt.run_msflex(args, pendulum, output, extra=["-analysis_end_time", "0.5", "-jacobian_dense_below", str(below), "-ksp_view"],
+                                         np_ranks=1)
+            types = sorted(set(re.findall(r"^\s*type: (seq\w+)", stdout, re.MULTILINE)))
+            print(f"-jacobian_dense_below {below}: matrix types {types}")
+            check.true(f"-jacobian_dense_below {below}: the tangent is {expected} ({types})", types == [expected])
+            displacement = mt.probe_history(output, "bob")["displacement"]
+            reference = mt.probe_history(f"{args.work_dir}/massless_pendulum_aij_np1.h5", "bob")["displacement"]
+            same_shape = displacement.shape == reference.shape
+            difference = np.abs(displacement - reference).max() / np.abs(reference).max() if same_shape else np.inf
+            check.less(f"-jacobian_dense_below {below}: bob history difference from aij", difference, 1e-9)
     for mat_type in ("sbaij",) if ranks == 1 else ("sbaij", "dense"):
         code, _, stderr = mt.run_msflex(args, bend, f"{args.work_dir}/never.h5", extra=["-jacobian_mat_type", mat_type], np_ranks=ranks, expect_success=False)
         lines = [line for line in stderr.splitlines() if line.startswith("msflex:")]
