@@ -2,7 +2,8 @@
 number, a step larger than max_step, a negative Newton tolerance, and -analysis_type static on a
 free-flying dynamic model (which the reader only checked for dynamics), and a factorisation package
 that does not exist (-pc_factor_mat_solver_type foo, found by PETSc only at the first
-factorisation; -st_pc_factor_mat_solver_type foo for an eigenanalysis) each stop the run with
+factorisation; -st_pc_factor_mat_solver_type foo for an eigenanalysis), a sidecar syntax that does
+not exist (-output_xdmf xdmf4) and a negative -jacobian_dense_below each stop the run with
 exit status 1 and one line 'msflex: bad option: ...' naming the option or the model's problem,
 without a PETSc trace-back and without creating a result file."""
 
@@ -18,7 +19,9 @@ cases = [(bend, ["-analysis_end_time", "abc"], "Input string abc has no numeric 
          (bend, ["-analysis_initial_step", "2"], "initial_step 2. is larger than max_step 1."),
          (bend, ["-analysis_newton_atol", "-1"], "-analysis_newton_atol must be >= 0"),
          (spaghetti, ["-analysis_type", "static"], "with -analysis_type static: " + spaghetti + ":"),
-         (bend, ["-pc_factor_mat_solver_type", "foo"], "-pc_factor_mat_solver_type foo: no LU factorisation of that name")]
+         (bend, ["-pc_factor_mat_solver_type", "foo"], "-pc_factor_mat_solver_type foo: no LU factorisation of that name"),
+         (bend, ["-output_xdmf", "xdmf4"], "-output_xdmf must be xdmf3 or xdmf2, got 'xdmf4'"),
+         (bend, ["-jacobian_dense_below", "-3"], "-jacobian_dense_below -3: must be >= 0")]
 for source, options, expected in cases:
     for ranks in sorted({1, args.np}):
         output = f"{args.work_dir}/never_written.h5"
