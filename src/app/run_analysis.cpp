@@ -69,6 +69,13 @@ double NextTarget(const AnalysisSettings &analysis, double t)
   return analysis.end_time;
 }
 
+// The Output stage's parts as -log_view events (registered once per process, in RunAnalysis):
+// element results for the frame and history row, the history row's values, the frame's
+// gathering, and the result file's writes (buffering, flushes, the sidecar, the closing).
+struct OutputEvents {
+  PetscLogEvent results = -1, history_row = -1, frame_gather = -1, file_write = -1;
+} output_events;
+
 // Everything one analysis owns, so that the step loop reads as the algorithm.
 struct Analysis {
   MPI_Comm             comm;
@@ -91,10 +98,6 @@ struct Analysis {
   double     run_wall_start = MPI_Wtime();
   // -log_view stages: Setup, Partition, Output (the integrator adds LinearSolve and Assembly).
   PetscLogStage stage_setup, stage_partition, stage_output, stage_assembly;
-  // The Output stage's parts as -log_view events: element results for the frame and history row,
-  // the history row's values, the frame's gathering, and the result file's writes (buffering,
-  // flushes, the sidecar, the closing).
-  PetscLogEvent event_results = -1, event_history_row = -1, event_frame_gather = -1, event_file_write = -1;
 
   Analysis(MPI_Comm c, const RunOptions &o, const CheckpointRun *r) : comm(c), options(o), restart(r) {}
   bool Dynamic() const { return model.analysis.type == AnalysisType::Dynamic; }
@@ -128,24 +131,19 @@ PetscErrorCode Setup(Analysis &a, Model whole)
   PetscCall(PetscLogStageRegister("Assembly", &a.stage_assembly));
   // Set-up's parts as -log_view events (registered once per process).
   static PetscLogEvent event_dof_map = -1, event_preallocation, event_integrator_setup, event_output_open, event_restrict;
-  static PetscLogEvent event_results, event_history_row, event_frame_gather, event_file_write;
   if (event_dof_map < 0) {
     PetscClassId classid;
     PetscCall(PetscClassIdRegister("msflex", &classid));
-    PetscCall(PetscLogEventRegister("OutputResults", classid, &event_results));
-    PetscCall(PetscLogEventRegister("OutputHistoryRow", classid, &event_history_row));
-    PetscCall(PetscLogEventRegister("OutputFrameGather", classid, &event_frame_gather));
-    PetscCall(PetscLogEventRegister("OutputFileWrite", classid, &event_file_write));
+    PetscCall(PetscLogEventRegister("OutputResults", classid, &output_events.results));
+    PetscCall(PetscLogEventRegister("OutputHistoryRow", classid, &output_events.history_row));
+    PetscCall(PetscLogEventRegister("OutputFrameGather", classid, &output_events.frame_gather));
+    PetscCall(PetscLogEventRegister("OutputFileWrite", classid, &output_events.file_write));
     PetscCall(PetscLogEventRegister("DofMapCreate", classid, &event_dof_map));
     PetscCall(PetscLogEventRegister("Preallocation", classid, &event_preallocation));
     PetscCall(PetscLogEventRegister("AssemblerSetup", classid, &event_integrator_setup));
     PetscCall(PetscLogEventRegister("OutputOpen", classid, &event_output_open));
     PetscCall(PetscLogEventRegister("ModelRestrict", classid, &event_restrict));
   }
-  a.event_results      = event_results;
-  a.event_history_row  = event_history_row;
-  a.event_frame_gather = event_frame_gather;
-  a.event_file_write   = event_file_write;
   PetscCall(PetscLogStagePush(a.stage_setup));
   PetscCall(PetscLogStagePush(a.stage_partition));
   MSFLEX_CALL_READING_OPTIONS(a.comm, PartitionerTypeFromOptions(a.comm, &partitioner));
@@ -224,7 +222,7 @@ PetscErrorCode WriteHistory(Analysis &a, const StepRecord &record, double strain
 {
   std::vector<ProbeSample> probes;
   PetscFunctionBeginUser;
-  PetscCall(PetscLogEventBegin(a.event_history_row, 0, 0, 0, 0));
+  PetscCall(PetscLogEventBegin(output_events.history_row, 0, 0, 0, 0));
   const State &state = a.integrator.GetState();
   PetscCall(SampleProbes(a.comm, a.model, a.map, state, &probes));
   std::vector<std::string> names  = {"time", "step", "step_size", "newton_iterations", "residual_norm", "strain_energy"};
@@ -285,10 +283,10 @@ PetscErrorCode WriteHistory(Analysis &a, const StepRecord &record, double strain
     names.insert(names.end(), probe_names.begin(), probe_names.end());
     values.insert(values.end(), probe_values.begin(), probe_values.end());
   }
-  PetscCall(PetscLogEventEnd(a.event_history_row, 0, 0, 0, 0));
-  PetscCall(PetscLogEventBegin(a.event_file_write, 0, 0, 0, 0));
+  PetscCall(PetscLogEventEnd(output_events.history_row, 0, 0, 0, 0));
+  PetscCall(PetscLogEventBegin(output_events.file_write, 0, 0, 0, 0));
   PetscCall(a.output.AppendHistory(names, values, probes));
-  PetscCall(PetscLogEventEnd(a.event_file_write, 0, 0, 0, 0));
+  PetscCall(PetscLogEventEnd(output_events.file_write, 0, 0, 0, 0));
   ++a.history_rows;
   PetscFunctionReturn(PETSC_SUCCESS);
 }
@@ -300,17 +298,17 @@ PetscErrorCode WriteFrame(Analysis &a, int step, double time, double *strain_ene
   OutputFrame                 frame;
   PetscFunctionBeginUser;
   if (!results) {
-    PetscCall(PetscLogEventBegin(a.event_results, 0, 0, 0, 0));
+    PetscCall(PetscLogEventBegin(output_events.results, 0, 0, 0, 0));
     PetscCall(a.integrator.ElementResults(&computed, strain_energy));
-    PetscCall(PetscLogEventEnd(a.event_results, 0, 0, 0, 0));
+    PetscCall(PetscLogEventEnd(output_events.results, 0, 0, 0, 0));
     results = &computed;
   }
-  PetscCall(PetscLogEventBegin(a.event_frame_gather, 0, 0, 0, 0));
+  PetscCall(PetscLogEventBegin(output_events.frame_gather, 0, 0, 0, 0));
   PetscCall(GatherFrame(a.comm, a.model, a.map, a.integrator.GetState(), *results, step, time, a.Dynamic(), &frame));
-  PetscCall(PetscLogEventEnd(a.event_frame_gather, 0, 0, 0, 0));
-  PetscCall(PetscLogEventBegin(a.event_file_write, 0, 0, 0, 0));
+  PetscCall(PetscLogEventEnd(output_events.frame_gather, 0, 0, 0, 0));
+  PetscCall(PetscLogEventBegin(output_events.file_write, 0, 0, 0, 0));
   PetscCall(a.output.WriteFrame(frame));
-  PetscCall(PetscLogEventEnd(a.event_file_write, 0, 0, 0, 0));
+  PetscCall(PetscLogEventEnd(output_events.file_write, 0, 0, 0, 0));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
@@ -319,9 +317,9 @@ PetscErrorCode CloseOutput(Analysis &a)
 {
   PetscFunctionBeginUser;
   PetscCall(PetscLogStagePush(a.stage_output));
-  PetscCall(PetscLogEventBegin(a.event_file_write, 0, 0, 0, 0));
+  PetscCall(PetscLogEventBegin(output_events.file_write, 0, 0, 0, 0));
   const PetscErrorCode closed = a.output.Close();
-  PetscCall(PetscLogEventEnd(a.event_file_write, 0, 0, 0, 0));
+  PetscCall(PetscLogEventEnd(output_events.file_write, 0, 0, 0, 0));
   PetscCall(PetscLogStagePop());
   PetscCall(closed);
   PetscFunctionReturn(PETSC_SUCCESS);
@@ -334,9 +332,9 @@ PetscErrorCode RecordStep(Analysis &a, const StepRecord &record, bool write_fram
   std::vector<ElementResults> results;
   PetscFunctionBeginUser;
   PetscCall(PetscLogStagePush(a.stage_output));
-  PetscCall(PetscLogEventBegin(a.event_results, 0, 0, 0, 0));
+  PetscCall(PetscLogEventBegin(output_events.results, 0, 0, 0, 0));
   PetscCall(a.integrator.ElementResults(&results, &strain_energy));
-  PetscCall(PetscLogEventEnd(a.event_results, 0, 0, 0, 0));
+  PetscCall(PetscLogEventEnd(output_events.results, 0, 0, 0, 0));
   if (write_frame) PetscCall(WriteFrame(a, record.step, record.time, &strain_energy, &results));
   PetscCall(WriteHistory(a, record, strain_energy, results, &kinetic_energy, &total_energy));
   PetscCall(PetscLogStagePop());

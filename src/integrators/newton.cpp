@@ -199,17 +199,13 @@ PetscErrorCode   ChooseDirectSolver(Mat tangent, PC pc)
   PetscFunctionBeginUser;
   PetscCallMPI(MPI_Comm_size(PetscObjectComm((PetscObject)tangent), &size));
   PetscCall(PetscObjectTypeCompare((PetscObject)tangent, MATSEQAIJ, &sequential_aij));
-  PetscBool dense;
-  PetscCall(PetscObjectTypeCompareAny((PetscObject)tangent, &dense, MATSEQDENSE, MATMPIDENSE, ""));
   double mean_square = -1.0;
   if (size == 1 && sequential_aij) PetscCall(MeanSquaredRcmEnvelope(tangent, &mean_square));
-  if (dense) {
-    PetscCall(PCFactorSetMatSolverType(pc, MATSOLVERPETSC)); // LAPACK's dense LU (MUMPS takes sparse matrices only)
-  } else if (mean_square >= 0.0 && mean_square <= kBandedEnvelope * kBandedEnvelope) {
+  if (mean_square >= 0.0 && mean_square <= kBandedEnvelope * kBandedEnvelope) {
     PetscCall(PCFactorSetMatSolverType(pc, MATSOLVERPETSC));
     PetscCall(PCFactorSetMatOrderingType(pc, MATORDERINGRCM));
   } else {
-    PetscCall(PCFactorSetMatSolverType(pc, MATSOLVERMUMPS));
+    PetscCall(SetDefaultFactorSolver(pc, tangent)); // MUMPS, or LAPACK for a dense tangent
   }
   PetscFunctionReturn(PETSC_SUCCESS);
 }

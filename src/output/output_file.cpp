@@ -280,8 +280,8 @@ struct OutputFile::Impl {
   // float64 dataset `name` under `parent`, creating it (chunked, with its unit) when missing.
   PetscErrorCode ExtendSeries(hid_t parent, const char *name, const std::vector<hsize_t> &entry_dims, const std::vector<double> &values,
                               const Quantity &quantity);
-  // The sidecar: written whole (Create, Resume, and when a kind of grid appears first), or the
-  // frames not yet listed appended over its tail.
+  // The sidecar: written whole (Create, Resume, and when someone else changed it), or the frames
+  // not yet listed appended over its tail.
   PetscErrorCode WriteXdmfWhole();
   PetscErrorCode AppendXdmf();
   std::string    XdmfHead() const;
@@ -380,7 +380,6 @@ struct OutputFile::Impl {
   // written, and the kinds of grid its head gathers.
   size_t    frames_listed = 0;
   long long xdmf_size     = -1;
-  bool      head_kinds[kGridKinds]{};
   // AppendXdmfFrameGrids' texts cut at their markers, per value of FrameEntry::Contents().
   struct XdmfPattern {
     std::vector<std::string> pieces;
@@ -803,8 +802,11 @@ std::string OutputFile::Impl::XdmfHead() const
       << "<Xdmf Version=\"3.0\" xmlns:xi=\"http://www.w3.org/2001/XInclude\">\n"
       << "  <Domain>\n"
       << "    " << kSidecarMarker << "\n";
+  // A collection for every kind of grid the mesh has (a frame has no other kind, CheckFrame),
+  // from the start: later frames are appended whatever they hold.
+  const bool has_kind[kGridKinds] = {true, n_bodies > 0, n_joints > 0, n_ground > 0};
   for (int kind = 0; kind < kGridKinds; ++kind) {
-    if (!head_kinds[kind]) continue;
+    if (!has_kind[kind]) continue;
     // An XInclude that finds nothing is an error without its (empty) fallback.
     xml << "    <Grid Name=\"" << kGridNames[kind] << "\" GridType=\"Collection\" CollectionType=\"Temporal\">\n"
         << "      <xi:include xpointer=\"xpointer(/Xdmf/Information[@Name='frames']/Grid[@Name='" << kGridNames[kind] << "'])\"><xi:fallback/></xi:include>\n"
@@ -971,17 +973,6 @@ PetscErrorCode OutputFile::Impl::WriteXdmfWhole()
   std::string text;
 
   PetscFunctionBeginUser;
-  // A collection for every kind of grid the mesh has, from the start: later frames are appended
-  // (no rewrite, no sync) whatever they hold. A collection with no frame yet is empty (its
-  // XInclude falls back to nothing).
-  head_kinds[kBeams]  = true;
-  head_kinds[kBodies] = n_bodies > 0;
-  head_kinds[kJoints] = n_joints > 0;
-  head_kinds[kGround] = n_ground > 0;
-  for (size_t f = 0; f < frames_listed; ++f) {
-    head_kinds[kBodies] |= frames[f].has_bodies;
-    head_kinds[kJoints] |= frames[f].has_joints;
-  }
   text = XdmfHead();
   for (size_t f = 0; f < frames_listed; ++f) {
     AppendXdmfFrameGrids(frames[f], &text);
@@ -997,29 +988,22 @@ PetscErrorCode OutputFile::Impl::WriteXdmfWhole()
 
 // Lists frames[frames_listed, end) by writing their grids and the tail again over the old tail, in
 // one write at the tail's offset: what a killed process leaves is the old file or the new one. A
-// first frame with a kind of grid the head does not gather yet, or a sidecar changed by someone
-// else, takes a whole rewrite instead.
+// sidecar changed by someone else since the last flush takes a whole rewrite instead.
 PetscErrorCode OutputFile::Impl::AppendXdmf()
 {
   PetscFunctionBeginUser;
   if (frames_listed == frames.size()) PetscFunctionReturn(PETSC_SUCCESS);
-  bool        new_kind = false;
   std::string text;
-  for (size_t f = frames_listed; f < frames.size(); ++f)
-    new_kind |= !head_kinds[kBeams] || (frames[f].has_bodies && !head_kinds[kBodies]) || (frames[f].has_joints && !head_kinds[kJoints]) ||
-                (n_ground > 0 && !head_kinds[kGround]);
-  if (!new_kind) {
-    for (size_t f = frames_listed; f < frames.size(); ++f) {
-      AppendXdmfFrameGrids(frames[f], &text);
-      if (f == frames_listed) text.reserve(text.size() * (frames.size() - frames_listed + 1));
-    }
-    text += kXdmfTail;
+  for (size_t f = frames_listed; f < frames.size(); ++f) {
+    AppendXdmfFrameGrids(frames[f], &text);
+    if (f == frames_listed) text.reserve(text.size() * (frames.size() - frames_listed + 1));
   }
+  text += kXdmfTail;
   const long long tail_size = (long long)sizeof kXdmfTail - 1;
   struct stat     status;
   // Never through a link: a sidecar replaced by a symbolic link since the last flush is rewritten
   // whole (atomically, beside it) instead of writing into whatever the link names.
-  const int fd = new_kind ? -1 : ::open(xdmf_path.c_str(), O_WRONLY | O_NOFOLLOW);
+  const int fd = ::open(xdmf_path.c_str(), O_WRONLY | O_NOFOLLOW);
   if (fd < 0 || fstat(fd, &status) != 0 || (long long)status.st_size != xdmf_size || xdmf_size < tail_size) {
     if (fd >= 0) ::close(fd);
     frames_listed = frames.size();
