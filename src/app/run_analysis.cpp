@@ -98,6 +98,7 @@ struct Analysis {
   double     run_wall_start = MPI_Wtime();
   // -log_view stages: Setup, Partition, Output (the integrator adds LinearSolve and Assembly).
   PetscLogStage stage_setup, stage_partition, stage_output, stage_assembly;
+  OutputFrame   frame; // the frame being written, kept so that its arrays are allocated once
 
   Analysis(MPI_Comm c, const RunOptions &o, const CheckpointRun *r) : comm(c), options(o), restart(r) {}
   bool Dynamic() const { return model.analysis.type == AnalysisType::Dynamic; }
@@ -295,7 +296,7 @@ PetscErrorCode WriteHistory(Analysis &a, const StepRecord &record, double strain
 PetscErrorCode WriteFrame(Analysis &a, int step, double time, double *strain_energy, const std::vector<ElementResults> *results = nullptr)
 {
   std::vector<ElementResults> computed;
-  OutputFrame                 frame;
+  OutputFrame                &frame = a.frame;
   PetscFunctionBeginUser;
   if (!results) {
     PetscCall(PetscLogEventBegin(output_events.results, 0, 0, 0, 0));

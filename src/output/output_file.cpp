@@ -35,14 +35,18 @@ namespace {
 // series), fewer when the series are many, so that one chunk of every series together stays
 // within kHistoryChunkBudget bytes: HDF5 allocates a whole chunk at the first row, and a model of
 // 10^4 joints has 7 x 10^4 series (1024 rows each would make a 570 MB file of a one-step run).
-constexpr hsize_t  kHistoryChunkRows = 1024, kHistoryChunkMinRows = 16;
+constexpr hsize_t  kHistoryChunkRows = 1024, kHistoryChunkMinRows = 16, kHistoryChunkFirstMinRows = 64;
 constexpr double   kHistoryChunkBudget = 8.0 * 1024 * 1024;
 constexpr unsigned kHistoryChunkIndexK = 4;
 
-hsize_t HistoryChunkRows(size_t values_per_row)
+// Rows per chunk of the history series: kHistoryChunkRows, fewer when many series would make the
+// chunk cache large, and no more than the first write needs (rounded up to a power of two, at
+// least kHistoryChunkFirstMinRows): a short run's chunks are not mostly fill.
+hsize_t HistoryChunkRows(size_t values_per_row, hsize_t first_rows)
 {
   hsize_t rows = kHistoryChunkRows;
   while (rows > kHistoryChunkMinRows && 8.0 * (double)rows * (double)values_per_row > kHistoryChunkBudget) rows /= 2;
+  while (rows > kHistoryChunkFirstMinRows && rows / 2 >= first_rows) rows /= 2;
   return rows;
 }
 // History rows kept in memory at most: a run that makes more steps than this between two timed
@@ -165,21 +169,56 @@ constexpr FrameField kFrameFields[] = {
 };
 constexpr int kFrameFieldCount = (int)(sizeof kFrameFields / sizeof kFrameFields[0]);
 
+// -log_view events of the file's own phases (inside the caller's OutputFileWrite), registered
+// with the first file opened.
+struct WritePhaseEvents {
+  PetscLogEvent buffer_frame = -1, frame_block = -1, history_block = -1, sidecar = -1, close = -1;
+};
+WritePhaseEvents write_phase_events;
+
+PetscErrorCode RegisterWritePhaseEvents()
+{
+  PetscClassId classid;
+  PetscFunctionBeginUser;
+  if (write_phase_events.frame_block >= 0) PetscFunctionReturn(PETSC_SUCCESS);
+  PetscCall(PetscClassIdRegister("msflex output", &classid));
+  PetscCall(PetscLogEventRegister("OutputBufferFrame", classid, &write_phase_events.buffer_frame));
+  PetscCall(PetscLogEventRegister("OutputFrameBlock", classid, &write_phase_events.frame_block));
+  PetscCall(PetscLogEventRegister("OutputHistoryBlock", classid, &write_phase_events.history_block));
+  PetscCall(PetscLogEventRegister("OutputSidecar", classid, &write_phase_events.sidecar));
+  PetscCall(PetscLogEventRegister("OutputFileClose", classid, &write_phase_events.close));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
 // Frames kept in memory before they are written: at most kFrameBufferBytes of the whole model's
 // frames (so a small model gathers thousands of frames into one write per dataset, and a model
-// whose frame alone is larger writes every frame as it comes).
-constexpr double kFrameBufferBytes = 32.0 * 1024 * 1024;
+// whose frame alone is larger writes every frame as it comes). The buffer is reused block after
+// block, so it is kept small: touching fresh memory (a page fault per 4 kB) cost more than the
+// writes themselves when it was 32 MB.
+constexpr double kFrameBufferBytes = 2.0 * 1024 * 1024;
+// The sidecar's new text is written in pieces of about this many bytes, each followed by the tail
+// (the file is whole after every write), from one reused buffer.
+constexpr size_t kXdmfPieceBytes = 256 * 1024;
 // Chunks of the frame datasets: about kFrameChunkBytes, whole frames of a small model (at most
-// kFrameChunkFrames of them, so that a short run's file stays small), row blocks of a large one.
-constexpr double  kFrameChunkBytes  = 1024.0 * 1024;
-constexpr hsize_t kFrameChunkFrames = 32;
+// kFrameChunkFrames of them, and no more than the first write needs, rounded up to a power of two
+// and at least kFrameChunkMinFrames, so that a short run's chunks are not mostly fill), row blocks
+// of a large one.
+constexpr double  kFrameChunkBytes     = 1024.0 * 1024;
+constexpr hsize_t kFrameChunkFrames    = 256;
+constexpr hsize_t kFrameChunkMinFrames = 8;
 
-// The chunk (frames, rows, columns) of a frame dataset of `rows` x `columns` per frame.
-std::vector<hsize_t> FrameChunk(hsize_t rows, hsize_t columns)
+// The chunk (frames, rows, columns) of a frame dataset of `rows` x `columns` per frame, created
+// by a write of `first_frames` frames. Every chunked dataset (frames, history) has its chunks
+// allocated when it is created or extended (H5D_ALLOC_TIME_EARLY), not at the first write: a file
+// made by one process may be continued by several (a restart on more ranks), and parallel HDF5
+// could not allocate a serially created dataset's chunks within a collective write (the run hung,
+// MPI-IO reporting "writev: Invalid argument").
+std::vector<hsize_t> FrameChunk(hsize_t rows, hsize_t columns, hsize_t first_frames)
 {
   const double  row_bytes  = 8.0 * (double)columns;
   const hsize_t chunk_rows = std::max<hsize_t>(1, std::min<hsize_t>(rows, (hsize_t)(kFrameChunkBytes / row_bytes)));
-  const hsize_t frames     = std::max<hsize_t>(1, std::min<hsize_t>(kFrameChunkFrames, (hsize_t)(kFrameChunkBytes / (row_bytes * (double)chunk_rows))));
+  hsize_t       frames     = std::max<hsize_t>(1, std::min<hsize_t>(kFrameChunkFrames, (hsize_t)(kFrameChunkBytes / (row_bytes * (double)chunk_rows))));
+  while (frames > kFrameChunkMinFrames && frames / 2 >= first_frames) frames /= 2;
   return {frames, chunk_rows, columns};
 }
 
@@ -285,6 +324,11 @@ struct OutputFile::Impl {
   PetscErrorCode WriteXdmfWhole();
   PetscErrorCode AppendXdmf();
   std::string    XdmfHead() const;
+  std::string    XdmfSharedPart(GridKind kind) const;
+  std::string    XdmfSharedParts() const;
+  std::string    XdmfDataItem(const char *number_type, int precision, hsize_t rows, int columns, const std::string &dataset) const;
+  std::string    XdmfAttribute(const std::string &name, const char *type, const char *center, const char *unit_group, const std::string &unit_name,
+                               const std::string &item) const;
   // Appends the grids of a frame to *text.
   void AppendXdmfFrameGrids(const FrameEntry &frame, std::string *text);
   // The grids of a frame with these contents, with `index`, `count` (index + 1) and `time` as given.
@@ -295,12 +339,14 @@ struct OutputFile::Impl {
   PetscErrorCode OpenParallel();
   // Checks this rank's part of a frame (`rows`: the rows it writes; the totals over the ranks).
   PetscErrorCode CheckFrame(const OutputFrame &frame, int step, bool has_velocities, const FrameRows &rows, const hsize_t totals[4]) const;
-  // This rank's part of a frame in file order: `sorted` receives its rows (segments included),
-  // `values` the values of every frame field for them (empty for a field the frame does not have).
-  PetscErrorCode SortFrame(const OutputFrame &frame, const FrameEntry &entry, const FrameRows &rows, FrameRows *sorted,
-                           std::vector<double> values[kFrameFieldCount]);
-  // Appends a sorted frame to the buffer (its rows must be the buffer's, or the buffer empty).
-  void BufferFrame(const FrameEntry &entry, const FrameRows &sorted, std::vector<double> values[kFrameFieldCount]);
+  // This rank's rows of a frame in file order (segments included) into frame_sorted, with the
+  // permutation from the caller's order (frame_order; empty where the caller's rows are already
+  // ascending) and the element of each segment (segment_source).
+  PetscErrorCode SortFrameRows(const OutputFrame &frame, const FrameEntry &entry, const FrameRows &rows);
+  // Appends the frame sorted by SortFrameRows to the buffer (whose rows must be frame_sorted, or
+  // the buffer empty): every field's values copied straight from the frame in file order; a field
+  // the frame does not have holds zeros.
+  PetscErrorCode BufferFrame(const OutputFrame &frame, const FrameEntry &entry);
   // Writes the buffered frames: every frame dataset extended once and written with one collective
   // transfer; /frames/step, time and contents from rank 0. Collective.
   PetscErrorCode WriteFrameBlock();
@@ -356,6 +402,12 @@ struct OutputFile::Impl {
   FrameRows           buffered_rows;
   std::vector<double> buffered_fields[kFrameFieldCount];
   bool                field_exists[kFrameFieldCount]{};
+  // WriteFrame's scratch, kept so that a frame costs no allocation: the caller's rows (for a frame
+  // that is not distributed, 0, 1, ... of each table), the frame's rows in file order, the
+  // permutation per kind of row, and the element row of each segment of the frame (in its order).
+  FrameRows           caller_rows, frame_sorted, sort_scratch;
+  std::vector<size_t> frame_order[kRowKinds];
+  std::vector<size_t> segment_source;
   MPI_Comm            comm = MPI_COMM_NULL;
   PetscMPIInt         rank = 0;
   // Every rank, once a frame that is not distributed arrives (read back from /mesh):
@@ -378,8 +430,9 @@ struct OutputFile::Impl {
 
   // The sidecar (rank 0): frames it lists (frames[0, frames_listed)), its size in bytes as last
   // written, and the kinds of grid its head gathers.
-  size_t    frames_listed = 0;
-  long long xdmf_size     = -1;
+  size_t      frames_listed = 0;
+  long long   xdmf_size     = -1;
+  std::string xdmf_piece; // AppendXdmf's text, reused
   // AppendXdmfFrameGrids' texts cut at their markers, per value of FrameEntry::Contents().
   struct XdmfPattern {
     std::vector<std::string> pieces;
@@ -690,6 +743,12 @@ PetscErrorCode OutputFile::Impl::BufferHistory(const std::vector<std::string> &n
   }
   PetscCheck(names == history_names && sample_names == probe_names, PETSC_COMM_SELF, PETSC_ERR_ARG_WRONG,
              "output file '%s': history and probe names must be the same in every row", path.c_str());
+  // Room for the most rows a flush can wait for, reserved once (address space until written): no
+  // copying as the buffer grows.
+  if (buffered_values.capacity() == 0) {
+    buffered_values.reserve(kMaxBufferedRows * values.size());
+    buffered_probes.reserve(kMaxBufferedRows * probes.size() * kProbeValues);
+  }
   buffered_values.insert(buffered_values.end(), values.begin(), values.end());
   for (const ProbeSample &probe : probes) {
     buffered_probes.insert(buffered_probes.end(), probe.position, probe.position + 3);
@@ -718,10 +777,11 @@ PetscErrorCode OutputFile::Impl::ExtendSeries(hid_t parent, const char *name, co
     std::vector<hsize_t> max_dims = dims, chunk = dims;
     H5Id                 properties;
     max_dims[0] = H5S_UNLIMITED;
-    chunk[0]    = HistoryChunkRows(history_names.size() + probe_names.size() * kProbeValues);
+    chunk[0]    = HistoryChunkRows(history_names.size() + probe_names.size() * kProbeValues, rows_buffered);
     PetscCallHDF5(file_space = H5Screate_simple(space_rank, dims.data(), max_dims.data()));
     PetscCallHDF5(properties = H5Pcreate(H5P_DATASET_CREATE));
     PetscCallHDF5(H5Pset_chunk(properties, space_rank, chunk.data()));
+    PetscCallHDF5(H5Pset_alloc_time(properties, H5D_ALLOC_TIME_EARLY)); // see FrameChunk
     PetscCallHDF5(dataset = H5Dcreate2(parent, name, H5T_IEEE_F64LE, file_space, H5P_DEFAULT, properties, H5P_DEFAULT));
     PetscCall(Annotate(parent, name, quantity));
   } else {
@@ -812,9 +872,73 @@ std::string OutputFile::Impl::XdmfHead() const
         << "      <xi:include xpointer=\"xpointer(/Xdmf/Information[@Name='frames']/Grid[@Name='" << kGridNames[kind] << "'])\"><xi:fallback/></xi:include>\n"
         << "    </Grid>\n";
   }
-  xml << "  </Domain>\n"
-      << "  <Information Name=\"frames\" Value=\"the grids of every frame, gathered into the collections above\">\n";
+  xml << "  </Domain>\n" << XdmfSharedParts();
+  xml << "  <Information Name=\"frames\" Value=\"the grids of every frame, gathered into the collections above\">\n";
   return xml.str();
+}
+
+// One <DataItem> referring to a whole dataset of the .h5 file by its relative name.
+std::string OutputFile::Impl::XdmfDataItem(const char *number_type, int precision, hsize_t rows, int columns, const std::string &dataset) const
+{
+  std::ostringstream item;
+  item << "<DataItem Format=\"HDF\" NumberType=\"" << number_type << "\" Precision=\"" << precision << "\" Dimensions=\"" << rows;
+  if (columns > 0) item << " " << columns;
+  item << "\">" << XmlEscape(h5_file_name) << ":" << dataset << "</DataItem>";
+  return item.str();
+}
+
+// An attribute named with its unit (what ParaView shows in legends), the unit that of `dataset`.
+std::string OutputFile::Impl::XdmfAttribute(const std::string &name, const char *type, const char *center, const char *unit_group, const std::string &unit_name,
+                                            const std::string &item) const
+{
+  const std::string unit = DatasetQuantity(unit_group, unit_name, dynamic).unit;
+  return "      <Attribute Name=\"" + XmlEscape(NameWithUnit(name, unit)) + "\" AttributeType=\"" + type + "\" Center=\"" + center + "\">\n        " + item +
+         "\n      </Attribute>\n";
+}
+
+// What every frame's grid of a kind shares: its topology, the mesh's attributes, and for the
+// ground everything.
+std::string OutputFile::Impl::XdmfSharedPart(GridKind kind) const
+{
+  const auto floats   = [&](hsize_t rows, int columns, const std::string &dataset) { return XdmfDataItem("Float", 8, rows, columns, dataset); };
+  const auto topology = [&](const char *type, int per_element, hsize_t count, const char *dataset) {
+    return std::string("      <Topology TopologyType=\"") + type + "\" NodesPerElement=\"" + std::to_string(per_element) + "\" NumberOfElements=\"" +
+           std::to_string(count) + "\">\n        " + XdmfDataItem("Int", 4, count, per_element, dataset) + "\n      </Topology>\n";
+  };
+  switch (kind) {
+  case kBeams:
+    return topology("Polyline", 2, n_segments, "/mesh/segments");
+  case kBodies:
+    return topology("Polyvertex", 1, n_bodies, "/mesh/body_vertices") +
+           XdmfAttribute("semi_axes", "Vector", "Node", "mesh", "body_semi_axes", floats(n_bodies, 3, "/mesh/body_semi_axes")) +
+           XdmfAttribute("mass", "Scalar", "Node", "mesh", "body_mass", floats(n_bodies, 0, "/mesh/body_mass")) +
+           XdmfAttribute("body", "Scalar", "Node", "mesh", "body_vertices", XdmfDataItem("Int", 4, n_bodies, 1, "/mesh/body_vertices"));
+  case kJoints:
+    return topology("Polyvertex", 1, n_joints, "/mesh/joint_vertices") +
+           XdmfAttribute("joint", "Scalar", "Node", "mesh", "joint_vertices", XdmfDataItem("Int", 4, n_joints, 1, "/mesh/joint_vertices"));
+  case kGround: {
+    std::string xml = topology("Polyvertex", 1, n_ground, "/mesh/ground_vertices") + "      <Geometry GeometryType=\"XYZ\">\n        " +
+                      floats(n_ground, 3, "/mesh/ground_position") + "\n      </Geometry>\n";
+    for (const char *axis : {"a1", "a2", "a3"})
+      xml += XdmfAttribute(axis, "Vector", "Node", "mesh", std::string("ground_") + axis, floats(n_ground, 3, std::string("/mesh/ground_") + axis));
+    return xml;
+  }
+  default:
+    return "";
+  }
+}
+
+// Xdmf3: the shared parts written once, and included into each frame's grid (a frame's text then
+// holds only what changes). The xdmf2 grids keep their whole text: ParaView's XDMF Reader crashes
+// on a grid whose parts come from an include within the collection's include.
+std::string OutputFile::Impl::XdmfSharedParts() const
+{
+  if (xdmf_flavour != XdmfFlavour::Xdmf3) return "";
+  const bool  has_kind[kGridKinds] = {true, n_bodies > 0, n_joints > 0, n_ground > 0};
+  std::string xml                  = "  <Information Name=\"shared\" Value=\"what the grids of every frame share, included into each\">\n";
+  for (int kind = 0; kind < kGridKinds; ++kind)
+    if (has_kind[kind]) xml += std::string("    <Grid Name=\"") + kGridNames[kind] + "\">\n" + XdmfSharedPart((GridKind)kind) + "    </Grid>\n";
+  return xml + "  </Information>\n";
 }
 
 // A frame's grids differ from those of another frame with the same contents only in its time,
@@ -850,15 +974,6 @@ std::string OutputFile::Impl::XdmfFramePattern(const FrameEntry &frame, const st
   const std::string  h5_name = XmlEscape(h5_file_name);
   std::ostringstream xml;
 
-  // One <DataItem> referring to a dataset of the .h5 file by its relative name.
-  const auto data_item = [&](const char *number_type, int precision, hsize_t rows, int columns, const std::string &dataset) {
-    std::ostringstream item;
-    item << "<DataItem Format=\"HDF\" NumberType=\"" << number_type << "\" Precision=\"" << precision << "\" Dimensions=\"" << rows;
-    if (columns > 0) item << " " << columns;
-    item << "\">" << h5_name << ":" << dataset << "</DataItem>";
-    return item.str();
-  };
-  const auto floats = [&](hsize_t rows, int columns, const std::string &dataset) { return data_item("Float", 8, rows, columns, dataset); };
   // This frame's rows x columns of the frame dataset /frames/<field> (frames x rows x columns).
   // The file's frame count is declared as this frame's index + 1, which it has at least (both
   // readers select by start and count and accept a dataset longer than declared).
@@ -887,80 +1002,51 @@ std::string OutputFile::Impl::XdmfFramePattern(const FrameEntry &frame, const st
     xml << "    " << frame_slab(field, rows, 3, name) << "\n";
     return "<DataItem Reference=\"XML\">/Xdmf/Information[@Name='frames']/DataItem[@Name='" + name + "']</DataItem>";
   };
-  // An attribute named with its unit (what ParaView shows in legends), the unit that of `dataset`.
-  const auto attribute = [&](const std::string &name, const char *type, const char *center, const char *unit_group, const std::string &unit_name,
-                             const std::string &item) {
-    const std::string unit = DatasetQuantity(unit_group, unit_name, dynamic).unit;
-    xml << "      <Attribute Name=\"" << XmlEscape(NameWithUnit(name, unit)) << "\" AttributeType=\"" << type << "\" Center=\"" << center << "\">\n        "
-        << item << "\n      </Attribute>\n";
+  const auto attribute = [&](const std::string &name, const char *type, const char *center, const std::string &field, hsize_t rows, int columns) {
+    xml << XdmfAttribute(name, type, center, "frames", field, frame_slab(field.c_str(), rows, columns));
   };
-  // A grid of points, each a vertex cell: bodies, joints and ground markers.
-  const auto vertex_grid = [&](GridKind kind, hsize_t count, const std::string &vertices, const std::string &positions) {
+  // A grid's head: its time, what it shares with every frame (XdmfSharedPart: included, or for
+  // xdmf2 written out) and its points (none for the ground, whose points are shared).
+  const auto grid = [&](GridKind kind, const std::string &points) {
     xml << "    <Grid Name=\"" << kGridNames[kind] << "\" GridType=\"Uniform\">\n"
-        << "      <Time Value=\"" << time << "\"/>\n"
-        << "      <Topology TopologyType=\"Polyvertex\" NodesPerElement=\"1\" NumberOfElements=\"" << count << "\">\n"
-        << "        " << data_item("Int", 4, count, 1, vertices) << "\n"
-        << "      </Topology>\n"
-        << "      <Geometry GeometryType=\"XYZ\">\n"
-        << "        " << positions << "\n"
-        << "      </Geometry>\n";
+        << "      <Time Value=\"" << time << "\"/>\n";
+    if (xdmf_flavour == XdmfFlavour::Xdmf3)
+      xml << "      <xi:include xpointer=\"xpointer(/Xdmf/Information[@Name='shared']/Grid[@Name='" << kGridNames[kind] << "']/*)\"/>\n";
+    else xml << XdmfSharedPart(kind);
+    if (!points.empty()) xml << "      <Geometry GeometryType=\"XYZ\">\n        " << points << "\n      </Geometry>\n";
   };
 
   // The beams: polylines through the nodes.
-  const std::string beam_points = geometry_of("position", n_nodes);
-  xml << "    <Grid Name=\"beams\" GridType=\"Uniform\">\n"
-      << "      <Time Value=\"" << time << "\"/>\n"
-      << "      <Topology TopologyType=\"Polyline\" NodesPerElement=\"2\" NumberOfElements=\"" << n_segments << "\">\n"
-      << "        " << data_item("Int", 4, n_segments, 2, "/mesh/segments") << "\n"
-      << "      </Topology>\n"
-      << "      <Geometry GeometryType=\"XYZ\">\n"
-      << "        " << beam_points << "\n"
-      << "      </Geometry>\n";
-  attribute("displacement", "Vector", "Node", "frames", "displacement", frame_slab("displacement", n_nodes, 3));
-  attribute("rotation", "Matrix", "Node", "frames", "rotation", frame_slab("rotation", n_nodes, 4));
+  grid(kBeams, geometry_of("position", n_nodes));
+  attribute("displacement", "Vector", "Node", "displacement", n_nodes, 3);
+  attribute("rotation", "Matrix", "Node", "rotation", n_nodes, 4);
   if (frame.has_velocities) {
-    attribute("velocity", "Vector", "Node", "frames", "velocity", frame_slab("velocity", n_nodes, 3));
-    attribute("angular_velocity", "Vector", "Node", "frames", "angular_velocity", frame_slab("angular_velocity", n_nodes, 3));
+    attribute("velocity", "Vector", "Node", "velocity", n_nodes, 3);
+    attribute("angular_velocity", "Vector", "Node", "angular_velocity", n_nodes, 3);
   }
-  attribute("force", "Vector", "Cell", "frames", "segment_force", frame_slab("segment_force", n_segments, 3));
-  attribute("moment", "Vector", "Cell", "frames", "segment_moment", frame_slab("segment_moment", n_segments, 3));
+  attribute("force", "Vector", "Cell", "segment_force", n_segments, 3);
+  attribute("moment", "Vector", "Cell", "segment_moment", n_segments, 3);
   if (frame.has_section_triads)
-    for (const char *axis : {"e1", "e2", "e3"}) {
-      const std::string field = std::string("segment_") + axis;
-      attribute(std::string("section_") + axis, "Vector", "Cell", "frames", field, frame_slab(field.c_str(), n_segments, 3));
-    }
+    for (const char *axis : {"e1", "e2", "e3"}) attribute(std::string("section_") + axis, "Vector", "Cell", std::string("segment_") + axis, n_segments, 3);
   xml << "    </Grid>\n";
 
   // Rigid bodies: a point at each centre of mass with the principal axes (scaled by the semi-axes).
   if (frame.has_bodies) {
-    const std::string points = geometry_of("body_center", n_bodies);
-    vertex_grid(kBodies, n_bodies, "/mesh/body_vertices", points);
-    for (const char *axis : {"1", "2", "3"}) {
-      const std::string field = std::string("body_axis_") + axis;
-      attribute(std::string("axis_") + axis, "Vector", "Node", "frames", field, frame_slab(field.c_str(), n_bodies, 3));
-    }
-    attribute("rotation", "Matrix", "Node", "frames", "body_rotation", frame_slab("body_rotation", n_bodies, 4));
-    attribute("semi_axes", "Vector", "Node", "mesh", "body_semi_axes", floats(n_bodies, 3, "/mesh/body_semi_axes"));
-    attribute("mass", "Scalar", "Node", "mesh", "body_mass", floats(n_bodies, 0, "/mesh/body_mass"));
-    attribute("body", "Scalar", "Node", "mesh", "body_vertices", data_item("Int", 4, n_bodies, 1, "/mesh/body_vertices"));
+    grid(kBodies, geometry_of("body_center", n_bodies));
+    for (const char *axis : {"1", "2", "3"}) attribute(std::string("axis_") + axis, "Vector", "Node", std::string("body_axis_") + axis, n_bodies, 3);
+    attribute("rotation", "Matrix", "Node", "body_rotation", n_bodies, 4);
     xml << "    </Grid>\n";
   }
   // Joints: a point at each slave node with the joint axes in their current orientation.
   if (frame.has_joints) {
-    const std::string points = geometry_of("joint_position", n_joints);
-    vertex_grid(kJoints, n_joints, "/mesh/joint_vertices", points);
-    for (const char *axis : {"a1", "a2", "a3"}) {
-      const std::string field = std::string("joint_") + axis;
-      attribute(axis, "Vector", "Node", "frames", field, frame_slab(field.c_str(), n_joints, 3));
-    }
-    attribute("joint", "Scalar", "Node", "mesh", "joint_vertices", data_item("Int", 4, n_joints, 1, "/mesh/joint_vertices"));
+    grid(kJoints, geometry_of("joint_position", n_joints));
+    for (const char *axis : {"a1", "a2", "a3"}) attribute(axis, "Vector", "Node", std::string("joint_") + axis, n_joints, 3);
     xml << "    </Grid>\n";
   }
-  // The ground: fixed markers, repeated in every frame so that every reader shows them at every time.
+  // The ground: fixed markers, in every frame so that every reader shows them at every time (the
+  // Xdmf3 readers drop a grid outside the temporal collections).
   if (n_ground > 0) {
-    vertex_grid(kGround, n_ground, "/mesh/ground_vertices", floats(n_ground, 3, "/mesh/ground_position"));
-    for (const char *axis : {"a1", "a2", "a3"})
-      attribute(axis, "Vector", "Node", "mesh", std::string("ground_") + axis, floats(n_ground, 3, std::string("/mesh/ground_") + axis));
+    grid(kGround, "");
     xml << "    </Grid>\n";
   }
   return xml.str();
@@ -986,19 +1072,14 @@ PetscErrorCode OutputFile::Impl::WriteXdmfWhole()
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
-// Lists frames[frames_listed, end) by writing their grids and the tail again over the old tail, in
-// one write at the tail's offset: what a killed process leaves is the old file or the new one. A
-// sidecar changed by someone else since the last flush takes a whole rewrite instead.
+// Lists frames[frames_listed, end) by writing their grids and the tail again over the old tail, a
+// piece of about kXdmfPieceBytes per write at the tail's offset: what a killed process leaves is a
+// whole sidecar listing the frames of the pieces written. A sidecar changed by someone else since
+// the last flush takes a whole rewrite instead.
 PetscErrorCode OutputFile::Impl::AppendXdmf()
 {
   PetscFunctionBeginUser;
   if (frames_listed == frames.size()) PetscFunctionReturn(PETSC_SUCCESS);
-  std::string text;
-  for (size_t f = frames_listed; f < frames.size(); ++f) {
-    AppendXdmfFrameGrids(frames[f], &text);
-    if (f == frames_listed) text.reserve(text.size() * (frames.size() - frames_listed + 1));
-  }
-  text += kXdmfTail;
   const long long tail_size = (long long)sizeof kXdmfTail - 1;
   struct stat     status;
   // Never through a link: a sidecar replaced by a symbolic link since the last flush is rewritten
@@ -1010,11 +1091,20 @@ PetscErrorCode OutputFile::Impl::AppendXdmf()
     PetscCall(WriteXdmfWhole());
     PetscFunctionReturn(PETSC_SUCCESS);
   }
-  const ssize_t written = ::pwrite(fd, text.data(), text.size(), (off_t)(xdmf_size - tail_size));
-  const int     closed  = ::close(fd);
-  PetscCheck(written == (ssize_t)text.size() && closed == 0, PETSC_COMM_SELF, PETSC_ERR_FILE_WRITE, "cannot append to XDMF sidecar '%s'", xdmf_path.c_str());
-  xdmf_size += (long long)text.size() - tail_size;
-  frames_listed = frames.size();
+  // Pieces of frames, each written with the tail over the old tail in one write: what a killed
+  // process leaves lists every frame of the pieces written.
+  std::string &text    = xdmf_piece;
+  bool         written = true;
+  while (written && frames_listed < frames.size()) {
+    text.clear();
+    size_t next = frames_listed;
+    while (next < frames.size() && text.size() < kXdmfPieceBytes) AppendXdmfFrameGrids(frames[next++], &text);
+    text += kXdmfTail;
+    written = ::pwrite(fd, text.data(), text.size(), (off_t)(xdmf_size - tail_size)) == (ssize_t)text.size();
+    if (written) xdmf_size += (long long)text.size() - tail_size, frames_listed = next;
+  }
+  const int closed = ::close(fd);
+  PetscCheck(written && closed == 0, PETSC_COMM_SELF, PETSC_ERR_FILE_WRITE, "cannot append to XDMF sidecar '%s'", xdmf_path.c_str());
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
@@ -1074,12 +1164,8 @@ PetscErrorCode OutputFile::Impl::CheckFrame(const OutputFrame &frame, int step, 
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
-PetscErrorCode OutputFile::Impl::SortFrame(const OutputFrame &frame, const FrameEntry &entry, const FrameRows &rows, FrameRows *sorted,
-                                           std::vector<double> values[kFrameFieldCount])
+PetscErrorCode OutputFile::Impl::SortFrameRows(const OutputFrame &frame, const FrameEntry &entry, const FrameRows &rows)
 {
-  std::vector<int>    segment_rows;
-  std::vector<double> segment_force, segment_moment, segment_axes[3];
-
   PetscFunctionBeginUser;
   // A distributed frame numbers its elements' segments; otherwise the table is read back from
   // /mesh. Every rank reads it, even one without element rows: with MPI-IO, HDF5's metadata
@@ -1089,82 +1175,91 @@ PetscErrorCode OutputFile::Impl::SortFrame(const OutputFrame &frame, const Frame
   PetscCheck(!own_segments || (frame.element_first_segment.size() == rows.elements.size() && frame.element_segment_count.size() == rows.elements.size()),
              PETSC_COMM_SELF, PETSC_ERR_ARG_SIZ, "output file '%s': step %d: %zu element rows but %zu/%zu segment numbers", path.c_str(), entry.step,
              rows.elements.size(), frame.element_first_segment.size(), frame.element_segment_count.size());
+  frame_sorted.nodes    = rows.nodes;
+  frame_sorted.elements = rows.elements;
+  frame_sorted.bodies   = rows.bodies;
+  frame_sorted.joints   = rows.joints;
+  frame_sorted.segments.clear();
+  segment_source.clear();
   for (size_t k = 0; k < rows.elements.size(); ++k) {
     const int first = own_segments ? frame.element_first_segment[k] : segment_first[rows.elements[k]];
     const int last  = own_segments ? first + frame.element_segment_count[k] : segment_first[rows.elements[k] + 1];
     PetscCheck(first >= 0 && (hsize_t)last <= n_segments, PETSC_COMM_SELF, PETSC_ERR_ARG_OUTOFRANGE, "output file '%s': step %d: segments [%d, %d) of %llu",
                path.c_str(), entry.step, first, last, (unsigned long long)n_segments);
     for (int s = first; s < last; ++s) {
-      segment_rows.push_back(s);
-      segment_force.insert(segment_force.end(), &frame.element_resultants[6 * k], &frame.element_resultants[6 * k + 3]);
-      segment_moment.insert(segment_moment.end(), &frame.element_resultants[6 * k + 3], &frame.element_resultants[6 * k + 6]);
+      frame_sorted.segments.push_back(s);
+      segment_source.push_back(k);
     }
   }
   // Section triads: the distributed frame lists them segment after segment, in element-row order.
-  if (own_segments) {
-    PetscCheck(frame.segment_triads.size() == 9 * segment_rows.size(), PETSC_COMM_SELF, PETSC_ERR_ARG_SIZ,
+  if (own_segments)
+    PetscCheck(frame.segment_triads.size() == 9 * frame_sorted.segments.size(), PETSC_COMM_SELF, PETSC_ERR_ARG_SIZ,
                "output file '%s': step %d: %zu section triad values for %zu segments", path.c_str(), entry.step, frame.segment_triads.size(),
-               segment_rows.size());
-    for (size_t s = 0; s < segment_rows.size(); ++s)
-      for (int axis = 0; axis < 3; ++axis)
-        segment_axes[axis].insert(segment_axes[axis].end(), &frame.segment_triads[9 * s + 3 * axis], &frame.segment_triads[9 * s + 3 * axis + 3]);
-  }
-  // Tables of 9 values per row (three vectors) go to three datasets of 3, one per vector.
-  const auto split = [](const std::vector<double> &rows_of_nine, int part) {
-    std::vector<double> out;
-    for (size_t r = 0; r + 9 <= rows_of_nine.size(); r += 9) out.insert(out.end(), &rows_of_nine[r + 3 * part], &rows_of_nine[r + 3 * part + 3]);
-    return out;
-  };
-  const std::vector<double> body_axes[3]  = {split(frame.body_axes, 0), split(frame.body_axes, 1), split(frame.body_axes, 2)};
-  const std::vector<double> joint_axes[3] = {split(frame.joint_axes, 0), split(frame.joint_axes, 1), split(frame.joint_axes, 2)};
-  // The values of each field in the caller's row order, in kFrameFields' order.
-  const std::vector<double> *given[kFrameFieldCount] = {
-      &frame.position,  &frame.displacement, &frame.rotation,      &frame.element_resultants, &frame.element_strains,  &segment_force,     &segment_moment,
-      &segment_axes[0], &segment_axes[1],    &segment_axes[2],     &frame.velocity,           &frame.angular_velocity, &frame.body_center, &body_axes[0],
-      &body_axes[1],    &body_axes[2],       &frame.body_rotation, &frame.joint_position,     &joint_axes[0],          &joint_axes[1],     &joint_axes[2]};
-  FrameRows with_segments = rows;
-  with_segments.segments  = std::move(segment_rows);
-  // Each table's rows in file order (ascending), and every field's values permuted alike.
-  std::vector<size_t> order[kRowKinds];
+               frame_sorted.segments.size());
+  // Each table's rows in file order (ascending): most frames come sorted (no permutation needed).
+  std::vector<int> *tables[kRowKinds] = {&frame_sorted.nodes, &frame_sorted.elements, &frame_sorted.segments, &frame_sorted.bodies, &frame_sorted.joints};
   for (int kind = 0; kind < kRowKinds; ++kind) {
-    const std::vector<int> &unsorted = with_segments.Of((RowKind)kind);
-    order[kind].resize(unsorted.size());
-    for (size_t k = 0; k < unsorted.size(); ++k) order[kind][k] = k;
-    std::sort(order[kind].begin(), order[kind].end(), [&](size_t a, size_t b) { return unsorted[a] < unsorted[b]; });
-  }
-  const auto sorted_rows = [&](RowKind kind) {
-    const std::vector<int> &unsorted = with_segments.Of(kind);
-    std::vector<int>        out(unsorted.size());
-    for (size_t k = 0; k < out.size(); ++k) out[k] = unsorted[order[kind][k]];
-    return out;
-  };
-  *sorted            = {sorted_rows(kNodeRows), sorted_rows(kElementRows), sorted_rows(kBodyRows), sorted_rows(kJointRows), sorted_rows(kSegmentRows)};
-  const int contents = entry.Contents();
-  for (int f = 0; f < kFrameFieldCount; ++f) {
-    const FrameField          &field = kFrameFields[f];
-    const std::vector<size_t> &perm  = order[field.rows];
-    values[f].clear();
-    if (field.content && !(contents & field.content)) continue;
-    const std::vector<double> &data = *given[f];
-    PetscCheck(data.size() == perm.size() * (size_t)field.columns, PETSC_COMM_SELF, PETSC_ERR_ARG_SIZ,
-               "output file '%s': step %d: %zu values of %s for %zu rows", path.c_str(), entry.step, data.size(), field.name, perm.size());
-    values[f].resize(data.size());
-    for (size_t k = 0; k < perm.size(); ++k) std::copy_n(&data[perm[k] * field.columns], field.columns, &values[f][k * field.columns]);
+    std::vector<int>    &table = *tables[kind];
+    std::vector<size_t> &order = frame_order[kind];
+    order.clear();
+    if (std::is_sorted(table.begin(), table.end())) continue;
+    order.resize(table.size());
+    for (size_t k = 0; k < table.size(); ++k) order[k] = k;
+    std::sort(order.begin(), order.end(), [&](size_t a, size_t b) { return table[a] < table[b]; });
+    std::vector<int> &sorted = sort_scratch.nodes;
+    sorted.resize(table.size());
+    for (size_t k = 0; k < table.size(); ++k) sorted[k] = table[order[k]];
+    table.swap(sorted);
   }
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
-void OutputFile::Impl::BufferFrame(const FrameEntry &entry, const FrameRows &sorted, std::vector<double> values[kFrameFieldCount])
+PetscErrorCode OutputFile::Impl::BufferFrame(const OutputFrame &frame, const FrameEntry &entry)
 {
-  if (frames_buffered == 0) buffered_rows = sorted;
+  // Where field f's values of the caller's row u start: source[f].data + stride * index(u) +
+  // offset, index(u) = u, or for the segment fields the segment's element (or its own triad).
+  struct Source {
+    const std::vector<double> *data;
+    size_t                     stride, offset;
+    bool                       by_element;
+  };
+  const Source sources[kFrameFieldCount] = {
+      {&frame.position, 3, 0, false},           {&frame.displacement, 3, 0, false},    {&frame.rotation, 4, 0, false},
+      {&frame.element_resultants, 6, 0, false}, {&frame.element_strains, 6, 0, false}, {&frame.element_resultants, 6, 0, true},
+      {&frame.element_resultants, 6, 3, true},  {&frame.segment_triads, 9, 0, false},  {&frame.segment_triads, 9, 3, false},
+      {&frame.segment_triads, 9, 6, false},     {&frame.velocity, 3, 0, false},        {&frame.angular_velocity, 3, 0, false},
+      {&frame.body_center, 3, 0, false},        {&frame.body_axes, 9, 0, false},       {&frame.body_axes, 9, 3, false},
+      {&frame.body_axes, 9, 6, false},          {&frame.body_rotation, 4, 0, false},   {&frame.joint_position, 3, 0, false},
+      {&frame.joint_axes, 9, 0, false},         {&frame.joint_axes, 9, 3, false},      {&frame.joint_axes, 9, 6, false}};
+  PetscFunctionBeginUser;
+  if (frames_buffered == 0) buffered_rows = frame_sorted;
+  const int contents = entry.Contents();
   for (int f = 0; f < kFrameFieldCount; ++f) {
-    // A field the frame does not have holds zeros in it (its rows are the buffer's).
-    const size_t size = buffered_rows.Of(kFrameFields[f].rows).size() * (size_t)kFrameFields[f].columns;
-    if (values[f].empty()) buffered_fields[f].resize(buffered_fields[f].size() + size, 0.0);
-    else buffered_fields[f].insert(buffered_fields[f].end(), values[f].begin(), values[f].end());
+    const FrameField          &field  = kFrameFields[f];
+    const Source              &source = sources[f];
+    const std::vector<size_t> &order  = frame_order[field.rows];
+    const size_t               n_rows = frame_sorted.Of(field.rows).size(), columns = (size_t)field.columns;
+    std::vector<double>       &buffer = buffered_fields[f];
+    const size_t               at     = buffer.size();
+    // Room for a whole block at once (address space only until written): no copying as it grows.
+    if (at == 0 && buffer.capacity() == 0) buffer.reserve(FramesPerBlock() * std::max<size_t>(1, n_rows) * columns);
+    const bool present = !field.content || (contents & field.content);
+    buffer.resize(at + n_rows * columns, 0.0);
+    if (!present) continue; // a field the frame does not have holds zeros in it
+    const size_t source_rows = source.by_element ? frame_sorted.elements.size() : n_rows;
+    PetscCheck(source.data->size() == source_rows * source.stride, PETSC_COMM_SELF, PETSC_ERR_ARG_SIZ,
+               "output file '%s': step %d: %zu values of %s for %zu rows", path.c_str(), entry.step, source.data->size(), field.name, source_rows);
+    double       *out = buffer.data() + at;
+    const double *in  = source.data->data() + source.offset;
+    for (size_t k = 0; k < n_rows; ++k) {
+      size_t u = order.empty() ? k : order[k];
+      if (source.by_element) u = segment_source[u];
+      std::copy_n(in + source.stride * u, columns, out + k * columns);
+    }
   }
   frames.push_back(entry);
   ++frames_buffered;
+  PetscFunctionReturn(PETSC_SUCCESS);
 }
 
 hsize_t OutputFile::Impl::FramesPerBlock() const
@@ -1195,13 +1290,14 @@ PetscErrorCode OutputFile::Impl::WriteFrameBlock()
     }
     std::vector<hsize_t> max_dims = dims, chunk;
     max_dims[0]                   = H5S_UNLIMITED;
-    if (entry.empty()) chunk = {HistoryChunkRows(1)};
-    else chunk = FrameChunk(entry[0], entry[1]);
+    if (entry.empty()) chunk = {HistoryChunkRows(1, count)};
+    else chunk = FrameChunk(entry[0], entry[1], count);
     H5Id         space, properties;
     const double zero = 0.0;
     PetscCallHDF5(space = H5Screate_simple((int)dims.size(), dims.data(), max_dims.data()));
     PetscCallHDF5(properties = H5Pcreate(H5P_DATASET_CREATE));
     PetscCallHDF5(H5Pset_chunk(properties, (int)chunk.size(), chunk.data()));
+    PetscCallHDF5(H5Pset_alloc_time(properties, H5D_ALLOC_TIME_EARLY)); // see FrameChunk
     // Frames written before the dataset existed (a static stage without velocities) read as 0.
     if (H5Tequal(type, H5T_IEEE_F64LE) > 0) PetscCallHDF5(H5Pset_fill_value(properties, H5T_NATIVE_DOUBLE, &zero));
     PetscCallHDF5(*dataset = H5Dcreate2(group, name, type, space, H5P_DEFAULT, properties, H5P_DEFAULT));
@@ -1259,9 +1355,11 @@ PetscErrorCode OutputFile::Impl::WriteFrameBlock()
       PetscCallHDF5(H5Sselect_hyperslab(file_space, k == 0 ? H5S_SELECT_SET : H5S_SELECT_OR, start, nullptr, block, nullptr));
       k = end;
     }
-    const hsize_t values  = std::max<hsize_t>(1, buffered_fields[f].size());
-    const double  nothing = 0.0;
-    PetscCallHDF5(memory_space = H5Screate_simple(1, &values, nullptr));
+    // The buffer is frames x this rank's rows x columns, the file selection's shape: HDF5 then maps
+    // it onto the chunks by hyperslab (a flat memory space makes it visit every element).
+    const hsize_t memory_dims[3] = {count, std::max<hsize_t>(1, mine.size()), columns};
+    const double  nothing        = 0.0;
+    PetscCallHDF5(memory_space = H5Screate_simple(3, memory_dims, nullptr));
     if (buffered_fields[f].empty()) PetscCallHDF5(H5Sselect_none(memory_space));
     PetscCheck(buffered_fields[f].size() == count * mine.size() * columns, PETSC_COMM_SELF, PETSC_ERR_PLIB,
                "output file '%s': %zu buffered values of %s for %llu frames of %zu rows", path.c_str(), buffered_fields[f].size(), field.name,
@@ -1523,6 +1621,7 @@ template <class RootWork> PetscErrorCode OutputFile::OpenWith(MPI_Comm comm, con
 {
   PetscFunctionBeginUser;
   PetscCheck(!impl_, comm, PETSC_ERR_ARG_WRONGSTATE, "cannot open output file '%s': '%s' is still open", path.c_str(), path_.c_str());
+  PetscCall(RegisterWritePhaseEvents());
   comm_               = comm;
   path_               = path;
   impl_               = new Impl(path);
@@ -1567,41 +1666,48 @@ PetscErrorCode OutputFile::WriteFrame(const OutputFrame &frame)
   PetscCallMPI(MPI_Bcast(flags, 2, MPI_INT, 0, comm_));
   PetscCallMPI(MPI_Bcast(&step, 1, MPI_INT, 0, comm_));
   PetscCallMPI(MPI_Bcast(&time, 1, MPI_DOUBLE, 0, comm_));
-  const bool      distributed    = flags[0] != 0;
-  int             has_velocities = flags[1];
-  Impl::FrameRows rows;
-  const auto      all_rows = [](size_t count) {
-    std::vector<int> rows(count);
-    for (size_t i = 0; i < count; ++i) rows[i] = (int)i;
-    return rows;
+  const bool distributed    = flags[0] != 0;
+  int        has_velocities = flags[1];
+  // The caller's rows, in scratch that keeps its capacity from frame to frame.
+  Impl::FrameRows &rows       = impl_->caller_rows;
+  const auto       first_rows = [](size_t count, std::vector<int> *table) {
+    if (table->size() == count) return;
+    table->resize(count);
+    for (size_t i = 0; i < count; ++i) (*table)[i] = (int)i;
   };
   if (distributed) {
     const int mine = frame.velocity.empty() ? 0 : 1;
     PetscCallMPI(MPI_Allreduce(&mine, &has_velocities, 1, MPI_INT, MPI_LOR, comm_));
-    rows = {frame.node_rows, frame.element_rows, frame.body_rows, frame.joint_rows, {}};
+    rows.nodes    = frame.node_rows;
+    rows.elements = frame.element_rows;
+    rows.bodies   = frame.body_rows;
+    rows.joints   = frame.joint_rows;
   } else if (impl_->rank == 0) {
     // Rank 0 holds the whole frame (CheckFrame reports arrays of other sizes); the bodies and
     // joints when it has their arrays.
-    rows = {all_rows(impl_->n_nodes),
-            all_rows(impl_->n_elements),
-            all_rows(frame.body_center.empty() ? 0 : impl_->n_bodies),
-            all_rows(frame.joint_position.empty() ? 0 : impl_->n_joints),
-            {}};
-  }
+    first_rows(impl_->n_nodes, &rows.nodes);
+    first_rows(impl_->n_elements, &rows.elements);
+    first_rows(frame.body_center.empty() ? 0 : impl_->n_bodies, &rows.bodies);
+    first_rows(frame.joint_position.empty() ? 0 : impl_->n_joints, &rows.joints);
+  } else rows.nodes.clear(), rows.elements.clear(), rows.bodies.clear(), rows.joints.clear();
   unsigned long long local[4] = {rows.nodes.size(), rows.elements.size(), rows.bodies.size(), rows.joints.size()}, total[4];
   PetscCallMPI(MPI_Allreduce(local, total, 4, MPI_UNSIGNED_LONG_LONG, MPI_SUM, comm_));
   const hsize_t    totals[4] = {total[0], total[1], total[2], total[3]};
   Impl::FrameEntry entry{step, time, has_velocities != 0, distributed, total[2] > 0, total[3] > 0};
   entry.index = impl_->frames.size();
-  Impl::FrameRows     sorted;
-  std::vector<double> values[kFrameFieldCount];
+  PetscCall(PetscLogEventBegin(write_phase_events.buffer_frame, 0, 0, 0, 0));
   PetscCall(RunCollective(comm_, [&] { return impl_->CheckFrame(frame, step, has_velocities, rows, totals); }));
-  PetscCall(RunCollective(comm_, [&] { return impl_->SortFrame(frame, entry, rows, &sorted, values); }));
+  PetscCall(RunCollective(comm_, [&] { return impl_->SortFrameRows(frame, entry, rows); }));
   // The buffer takes frames of the same rows on every rank, as many as fit; else it is written first.
-  int full = impl_->frames_buffered > 0 && (impl_->frames_buffered >= impl_->FramesPerBlock() || !(sorted == impl_->buffered_rows)), any_full = 0;
+  int full = impl_->frames_buffered > 0 && (impl_->frames_buffered >= impl_->FramesPerBlock() || !(impl_->frame_sorted == impl_->buffered_rows)), any_full = 0;
   PetscCallMPI(MPI_Allreduce(&full, &any_full, 1, MPI_INT, MPI_LOR, comm_));
-  if (any_full) PetscCall(RunCollective(comm_, [&] { return impl_->WriteFrameBlock(); }));
-  impl_->BufferFrame(entry, sorted, values);
+  if (any_full) {
+    PetscCall(PetscLogEventBegin(write_phase_events.frame_block, 0, 0, 0, 0));
+    PetscCall(RunCollective(comm_, [&] { return impl_->WriteFrameBlock(); }));
+    PetscCall(PetscLogEventEnd(write_phase_events.frame_block, 0, 0, 0, 0));
+  }
+  PetscCall(RunCollective(comm_, [&] { return impl_->BufferFrame(frame, entry); }));
+  PetscCall(PetscLogEventEnd(write_phase_events.buffer_frame, 0, 0, 0, 0));
   impl_->dirty = true;
   PetscCall(FlushIfDue());
   PetscFunctionReturn(PETSC_SUCCESS);
@@ -1641,7 +1747,10 @@ PetscErrorCode OutputFile::Flush()
   PetscFunctionBeginUser;
   PetscCheck(impl_, PETSC_COMM_SELF, PETSC_ERR_ARG_WRONGSTATE, "Flush: no output file is open");
   if (!impl_->dirty) PetscFunctionReturn(PETSC_SUCCESS);
+  PetscCall(PetscLogEventBegin(write_phase_events.history_block, 0, 0, 0, 0));
   PetscCall(RunCollective(comm_, [&] { return impl_->WriteHistoryBlock(); }));
+  PetscCall(PetscLogEventEnd(write_phase_events.history_block, 0, 0, 0, 0));
+  PetscCall(PetscLogEventBegin(write_phase_events.frame_block, 0, 0, 0, 0));
   PetscCall(RunCollective(comm_, [&] { return impl_->WriteFrameBlock(); }));
   PetscCall(RunCollective(comm_, [&]() -> PetscErrorCode {
     const std::string &path = impl_->path; // for PetscCallHDF5's message
@@ -1649,8 +1758,11 @@ PetscErrorCode OutputFile::Flush()
     PetscCallHDF5(H5Fflush(impl_->file, H5F_SCOPE_LOCAL));
     PetscFunctionReturn(PETSC_SUCCESS);
   }));
+  PetscCall(PetscLogEventEnd(write_phase_events.frame_block, 0, 0, 0, 0));
   // The sidecar lists a frame only once the file holding it has been flushed.
+  PetscCall(PetscLogEventBegin(write_phase_events.sidecar, 0, 0, 0, 0));
   PetscCall(RunOnRoot(comm_, [&] { return impl_->AppendXdmf(); }));
+  PetscCall(PetscLogEventEnd(write_phase_events.sidecar, 0, 0, 0, 0));
   impl_->dirty      = false;
   impl_->last_flush = MPI_Wtime();
   PetscFunctionReturn(PETSC_SUCCESS);
@@ -1665,7 +1777,9 @@ PetscErrorCode OutputFile::Close()
   // Closed whatever the flush gives (its error is reported where it arises), so that a failed run
   // still releases the file.
   const PetscErrorCode status = Flush();
+  PetscCall(PetscLogEventBegin(write_phase_events.close, 0, 0, 0, 0));
   const PetscErrorCode closed = RunCollective(comm_, [&] { return impl_->Close(); });
+  PetscCall(PetscLogEventEnd(write_phase_events.close, 0, 0, 0, 0));
   delete impl_;
   impl_ = nullptr;
   PetscCall(status);

@@ -91,6 +91,17 @@ struct OutputFrame {
   // the joint axes a1 a2 a3 in their current orientation (master rotation times reference axes, 9).
   std::vector<int>    joint_rows;
   std::vector<double> joint_position, joint_axes;
+
+  // Empties every array but keeps its storage: a frame object reused from step to step costs no
+  // allocation.
+  void Clear()
+  {
+    step = 0, time = 0.0, distributed = false;
+    for (std::vector<double> *values : {&position, &displacement, &rotation, &element_resultants, &element_strains, &velocity, &angular_velocity,
+                                        &segment_triads, &body_center, &body_axes, &body_rotation, &joint_position, &joint_axes})
+      values->clear();
+    for (std::vector<int> *rows : {&node_rows, &element_rows, &element_first_segment, &element_segment_count, &body_rows, &joint_rows}) rows->clear();
+  }
 };
 
 struct ProbeSample {

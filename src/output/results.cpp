@@ -207,10 +207,10 @@ PetscErrorCode GatherFrame(MPI_Comm comm, const Model &model, const DofMap &map,
 {
   PetscFunctionBeginUser;
   const std::vector<NodeState> &nodes = state.nodes;
-  *frame                              = OutputFrame{};
-  frame->step                         = step;
-  frame->time                         = time;
-  frame->distributed                  = true;
+  frame->Clear(); // keeps the arrays' capacity for the next frame
+  frame->step        = step;
+  frame->time        = time;
+  frame->distributed = true;
   for (PetscInt l = 0; l < map.num_owned_nodes; ++l) {
     double in[kNodeRecordSize];
     PackNodeRecord(model, map.local_nodes[l], nodes[l], in);
@@ -295,13 +295,14 @@ PetscErrorCode JointHistory(MPI_Comm comm, const Model &model, const DofMap &map
     const Joint            &joint = model.joints[J->joint];
     const JointCoordinates &q     = J->start;
     const int               nt    = joint.num_translations;
-    auto                    add   = [&](const std::string &name, double value) {
-      if (need_names) local_names += joint.name + "." + name + '\0';
+    // The name (base + suffix) is only built when it is needed, not for every row.
+    auto add = [&](const char *base, double value, const char *suffix = "") {
+      if (need_names) local_names += joint.name + "." + base + suffix + '\0';
       local.push_back(value);
     };
     for (int c = 0; c < nt; ++c) {
       add(translation_names[joint.translation_axis[c]], q.q[c]);
-      add(std::string(translation_names[joint.translation_axis[c]]) + "_rate", J->rate[c]);
+      add(translation_names[joint.translation_axis[c]], J->rate[c], "_rate");
     }
     if (joint.rotation == Joint::Rotation::Free) {
       const Vec3 rotation = joint.axes.transpose() * LogSO3(q.free_rotation_start);
@@ -310,7 +311,7 @@ PetscErrorCode JointHistory(MPI_Comm comm, const Model &model, const DofMap &map
       const int nr = joint.rotation == Joint::Rotation::OneAxis ? 1 : joint.rotation == Joint::Rotation::TwoAxes ? 2 : 0;
       for (int c = 0; c < nr; ++c) {
         add(rotation_names[joint.rotation_axis[c]], q.q[nt + c]);
-        add(std::string(rotation_names[joint.rotation_axis[c]]) + "_rate", J->rate[nt + c]);
+        add(rotation_names[joint.rotation_axis[c]], J->rate[nt + c], "_rate");
       }
     }
     if (joint.dependence != Joint::Dependence::None) {

@@ -11,7 +11,9 @@
    Newton iterates differ at the level of the Newton tolerance (1e-10), not of round-off (a history series
    relative to the largest value of its joint's or probe's series, so that a ball joint's moment,
    zero up to round-off, is measured against the joint's force; the solver's own diagnostics —
-   residual norm, Newton iterations, em's beta — are not results and are left out).
+   residual norm, Newton iterations, em's beta — are not results and are left out). And (torque-free
+   top) a serial result file continued on 2 ranks beyond its end, so that its datasets grow new
+   chunks in collective writes: equal to an uninterrupted serial run to the new end to 1e-8.
 3. SIGTERM (serial) and SIGUSR1 sent to mpirun (2 ranks) during a run: exit status 75, a
    checkpoint at the step reached, a readable result file holding exactly the steps done; the
    restart then completes the run exactly as the uninterrupted run on as many ranks.
@@ -162,6 +164,26 @@ for label, source, settings in cases:
     check.equal(f"{label}: 2-rank restart writes the steps after the checkpoint (first step = checkpoint step + 1)", first_step, checkpoint_step + 1)
     check.less(f"{label}: 2-rank restart, frames, largest relative difference", frame_difference, 1e-8)
     check.less(f"{label}: 2-rank restart, history, largest relative difference", history_difference, 1e-8)
+
+    # 2b. The serial result file continued on 2 ranks past its end: the datasets a serial process
+    # created get new chunks in collective writes (a restart that crossed a chunk boundary hung in
+    # MPI-IO, "writev: Invalid argument", until chunks were allocated when datasets are extended).
+    if tag == "torque-free_top":
+        longer = settings[:-1] + ["6"]
+        longer_reference = f"{work}/{tag}_longer_reference.h5"
+        run(1, source, "-output_file", longer_reference, "-output_overwrite", "-quiet", *longer)
+        grown = f"{work}/{tag}_grown.h5"
+        run(1, source, "-output_file", grown, "-output_overwrite", "-quiet", "-checkpoint_every", 120, *settings)
+        run(2, "--restart", f"{work}/{tag}_grown.ckpt.h5", "-analysis_end_time", "6", "-quiet")
+        expected_longer, got = read_all(longer_reference), read_all(grown)
+        with h5py.File(grown, "r") as f:
+            chunk_frames = f["frames/position"].chunks[0]
+        grown_frames = len(got["frames/step"])
+        check.true(f"{label}: continued on 2 ranks to t = 6 past the end of its chunks ({grown_frames} frames, chunks of {chunk_frames})",
+                   grown_frames == len(expected_longer["frames/step"]) and grown_frames > chunk_frames)
+        names = [name for name in got if name not in SOLVER_DIAGNOSTICS]
+        difference, _ = largest_difference(expected_longer, got, names, relative=True)
+        check.less(f"{label}: serial file continued on 2 ranks, largest relative difference", difference, 1e-8)
 
 
 def interrupt(ranks, send, label, source, settings, expected):
