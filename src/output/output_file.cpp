@@ -404,8 +404,10 @@ struct OutputFile::Impl {
   bool                field_exists[kFrameFieldCount]{};
   // WriteFrame's scratch, kept so that a frame costs no allocation: the caller's rows (for a frame
   // that is not distributed, 0, 1, ... of each table), the frame's rows in file order, the
-  // permutation per kind of row, and the element row of each segment of the frame (in its order).
-  FrameRows           caller_rows, frame_sorted, sort_scratch;
+  // permutation per kind of row, the element row of each segment of the frame (in its order), and
+  // a table being put in order.
+  FrameRows           caller_rows, frame_sorted;
+  std::vector<int>    rows_being_sorted;
   std::vector<size_t> frame_order[kRowKinds];
   std::vector<size_t> segment_source;
   MPI_Comm            comm = MPI_COMM_NULL;
@@ -1206,7 +1208,7 @@ PetscErrorCode OutputFile::Impl::SortFrameRows(const OutputFrame &frame, const F
     order.resize(table.size());
     for (size_t k = 0; k < table.size(); ++k) order[k] = k;
     std::sort(order.begin(), order.end(), [&](size_t a, size_t b) { return table[a] < table[b]; });
-    std::vector<int> &sorted = sort_scratch.nodes;
+    std::vector<int> &sorted = rows_being_sorted;
     sorted.resize(table.size());
     for (size_t k = 0; k < table.size(); ++k) sorted[k] = table[order[k]];
     table.swap(sorted);

@@ -10,6 +10,7 @@
 #include <msflex_version.hpp>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 #include <filesystem>
@@ -736,6 +737,79 @@ TEST_F(OutputFileTest, WritesRigidBodiesJointsAndGround)
     EXPECT_NE(xdmf.find(std::string("Attribute Name=") + name), std::string::npos) << "no attribute " << name;
   EXPECT_NE(xdmf.find(">output.h5:/frames/body_axis_3|2 0 0:1 1 1:1 2 3:3 2 3<"), std::string::npos);
   EXPECT_NE(xdmf.find(">output.h5:/mesh/ground_position<"), std::string::npos);
+}
+
+// A rank's part of a frame with every table's rows in reverse order (segments following their
+// elements), as a partition may hand them over.
+OutputFrame Reversed(const OutputFrame &part)
+{
+  OutputFrame out            = part;
+  const auto  reverse_blocks = [](std::vector<double> *values, size_t rows) {
+    if (rows == 0) return;
+    const size_t        width = values->size() / rows;
+    std::vector<double> reversed;
+    for (size_t r = rows; r-- > 0;) reversed.insert(reversed.end(), values->begin() + width * r, values->begin() + width * (r + 1));
+    *values = reversed;
+  };
+  const size_t nodes = part.node_rows.size(), elements = part.element_rows.size(), bodies = part.body_rows.size(), joints = part.joint_rows.size();
+  for (std::vector<double> *values : {&out.position, &out.displacement, &out.rotation, &out.velocity, &out.angular_velocity}) reverse_blocks(values, nodes);
+  for (std::vector<double> *values : {&out.element_resultants, &out.element_strains}) reverse_blocks(values, elements);
+  for (std::vector<double> *values : {&out.body_center, &out.body_axes, &out.body_rotation}) reverse_blocks(values, bodies);
+  for (std::vector<double> *values : {&out.joint_position, &out.joint_axes}) reverse_blocks(values, joints);
+  for (std::vector<int> *rows : {&out.node_rows, &out.element_rows, &out.element_first_segment, &out.element_segment_count, &out.body_rows, &out.joint_rows})
+    std::reverse(rows->begin(), rows->end());
+  // The triads, segment after segment of the elements in their new order.
+  out.segment_triads.clear();
+  size_t              first = 0;
+  std::vector<size_t> first_triad; // of each element in the original order
+  for (size_t k = 0; k < elements; ++k) first_triad.push_back(first), first += 9 * (size_t)part.element_segment_count[k];
+  for (size_t k = elements; k-- > 0;)
+    out.segment_triads.insert(out.segment_triads.end(), part.segment_triads.begin() + first_triad[k],
+                              part.segment_triads.begin() + first_triad[k] + 9 * part.element_segment_count[k]);
+  return out;
+}
+
+// Rows handed over in any order land in file order: two frames whose every table (nodes,
+// elements and their segments, bodies, joints) comes in reverse order on each rank.
+TEST_F(OutputFileTest, WritesRowsGivenInAnyOrder)
+{
+  OutputFile out;
+  ASSERT_EQ(out.Open(PETSC_COMM_WORLD, h5_path().string(), false, "mechanism.yaml", "analysis: {type: dynamic}\n", IsRoot() ? MechanismMesh() : OutputMesh{},
+                     kFingerprint, kRunId),
+            PETSC_SUCCESS);
+  for (int step = 0; step < 2; ++step) ASSERT_EQ(out.WriteFrame(Reversed(DistributedPart(MechanismFrame(step), WorldRank(), WorldSize()))), PETSC_SUCCESS);
+  ASSERT_EQ(out.Close(), PETSC_SUCCESS);
+  if (!IsRoot()) return;
+  const hid_t file = H5Fopen(h5_path().c_str(), H5F_ACC_RDONLY, H5P_DEFAULT);
+  ASSERT_GE(file, 0);
+  std::vector<hsize_t> dims;
+  for (size_t step = 0; step < 2; ++step) {
+    const OutputFrame expected = MechanismFrame((int)step);
+    const std::string frame    = "frame " + std::to_string(step);
+    EXPECT_EQ(ReadFrame(file, "position", step, &dims), expected.position) << frame;
+    EXPECT_EQ(ReadFrame(file, "rotation", step, &dims), expected.rotation) << frame;
+    EXPECT_EQ(ReadFrame(file, "velocity", step, &dims), expected.velocity) << frame;
+    EXPECT_EQ(ReadFrame(file, "element_resultants", step, &dims), expected.element_resultants) << frame;
+    EXPECT_EQ(ReadFrame(file, "element_strains", step, &dims), expected.element_strains) << frame;
+    EXPECT_EQ(ReadFrame(file, "body_center", step, &dims), expected.body_center) << frame;
+    EXPECT_EQ(ReadFrame(file, "joint_position", step, &dims), expected.joint_position) << frame;
+    for (int axis = 0; axis < 3; ++axis) {
+      EXPECT_EQ(ReadFrame(file, "body_axis_" + std::to_string(axis + 1), step, &dims), Part(expected.body_axes, axis)) << frame << " axis " << axis;
+      EXPECT_EQ(ReadFrame(file, "joint_a" + std::to_string(axis + 1), step, &dims), Part(expected.joint_axes, axis)) << frame << " axis " << axis;
+    }
+    // Segments: elements 0 (segments 0, 1) and 1 (segment 2); each segment carries its element's
+    // force, and its own triad (DistributedPart: 100 step + 10 segment + k).
+    std::vector<double> force, e2;
+    const int           element_of_segment[3] = {0, 0, 1};
+    for (int segment = 0; segment < 3; ++segment) {
+      const int e = element_of_segment[segment];
+      force.insert(force.end(), &expected.element_resultants[6 * e], &expected.element_resultants[6 * e + 3]);
+      for (int k = 3; k < 6; ++k) e2.push_back(100.0 * (double)step + 10.0 * segment + k);
+    }
+    EXPECT_EQ(ReadFrame(file, "segment_force", step, &dims), force) << frame;
+    EXPECT_EQ(ReadFrame(file, "segment_e2", step, &dims), e2) << frame;
+  }
+  EXPECT_GE(H5Fclose(file), 0);
 }
 
 // Every dataset carries a unit and a description; the units follow the table in output_units.cpp.
