@@ -14,6 +14,7 @@
 // squares), so A delta = -R is consistent; conjugate gradients from delta = 0 give its minimum-norm
 // solution: no component along the motions nothing determines.
 #include "assembly/assembler.hpp"
+#include "core/dense_lu.hpp"
 #include "core/errors.hpp"
 
 #include "contributors/beam_contributor.hpp"
@@ -198,8 +199,7 @@ PetscErrorCode Assembler::ProjectInitialVelocities(double t, InitialVelocityRepo
   PetscCall(KSPSetOperators(ksp, jacobian_, P));
   PetscCall(KSPSetType(ksp, KSPCG));
   PetscCall(KSPGetPC(ksp, &pc));
-  PetscCall(PCSetType(pc, PCLU));
-  PetscCall(SetDefaultFactorSolver(pc, P));
+  PetscCall(SetDirectSolver(pc, P));
   PetscCall(KSPSetTolerances(ksp, 1e-12, 0.0, PETSC_DEFAULT, 200));
   PetscCall(KSPSetFromOptions(ksp));
   PetscCall(VecZeroEntries(delta));

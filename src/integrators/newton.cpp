@@ -1,4 +1,5 @@
 #include "integrators/newton.hpp"
+#include "core/dense_lu.hpp"
 #include "core/errors.hpp"
 
 #include "core/format.hpp"
@@ -242,14 +243,17 @@ PetscErrorCode NewtonSolverCreate(MPI_Comm comm, const AnalysisSettings &analysi
   PetscCall(KSPSetType(ksp, KSPPREONLY));
   if (newton_operator == NewtonOperator::AssembledWithRankOne) PetscCall(KSPSetPostSolve(ksp, ShermanMorrisonCorrection, context));
   PetscCall(KSPGetPC(ksp, &pc));
-  PetscCall(PCSetType(pc, PCLU));
   // The direct solver by structure is opt-in (-newton_solver_by_structure): MUMPS stays the
   // default, whose account of a singular tangent (INFOG) the failure messages and tests rely on.
-  // A dense tangent always goes to LAPACK (MUMPS takes sparse matrices only).
-  PetscBool by_structure = PETSC_FALSE;
+  // A dense tangent always goes to LAPACK (MUMPS takes sparse matrices only), through msflex's
+  // dense LU, which reports a singular tangent instead of raising an error.
+  PetscBool by_structure = PETSC_FALSE, dense;
   PetscCall(PetscOptionsGetBool(nullptr, nullptr, "-newton_solver_by_structure", &by_structure, nullptr));
-  if (by_structure) PetscCall(ChooseDirectSolver(tangent, pc));
-  else PetscCall(SetDefaultFactorSolver(pc, tangent));
+  PetscCall(PetscObjectTypeCompare((PetscObject)tangent, MATSEQDENSE, &dense));
+  if (by_structure && !dense) {
+    PetscCall(PCSetType(pc, PCLU));
+    PetscCall(ChooseDirectSolver(tangent, pc));
+  } else PetscCall(SetDirectSolver(pc, tangent));
   MSFLEX_CALL_READING_OPTIONS(PetscObjectComm((PetscObject)*snes), SNESSetFromOptions(*snes));
   PetscCall(CheckFactorSolverAvailable(ksp, tangent));
   PetscFunctionReturn(PETSC_SUCCESS);
@@ -379,6 +383,12 @@ PetscErrorCode DescribeFactorFailure(PC pc, std::string *detail, MatFactorError 
   PetscFunctionBeginUser;
   *error = MAT_FACTOR_NOERROR;
   detail->clear();
+  bool dense_lu;
+  PetscCall(DenseLUDescribeFailure(pc, &dense_lu, detail));
+  if (dense_lu) {
+    if (!detail->empty()) *error = MAT_FACTOR_NUMERIC_ZEROPIVOT;
+    PetscFunctionReturn(PETSC_SUCCESS);
+  }
   PetscCall(PetscObjectTypeCompareAny((PetscObject)pc, &is_factor, PCLU, PCCHOLESKY, PCILU, PCICC, ""));
   if (!is_factor) PetscFunctionReturn(PETSC_SUCCESS);
   MatSolverType solver;

@@ -1,4 +1,5 @@
 #include "integrators/path_following.hpp"
+#include "core/dense_lu.hpp"
 #include "core/errors.hpp"
 
 #include "core/format.hpp"
@@ -69,8 +70,7 @@ PetscErrorCode PathFollower::Setup(MPI_Comm comm, Integrator *integrator)
   PetscCall(KSPSetOptionsPrefix(ksp_, "path_"));
   PetscCall(KSPSetType(ksp_, KSPPREONLY));
   PetscCall(KSPGetPC(ksp_, &pc));
-  PetscCall(PCSetType(pc, PCLU));
-  PetscCall(SetDefaultFactorSolver(pc, assembler.Jacobian()));
+  PetscCall(SetDirectSolver(pc, assembler.Jacobian()));
   MSFLEX_CALL_READING_OPTIONS(PetscObjectComm((PetscObject)ksp_), KSPSetFromOptions(ksp_));
   if (control_ == PathControl::Displacement) {
     // The controlled unknown: a free DOF of an independent node or a released joint coordinate

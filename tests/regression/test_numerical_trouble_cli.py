@@ -1,5 +1,7 @@
 """Numerical trouble through the executable, serially and on --np ranks: a step whose residual is
-NaN/Inf or overflows, and a singular tangent (MUMPS), are rejected and halved with a message naming
+NaN/Inf or overflows, and a singular tangent (factored by MUMPS, and on one rank, where a model of
+at most 128 unknowns has a dense tangent by default, by msflex's dense LU), are rejected and
+halved with a message naming
 the node involved, and the run then stops with exit status 1, one message naming the step's time,
 the reason and the node, and the results and a checkpoint written up to the last converged state
 (no PETSc trace-back, no hang)."""
@@ -12,25 +14,31 @@ import msflex_testing as mt
 
 args = mt.parse_arguments(__doc__)
 check = mt.Checker("numerical trouble reports")
-cases = [("overflowing_load.yaml", ["the residual is NaN at node 'tip', in its load", "the residual norm overflows", "node 'tip' uy"], "t = 1"),
-         ("unresisted_rotation.yaml", ["the tangent is singular (MUMPS INFOG(1) = -10", "nothing resists node 'loose' rx"], "t = 0.005")]
-for name, phrases, failed_time in cases:
+MUMPS = "the tangent is singular (MUMPS INFOG(1) = -10"
+DENSE = "the tangent is singular (zero pivot in column "
+# (input, options, the factorisation's phrase on one rank / on more, other phrases, the failed step)
+cases = [("overflowing_load.yaml", [], None, ["the residual is NaN at node 'tip', in its load", "the residual norm overflows", "node 'tip' uy"], "t = 1"),
+         ("unresisted_rotation.yaml", [], (DENSE, MUMPS), ["nothing resists node 'loose' rx"], "t = 0.005"),
+         ("unresisted_rotation.yaml", ["-jacobian_dense_below", "0"], (MUMPS, MUMPS), ["nothing resists node 'loose' rx"], "t = 0.005")]
+for name, options, factorisation, common_phrases, failed_time in cases:
     source = f"{args.source_dir}/tests/regression/inputs/{name}"
     for ranks in sorted({1, args.np}):
-        output = f"{args.work_dir}/{name[:-5]}_{ranks}.h5"
-        code, stdout, stderr = mt.run_msflex(args, source, output, np_ranks=ranks, expect_success=False)
+        phrases = common_phrases + ([factorisation[0 if ranks == 1 else 1]] if factorisation else [])
+        label = name + (" " + " ".join(options) if options else "")
+        output = f"{args.work_dir}/{name[:-5]}{'_sparse' if options else ''}_{ranks}.h5"
+        code, stdout, stderr = mt.run_msflex(args, source, output, np_ranks=ranks, expect_success=False, extra=options)
         stop = [line for line in stderr.splitlines() if line.startswith("msflex:") and "stopped at" in line]
         text = stdout + stderr
-        print(f"np {ranks} {name}: exit {code}: {stop[0][:400] if stop else stderr[-400:]}")
-        check.equal(f"np {ranks} {name}: exit status", code, 1)
-        check.equal(f"np {ranks} {name}: stop messages", len(stop), 1)
-        check.equal(f"np {ranks} {name}: PETSc trace-back lines", stderr.count("PETSC ERROR"), 0)
+        print(f"np {ranks} {label}: exit {code}: {stop[0][:400] if stop else stderr[-400:]}")
+        check.equal(f"np {ranks} {label}: exit status", code, 1)
+        check.equal(f"np {ranks} {label}: stop messages", len(stop), 1)
+        check.equal(f"np {ranks} {label}: PETSc trace-back lines", stderr.count("PETSC ERROR"), 0)
         for phrase in phrases:
-            check.true(f"np {ranks} {name}: the message has {phrase!r}", phrase in text)
-        check.true(f"np {ranks} {name}: the stop message has 'the step to {failed_time}'",
+            check.true(f"np {ranks} {label}: the message has {phrase!r}", phrase in text)
+        check.true(f"np {ranks} {label}: the stop message has 'the step to {failed_time}'",
                    bool(stop) and f"the step to {failed_time}" in stop[0])
         with h5py.File(output, "r") as f:
             frames = mt.frame_count(f)
-        check.true(f"np {ranks} {name}: at least 1 frame in the result file ({frames})", frames >= 1)
-        check.true(f"np {ranks} {name}: checkpoint written", os.path.exists(output[:-3] + ".ckpt.h5"))
+        check.true(f"np {ranks} {label}: at least 1 frame in the result file ({frames})", frames >= 1)
+        check.true(f"np {ranks} {label}: checkpoint written", os.path.exists(output[:-3] + ".ckpt.h5"))
 check.finish()

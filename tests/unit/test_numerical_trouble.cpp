@@ -334,6 +334,7 @@ TEST(NumericalTrouble, NanTangentBehindTheLineSearchIsNamedAtItsRow)
 // The same NaN factored by MUMPS: the factorisation fails, and the row is named.
 TEST(NumericalTrouble, NanTangentInTheFactorisationIsNamedAtItsRow)
 {
+  ScopedOptions   sparse{{"-jacobian_dense_below", "0"}}; // MUMPS, as for a model of more than 128 unknowns
   Problem         p;
   PoisonedTangent poison;
   ASSERT_EQ(Build(kArm, nullptr, &p), PETSC_SUCCESS);
@@ -349,7 +350,8 @@ TEST(NumericalTrouble, NanTangentInTheFactorisationIsNamedAtItsRow)
 // rotations, MUMPS stops with INFOG(1) = -10, and the first such unknown is named.
 TEST(NumericalTrouble, SingularTangentNamesTheUnknownNothingResists)
 {
-  Problem p;
+  ScopedOptions sparse{{"-jacobian_dense_below", "0"}}; // MUMPS, as for a model of more than 128 unknowns
+  Problem       p;
   ASSERT_EQ(Build(
                 kArm,
                 [](Model &m) {
@@ -379,12 +381,49 @@ TEST(NumericalTrouble, SingularTangentNamesTheUnknownNothingResists)
                         infog1, infog2));
 }
 
+// The same model with its tangent dense (on one rank a model of at most 128 unknowns has one by
+// default): msflex's dense LU (LAPACK getrf) meets the zero pivot, the solve fails like MUMPS',
+// and the unknown nothing resists is named alike.
+TEST(NumericalTrouble, SingularDenseTangentNamesTheUnknownNothingResists)
+{
+  if (Size() > 1) GTEST_SKIP() << "a dense tangent is for one rank";
+  ScopedOptions dense{{"-jacobian_dense_below", "1000"}};
+  Problem       p;
+  ASSERT_EQ(Build(
+                kArm,
+                [](Model &m) {
+                  Node loose;
+                  loose.name     = "loose";
+                  loose.position = Vec3(1, 1, 0);
+                  m.nodes.push_back(loose);
+                  RigidBody body;
+                  body.node = (int)m.nodes.size() - 1;
+                  body.mass = 1.0;
+                  m.rigid_bodies.push_back(body);
+                },
+                &p),
+            PETSC_SUCCESS);
+  MatType type;
+  ASSERT_EQ(MatGetType(p.assembler.Jacobian(), &type), PETSC_SUCCESS);
+  EXPECT_STREQ(type, MATSEQDENSE);
+  static const TimeScheme scheme = MakeTimeScheme(TimeSchemeKind::Newmark, 0.9, 0.01);
+  SNESConvergedReason     reason;
+  std::string             why;
+  ASSERT_EQ(SolveStep(&p, 0, 0.01, &scheme, nullptr, &reason, &why), PETSC_SUCCESS);
+  EXPECT_EQ(reason, SNES_DIVERGED_LINEAR_SOLVE);
+  const std::string head = "the tangent is singular (zero pivot in column ",
+                    tail = " of the dense LU (LAPACK getrf)): nothing resists node 'loose' rx (neither stiffness nor mass) (SNES: DIVERGED_LINEAR_SOLVE)";
+  EXPECT_EQ(why.rfind(head, 0), 0u) << why;
+  EXPECT_TRUE(why.size() > head.size() + tail.size() && why.compare(why.size() - tail.size(), tail.size(), tail) == 0) << why;
+}
+
 // Statics of a free beam. MUMPS either finds the singularity (INFOG(1) = -10; seen on 3 ranks) or
 // factors the singular stiffness with round-off pivots (1 and 2 ranks): then the first update is
 // absurd and Newton runs out of iterations, and the message says so from the history.
 TEST(NumericalTrouble, FreeBeamStaticsIsReportedSingular)
 {
-  Problem p;
+  ScopedOptions sparse{{"-jacobian_dense_below", "0"}}; // MUMPS, as for a model of more than 128 unknowns
+  Problem       p;
   ASSERT_EQ(Build(
                 kArm, [](Model &m) { m.supports.clear(); }, &p),
             PETSC_SUCCESS);
@@ -420,7 +459,7 @@ TEST(NumericalTrouble, FreeBeamStaticsIsReportedSingular)
 TEST(NumericalTrouble, FreeBeamStaticsWithPetscLUReportsTheZeroPivot)
 {
   if (Size() > 1) GTEST_SKIP() << "PETSc's LU is sequential";
-  ScopedOptions options{{"-pc_factor_mat_solver_type", "petsc"}};
+  ScopedOptions options{{"-pc_factor_mat_solver_type", "petsc"}, {"-jacobian_dense_below", "0"}};
   Problem       p;
   ASSERT_EQ(Build(
                 kArm, [](Model &m) { m.supports.clear(); }, &p),

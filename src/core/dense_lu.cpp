@@ -1,0 +1,133 @@
+// P = L U with row interchanges (LAPACK getrf); x = U^{-1} L^{-1} P^T b (getrs). A pivot that is
+// exactly zero (getrf's info = k > 0: U(k,k) = 0) makes P singular: reported, not raised.
+#include "core/dense_lu.hpp"
+
+#include "core/errors.hpp"
+
+#include <petscblaslapack.h>
+
+#include <cstring>
+#include <vector>
+
+namespace msflex {
+
+namespace {
+
+constexpr const char *kDenseLUName = "dense LU (LAPACK)";
+
+struct DenseLU {
+  PetscBLASInt              n = 0;
+  std::vector<PetscScalar>  factors; // n x n, column-major: L below the diagonal, U on and above
+  std::vector<PetscBLASInt> pivots;
+  PetscBLASInt              zero_pivot = 0; // getrf's info of the last factorisation (0: none)
+};
+
+PetscErrorCode DenseLUSetUp(PC pc)
+{
+  DenseLU           *lu;
+  Mat                P;
+  const PetscScalar *values;
+  PetscInt           rows, columns, lda;
+  PetscFunctionBeginUser;
+  PetscCall(PCShellGetContext(pc, &lu));
+  PetscCall(PCSetFailedReason(pc, PC_NOERROR));
+  PetscCall(PCGetOperators(pc, nullptr, &P));
+  PetscCall(MatGetSize(P, &rows, &columns));
+  PetscCheck(rows == columns, PetscObjectComm((PetscObject)pc), PETSC_ERR_ARG_SIZ, "dense LU of a %" PetscInt_FMT " x %" PetscInt_FMT " matrix", rows, columns);
+  PetscCall(PetscBLASIntCast(rows, &lu->n));
+  PetscCall(MatDenseGetLDA(P, &lda));
+  lu->factors.resize((size_t)rows * (size_t)rows);
+  lu->pivots.resize((size_t)rows);
+  PetscCall(MatDenseGetArrayRead(P, &values));
+  for (PetscInt j = 0; j < rows; ++j) std::memcpy(&lu->factors[(size_t)j * rows], values + (size_t)j * lda, sizeof(PetscScalar) * (size_t)rows);
+  PetscCall(MatDenseRestoreArrayRead(P, &values));
+  PetscBLASInt info = 0;
+  if (lu->n > 0) {
+    PetscCall(PetscFPTrapPush(PETSC_FP_TRAP_OFF));
+    PetscCallBLAS("LAPACKgetrf", LAPACKgetrf_(&lu->n, &lu->n, lu->factors.data(), &lu->n, lu->pivots.data(), &info));
+    PetscCall(PetscFPTrapPop());
+  }
+  PetscCheck(info >= 0, PETSC_COMM_SELF, PETSC_ERR_LIB, "LAPACK getrf: argument %d is wrong", (int)-info);
+  lu->zero_pivot = info;
+  if (info > 0) PetscCall(PCSetFailedReason(pc, PC_FACTOR_NUMERIC_ZEROPIVOT));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode DenseLUApply(PC pc, Vec b, Vec x)
+{
+  DenseLU     *lu;
+  PetscScalar *values;
+  PetscFunctionBeginUser;
+  PetscCall(PCShellGetContext(pc, &lu));
+  if (lu->zero_pivot > 0) {
+    // No solution: the caller sees the failed set-up (KSP_DIVERGED_PC_FAILED) and infinities.
+    PetscCall(VecSetInf(x));
+    PetscFunctionReturn(PETSC_SUCCESS);
+  }
+  PetscCall(VecCopy(b, x));
+  if (lu->n == 0) PetscFunctionReturn(PETSC_SUCCESS);
+  PetscBLASInt one = 1, info = 0;
+  PetscCall(VecGetArray(x, &values));
+  PetscCall(PetscFPTrapPush(PETSC_FP_TRAP_OFF));
+  PetscCallBLAS("LAPACKgetrs", LAPACKgetrs_("N", &lu->n, &one, lu->factors.data(), &lu->n, lu->pivots.data(), values, &lu->n, &info));
+  PetscCall(PetscFPTrapPop());
+  PetscCall(VecRestoreArray(x, &values));
+  PetscCheck(info == 0, PETSC_COMM_SELF, PETSC_ERR_LIB, "LAPACK getrs: argument %d is wrong", (int)-info);
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode DenseLUDestroy(PC pc)
+{
+  DenseLU *lu;
+  PetscFunctionBeginUser;
+  PetscCall(PCShellGetContext(pc, &lu));
+  delete lu;
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+} // namespace
+
+PetscErrorCode PCSetDenseLU(PC pc)
+{
+  PetscFunctionBeginUser;
+  PetscCall(PCSetType(pc, PCSHELL));
+  PetscCall(PCShellSetContext(pc, new DenseLU));
+  PetscCall(PCShellSetSetUp(pc, DenseLUSetUp));
+  PetscCall(PCShellSetApply(pc, DenseLUApply));
+  PetscCall(PCShellSetDestroy(pc, DenseLUDestroy));
+  PetscCall(PCShellSetName(pc, kDenseLUName));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode DenseLUDescribeFailure(PC pc, bool *is_dense_lu, std::string *detail)
+{
+  PetscBool   shell;
+  const char *name = nullptr;
+  PetscFunctionBeginUser;
+  *is_dense_lu = false;
+  detail->clear();
+  PetscCall(PetscObjectTypeCompare((PetscObject)pc, PCSHELL, &shell));
+  if (!shell) PetscFunctionReturn(PETSC_SUCCESS);
+  PetscCall(PCShellGetName(pc, &name));
+  if (!name || std::strcmp(name, kDenseLUName) != 0) PetscFunctionReturn(PETSC_SUCCESS);
+  DenseLU *lu;
+  PetscCall(PCShellGetContext(pc, &lu));
+  *is_dense_lu = true;
+  if (lu->zero_pivot > 0) *detail = "zero pivot in column " + std::to_string(lu->zero_pivot) + " of the dense LU (LAPACK getrf)";
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode SetDirectSolver(PC pc, Mat matrix)
+{
+  PetscBool dense;
+  PetscFunctionBeginUser;
+  PetscCall(PetscObjectTypeCompare((PetscObject)matrix, MATSEQDENSE, &dense));
+  if (dense) PetscCall(PCSetDenseLU(pc));
+  else {
+    PetscCall(PCSetType(pc, PCLU));
+    PetscCall(SetDefaultFactorSolver(pc, matrix));
+  }
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+} // namespace msflex

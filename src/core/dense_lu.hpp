@@ -1,0 +1,26 @@
+// A direct solver for a dense operator (MATSEQDENSE: a small model's tangent, -jacobian_dense_below)
+// that fails softly: LU with partial pivoting by LAPACK (getrf, then getrs per solve), its
+// exactly singular factorisation reported as the preconditioner's failure
+// (PC_FACTOR_NUMERIC_ZEROPIVOT), so that the linear solve fails, the step is halved and the
+// message names what nothing resists. PETSc's own dense LU raises an error there instead
+// (PETSC_ERR_MAT_LU_ZRPVT), which ends the run with a trace-back.
+#pragma once
+
+#include <petscksp.h>
+
+#include <string>
+
+namespace msflex {
+
+// Makes `pc` the dense LU above (a PCSHELL named "dense LU (LAPACK)"). `-pc_type lu` in the options
+// replaces it by PETSc's LU again.
+PetscErrorCode PCSetDenseLU(PC pc);
+
+// Whether `pc` is that solver, and if its last factorisation met a zero pivot, where (`detail`).
+PetscErrorCode DenseLUDescribeFailure(PC pc, bool *is_dense_lu, std::string *detail);
+
+// msflex's direct solver for `matrix`: the dense LU above for a dense matrix, else PCLU by the
+// default factorisation package (SetDefaultFactorSolver: MUMPS).
+PetscErrorCode SetDirectSolver(PC pc, Mat matrix);
+
+} // namespace msflex
