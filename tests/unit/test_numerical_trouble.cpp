@@ -346,26 +346,26 @@ TEST(NumericalTrouble, NanTangentInTheFactorisationIsNamedAtItsRow)
   EXPECT_EQ(why, "the tangent is not finite at the row of node 'arm.2' uy (SNES: DIVERGED_LINEAR_SOLVE)");
 }
 
+// A node with a point mass but no rotary inertia and no element: nothing resists its rotations.
+static void AddLooseBody(Model &m)
+{
+  Node loose;
+  loose.name     = "loose";
+  loose.position = Vec3(1, 1, 0);
+  m.nodes.push_back(loose);
+  RigidBody body;
+  body.node = (int)m.nodes.size() - 1;
+  body.mass = 1.0;
+  m.rigid_bodies.push_back(body);
+}
+
 // A node with a point mass but no rotary inertia and no element: in dynamics nothing resists its
 // rotations, MUMPS stops with INFOG(1) = -10, and the first such unknown is named.
 TEST(NumericalTrouble, SingularTangentNamesTheUnknownNothingResists)
 {
   ScopedOptions sparse{{"-jacobian_dense_below", "0"}}; // MUMPS, as for a model of more than 128 unknowns
   Problem       p;
-  ASSERT_EQ(Build(
-                kArm,
-                [](Model &m) {
-                  Node loose;
-                  loose.name     = "loose";
-                  loose.position = Vec3(1, 1, 0);
-                  m.nodes.push_back(loose);
-                  RigidBody body;
-                  body.node = (int)m.nodes.size() - 1;
-                  body.mass = 1.0;
-                  m.rigid_bodies.push_back(body);
-                },
-                &p),
-            PETSC_SUCCESS);
+  ASSERT_EQ(Build(kArm, AddLooseBody, &p), PETSC_SUCCESS);
   static const TimeScheme scheme = MakeTimeScheme(TimeSchemeKind::Newmark, 0.9, 0.01);
   SNESConvergedReason     reason;
   std::string             why;
@@ -389,20 +389,7 @@ TEST(NumericalTrouble, SingularDenseTangentNamesTheUnknownNothingResists)
   if (Size() > 1) GTEST_SKIP() << "a dense tangent is for one rank";
   ScopedOptions dense{{"-jacobian_dense_below", "1000"}};
   Problem       p;
-  ASSERT_EQ(Build(
-                kArm,
-                [](Model &m) {
-                  Node loose;
-                  loose.name     = "loose";
-                  loose.position = Vec3(1, 1, 0);
-                  m.nodes.push_back(loose);
-                  RigidBody body;
-                  body.node = (int)m.nodes.size() - 1;
-                  body.mass = 1.0;
-                  m.rigid_bodies.push_back(body);
-                },
-                &p),
-            PETSC_SUCCESS);
+  ASSERT_EQ(Build(kArm, AddLooseBody, &p), PETSC_SUCCESS);
   MatType type;
   ASSERT_EQ(MatGetType(p.assembler.Jacobian(), &type), PETSC_SUCCESS);
   EXPECT_STREQ(type, MATSEQDENSE);
