@@ -15,7 +15,6 @@
 // solution: no component along the motions nothing determines.
 #include "assembly/assembler.hpp"
 #include "core/dense_lu.hpp"
-#include "core/errors.hpp"
 
 #include "contributors/beam_contributor.hpp"
 #include "elements/beam_rates.hpp"

@@ -2,8 +2,6 @@
 // exactly zero (getrf's info = k > 0: U(k,k) = 0) makes P singular: reported, not raised.
 #include "core/dense_lu.hpp"
 
-#include "core/errors.hpp"
-
 #include <petscblaslapack.h>
 
 #include <cstring>
@@ -125,7 +123,7 @@ PetscErrorCode SetDirectSolver(PC pc, Mat matrix)
   if (dense) PetscCall(PCSetDenseLU(pc));
   else {
     PetscCall(PCSetType(pc, PCLU));
-    PetscCall(SetDefaultFactorSolver(pc, matrix));
+    PetscCall(PCFactorSetMatSolverType(pc, MATSOLVERMUMPS));
   }
   PetscFunctionReturn(PETSC_SUCCESS);
 }

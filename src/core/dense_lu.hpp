@@ -19,8 +19,8 @@ PetscErrorCode PCSetDenseLU(PC pc);
 // Whether `pc` is that solver, and if its last factorisation met a zero pivot, where (`detail`).
 PetscErrorCode DenseLUDescribeFailure(PC pc, bool *is_dense_lu, std::string *detail);
 
-// msflex's direct solver for `matrix`: the dense LU above for a dense matrix, else PCLU by the
-// default factorisation package (SetDefaultFactorSolver: MUMPS).
+// msflex's direct solver for `matrix`: the dense LU above for a dense matrix (one rank only:
+// -jacobian_mat_type dense is refused on more), else MUMPS LU.
 PetscErrorCode SetDirectSolver(PC pc, Mat matrix);
 
 } // namespace msflex

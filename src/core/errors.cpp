@@ -36,15 +36,6 @@ PetscErrorCode OptionsError(MPI_Comm comm, PetscErrorCode status)
   SETERRQ(comm, PETSC_ERR_USER_INPUT, "bad option: %s", message);
 }
 
-PetscErrorCode SetDefaultFactorSolver(PC pc, Mat matrix)
-{
-  PetscBool dense;
-  PetscFunctionBeginUser;
-  PetscCall(PetscObjectTypeCompareAny((PetscObject)matrix, &dense, MATSEQDENSE, MATMPIDENSE, ""));
-  PetscCall(PCFactorSetMatSolverType(pc, dense ? MATSOLVERPETSC : MATSOLVERMUMPS));
-  PetscFunctionReturn(PETSC_SUCCESS);
-}
-
 PetscErrorCode CheckFactorSolverAvailable(KSP ksp, Mat matrix)
 {
   PC            pc;

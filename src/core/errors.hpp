@@ -40,10 +40,6 @@ bool IsOneLineError(PetscErrorCode code);
 // options are read, it is one line "bad option: ..." before anything is written.
 PetscErrorCode CheckFactorSolverAvailable(KSP ksp, Mat matrix);
 
-// msflex's default direct solver for a factorisation PC of `matrix`: MUMPS for a sparse matrix,
-// PETSc's (LAPACK's) for a dense one (-jacobian_mat_type dense), which MUMPS does not take.
-PetscErrorCode SetDefaultFactorSolver(PC pc, Mat matrix);
-
 // Error handler: one clean line for user errors (printed by rank 0 of PETSC_COMM_WORLD, since
 // user errors are detected identically on every rank), PETSc's trace-back otherwise.
 PetscErrorCode ErrorHandler(MPI_Comm comm, int line, const char *function, const char *file, PetscErrorCode code, PetscErrorType type, const char *message,

@@ -203,10 +203,11 @@ PetscErrorCode   ChooseDirectSolver(Mat tangent, PC pc)
   double mean_square = -1.0;
   if (size == 1 && sequential_aij) PetscCall(MeanSquaredRcmEnvelope(tangent, &mean_square));
   if (mean_square >= 0.0 && mean_square <= kBandedEnvelope * kBandedEnvelope) {
+    PetscCall(PCSetType(pc, PCLU));
     PetscCall(PCFactorSetMatSolverType(pc, MATSOLVERPETSC));
     PetscCall(PCFactorSetMatOrderingType(pc, MATORDERINGRCM));
   } else {
-    PetscCall(SetDefaultFactorSolver(pc, tangent)); // MUMPS, or LAPACK for a dense tangent
+    PetscCall(SetDirectSolver(pc, tangent)); // MUMPS, or the dense LU for a dense tangent
   }
   PetscFunctionReturn(PETSC_SUCCESS);
 }
@@ -247,13 +248,10 @@ PetscErrorCode NewtonSolverCreate(MPI_Comm comm, const AnalysisSettings &analysi
   // default, whose account of a singular tangent (INFOG) the failure messages and tests rely on.
   // A dense tangent always goes to LAPACK (MUMPS takes sparse matrices only), through msflex's
   // dense LU, which reports a singular tangent instead of raising an error.
-  PetscBool by_structure = PETSC_FALSE, dense;
+  PetscBool by_structure = PETSC_FALSE;
   PetscCall(PetscOptionsGetBool(nullptr, nullptr, "-newton_solver_by_structure", &by_structure, nullptr));
-  PetscCall(PetscObjectTypeCompare((PetscObject)tangent, MATSEQDENSE, &dense));
-  if (by_structure && !dense) {
-    PetscCall(PCSetType(pc, PCLU));
-    PetscCall(ChooseDirectSolver(tangent, pc));
-  } else PetscCall(SetDirectSolver(pc, tangent));
+  if (by_structure) PetscCall(ChooseDirectSolver(tangent, pc));
+  else PetscCall(SetDirectSolver(pc, tangent));
   MSFLEX_CALL_READING_OPTIONS(PetscObjectComm((PetscObject)*snes), SNESSetFromOptions(*snes));
   PetscCall(CheckFactorSolverAvailable(ksp, tangent));
   PetscFunctionReturn(PETSC_SUCCESS);

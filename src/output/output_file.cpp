@@ -350,6 +350,12 @@ struct OutputFile::Impl {
   // Writes the buffered frames: every frame dataset extended once and written with one collective
   // transfer; /frames/step, time and contents from rank 0. Collective.
   PetscErrorCode WriteFrameBlock();
+  // Whether the mesh has grids of this kind (beams always: a model without beams has an empty grid).
+  bool HasGridKind(GridKind kind) const
+  {
+    const bool has[kGridKinds] = {true, n_bodies > 0, n_joints > 0, n_ground > 0};
+    return has[kind];
+  }
   // Number of rows of a kind of table in the model.
   hsize_t RowCount(RowKind kind) const
   {
@@ -866,9 +872,8 @@ std::string OutputFile::Impl::XdmfHead() const
       << "    " << kSidecarMarker << "\n";
   // A collection for every kind of grid the mesh has (a frame has no other kind, CheckFrame),
   // from the start: later frames are appended whatever they hold.
-  const bool has_kind[kGridKinds] = {true, n_bodies > 0, n_joints > 0, n_ground > 0};
   for (int kind = 0; kind < kGridKinds; ++kind) {
-    if (!has_kind[kind]) continue;
+    if (!HasGridKind((GridKind)kind)) continue;
     // An XInclude that finds nothing is an error without its (empty) fallback.
     xml << "    <Grid Name=\"" << kGridNames[kind] << "\" GridType=\"Collection\" CollectionType=\"Temporal\">\n"
         << "      <xi:include xpointer=\"xpointer(/Xdmf/Information[@Name='frames']/Grid[@Name='" << kGridNames[kind] << "'])\"><xi:fallback/></xi:include>\n"
@@ -936,10 +941,9 @@ std::string OutputFile::Impl::XdmfSharedPart(GridKind kind) const
 std::string OutputFile::Impl::XdmfSharedParts() const
 {
   if (xdmf_flavour != XdmfFlavour::Xdmf3) return "";
-  const bool  has_kind[kGridKinds] = {true, n_bodies > 0, n_joints > 0, n_ground > 0};
-  std::string xml                  = "  <Information Name=\"shared\" Value=\"what the grids of every frame share, included into each\">\n";
+  std::string xml = "  <Information Name=\"shared\" Value=\"what the grids of every frame share, included into each\">\n";
   for (int kind = 0; kind < kGridKinds; ++kind)
-    if (has_kind[kind]) xml += std::string("    <Grid Name=\"") + kGridNames[kind] + "\">\n" + XdmfSharedPart((GridKind)kind) + "    </Grid>\n";
+    if (HasGridKind((GridKind)kind)) xml += std::string("    <Grid Name=\"") + kGridNames[kind] + "\">\n" + XdmfSharedPart((GridKind)kind) + "    </Grid>\n";
   return xml + "  </Information>\n";
 }
 
@@ -1248,9 +1252,7 @@ PetscErrorCode OutputFile::Impl::BufferFrame(const OutputFrame &frame, const Fra
     const bool present = !field.content || (contents & field.content);
     buffer.resize(at + n_rows * columns, 0.0);
     if (!present) continue; // a field the frame does not have holds zeros in it
-    const size_t source_rows = source.by_element ? frame_sorted.elements.size() : n_rows;
-    PetscCheck(source.data->size() == source_rows * source.stride, PETSC_COMM_SELF, PETSC_ERR_ARG_SIZ,
-               "output file '%s': step %d: %zu values of %s for %zu rows", path.c_str(), entry.step, source.data->size(), field.name, source_rows);
+    // (The arrays' sizes were checked against the rows by CheckFrame, the triads' by SortFrameRows.)
     double       *out = buffer.data() + at;
     const double *in  = source.data->data() + source.offset;
     for (size_t k = 0; k < n_rows; ++k) {
