@@ -59,6 +59,7 @@ Assembler::~Assembler()
   VecDestroy(&ghosted_increments_);
   VecDestroy(&scratch_residual_);
   VecDestroy(&last_increments_);
+  VecDestroy(&set_increments_);
   VecScatterDestroy(&to_ghosted_);
   VecDestroy(&joint_output_);
 }
@@ -153,6 +154,7 @@ PetscErrorCode Assembler::Setup(MPI_Comm comm, const Model &model, const DofMap 
   PetscCall(MatCreateVecs(jacobian_, &solution_template_, nullptr));
   PetscCall(VecDuplicate(solution_template_, &scratch_residual_));
   PetscCall(VecDuplicate(solution_template_, &last_increments_));
+  PetscCall(VecDuplicate(solution_template_, &set_increments_));
   coordinate_residual_.assign(state->joints.size(), std::array<double, kJointMaxReleased>{});
   reaction_slot_.assign(state->nodes.size(), -1);
   reaction_sums_.assign(model.probes.size(), Vec6::Zero());
@@ -409,6 +411,7 @@ PetscErrorCode Assembler::BeginStep(const StepEquations &equations)
 {
   PetscFunctionBeginUser;
   StateBeginStep(*model_, *map_, equations, state_);
+  ForgetIncrements();
   UpdateExpansions();
   for (ForceContributor *c : contributors_) c->BeginStep(*state_);
   massless_rows_.clear();
@@ -544,6 +547,16 @@ PetscErrorCode Assembler::SetIncrements(Vec increments)
   const PetscScalar *values;
   PetscFunctionBeginUser;
   if (state_->equations.InitialAcceleration() && increments != last_increments_) PetscCall(VecCopy(increments, last_increments_));
+  // A new version of the unknowns unless they equal the last ones set (SNES assembles the tangent
+  // at the iterate whose residual it has just evaluated: em's beta of that residual is then exact
+  // for the tangent, AssembleJacobian).
+  PetscBool same = PETSC_FALSE;
+  if (increments_known_) PetscCall(VecEqual(increments, set_increments_, &same));
+  if (!same) {
+    ++increments_version_;
+    PetscCall(VecCopy(increments, set_increments_));
+    increments_known_ = true;
+  }
   PetscCall(VecScatterBegin(to_ghosted_, increments, ghosted_increments_, INSERT_VALUES, SCATTER_FORWARD));
   PetscCall(VecScatterEnd(to_ghosted_, increments, ghosted_increments_, INSERT_VALUES, SCATTER_FORWARD));
   PetscCall(VecGetArrayRead(ghosted_increments_, &values));
@@ -635,6 +648,8 @@ PetscErrorCode Assembler::AssembleResidual(Vec residual, PetscBool *geometry_ok)
     double global[3];
     PetscCall(MPIU_Allreduce(sums, global, 3, MPI_DOUBLE, MPI_SUM, comm_));
     if (std::abs(global[0]) > 1e-13 * global[2] && global[1] != 0.0) energy_correction_ = global[0] / global[1];
+    energy_correction_work_    = global[1];
+    energy_correction_version_ = increments_version_;
   }
   // Pass 2: assemble. The residual left on prescribed DOFs is the reaction that drives them; its
   // work over the increments counts as external work.
@@ -666,10 +681,11 @@ PetscErrorCode Assembler::AssembleResidual(Vec residual, PetscBool *geometry_ok)
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
-PetscErrorCode Assembler::SetupEnergyCorrectionTangent()
+PetscErrorCode Assembler::SetupEnergyCorrectionTangent(bool with_matrix)
 {
   PetscFunctionBeginUser;
-  PetscCall(MatDuplicate(jacobian_, MAT_DO_NOT_COPY_VALUES, &correction_jacobian_));
+  if (with_matrix && !correction_jacobian_) PetscCall(MatDuplicate(jacobian_, MAT_DO_NOT_COPY_VALUES, &correction_jacobian_));
+  if (rank_one_left_) PetscFunctionReturn(PETSC_SUCCESS);
   for (Vec *v : {&rank_one_left_, &rank_one_right_, &beta_gradient_correction_}) {
     PetscCall(VecDuplicate(solution_template_, v));
     PetscCall(VecSetOption(*v, VEC_IGNORE_NEGATIVE_INDICES, PETSC_TRUE));
@@ -712,10 +728,19 @@ PetscErrorCode Assembler::AssembleJacobian(Mat jacobian, PetscBool *geometry_ok)
   const StepEquations &eq  = state_->equations;
   const bool           em  = eq.Dynamic() && eq.scheme.kind == TimeSchemeKind::EnergyMomentum;
   *geometry_ok             = PETSC_TRUE;
-  if (em && !correction_jacobian_) PetscCall(SetupEnergyCorrectionTangent());
+  // em: when the last residual was assembled at these unknowns (SNES's order: residual, then the
+  // tangent at the same iterate), its beta and correction work hold here, and the tangent takes
+  // K_mc + beta K_corr element by element and b = (grad M - beta grad C) / C in one vector.
+  // Otherwise beta comes from this pass's sums: K_corr goes into a matrix of its own, added once
+  // beta is known, and grad C into a vector of its own.
+  const bool   fused               = em && energy_correction_version_ == increments_version_;
+  const bool   separate_correction = em && !fused;
+  const double fused_beta          = fused ? energy_correction_ : 0.0;
+  const double fused_scale         = fused && fused_beta != 0.0 ? 1.0 / energy_correction_work_ : 0.0;
+  if (em) PetscCall(SetupEnergyCorrectionTangent(separate_correction));
   PetscCall(MatZeroEntries(jacobian));
   if (em) {
-    PetscCall(MatZeroEntries(correction_jacobian_));
+    if (separate_correction) PetscCall(MatZeroEntries(correction_jacobian_));
     for (Vec v : {rank_one_left_, rank_one_right_, beta_gradient_correction_}) PetscCall(VecZeroEntries(v));
     for (Vec6 &g : slave_correction_residual_) g.setZero();
   }
@@ -723,14 +748,14 @@ PetscErrorCode Assembler::AssembleJacobian(Mat jacobian, PetscBool *geometry_ok)
   Mat          diagonal, off_diagonal, correction_diagonal = nullptr, correction_off_diagonal = nullptr;
   PetscScalar *diagonal_values, *off_diagonal_values, *correction_diagonal_values = nullptr, *correction_off_diagonal_values = nullptr;
   PetscCall(GetCsrValues(jacobian, direct, &diagonal, &off_diagonal, &diagonal_values, &off_diagonal_values));
-  if (em)
+  if (separate_correction)
     PetscCall(GetCsrValues(correction_jacobian_, direct, &correction_diagonal, &correction_off_diagonal, &correction_diagonal_values,
                            &correction_off_diagonal_values));
   for (Vec6 &g : slave_residual_) g.setZero();
   // One element loop: an element touching slave nodes goes through the expansions (its residual
   // gathered on the slaves for the joints' geometric stiffness), any other straight into the CSR
-  // values of the owned rows (both are in place in the matrix's value arrays). em: K_corr into its
-  // own matrix, the correction vector (rows) and beta's gradients (columns) into vectors.
+  // values of the owned rows (both are in place in the matrix's value arrays). em: the correction
+  // vector (rows) and beta's gradients (columns) into vectors.
   ElementContribution element;
   double              sums[3] = {0.0, 0.0, 0.0}; // work mismatch, correction work, scale of the internal work
   for (size_t k = 0; k < map.local_elements.size(); ++k) {
@@ -740,32 +765,45 @@ PetscErrorCode Assembler::AssembleJacobian(Mat jacobian, PetscBool *geometry_ok)
       continue;
     }
     const BeamElement &element_nodes = model_->elements[map.local_elements[k]];
+    const int          nd            = 6 * (element_nodes.order + 1);
     int                local_nodes[kBeamMaxNodes];
     for (int a = 0; a <= element_nodes.order; ++a) local_nodes[a] = map.node_to_local[element_nodes.nodes[a]];
-    if (em) {
+    if (separate_correction) {
       sums[0] += element.work_mismatch, sums[1] += element.correction_work, sums[2] += element.work_scale;
       for (int a = 0; a <= element_nodes.order; ++a) {
         PetscCall(AddNodeVector(rank_one_left_, local_nodes[a], &element.correction[6 * a], Through::Rows));
         PetscCall(AddNodeVector(rank_one_right_, local_nodes[a], &element.mismatch_gradient[6 * a], Through::Columns));
         PetscCall(AddNodeVector(beta_gradient_correction_, local_nodes[a], &element.correction_work_gradient[6 * a], Through::Columns));
       }
+    } else if (fused && fused_beta != 0.0) {
+      double gradient[kBeamMaxDofs];
+      for (int i = 0; i < nd; ++i) {
+        gradient[i] = fused_scale * (element.mismatch_gradient[i] - fused_beta * element.correction_work_gradient[i]);
+        element.residual[i] += fused_beta * element.correction[i];
+      }
+      for (int i = 0; i < nd * nd; ++i) element.tangent[i] += fused_beta * element.tangent_correction[i];
+      for (int a = 0; a <= element_nodes.order; ++a) {
+        PetscCall(AddNodeVector(rank_one_left_, local_nodes[a], &element.correction[6 * a], Through::Rows));
+        PetscCall(AddNodeVector(rank_one_right_, local_nodes[a], &gradient[6 * a], Through::Columns));
+      }
     }
     if (!element_has_slave_[k]) {
       PetscCall(AddDirectElementMatrix(jacobian, k, element.tangent, diagonal_values, off_diagonal_values));
-      if (em)
+      if (separate_correction)
         PetscCall(AddDirectElementMatrix(correction_jacobian_, k, element.tangent_correction, correction_diagonal_values, correction_off_diagonal_values));
       continue;
     }
     for (int a = 0; a <= element_nodes.order; ++a) {
       if (!IsSlave(local_nodes[a])) continue;
       slave_residual_[local_nodes[a]] += Eigen::Map<const Vec6>(&element.residual[6 * a]);
-      if (em) slave_correction_residual_[local_nodes[a]] += Eigen::Map<const Vec6>(&element.correction[6 * a]);
+      if (separate_correction) slave_correction_residual_[local_nodes[a]] += Eigen::Map<const Vec6>(&element.correction[6 * a]);
     }
     PetscCall(AddExpandedMatrix(jacobian, element_nodes.order + 1, local_nodes, element.tangent));
-    if (em) PetscCall(AddExpandedMatrix(correction_jacobian_, element_nodes.order + 1, local_nodes, element.tangent_correction));
+    if (separate_correction) PetscCall(AddExpandedMatrix(correction_jacobian_, element_nodes.order + 1, local_nodes, element.tangent_correction));
   }
   PetscCall(RestoreCsrValues(diagonal, off_diagonal, &diagonal_values, &off_diagonal_values));
-  if (em) PetscCall(RestoreCsrValues(correction_diagonal, correction_off_diagonal, &correction_diagonal_values, &correction_off_diagonal_values));
+  if (separate_correction)
+    PetscCall(RestoreCsrValues(correction_diagonal, correction_off_diagonal, &correction_diagonal_values, &correction_off_diagonal_values));
   NodeContribution node;
   for (PetscInt l = 0; l < map.num_owned_nodes; ++l) {
     EvaluateNode((int)l, true, &node);
@@ -781,7 +819,13 @@ PetscErrorCode Assembler::AssembleJacobian(Mat jacobian, PetscBool *geometry_ok)
   // em: beta at these increments (eq. 20, with the residual's round-off rule) and the rank-one
   // term R_corr (grad beta)^T, grad beta = (grad M - beta grad C) / C.
   double beta = 0.0, correction_work = 0.0;
-  if (em) {
+  if (fused) {
+    for (Vec v : {rank_one_left_, rank_one_right_}) {
+      PetscCall(VecAssemblyBegin(v));
+      PetscCall(VecAssemblyEnd(v));
+    }
+    rank_one_active_ = fused_beta != 0.0;
+  } else if (em) {
     double global[3];
     PetscCall(MPIU_Allreduce(sums, global, 3, MPI_DOUBLE, MPI_SUM, comm_));
     if (std::abs(global[0]) > 1e-13 * global[2] && global[1] != 0.0) beta = global[0] / global[1], correction_work = global[1];

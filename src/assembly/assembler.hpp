@@ -187,8 +187,16 @@ private:
   // Adds an element matrix (spin form) of an element without slave nodes straight into the CSR
   // values: columns mapped by blockdiag(I, H(omega)) per node (identity for accelerations).
   PetscErrorCode AddDirectElementMatrix(Mat target, size_t k, double *K_spin, PetscScalar *diagonal_values, PetscScalar *off_diagonal_values);
-  // em's exact tangent: the correction's matrix (same pattern as the tangent) and the rank-one term.
-  PetscErrorCode SetupEnergyCorrectionTangent();
+  // em's exact tangent: the rank-one term's vectors and, `with_matrix`, the correction's own matrix
+  // (same pattern as the tangent), each made once when first needed.
+  PetscErrorCode SetupEnergyCorrectionTangent(bool with_matrix);
+  // The State changed other than through SetIncrements (a new step, the velocity projection): the
+  // next SetIncrements starts a new version of the unknowns whatever its values.
+  void ForgetIncrements()
+  {
+    increments_known_ = false;
+    ++increments_version_;
+  }
   // Geometric stiffness of every local joint for the slave residuals gathered in slave_residual_.
   PetscErrorCode AddJointGeometricStiffness(Mat jacobian);
   // Slave residuals with what each slave passes on to its master along the chains (deepest first).
@@ -248,10 +256,17 @@ private:
   bool              collect_reactions_ = false;
 
   double            roundoff_force_level_ = 0.0;
-  double            local_force_squares_  = 0.0; // sum of squares of every node vector added in the last residual
-  std::vector<Vec6> prescribed_residual_;        // per local node: the last residual's entries on prescribed DOFs (the reactions this rank assembled)
-  bool              mass_matrix_only_  = false;  // AssembleMassMatrix: no equations for massless groups
-  double            energy_correction_ = 0.0;    // em's beta of the last residual
+  double            local_force_squares_  = 0.0;     // sum of squares of every node vector added in the last residual
+  std::vector<Vec6> prescribed_residual_;            // per local node: the last residual's entries on prescribed DOFs (the reactions this rank assembled)
+  bool              mass_matrix_only_       = false; // AssembleMassMatrix: no equations for massless groups
+  double            energy_correction_      = 0.0;   // em's beta of the last residual
+  double            energy_correction_work_ = 0.0;   // em: the correction's work (beta's denominator) of the last residual
+  // Versions of the unknowns: increments_version_ grows whenever SetIncrements sets values other
+  // than the last ones (set_increments_) or the State changes otherwise; energy_correction_version_
+  // is the version at which the last residual computed beta.
+  long long increments_version_ = 0, energy_correction_version_ = -1;
+  bool      increments_known_ = false;
+  Vec       set_increments_   = nullptr;
 
   Mat                   jacobian_            = nullptr;
   Mat                   correction_jacobian_ = nullptr; // em: K_corr, the pattern of jacobian_

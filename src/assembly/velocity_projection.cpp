@@ -33,6 +33,7 @@ PetscErrorCode Assembler::ProjectInitialVelocities(double t, InitialVelocityRepo
   PetscFunctionBeginUser;
   *report = InitialVelocityReport{};
   StateBeginStep(model, map, InitialVelocityProblem(t), state_);
+  ForgetIncrements();
   UpdateExpansions();
 
   // The given velocities per node (spatial), and which nodes and coordinates have one.
@@ -240,6 +241,7 @@ PetscErrorCode Assembler::ProjectInitialVelocities(double t, InitialVelocityRepo
   // Back to the start state (no increments).
   state.equations = StaticStep(t, t);
   StateDiscardStep(model, state_);
+  ForgetIncrements();
   UpdateExpansions();
   PetscFunctionReturn(PETSC_SUCCESS);
 }
