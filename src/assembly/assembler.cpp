@@ -579,10 +579,12 @@ PetscErrorCode Assembler::SetIncrements(Vec increments)
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
-void Assembler::EvaluateElement(size_t k, bool want_tangent, ElementContribution *out)
+void Assembler::EvaluateElement(size_t k, bool want_tangent, ElementContribution *out, const double *combined_beta)
 {
   const StepEquations &eq = state_->equations;
-  out->Clear(model_->elements[map_->local_elements[k]].order + 1, want_tangent, eq.Dynamic() && eq.scheme.kind == TimeSchemeKind::EnergyMomentum);
+  // em with beta = 0 known (the round-off rule): no energy terms, the tangent is K_mc.
+  const bool energy_terms = eq.Dynamic() && eq.scheme.kind == TimeSchemeKind::EnergyMomentum && !(combined_beta && *combined_beta == 0.0);
+  out->Clear(model_->elements[map_->local_elements[k]].order + 1, want_tangent, energy_terms, combined_beta);
   for (ForceContributor *c : element_contributors_) {
     c->AddElement(*state_, k, out);
     if (!out->evaluable) return;
@@ -729,8 +731,8 @@ PetscErrorCode Assembler::AssembleJacobian(Mat jacobian, PetscBool *geometry_ok)
   const bool           em  = eq.Dynamic() && eq.scheme.kind == TimeSchemeKind::EnergyMomentum;
   *geometry_ok             = PETSC_TRUE;
   // em: when the last residual was assembled at these unknowns (SNES's order: residual, then the
-  // tangent at the same iterate), its beta and correction work hold here, and the tangent takes
-  // K_mc + beta K_corr element by element and b = (grad M - beta grad C) / C in one vector.
+  // tangent at the same iterate), its beta and correction work hold here: the beam kernel builds
+  // K_mc + beta K_corr at once, and b = (grad M - beta grad C) / C goes into one vector.
   // Otherwise beta comes from this pass's sums: K_corr goes into a matrix of its own, added once
   // beta is known, and grad C into a vector of its own.
   const bool   fused               = em && energy_correction_version_ == increments_version_;
@@ -759,7 +761,7 @@ PetscErrorCode Assembler::AssembleJacobian(Mat jacobian, PetscBool *geometry_ok)
   ElementContribution element;
   double              sums[3] = {0.0, 0.0, 0.0}; // work mismatch, correction work, scale of the internal work
   for (size_t k = 0; k < map.local_elements.size(); ++k) {
-    EvaluateElement(k, true, &element);
+    EvaluateElement(k, true, &element, fused ? &fused_beta : nullptr);
     if (!element.evaluable) {
       *geometry_ok = PETSC_FALSE;
       continue;
@@ -781,7 +783,6 @@ PetscErrorCode Assembler::AssembleJacobian(Mat jacobian, PetscBool *geometry_ok)
         gradient[i] = fused_scale * (element.mismatch_gradient[i] - fused_beta * element.correction_work_gradient[i]);
         element.residual[i] += fused_beta * element.correction[i];
       }
-      for (int i = 0; i < nd * nd; ++i) element.tangent[i] += fused_beta * element.tangent_correction[i];
       for (int a = 0; a <= element_nodes.order; ++a) {
         PetscCall(AddNodeVector(rank_one_left_, local_nodes[a], &element.correction[6 * a], Through::Rows));
         PetscCall(AddNodeVector(rank_one_right_, local_nodes[a], &gradient[6 * a], Through::Columns));

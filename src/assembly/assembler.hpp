@@ -159,7 +159,8 @@ public:
 
 private:
   // The element loop's evaluation of local element k by every element contributor.
-  void EvaluateElement(size_t k, bool want_tangent, ElementContribution *out);
+  // `combined_beta` (em with beta known): the elements' tangents are K_mc + beta K_corr.
+  void EvaluateElement(size_t k, bool want_tangent, ElementContribution *out, const double *combined_beta = nullptr);
   // The node loop's evaluation of owned node l by every node contributor.
   void EvaluateNode(int l, bool want_tangent, NodeContribution *out);
   // Per local node, whether it is a slave (its expansion goes through its joint).

@@ -76,11 +76,13 @@ void BeamContributor::AddElement(const State &state, size_t k, ElementContributi
     Mat3   triads_start[kBeamMaxNodes];
     double correction[kBeamMaxDofs], energy_start, energy_end, K_mc[kBeamMaxDofs * kBeamMaxDofs], K_corr[kBeamMaxDofs * kBeamMaxDofs],
         end_residual[kBeamMaxDofs];
-    const bool energy_terms = out->want_energy_terms;
+    const bool    energy_terms = out->want_energy_terms;
+    const double *beta         = end_tangent ? out->combined_beta : nullptr; // K_mc + beta K_corr at once
+    const bool    K_corr_apart = energy_terms && !beta;
     StartConfiguration(state, k, positions_start, triads_start);
     if (BeamMidpointInternalForces(ref, section, positions_start, triads_start, positions, triads, force, correction, end_tangent ? K_mc : nullptr,
-                                   energy_terms ? K_corr : nullptr, energy_terms ? end_residual : nullptr, &energy_start, &energy_end,
-                                   eq.scheme.energy_correction) != BeamKernelStatus::Ok) {
+                                   K_corr_apart ? K_corr : nullptr, energy_terms ? end_residual : nullptr, &energy_start, &energy_end,
+                                   eq.scheme.energy_correction, beta) != BeamKernelStatus::Ok) {
       out->evaluable = false;
       return;
     }
@@ -100,7 +102,8 @@ void BeamContributor::AddElement(const State &state, size_t k, ElementContributi
     if (end_tangent)
       for (int i = 0; i < nd * nd; ++i) out->tangent[i] += K_mc[i];
     if (!energy_terms) return;
-    for (int i = 0; i < nd * nd; ++i) out->tangent_correction[i] += K_corr[i];
+    if (K_corr_apart)
+      for (int i = 0; i < nd * nd; ++i) out->tangent_correction[i] += K_corr[i];
     for (int a = 0; a < n; ++a) {
       const Mat3 S    = Mat3::Identity() - 0.5 * Skew(alpha[a]) + 0.25 * alpha[a] * alpha[a].transpose();
       const Vec3 m_mc = S.transpose() * Vec3(&force[6 * a + 3]), m_corr = S.transpose() * Vec3(&correction[6 * a + 3]);
@@ -111,13 +114,14 @@ void BeamContributor::AddElement(const State &state, size_t k, ElementContributi
         out->correction_work_gradient[6 * a + 3 + i] += m_corr(i);
       }
     }
-    // K^T p: column j of K times p.
+    // K^T p: column j of K times p (with beta given, K_mc holds K_mc + beta K_corr and K_corr^T p
+    // is in it: grad M - beta grad C needs only the sum).
     for (int j = 0; j < nd; ++j) {
       double mc = 0.0, corr = 0.0;
       for (int i = 0; i < nd; ++i) {
         const double p = i % 6 < 3 ? u[i / 6](i % 6) : alpha[i / 6](i % 6 - 3);
         mc += K_mc[i * nd + j] * p;
-        corr += K_corr[i * nd + j] * p;
+        if (K_corr_apart) corr += K_corr[i * nd + j] * p;
       }
       out->mismatch_gradient[j] -= mc;
       out->correction_work_gradient[j] += corr;

@@ -4,18 +4,19 @@
 
 namespace msflex {
 
-void ElementContribution::Clear(int nodes, bool tangent_wanted, bool energy_terms_wanted)
+void ElementContribution::Clear(int nodes, bool tangent_wanted, bool energy_terms_wanted, const double *beta)
 {
   const int nd      = 6 * nodes;
   num_nodes         = nodes;
   want_tangent      = tangent_wanted;
   want_energy_terms = tangent_wanted && energy_terms_wanted;
+  combined_beta     = tangent_wanted ? beta : nullptr;
   evaluable         = true;
   std::fill(residual, residual + nd, 0.0);
   std::fill(correction, correction + nd, 0.0);
   if (want_tangent) std::fill(tangent, tangent + nd * nd, 0.0);
   if (want_energy_terms) {
-    std::fill(tangent_correction, tangent_correction + nd * nd, 0.0);
+    if (!combined_beta) std::fill(tangent_correction, tangent_correction + nd * nd, 0.0);
     std::fill(mismatch_gradient, mismatch_gradient + nd, 0.0);
     std::fill(correction_work_gradient, correction_work_gradient + nd, 0.0);
   }

@@ -51,8 +51,12 @@ struct ElementContribution {
   bool   want_energy_terms = false;
   double tangent_correction[kBeamMaxDofs * kBeamMaxDofs];
   double mismatch_gradient[kBeamMaxDofs], correction_work_gradient[kBeamMaxDofs];
+  // em with beta known (the residual's at the same unknowns): the tangent takes K_mc + beta K_corr
+  // at once, tangent_correction stays unused and the gradients leave out K_corr's part
+  // (mismatch_gradient - beta correction_work_gradient is still grad M - beta grad C). Null otherwise.
+  const double *combined_beta = nullptr;
 
-  void Clear(int nodes, bool tangent_wanted, bool energy_terms_wanted = false);
+  void Clear(int nodes, bool tangent_wanted, bool energy_terms_wanted = false, const double *beta = nullptr);
 };
 
 // What the node contributors accumulate for one owned node.

@@ -485,8 +485,9 @@ template <int NN>
 BeamKernelStatus MidpointForces(const BeamElementReference &ref, const BeamSectionStiffness &section, const Vec3 *positions_start, const Mat3 *triads_start,
                                 const Vec3 *positions, const Mat3 *triads, double *force_mc, double *force_correction, double *tangent_mc,
                                 double *tangent_correction, double *end_residual_out, double *energy_start_out, double *energy_end_out,
-                                EnergyCorrection correction)
+                                EnergyCorrection correction, const double *combined_beta)
 {
+  if (combined_beta) tangent_correction = nullptr;
   const int  c                  = ref.reference_node;
   const bool correction_moments = correction == EnergyCorrection::Resultants; // (N_d, M_d), else (N_d, 0)
   Vec3       rho_n[NN], psi_n[NN], rho_1[NN], psi_1[NN], rho_m[NN], psi_m[NN];
@@ -564,6 +565,26 @@ BeamKernelStatus MidpointForces(const BeamElementReference &ref, const BeamSecti
       G->dp         = s * moments * dp + 0.5 * Q;
       G->dd         = s * moments * dd;
     };
+    if (combined_beta) {
+      // The blocks are linear in (s, N, M), so those of K_mc + beta K_corr are one fill: the
+      // material part weighted 1/2 + beta (1/2 + beta m for the moments' terms, m = 0 in the
+      // (N_d, 0) correction), the geometric part at the stresses S_mid + beta S_d.
+      const double         beta = *combined_beta, m = correction_moments ? 1.0 : 0.0;
+      const double         s_forces = 0.5 + beta, s_moments = 0.5 + beta * m;
+      const Vec3           N = N_mid + beta * N_d, M = M_mid + beta * M_d;
+      const Mat3           P = RodriguesApplyJacobian(Fe, Psi, N), Q = RodriguesApplyJacobian(Fh, Psi, M);
+      const Mat3           Sg = RodriguesTransposeApplyHessian(Fe, Psi, drho, N) + RodriguesTransposeApplyHessian(Fh, Psi, dPsi, M);
+      MidpointGaussBlocks &G  = blocks_mc[gp];
+      G.wJ                    = wJ;
+      G.rr                    = s_forces * rr;
+      G.rp                    = s_forces * rp + 0.5 * P;
+      G.pr                    = s_forces * pr + 0.5 * P.transpose();
+      G.pp                    = s_forces * (ACN * A1) + s_moments * (BCM * B1) + 0.5 * Sg;
+      G.pd                    = s_moments * pd + 0.5 * Q.transpose();
+      G.dp                    = s_moments * dp + 0.5 * Q;
+      G.dd                    = s_moments * dd;
+      continue;
+    }
     if (tangent_mc) fill(&blocks_mc[gp], 0.5, N_mid, M_mid, 1.0);
     if (tangent_correction) fill(&blocks_corr[gp], 1.0, N_d, M_d, correction_moments ? 1.0 : 0.0);
   }
@@ -609,6 +630,12 @@ BeamKernelStatus MidpointForces(const BeamElementReference &ref, const BeamSecti
       }
     }
   }
+  if (combined_beta) {
+    Vec3 combined_rho[NN], combined_psi[NN];
+    for (int a = 0; a < NN; ++a) combined_rho[a] = h_rho[a] + *combined_beta * k_rho[a], combined_psi[a] = h_psi[a] + *combined_beta * k_psi[a];
+    if (tangent_mc) MidpointTangent<NN>(ref, others, blocks_mc, maps, combined_rho, combined_psi, tangent_mc);
+    return BeamKernelStatus::Ok;
+  }
   if (tangent_mc) MidpointTangent<NN>(ref, others, blocks_mc, maps, h_rho, h_psi, tangent_mc);
   if (tangent_correction) MidpointTangent<NN>(ref, others, blocks_corr, maps, k_rho, k_psi, tangent_correction);
   return BeamKernelStatus::Ok;
@@ -619,13 +646,13 @@ BeamKernelStatus MidpointForces(const BeamElementReference &ref, const BeamSecti
 BeamKernelStatus BeamMidpointInternalForces(const BeamElementReference &ref, const BeamSectionStiffness &section, const Vec3 *positions_start,
                                             const Mat3 *triads_start, const Vec3 *positions, const Mat3 *triads, double *force_mc, double *force_correction,
                                             double *tangent_mc, double *tangent_correction, double *end_residual, double *strain_energy_start,
-                                            double *strain_energy_end, EnergyCorrection correction)
+                                            double *strain_energy_end, EnergyCorrection correction, const double *combined_beta)
 {
   if (ref.num_nodes == 2)
     return MidpointForces<2>(ref, section, positions_start, triads_start, positions, triads, force_mc, force_correction, tangent_mc, tangent_correction,
-                             end_residual, strain_energy_start, strain_energy_end, correction);
+                             end_residual, strain_energy_start, strain_energy_end, correction, combined_beta);
   return MidpointForces<3>(ref, section, positions_start, triads_start, positions, triads, force_mc, force_correction, tangent_mc, tangent_correction,
-                           end_residual, strain_energy_start, strain_energy_end, correction);
+                           end_residual, strain_energy_start, strain_energy_end, correction, combined_beta);
 }
 
 BeamKernelStatus BeamMidpointInternalForces(const BeamElementReference &ref, const BeamSectionStiffness &section, const Vec3 *positions_start,

@@ -97,10 +97,14 @@ BeamKernelStatus BeamInternalForces(const BeamElementReference &ref, const BeamS
 // multiplies the spin columns of node a by H(omega_a) from the right, as for the end-point tangent.
 // `correction`: Resultants builds F_corr (and K_corr) from the whole stress difference (N_d, M_d),
 // the default; Forces from (N_d, 0) as in eq. (19) (analysis.em_correction, docs/dynamics.md).
+// `combined_beta`: em with beta known; tangent_mc then receives K_mc + beta K_corr, built once
+// from blocks that combine both (they are linear in the weight of the material part and in the
+// stresses of the geometric part), at about the cost of K_mc alone; tangent_correction is ignored.
 BeamKernelStatus BeamMidpointInternalForces(const BeamElementReference &ref, const BeamSectionStiffness &section, const Vec3 *positions_start,
                                             const Mat3 *triads_start, const Vec3 *positions, const Mat3 *triads, double *force_mc, double *force_correction,
                                             double *tangent_mc, double *tangent_correction, double *end_residual, double *strain_energy_start,
-                                            double *strain_energy_end, EnergyCorrection correction = EnergyCorrection::Resultants);
+                                            double *strain_energy_end, EnergyCorrection correction = EnergyCorrection::Resultants,
+                                            const double *combined_beta = nullptr);
 
 // The forces and energies alone (no tangents, no end residual): the call above with nullptr for those.
 BeamKernelStatus BeamMidpointInternalForces(const BeamElementReference &ref, const BeamSectionStiffness &section, const Vec3 *positions_start,

@@ -1,8 +1,11 @@
-// Micro-benchmark of the beam kernel: microseconds per element for the residual alone and for the
+// Micro-benchmark of the beam kernels: microseconds per element for the residual alone and for the
 // residual with the tangent and the strain energy (the call the Jacobian assembly makes), for 2-
 // and 3-node elements in a deformed state with finite rotations (a curved, twisted reference
-// turned by a large rigid rotation plus nodal perturbations). Prints the median and the minimum
-// over rounds of thread CPU time; asserts nothing. Run through scripts/bench-kernel.
+// turned by a large rigid rotation plus nodal perturbations); then the mid-point kernel of the
+// conserving schemes from the reference (start of the step) to that state, as the residual and
+// the tangent assemblies of mc (F_mc, F_corr, K_mc) and em (also K_corr and the end residual)
+// call it. Prints the median and the minimum over rounds of thread CPU time; asserts nothing.
+// Run through scripts/bench-kernel.
 #include "elements/beam.hpp"
 
 #include <algorithm>
@@ -90,6 +93,29 @@ int main(int argc, char **argv)
       }
       std::printf("%6d %-24s %10.3f %10.3f\n", nn, with_tangent ? "residual+tangent+energy" : "residual+energy", Median(per_call),
                   *std::min_element(per_call.begin(), per_call.end()));
+    }
+    if (only_nodes || only_tangent >= 0) continue;
+    // Mid-point kernel: 0 the residual pass, 1 mc's tangent pass, 2 em's tangent pass (K_mc and
+    // K_corr apart), 3 em's tangent pass with beta known (K_mc + beta K_corr at once).
+    const char *const midpoint_calls[4] = {"midpoint residual", "midpoint mc tangent", "midpoint em tangent", "midpoint em, beta known"};
+    const double      beta              = 0.3;
+    double            correction[kBeamMaxDofs], tangent_correction[kBeamMaxDofs * kBeamMaxDofs], end_residual[kBeamMaxDofs], energy_start = 0.0;
+    for (int call = 0; call < 4; ++call) {
+      std::vector<double> per_call;
+      for (int round = 0; round < rounds; ++round) {
+        const double start = ThreadSeconds();
+        for (int i = 0; i < repetitions; ++i) {
+          deformed.positions[1](0) += 1e-12;
+          BeamMidpointInternalForces(ref, section, reference.positions, reference.triads, deformed.positions, deformed.triads, residual, correction,
+                                     call >= 1 ? tangent : nullptr, call == 2 ? tangent_correction : nullptr, call >= 2 ? end_residual : nullptr, &energy_start,
+                                     &energy, EnergyCorrection::Resultants, call == 3 ? &beta : nullptr);
+          checksum += residual[0] + correction[1] + (call >= 1 ? tangent[7] : 0.0) + (call == 2 ? tangent_correction[8] : 0.0) +
+                      (call >= 2 ? end_residual[2] : 0.0) + energy;
+        }
+        const double stop = ThreadSeconds();
+        per_call.push_back(1e6 * (stop - start) / repetitions);
+      }
+      std::printf("%6d %-24s %10.3f %10.3f\n", nn, midpoint_calls[call], Median(per_call), *std::min_element(per_call.begin(), per_call.end()));
     }
   }
   std::printf("checksum %.6e\n", checksum);

@@ -503,6 +503,41 @@ TEST_P(BeamKernel, MidpointEndResidualAndEnergiesMatchTheEndPointKernel)
   }
 }
 
+// em's combined tangent (beta given): K_mc + beta K_corr from one set of blocks equals the sum of
+// the two tangents built apart, for both corrections, with the forces and r_{n+1} unchanged.
+TEST_P(BeamKernel, MidpointCombinedTangentIsTheSumOfBoth)
+{
+  const int            nn = GetParam(), nd = 6 * nn;
+  const ElementCase    ec = CurvedTwistedReference(nn, 0.6);
+  BeamElementReference ref;
+  ASSERT_EQ(BeamElementSetup(nn, ec.positions.data(), ec.triads.data(), &ref), BeamKernelStatus::Ok);
+  for (const EnergyCorrection correction : {EnergyCorrection::Resultants, EnergyCorrection::Forces})
+    for (const StepCase &s : MidpointStepCases(ec))
+      for (const double beta : {0.0, 0.37, -2.5}) {
+        std::vector<double> mc(nd), corr(nd), K_mc(nd * nd), K_corr(nd * nd), r(nd), mc_combined(nd), corr_combined(nd), K(nd * nd), r_combined(nd);
+        double              energy_start, energy_end;
+        ASSERT_EQ(BeamMidpointInternalForces(ref, kSection, s.start.positions.data(), s.start.triads.data(), s.end.positions.data(), s.end.triads.data(),
+                                             mc.data(), corr.data(), K_mc.data(), K_corr.data(), r.data(), &energy_start, &energy_end, correction),
+                  BeamKernelStatus::Ok);
+        ASSERT_EQ(BeamMidpointInternalForces(ref, kSection, s.start.positions.data(), s.start.triads.data(), s.end.positions.data(), s.end.triads.data(),
+                                             mc_combined.data(), corr_combined.data(), K.data(), nullptr, r_combined.data(), &energy_start, &energy_end,
+                                             correction, &beta),
+                  BeamKernelStatus::Ok);
+        double difference = 0.0, size = 0.0;
+        for (int i = 0; i < nd * nd; ++i) {
+          const double sum = K_mc[i] + beta * K_corr[i];
+          difference       = std::max(difference, std::abs(K[i] - sum));
+          size             = std::max(size, std::abs(sum));
+        }
+        EXPECT_LE(difference, 1e-12 * size) << s.name << " beta " << beta;
+        for (int i = 0; i < nd; ++i) {
+          EXPECT_EQ(mc_combined[i], mc[i]) << s.name;
+          EXPECT_EQ(corr_combined[i], corr[i]) << s.name;
+          EXPECT_EQ(r_combined[i], r[i]) << s.name;
+        }
+      }
+}
+
 // em's work identity and the exact linearisation of its beta (eq. 20) from K_mc, K_corr and r_{n+1}:
 //   beta = (Pi_{n+1} - Pi_n - W_mc)/W_corr,  W = sum_a u_a . F_a + alpha_a . M_a,
 //   d beta = (r_{n+1} - dW_mc - beta dW_corr)/W_corr,
