@@ -375,7 +375,7 @@ BeamKernelStatus InternalForces(const BeamElementReference &ref, const BeamSecti
 void GaussStrains(const BeamElementReference &ref, int gp, const Vec3 *rho, const Vec3 *psi, Vec3 *strain, Vec3 *curvature)
 {
   const auto [Psi, dPsi, drho] = InterpolateAtGauss(ref, gp, rho, psi);
-  const RotationSeries series  = EvaluateRotationSeries(Psi.squaredNorm());
+  const RotationSeries series  = ElementRotationSeries(Psi.squaredNorm(), 1, false);
   *strain                      = RodriguesMatrix(ExpForm(series), Psi).transpose() * drho - ref.strain0[gp];
   *curvature                   = RodriguesMatrix(TangentForm(series), Psi).transpose() * dPsi - ref.curvature0[gp];
 }
@@ -514,7 +514,7 @@ BeamKernelStatus MidpointForces(const BeamElementReference &ref, const BeamSecti
     Vec3 eps_n, kap_n;
     GaussStrains(ref, gp, rho_n, psi_n, &eps_n, &kap_n);
     const GaussInterpolation end     = InterpolateAtGauss(ref, gp, rho_1, psi_1);
-    const RotationSeries     series1 = EvaluateRotationSeries(end.Psi.squaredNorm());
+    const RotationSeries     series1 = ElementRotationSeries(end.Psi.squaredNorm(), 1, false);
     const RodriguesForm      Fe1 = ExpForm(series1), Fh1 = TangentForm(series1);
     const Mat3               E1 = RodriguesMatrix(Fe1, end.Psi), H1 = RodriguesMatrix(Fh1, end.Psi);
     const Vec3               eps_1 = E1.transpose() * end.drho - ref.strain0[gp];
@@ -525,7 +525,7 @@ BeamKernelStatus MidpointForces(const BeamElementReference &ref, const BeamSecti
     const Vec3 N_mid = 0.5 * (N_n + N_1), M_mid = 0.5 * (M_n + M_1), N_d = N_1 - N_n, M_d = correction_moments ? Vec3(M_1 - M_n) : Vec3::Zero();
     // D(q_mid): dGamma = A dPsi + E^T drho',  dK = B dPsi + H^T dPsi'
     const auto [Psi, dPsi, drho] = InterpolateAtGauss(ref, gp, rho_m, psi_m);
-    const RotationSeries series  = EvaluateRotationSeries(Psi.squaredNorm());
+    const RotationSeries series  = ElementRotationSeries(Psi.squaredNorm(), 1, want_tangent);
     const RodriguesForm  Fe = ExpForm(series), Fh = TangentForm(series);
     const Mat3           E = RodriguesMatrix(Fe, Psi), H = RodriguesMatrix(Fh, Psi);
     const Mat3           A = RodriguesTransposeApplyJacobian(Fe, Psi, drho), B = RodriguesTransposeApplyJacobian(Fh, Psi, dPsi);
@@ -602,7 +602,7 @@ BeamKernelStatus MidpointForces(const BeamElementReference &ref, const BeamSecti
     maps.dbar[a]      = 0.5 * ((positions_start[a] - positions_start[c]) + (positions[a] - positions[c]));
     maps.d[a]         = positions[a] - positions[c];
     maps.psi_mid[a]   = psi_m[a];
-    maps.Finv_mid[a]  = TangentInverseForm(EvaluateRotationSeries(psi_m[a].squaredNorm()));
+    maps.Finv_mid[a]  = TangentInverseForm(ElementRotationSeries(psi_m[a].squaredNorm(), 2, want_tangent));
     maps.HinvT_mid[a] = RodriguesMatrix(maps.Finv_mid[a], psi_m[a]).transpose();
     maps.PbarT[a]     = maps.Lbar * maps.HinvT_mid[a];   // (H^{-1}(psi_mid) Lbar^T)^T
     const Mat3 MT     = -Skew(maps.dbar[a]) * maps.Lbar; // (Lbar^T hat(dbar))^T
@@ -618,7 +618,7 @@ BeamKernelStatus MidpointForces(const BeamElementReference &ref, const BeamSecti
       }
     }
     if (!want_end) continue;
-    maps.P[a] = RodriguesMatrix(TangentInverseForm(EvaluateRotationSeries(psi_1[a].squaredNorm())), psi_1[a]) * maps.LT;
+    maps.P[a] = RodriguesMatrix(TangentInverseForm(ElementRotationSeries(psi_1[a].squaredNorm(), 2, false)), psi_1[a]) * maps.LT;
     if (end_residual_out) {
       // r_{n+1} = T_{n+1}^T g: the gradient of the end strain energy (as BeamInternalForces).
       const Vec3 f = maps.L * g_rho[a], m = maps.P[a].transpose() * g_psi[a], mc = (maps.LT * Skew(maps.d[a])).transpose() * g_rho[a] - m;
