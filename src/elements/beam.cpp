@@ -375,9 +375,11 @@ BeamKernelStatus InternalForces(const BeamElementReference &ref, const BeamSecti
 void GaussStrains(const BeamElementReference &ref, int gp, const Vec3 *rho, const Vec3 *psi, Vec3 *strain, Vec3 *curvature)
 {
   const auto [Psi, dPsi, drho] = InterpolateAtGauss(ref, gp, rho, psi);
-  const RotationSeries series  = ElementRotationSeries(Psi.squaredNorm(), 1, false);
-  *strain                      = RodriguesMatrix(ExpForm(series), Psi).transpose() * drho - ref.strain0[gp];
-  *curvature                   = RodriguesMatrix(TangentForm(series), Psi).transpose() * dPsi - ref.curvature0[gp];
+  const double         x       = Psi.squaredNorm();
+  const RotationSeries series  = ElementRotationSeries(x, 1, false);
+  const RodriguesForm  Fe = ExpForm(series), Fh = TangentForm(series);
+  *strain    = FormTransposeTimes(Fe.alpha, Fe.beta, Psi, x, drho) - ref.strain0[gp];
+  *curvature = FormTransposeTimes(Fh.alpha, Fh.beta, Psi, x, dPsi) - ref.curvature0[gp];
 }
 
 // Mid-point forces and their exact linearisation with respect to the end of the step.
@@ -510,27 +512,35 @@ BeamKernelStatus MidpointForces(const BeamElementReference &ref, const BeamSecti
   for (int gp = 0; gp < ref.num_gauss; ++gp) {
     const double *I = ref.shape[gp], *dI = ref.shape_derivative[gp];
     const double  wJ = ref.weight_jacobian[gp];
-    // Start and end of the step: strains and stresses; at the end also D(q_{n+1}).
+    // Start and end of the step: strains and stresses (the operators applied in closed form, no
+    // 3x3 matrix unless the tangent needs it).
     Vec3 eps_n, kap_n;
     GaussStrains(ref, gp, rho_n, psi_n, &eps_n, &kap_n);
     const GaussInterpolation end     = InterpolateAtGauss(ref, gp, rho_1, psi_1);
-    const RotationSeries     series1 = ElementRotationSeries(end.Psi.squaredNorm(), 1, false);
+    const double             x1      = end.Psi.squaredNorm();
+    const RotationSeries     series1 = ElementRotationSeries(x1, 1, false);
     const RodriguesForm      Fe1 = ExpForm(series1), Fh1 = TangentForm(series1);
-    const Mat3               E1 = RodriguesMatrix(Fe1, end.Psi), H1 = RodriguesMatrix(Fh1, end.Psi);
-    const Vec3               eps_1 = E1.transpose() * end.drho - ref.strain0[gp];
-    const Vec3               kap_1 = H1.transpose() * end.dPsi - ref.curvature0[gp];
+    const Vec3               eps_1 = FormTransposeTimes(Fe1.alpha, Fe1.beta, end.Psi, x1, end.drho) - ref.strain0[gp];
+    const Vec3               kap_1 = FormTransposeTimes(Fh1.alpha, Fh1.beta, end.Psi, x1, end.dPsi) - ref.curvature0[gp];
     const Vec3               N_n = CN.cwiseProduct(eps_n), M_n = CM.cwiseProduct(kap_n), N_1 = CN.cwiseProduct(eps_1), M_1 = CM.cwiseProduct(kap_1);
     energy_n += 0.5 * wJ * (eps_n.dot(N_n) + kap_n.dot(M_n));
     energy_1 += 0.5 * wJ * (eps_1.dot(N_1) + kap_1.dot(M_1));
     const Vec3 N_mid = 0.5 * (N_n + N_1), M_mid = 0.5 * (M_n + M_1), N_d = N_1 - N_n, M_d = correction_moments ? Vec3(M_1 - M_n) : Vec3::Zero();
-    // D(q_mid): dGamma = A dPsi + E^T drho',  dK = B dPsi + H^T dPsi'
+    // D(q_mid): dGamma = A dPsi + E^T drho',  dK = B dPsi + H^T dPsi'  (A = d(E^T drho)/dPsi, B = d(H^T dPsi)/dPsi)
     const auto [Psi, dPsi, drho] = InterpolateAtGauss(ref, gp, rho_m, psi_m);
-    const RotationSeries series  = ElementRotationSeries(Psi.squaredNorm(), 1, want_tangent);
+    const double         x       = Psi.squaredNorm();
+    const RotationSeries series  = ElementRotationSeries(x, 1, want_tangent);
     const RodriguesForm  Fe = ExpForm(series), Fh = TangentForm(series);
-    const Mat3           E = RodriguesMatrix(Fe, Psi), H = RodriguesMatrix(Fh, Psi);
-    const Mat3           A = RodriguesTransposeApplyJacobian(Fe, Psi, drho), B = RodriguesTransposeApplyJacobian(Fh, Psi, dPsi);
-    const Vec3           EN = E * N_mid, AN_BM = A.transpose() * N_mid + B.transpose() * M_mid, HM = H * M_mid;
-    const Vec3           ENd = E * N_d, ANd = A.transpose() * N_d + B.transpose() * M_d, HMd = H * M_d;
+    const Vec3           ue = JacobianShift(Fe.alpha_x, Fe.beta, Fe.beta_x, Psi, drho), uh = JacobianShift(Fh.alpha_x, Fh.beta, Fh.beta_x, Psi, dPsi);
+    // D(q_mid)^T (N, M) as the local gradient's three parts: E N, A^T N + B^T M, H M.
+    auto gradient = [&](const Vec3 &N, const Vec3 &M, Vec3 *EN, Vec3 *AN_BM, Vec3 *HM) {
+      *EN    = FormTimes(Fe.alpha, Fe.beta, Psi, x, N);
+      *AN_BM = JacobianTransposeTimes(Fe.alpha, Fe.beta, Psi, drho, ue, N) + JacobianTransposeTimes(Fh.alpha, Fh.beta, Psi, dPsi, uh, M);
+      *HM    = FormTimes(Fh.alpha, Fh.beta, Psi, x, M);
+    };
+    Vec3 EN, AN_BM, HM, ENd, ANd, HMd;
+    gradient(N_mid, M_mid, &EN, &AN_BM, &HM);
+    gradient(N_d, M_d, &ENd, &ANd, &HMd);
     for (int a : others) {
       h_rho[a] += wJ * dI[a] * EN;
       h_psi[a] += wJ * (I[a] * AN_BM + dI[a] * HM);
@@ -538,55 +548,53 @@ BeamKernelStatus MidpointForces(const BeamElementReference &ref, const BeamSecti
       k_psi[a] += wJ * (I[a] * ANd + dI[a] * HMd);
     }
     if (!want_end) continue;
-    const Mat3 A1 = RodriguesTransposeApplyJacobian(Fe1, end.Psi, end.drho), B1 = RodriguesTransposeApplyJacobian(Fh1, end.Psi, end.dPsi);
+    const Vec3 ue1 = JacobianShift(Fe1.alpha_x, Fe1.beta, Fe1.beta_x, end.Psi, end.drho);
+    const Vec3 uh1 = JacobianShift(Fh1.alpha_x, Fh1.beta, Fh1.beta_x, end.Psi, end.dPsi);
     if (end_residual_out) {
-      const Vec3 EN1 = E1 * N_1, AN_BM1 = A1.transpose() * N_1 + B1.transpose() * M_1, HM1 = H1 * M_1;
+      const Vec3 EN1 = FormTimes(Fe1.alpha, Fe1.beta, end.Psi, x1, N_1), HM1 = FormTimes(Fh1.alpha, Fh1.beta, end.Psi, x1, M_1);
+      const Vec3 AN_BM1 =
+          JacobianTransposeTimes(Fe1.alpha, Fe1.beta, end.Psi, end.drho, ue1, N_1) + JacobianTransposeTimes(Fh1.alpha, Fh1.beta, end.Psi, end.dPsi, uh1, M_1);
       for (int a : others) {
         g_rho[a] += wJ * dI[a] * EN1;
         g_psi[a] += wJ * (I[a] * AN_BM1 + dI[a] * HM1);
       }
     }
     if (!want_tangent) continue;
-    // Material part D(q_mid)^T C D(q_{n+1}), shared by both outputs (s = 1/2 for mc, 1 for corr).
+    const Mat3 E = FormMatrix(Fe.alpha, Fe.beta, Psi, x), H = FormMatrix(Fh.alpha, Fh.beta, Psi, x);
+    const Mat3 A = JacobianMatrix(Fe.alpha, Fe.beta, Psi, drho, ue), B = JacobianMatrix(Fh.alpha, Fh.beta, Psi, dPsi, uh);
+    const Mat3 E1 = FormMatrix(Fe1.alpha, Fe1.beta, end.Psi, x1), H1 = FormMatrix(Fh1.alpha, Fh1.beta, end.Psi, x1);
+    const Mat3 A1 = JacobianMatrix(Fe1.alpha, Fe1.beta, end.Psi, end.drho, ue1), B1 = JacobianMatrix(Fh1.alpha, Fh1.beta, end.Psi, end.dPsi, uh1);
+    // Material part D(q_mid)^T C D(q_{n+1}), shared by both outputs.
     const Mat3 ECN = E * CN.asDiagonal(), ACN = A.transpose() * CN.asDiagonal(), BCM = B.transpose() * CM.asDiagonal(), HCM = H * CM.asDiagonal();
-    const Mat3 rr = ECN * E1.transpose(), rp = ECN * A1, pr = ACN * E1.transpose();
-    const Mat3 pd = BCM * H1.transpose(), dp = HCM * B1, dd = HCM * H1.transpose();
-    // Geometric part G(q_mid, S)/2 for S_mid (mc) and S_d (corr).
-    // `moments` = 0 drops the variation of the bending and torsion stresses (the (N_d, 0) correction).
-    auto fill = [&](MidpointGaussBlocks *G, double s, const Vec3 &N, const Vec3 &M, double moments) {
-      const Mat3 P = RodriguesApplyJacobian(Fe, Psi, N), Q = RodriguesApplyJacobian(Fh, Psi, M);
-      const Mat3 Sg = RodriguesTransposeApplyHessian(Fe, Psi, drho, N) + RodriguesTransposeApplyHessian(Fh, Psi, dPsi, M);
+    const Mat3 rr = MulT(ECN, E1), rp = Mul(ECN, A1), pr = MulT(ACN, E1), pp_forces = Mul(ACN, A1);
+    const Mat3 pd = MulT(BCM, H1), dp = Mul(HCM, B1), dd = MulT(HCM, H1), pp_moments = Mul(BCM, B1);
+    // Blocks for the stresses (N, M) of the geometric part G(q_mid, S)/2 (P = d(E N)/dPsi,
+    // Q = d(H M)/dPsi, Sg the Hessian of N.E^T drho + M.H^T dPsi), the material part weighted
+    // s_forces (terms of the force resultants) and s_moments (of the moments): 1/2 and 1/2 for mc,
+    // 1 and m for the correction (m = 0 drops the moments' variation: the (N_d, 0) correction).
+    // The blocks are linear in (s, N, M), so those of K_mc + beta K_corr are one fill with
+    // 1/2 + beta, 1/2 + beta m and S_mid + beta S_d.
+    auto fill = [&](MidpointGaussBlocks *G, double s_forces, double s_moments, const Vec3 &N, const Vec3 &M) {
+      const Mat3 P  = JacobianMatrix(-Fe.alpha, Fe.beta, Psi, N, JacobianShift(-Fe.alpha_x, Fe.beta, Fe.beta_x, Psi, N));
+      const Mat3 Q  = JacobianMatrix(-Fh.alpha, Fh.beta, Psi, M, JacobianShift(-Fh.alpha_x, Fh.beta, Fh.beta_x, Psi, M));
+      const Mat3 Sg = StressHessian(Fe, Fh, Psi, x, drho, N, dPsi, M);
       G->wJ         = wJ;
-      G->rr         = s * rr;
-      G->rp         = s * rp + 0.5 * P;
-      G->pr         = s * pr + 0.5 * P.transpose();
-      G->pp         = s * (ACN * A1 + moments * (BCM * B1)) + 0.5 * Sg;
-      G->pd         = s * moments * pd + 0.5 * Q.transpose();
-      G->dp         = s * moments * dp + 0.5 * Q;
-      G->dd         = s * moments * dd;
+      G->rr         = s_forces * rr;
+      G->rp         = s_forces * rp + 0.5 * P;
+      G->pr         = s_forces * pr + 0.5 * P.transpose();
+      G->pp         = s_forces * pp_forces + s_moments * pp_moments + 0.5 * Sg;
+      G->pd         = s_moments * pd + 0.5 * Q.transpose();
+      G->dp         = s_moments * dp + 0.5 * Q;
+      G->dd         = s_moments * dd;
     };
+    const double m = correction_moments ? 1.0 : 0.0;
     if (combined_beta) {
-      // The blocks are linear in (s, N, M), so those of K_mc + beta K_corr are one fill: the
-      // material part weighted 1/2 + beta (1/2 + beta m for the moments' terms, m = 0 in the
-      // (N_d, 0) correction), the geometric part at the stresses S_mid + beta S_d.
-      const double         beta = *combined_beta, m = correction_moments ? 1.0 : 0.0;
-      const double         s_forces = 0.5 + beta, s_moments = 0.5 + beta * m;
-      const Vec3           N = N_mid + beta * N_d, M = M_mid + beta * M_d;
-      const Mat3           P = RodriguesApplyJacobian(Fe, Psi, N), Q = RodriguesApplyJacobian(Fh, Psi, M);
-      const Mat3           Sg = RodriguesTransposeApplyHessian(Fe, Psi, drho, N) + RodriguesTransposeApplyHessian(Fh, Psi, dPsi, M);
-      MidpointGaussBlocks &G  = blocks_mc[gp];
-      G.wJ                    = wJ;
-      G.rr                    = s_forces * rr;
-      G.rp                    = s_forces * rp + 0.5 * P;
-      G.pr                    = s_forces * pr + 0.5 * P.transpose();
-      G.pp                    = s_forces * (ACN * A1) + s_moments * (BCM * B1) + 0.5 * Sg;
-      G.pd                    = s_moments * pd + 0.5 * Q.transpose();
-      G.dp                    = s_moments * dp + 0.5 * Q;
-      G.dd                    = s_moments * dd;
+      const double beta = *combined_beta;
+      fill(&blocks_mc[gp], 0.5 + beta, 0.5 + beta * m, N_mid + beta * N_d, M_mid + beta * M_d);
       continue;
     }
-    if (tangent_mc) fill(&blocks_mc[gp], 0.5, N_mid, M_mid, 1.0);
-    if (tangent_correction) fill(&blocks_corr[gp], 1.0, N_d, M_d, correction_moments ? 1.0 : 0.0);
+    if (tangent_mc) fill(&blocks_mc[gp], 0.5, 0.5, N_mid, M_mid);
+    if (tangent_correction) fill(&blocks_corr[gp], 1.0, m, N_d, M_d);
   }
   if (energy_start_out) *energy_start_out = energy_n;
   if (energy_end_out) *energy_end_out = energy_1;
