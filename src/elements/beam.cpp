@@ -431,8 +431,7 @@ void MidpointTangent(const BeamElementReference &ref, const int *others, const M
   K.setZero();
   auto add = [&K](int row, int column, const Mat3 &block) { K.template block<3, 3>(row, column) += block; };
   for (int o = 0; o < NN - 1; ++o) {
-    const int  a     = others[o];
-    const Mat3 hdbar = Skew(maps.dbar[a]);
+    const int a = others[o];
     for (int ob = 0; ob < NN - 1; ++ob) {
       const int b   = others[ob];
       Mat3      Krr = Mat3::Zero(), Krp = Mat3::Zero(), Kpr = Mat3::Zero(), Kpp = Mat3::Zero();
@@ -448,12 +447,12 @@ void MidpointTangent(const BeamElementReference &ref, const int *others, const M
       // Tbar^T (rows) and T_{n+1} (columns) of the local block: rows x_a = Lbar (.), theta_a = PbarT_a (.),
       // x_c = -x_a, theta_c = -dbar_a x x_a - theta_a; columns x_b = (.)_rho L^T, theta_b = (.)_psi P_b,
       // x_c = -x_b, theta_c = x_b hat(d_b) - theta_b.
-      const Mat3 LKrr = maps.Lbar * Krr, LKrp = maps.Lbar * Krp, PKpr = maps.PbarT[a] * Kpr, PKpp = maps.PbarT[a] * Kpp;
-      const Mat3 Nxx = LKrr * maps.LT, Nxt = LKrp * maps.P[b], Ntx = PKpr * maps.LT, Ntt = PKpp * maps.P[b];
-      const Mat3 hd  = Skew(maps.d[b]);
-      const Mat3 Nxc = Nxx * hd - Nxt, Ntc = Ntx * hd - Ntt;                                   // theta_c columns
-      const Mat3 Cxx = -hdbar * Nxx - Ntx, Cxt = -hdbar * Nxt - Ntt, Cxc = -hdbar * Nxc - Ntc; // theta_c rows
-      const int  ax = 6 * a, at = 6 * a + 3, bx = 6 * b, bt = 6 * b + 3, cx = 6 * c, ct = 6 * c + 3;
+      const Mat3 LKrr = Mul(maps.Lbar, Krr), LKrp = Mul(maps.Lbar, Krp), PKpr = Mul(maps.PbarT[a], Kpr), PKpp = Mul(maps.PbarT[a], Kpp);
+      const Mat3 Nxx = Mul(LKrr, maps.LT), Nxt = Mul(LKrp, maps.P[b]), Ntx = Mul(PKpr, maps.LT), Ntt = Mul(PKpp, maps.P[b]);
+      const Mat3 Nxc = TimesSkew(Nxx, maps.d[b]) - Nxt, Ntc = TimesSkew(Ntx, maps.d[b]) - Ntt; // theta_c columns
+      const Mat3 Cxx = -SkewTimes(maps.dbar[a], Nxx) - Ntx, Cxt = -SkewTimes(maps.dbar[a], Nxt) - Ntt,
+                 Cxc = -SkewTimes(maps.dbar[a], Nxc) - Ntc; // theta_c rows
+      const int ax = 6 * a, at = 6 * a + 3, bx = 6 * b, bt = 6 * b + 3, cx = 6 * c, ct = 6 * c + 3;
       add(ax, bx, Nxx), add(ax, bt, Nxt), add(ax, cx, -Nxx), add(ax, ct, Nxc);
       add(at, bx, Ntx), add(at, bt, Ntt), add(at, cx, -Ntx), add(at, ct, Ntc);
       add(cx, bx, -Nxx), add(cx, bt, -Nxt), add(cx, cx, Nxx), add(cx, ct, -Nxc);
@@ -469,7 +468,7 @@ void MidpointTangent(const BeamElementReference &ref, const int *others, const M
     const Vec3 g  = maps.L * h_rho[a];
     const Vec3 f  = maps.Lbar * h_rho[a];
     const Vec3 w  = maps.L * (maps.HinvT_mid[a] * h_psi[a]);
-    const Mat3 W  = 0.5 * maps.Lbar * RodriguesTransposeApplyJacobian(maps.Finv_mid[a], maps.psi_mid[a], h_psi[a]) * maps.P[a];
+    const Mat3 W  = 0.5 * Mul(Mul(maps.Lbar, RodriguesTransposeApplyJacobian(maps.Finv_mid[a], maps.psi_mid[a], h_psi[a])), maps.P[a]);
     const Mat3 hg = 0.5 * Skew(g), hf = 0.5 * Skew(f), hw = 0.5 * Skew(w);
     const int  ax = 6 * a, at = 6 * a + 3, cx = 6 * c, ct = 6 * c + 3;
     K.template block<3, 3>(ax, ct) -= hg;
@@ -477,7 +476,7 @@ void MidpointTangent(const BeamElementReference &ref, const int *others, const M
     K.template block<3, 3>(at, at) += W;
     K.template block<3, 3>(at, ct) -= hw + W;
     K.template block<3, 3>(ct, at) -= W;
-    K.template block<3, 3>(ct, ct) += hw + W + Skew(maps.dbar[a]) * hg;
+    K.template block<3, 3>(ct, ct) += hw + W + SkewTimes(maps.dbar[a], hg);
     K.template block<3, 3>(ct, ax) += hf;
     K.template block<3, 3>(ct, cx) -= hf;
   }
@@ -612,8 +611,8 @@ BeamKernelStatus MidpointForces(const BeamElementReference &ref, const BeamSecti
     maps.psi_mid[a]   = psi_m[a];
     maps.Finv_mid[a]  = TangentInverseForm(ElementRotationSeries(psi_m[a].squaredNorm(), 2, want_tangent));
     maps.HinvT_mid[a] = RodriguesMatrix(maps.Finv_mid[a], psi_m[a]).transpose();
-    maps.PbarT[a]     = maps.Lbar * maps.HinvT_mid[a];   // (H^{-1}(psi_mid) Lbar^T)^T
-    const Mat3 MT     = -Skew(maps.dbar[a]) * maps.Lbar; // (Lbar^T hat(dbar))^T
+    maps.PbarT[a]     = Mul(maps.Lbar, maps.HinvT_mid[a]);   // (H^{-1}(psi_mid) Lbar^T)^T
+    const Mat3 MT     = -SkewTimes(maps.dbar[a], maps.Lbar); // (Lbar^T hat(dbar))^T
     for (int which = 0; which < 2; ++which) {
       double     *out = which == 0 ? force_mc : force_correction;
       const Vec3 &hr = which == 0 ? h_rho[a] : k_rho[a], &hp = which == 0 ? h_psi[a] : k_psi[a];
@@ -626,7 +625,7 @@ BeamKernelStatus MidpointForces(const BeamElementReference &ref, const BeamSecti
       }
     }
     if (!want_end) continue;
-    maps.P[a] = RodriguesMatrix(TangentInverseForm(ElementRotationSeries(psi_1[a].squaredNorm(), 2, false)), psi_1[a]) * maps.LT;
+    maps.P[a] = Mul(RodriguesMatrix(TangentInverseForm(ElementRotationSeries(psi_1[a].squaredNorm(), 2, false)), psi_1[a]), maps.LT);
     if (end_residual_out) {
       // r_{n+1} = T_{n+1}^T g: the gradient of the end strain energy (as BeamInternalForces).
       const Vec3 f = maps.L * g_rho[a], m = maps.P[a].transpose() * g_psi[a], mc = (maps.LT * Skew(maps.d[a])).transpose() * g_rho[a] - m;
