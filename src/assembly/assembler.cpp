@@ -12,6 +12,17 @@
 namespace msflex {
 
 namespace {
+// em's beta of eq. (20) from the summed work mismatch M, correction work C and scale of the
+// internal work S (the sum of |u.f|): M / C, or 0 when M or C is within round-off of S (1e-13 S).
+// A mismatch at round-off needs no correction (near steady motion); a correction that does work
+// only at round-off cannot make one (a rigidly moving beam, whose F_corr vanishes): either way
+// beta would be a ratio of round-off, whose force Newton would then have to balance.
+double BetaOfWorkSums(const double sums[3])
+{
+  const double floor = 1e-13 * sums[2];
+  return std::abs(sums[0]) > floor && std::abs(sums[1]) > floor ? sums[0] / sums[1] : 0.0;
+}
+
 PetscLogEvent event_residual = 0, event_jacobian = 0, event_csr_destinations = 0;
 
 // Global row/column indices of an element's DOFs (-1 for constrained DOFs: PETSc ignores them).
@@ -542,7 +553,7 @@ PetscErrorCode Assembler::PredictIncrements(Vec increments)
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
-PetscErrorCode Assembler::SetIncrements(Vec increments)
+PetscErrorCode Assembler::SetIncrements(Vec increments, bool keep_if_current)
 {
   const PetscScalar *values;
   PetscFunctionBeginUser;
@@ -556,6 +567,8 @@ PetscErrorCode Assembler::SetIncrements(Vec increments)
     ++increments_version_;
     PetscCall(VecCopy(increments, set_increments_));
     increments_known_ = true;
+  } else if (keep_if_current) {
+    PetscFunctionReturn(PETSC_SUCCESS);
   }
   PetscCall(VecScatterBegin(to_ghosted_, increments, ghosted_increments_, INSERT_VALUES, SCATTER_FORWARD));
   PetscCall(VecScatterEnd(to_ghosted_, increments, ghosted_increments_, INSERT_VALUES, SCATTER_FORWARD));
@@ -641,15 +654,13 @@ PetscErrorCode Assembler::AssembleResidual(Vec residual, PetscBool *geometry_ok)
     sums[1] += element.correction_work;
     sums[2] += element.work_scale;
   }
-  // em (eq. 20): beta makes the work of the internal forces equal the change of strain energy.
-  // A mismatch within round-off of the internal work (1e-13 of the sum of |u.f|) is not
-  // corrected: near steady motion the correction does almost no work and beta would be a ratio of
-  // round-off, which stalls Newton.
+  // em (eq. 20): beta makes the work of the internal forces equal the change of strain energy
+  // (BetaOfWorkSums: 0 when either work is at round-off).
   energy_correction_ = 0.0;
   if (state_->equations.Dynamic() && state_->equations.scheme.kind == TimeSchemeKind::EnergyMomentum) {
     double global[3];
     PetscCall(MPIU_Allreduce(sums, global, 3, MPI_DOUBLE, MPI_SUM, comm_));
-    if (std::abs(global[0]) > 1e-13 * global[2] && global[1] != 0.0) energy_correction_ = global[0] / global[1];
+    energy_correction_         = BetaOfWorkSums(global);
     energy_correction_work_    = global[1];
     energy_correction_version_ = increments_version_;
   }
@@ -829,7 +840,8 @@ PetscErrorCode Assembler::AssembleJacobian(Mat jacobian, PetscBool *geometry_ok)
   } else if (em) {
     double global[3];
     PetscCall(MPIU_Allreduce(sums, global, 3, MPI_DOUBLE, MPI_SUM, comm_));
-    if (std::abs(global[0]) > 1e-13 * global[2] && global[1] != 0.0) beta = global[0] / global[1], correction_work = global[1];
+    beta            = BetaOfWorkSums(global);
+    correction_work = global[1];
     for (Vec v : {rank_one_left_, rank_one_right_, beta_gradient_correction_}) {
       PetscCall(VecAssemblyBegin(v));
       PetscCall(VecAssemblyEnd(v));

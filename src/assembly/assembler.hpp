@@ -66,7 +66,10 @@ public:
   // velocity in dynamics (u = dt v_n, omega = dt Lambda_n W_n).
   PetscErrorCode PredictIncrements(Vec increments);
   // Sets the unknowns of every local node from the global vector (scatter to ghosts); slaves follow.
-  PetscErrorCode SetIncrements(Vec increments);
+  // `keep_if_current`: when the values equal those of the last call and the State has not changed
+  // otherwise since (ForgetIncrements), the State already holds them and is left as it is (Newton's
+  // tangent at the iterate whose residual was just evaluated).
+  PetscErrorCode SetIncrements(Vec increments, bool keep_if_current = false);
   // Residual at the current unknowns. *geometry_ok = false when an element cannot be evaluated.
   PetscErrorCode AssembleResidual(Vec residual, PetscBool *geometry_ok);
   // Exact tangent at the current unknowns, in every problem and scheme. In the energy-momentum

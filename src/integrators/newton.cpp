@@ -43,7 +43,8 @@ PetscErrorCode FormJacobian(SNES snes, Vec increments, Mat jacobian, Mat precond
   PetscBool      geometry_ok, all_ok;
   PetscFunctionBeginUser;
   if (context->assembly_stage >= 0) PetscCall(PetscLogStagePush(context->assembly_stage));
-  PetscCall(context->assembler->SetIncrements(increments));
+  // SNES asks for the tangent at the iterate whose residual it has just evaluated: the State holds it.
+  PetscCall(context->assembler->SetIncrements(increments, true));
   PetscCall(context->assembler->AssembleJacobian(preconditioner, &geometry_ok));
   context->rank_one_solution_current = false;
   PetscCall(MPIU_Allreduce(&geometry_ok, &all_ok, 1, MPIU_BOOL, MPI_LAND, context->comm));
