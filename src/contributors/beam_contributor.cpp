@@ -51,6 +51,21 @@ void BeamContributor::StartConfiguration(const State &state, size_t k, Vec3 *pos
   }
 }
 
+void BeamContributor::BeginStep(const State &state)
+{
+  midpoint_start_.clear();
+  midpoint_start_ok_.clear();
+  if (!state.equations.Midpoint()) return;
+  midpoint_start_.resize(references_.size());
+  midpoint_start_ok_.assign(references_.size(), 0);
+  for (size_t k = 0; k < references_.size(); ++k) {
+    Vec3 positions[kBeamMaxNodes];
+    Mat3 triads[kBeamMaxNodes];
+    StartConfiguration(state, k, positions, triads);
+    midpoint_start_ok_[k] = BeamMidpointStartState(references_[k], positions, triads, &midpoint_start_[k]) == BeamKernelStatus::Ok;
+  }
+}
+
 // Statics and the Newmark family: r and K at t_{n+1}. Mid-point family: the mid-point forces
 // F_mc and em's correction F_corr with the pieces of beta (eq. 17-20) and their exact tangents
 // (elements/beam.hpp); for em also the gradients of beta's numerator and denominator:
@@ -79,10 +94,13 @@ void BeamContributor::AddElement(const State &state, size_t k, ElementContributi
     const bool    energy_terms = out->want_energy_terms;
     const double *beta         = end_tangent ? out->combined_beta : nullptr; // K_mc + beta K_corr at once
     const bool    K_corr_apart = energy_terms && !beta;
-    StartConfiguration(state, k, positions_start, triads_start);
+    // The step's start from BeginStep (without it, or where the kernel could not evaluate it there,
+    // from the State, so that the kernel reports the failure).
+    const BeamMidpointStart *start = k < midpoint_start_ok_.size() && midpoint_start_ok_[k] ? &midpoint_start_[k] : nullptr;
+    if (!start) StartConfiguration(state, k, positions_start, triads_start);
     if (BeamMidpointInternalForces(ref, section, positions_start, triads_start, positions, triads, force, correction, end_tangent ? K_mc : nullptr,
                                    K_corr_apart ? K_corr : nullptr, energy_terms ? end_residual : nullptr, &energy_start, &energy_end,
-                                   eq.scheme.energy_correction, beta) != BeamKernelStatus::Ok) {
+                                   eq.scheme.energy_correction, beta, start) != BeamKernelStatus::Ok) {
       out->evaluable = false;
       return;
     }

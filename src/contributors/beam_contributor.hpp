@@ -27,6 +27,8 @@ public:
   const char    *Name() const override { return "beam elements"; }
 
   bool ActsOnElements() const override { return true; }
+  // Mid-point schemes: what the kernel needs of the step's start, once per step (BeamMidpointStart).
+  void BeginStep(const State &state) override;
   void AddElement(const State &state, size_t k, ElementContribution *out) override;
   void AddStoredEnergy(const State &state, double *energy) const override;
 
@@ -63,6 +65,10 @@ private:
   std::vector<BeamElementReference> references_;            // per local element
   std::vector<BeamSectionStiffness> sections_;              // per section
   std::vector<BeamElementReference> unstrained_references_; // the references without prestrain, while there is one
+  // Per local element, the start of the step of the mid-point schemes (BeginStep), and whether it
+  // holds (empty outside a mid-point step; false for an element the kernel cannot evaluate there).
+  std::vector<BeamMidpointStart> midpoint_start_;
+  std::vector<char>              midpoint_start_ok_;
 };
 
 // Reference data of element e of a model (shared by the set-up of beams and nodal masses).

@@ -486,13 +486,18 @@ template <int NN>
 BeamKernelStatus MidpointForces(const BeamElementReference &ref, const BeamSectionStiffness &section, const Vec3 *positions_start, const Mat3 *triads_start,
                                 const Vec3 *positions, const Mat3 *triads, double *force_mc, double *force_correction, double *tangent_mc,
                                 double *tangent_correction, double *end_residual_out, double *energy_start_out, double *energy_end_out,
-                                EnergyCorrection correction, const double *combined_beta)
+                                EnergyCorrection correction, const double *combined_beta, const BeamMidpointStart *start)
 {
   if (combined_beta) tangent_correction = nullptr;
-  const int  c                  = ref.reference_node;
-  const bool correction_moments = correction == EnergyCorrection::Resultants; // (N_d, M_d), else (N_d, 0)
-  Vec3       rho_n[NN], psi_n[NN], rho_1[NN], psi_1[NN], rho_m[NN], psi_m[NN];
-  if (!LocalCoordinates(NN, c, positions_start, triads_start, rho_n, psi_n)) return BeamKernelStatus::RotationTooLarge;
+  const int         c                  = ref.reference_node;
+  const bool        correction_moments = correction == EnergyCorrection::Resultants; // (N_d, M_d), else (N_d, 0)
+  Vec3              rho_n[NN], psi_n[NN], rho_1[NN], psi_1[NN], rho_m[NN], psi_m[NN];
+  BeamMidpointStart computed;
+  if (!start) {
+    if (BeamMidpointStartState(ref, positions_start, triads_start, &computed) != BeamKernelStatus::Ok) return BeamKernelStatus::RotationTooLarge;
+    start = &computed;
+  }
+  for (int a = 0; a < NN; ++a) rho_n[a] = start->rho[a], psi_n[a] = start->psi[a];
   if (!LocalCoordinates(NN, c, positions, triads, rho_1, psi_1)) return BeamKernelStatus::RotationTooLarge;
   int others[NN - 1];
   for (int a = 0, o = 0; a < NN; ++a)
@@ -513,8 +518,8 @@ BeamKernelStatus MidpointForces(const BeamElementReference &ref, const BeamSecti
     const double  wJ = ref.weight_jacobian[gp];
     // Start and end of the step: strains and stresses (the operators applied in closed form, no
     // 3x3 matrix unless the tangent needs it).
-    Vec3 eps_n, kap_n;
-    GaussStrains(ref, gp, rho_n, psi_n, &eps_n, &kap_n);
+    const Vec3               eps_n   = start->strain[gp] - ref.strain0[gp];
+    const Vec3               kap_n   = start->curvature[gp] - ref.curvature0[gp];
     const GaussInterpolation end     = InterpolateAtGauss(ref, gp, rho_1, psi_1);
     const double             x1      = end.Psi.squaredNorm();
     const RotationSeries     series1 = ElementRotationSeries(x1, 1, false);
@@ -599,14 +604,14 @@ BeamKernelStatus MidpointForces(const BeamElementReference &ref, const BeamSecti
   if (energy_end_out) *energy_end_out = energy_1;
 
   MidpointMaps<NN> maps;
-  maps.Lbar = 0.5 * (triads_start[c] + triads[c]);
+  maps.Lbar = 0.5 * (start->triad_c + triads[c]);
   maps.L    = triads[c];
   maps.LT   = maps.L.transpose();
   for (int i = 0; i < 6 * NN; ++i) force_mc[i] = force_correction[i] = 0.0;
   if (end_residual_out)
     for (int i = 0; i < 6 * NN; ++i) end_residual_out[i] = 0.0;
   for (int a : others) {
-    maps.dbar[a]      = 0.5 * ((positions_start[a] - positions_start[c]) + (positions[a] - positions[c]));
+    maps.dbar[a]      = 0.5 * (start->d[a] + (positions[a] - positions[c]));
     maps.d[a]         = positions[a] - positions[c];
     maps.psi_mid[a]   = psi_m[a];
     maps.Finv_mid[a]  = TangentInverseForm(ElementRotationSeries(psi_m[a].squaredNorm(), 2, want_tangent));
@@ -653,13 +658,27 @@ BeamKernelStatus MidpointForces(const BeamElementReference &ref, const BeamSecti
 BeamKernelStatus BeamMidpointInternalForces(const BeamElementReference &ref, const BeamSectionStiffness &section, const Vec3 *positions_start,
                                             const Mat3 *triads_start, const Vec3 *positions, const Mat3 *triads, double *force_mc, double *force_correction,
                                             double *tangent_mc, double *tangent_correction, double *end_residual, double *strain_energy_start,
-                                            double *strain_energy_end, EnergyCorrection correction, const double *combined_beta)
+                                            double *strain_energy_end, EnergyCorrection correction, const double *combined_beta, const BeamMidpointStart *start)
 {
   if (ref.num_nodes == 2)
     return MidpointForces<2>(ref, section, positions_start, triads_start, positions, triads, force_mc, force_correction, tangent_mc, tangent_correction,
-                             end_residual, strain_energy_start, strain_energy_end, correction, combined_beta);
+                             end_residual, strain_energy_start, strain_energy_end, correction, combined_beta, start);
   return MidpointForces<3>(ref, section, positions_start, triads_start, positions, triads, force_mc, force_correction, tangent_mc, tangent_correction,
-                           end_residual, strain_energy_start, strain_energy_end, correction, combined_beta);
+                           end_residual, strain_energy_start, strain_energy_end, correction, combined_beta, start);
+}
+
+BeamKernelStatus BeamMidpointStartState(const BeamElementReference &ref, const Vec3 *positions_start, const Mat3 *triads_start, BeamMidpointStart *start)
+{
+  const int c = ref.reference_node;
+  if (!LocalCoordinates(ref.num_nodes, c, positions_start, triads_start, start->rho, start->psi)) return BeamKernelStatus::RotationTooLarge;
+  start->triad_c = triads_start[c];
+  for (int a = 0; a < ref.num_nodes; ++a) start->d[a] = positions_start[a] - positions_start[c];
+  for (int gp = 0; gp < ref.num_gauss; ++gp) {
+    GaussStrains(ref, gp, start->rho, start->psi, &start->strain[gp], &start->curvature[gp]);
+    start->strain[gp] += ref.strain0[gp];
+    start->curvature[gp] += ref.curvature0[gp];
+  }
+  return BeamKernelStatus::Ok;
 }
 
 BeamKernelStatus BeamMidpointInternalForces(const BeamElementReference &ref, const BeamSectionStiffness &section, const Vec3 *positions_start,

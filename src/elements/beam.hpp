@@ -100,11 +100,27 @@ BeamKernelStatus BeamInternalForces(const BeamElementReference &ref, const BeamS
 // `combined_beta`: em with beta known; tangent_mc then receives K_mc + beta K_corr, built once
 // from blocks that combine both (they are linear in the weight of the material part and in the
 // stresses of the geometric part), at about the cost of K_mc alone; tangent_correction is ignored.
+// `start`: the start of the step as BeamMidpointStartState made it (positions_start and
+// triads_start are then not read and may be null), else it is computed from them.
+struct BeamMidpointStart;
 BeamKernelStatus BeamMidpointInternalForces(const BeamElementReference &ref, const BeamSectionStiffness &section, const Vec3 *positions_start,
                                             const Mat3 *triads_start, const Vec3 *positions, const Mat3 *triads, double *force_mc, double *force_correction,
                                             double *tangent_mc, double *tangent_correction, double *end_residual, double *strain_energy_start,
                                             double *strain_energy_end, EnergyCorrection correction = EnergyCorrection::Resultants,
-                                            const double *combined_beta = nullptr);
+                                            const double *combined_beta = nullptr, const BeamMidpointStart *start = nullptr);
+
+// What the mid-point kernel needs of the start of the step, which stays fixed through the step's
+// Newton iterations: the local coordinates (rho_a, psi_a)_n, the section triad of the reference node
+// Lambda_{c,n}, the offsets d_{a,n} = x_{a,n} - x_{c,n}, and at each Gauss point
+// (E^T rho', H^T psi')_n, the strains without the reference's (Gamma_0, K_0) taken off (so that a
+// prestrain set later still applies). BeamMidpointStartState fails (RotationTooLarge) as the kernel
+// would at that state.
+struct BeamMidpointStart {
+  Vec3 rho[kBeamMaxNodes], psi[kBeamMaxNodes], d[kBeamMaxNodes];
+  Mat3 triad_c;
+  Vec3 strain[kBeamMaxGauss], curvature[kBeamMaxGauss];
+};
+BeamKernelStatus BeamMidpointStartState(const BeamElementReference &ref, const Vec3 *positions_start, const Mat3 *triads_start, BeamMidpointStart *start);
 
 // The forces and energies alone (no tangents, no end residual): the call above with nullptr for those.
 BeamKernelStatus BeamMidpointInternalForces(const BeamElementReference &ref, const BeamSectionStiffness &section, const Vec3 *positions_start,

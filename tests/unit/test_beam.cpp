@@ -503,6 +503,41 @@ TEST_P(BeamKernel, MidpointEndResidualAndEnergiesMatchTheEndPointKernel)
   }
 }
 
+// The start of the step computed once (BeamMidpointStartState, as the beam contributor does at the
+// start of each step) gives the kernel's results without the start configuration: forces, tangents,
+// r_{n+1} and energies agree to round-off.
+TEST_P(BeamKernel, MidpointKernelFromTheStoredStartOfTheStep)
+{
+  const int            nn = GetParam(), nd = 6 * nn;
+  const ElementCase    ec = CurvedTwistedReference(nn, 0.6);
+  BeamElementReference ref;
+  ASSERT_EQ(BeamElementSetup(nn, ec.positions.data(), ec.triads.data(), &ref), BeamKernelStatus::Ok);
+  for (const StepCase &s : MidpointStepCases(ec)) {
+    BeamMidpointStart start;
+    ASSERT_EQ(BeamMidpointStartState(ref, s.start.positions.data(), s.start.triads.data(), &start), BeamKernelStatus::Ok);
+    std::vector<double> outputs[2][5];
+    double              energies[2][2];
+    for (int stored = 0; stored < 2; ++stored) {
+      std::vector<double> *o = outputs[stored];
+      o[0].assign(nd, 0.0), o[1].assign(nd, 0.0), o[2].assign(nd * nd, 0.0), o[3].assign(nd * nd, 0.0), o[4].assign(nd, 0.0);
+      ASSERT_EQ(BeamMidpointInternalForces(ref, kSection, stored ? nullptr : s.start.positions.data(), stored ? nullptr : s.start.triads.data(),
+                                           s.end.positions.data(), s.end.triads.data(), o[0].data(), o[1].data(), o[2].data(), o[3].data(), o[4].data(),
+                                           &energies[stored][0], &energies[stored][1], EnergyCorrection::Resultants, nullptr, stored ? &start : nullptr),
+                BeamKernelStatus::Ok);
+    }
+    for (int which = 0; which < 5; ++which) {
+      double size = 0.0, difference = 0.0;
+      for (size_t i = 0; i < outputs[0][which].size(); ++i) {
+        size       = std::max(size, std::abs(outputs[0][which][i]));
+        difference = std::max(difference, std::abs(outputs[1][which][i] - outputs[0][which][i]));
+      }
+      EXPECT_LE(difference, 1e-12 * size) << s.name << " output " << which;
+    }
+    EXPECT_NEAR(energies[1][0], energies[0][0], 1e-13 * energies[0][0]) << s.name;
+    EXPECT_EQ(energies[1][1], energies[0][1]) << s.name;
+  }
+}
+
 // em's combined tangent (beta given): K_mc + beta K_corr from one set of blocks equals the sum of
 // the two tangents built apart, for both corrections, with the forces and r_{n+1} unchanged.
 TEST_P(BeamKernel, MidpointCombinedTangentIsTheSumOfBoth)
