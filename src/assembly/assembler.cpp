@@ -145,8 +145,11 @@ PetscErrorCode Assembler::Setup(MPI_Comm comm, const Model &model, const DofMap 
   PetscCall(PetscObjectTypeCompareAny((PetscObject)jacobian_, &is_aij, MATSEQAIJ, MATMPIAIJ, ""));
   PetscCall(PetscObjectTypeCompareAny((PetscObject)jacobian_, &is_baij, MATSEQBAIJ, MATMPIBAIJ, ""));
   PetscCall(PetscObjectTypeCompareAny((PetscObject)jacobian_, &is_dense, MATSEQDENSE, MATMPIDENSE, ""));
+  PetscBool is_sbaij;
+  PetscCall(PetscObjectTypeCompareAny((PetscObject)jacobian_, &is_sbaij, MATSEQSBAIJ, MATMPISBAIJ, ""));
   PetscCheck(is_aij || is_baij || is_dense, comm, PETSC_ERR_USER_INPUT,
-             "bad option: -jacobian_mat_type %s is not supported (the tangent is not symmetric): use aij (the default), baij or dense", type);
+             "bad option: -jacobian_mat_type %s is not supported (%s): use aij (the default), baij or dense", type,
+             is_sbaij ? "it stores one triangle of a symmetric matrix, and the tangent is not symmetric" : "msflex assembles into aij, baij and dense only");
   PetscCheck(!is_dense || ranks == 1, comm, PETSC_ERR_USER_INPUT,
              "bad option: -jacobian_mat_type dense runs on one rank only (no parallel dense LU): use aij or baij");
   if (is_aij) {

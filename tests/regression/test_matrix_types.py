@@ -5,9 +5,10 @@ displacement, on input/bend45.yaml (load control), input/massless_pendulum.yaml 
 accelerations solve with the tangent's format too) and input/von_mises_truss.yaml (arc length, whose
 corrector has a solver of its own); -jacobian_dense_below N makes the pendulum's tangent (13
 unknowns) dense from N = 13 on, not at N = 12 (-ksp_view names the type), with the same answer;
-sbaij (one triangle of a symmetric matrix; the tangent is not symmetric), and
-dense on more than one rank, stop the run with exit status 1 and one line
-'msflex: bad option: -jacobian_mat_type ...', without a PETSc trace-back or a crash."""
+sbaij (one triangle of a symmetric matrix; the tangent is not symmetric), sell and is (types msflex
+does not assemble into) and dense on more than one rank stop the run with exit status 1 and one
+line 'msflex: bad option: -jacobian_mat_type ...' giving the reason, without a PETSc trace-back or
+a crash."""
 
 import re
 
@@ -49,7 +50,7 @@ for ranks in sorted({1, args.np}):
             same_shape = displacement.shape == reference.shape
             difference = np.abs(displacement - reference).max() / np.abs(reference).max() if same_shape else np.inf
             check.less(f"-jacobian_dense_below {below}: bob history difference from aij", difference, 1e-9)
-    for mat_type in ("sbaij",) if ranks == 1 else ("sbaij", "dense"):
+    for mat_type in ("sbaij", "sell", "is") if ranks == 1 else ("sbaij", "sell", "dense"):
         code, _, stderr = mt.run_msflex(args, bend, f"{args.work_dir}/never.h5", extra=["-jacobian_mat_type", mat_type], np_ranks=ranks, expect_success=False)
         lines = [line for line in stderr.splitlines() if line.startswith("msflex:")]
         label = f"np {ranks} {mat_type}"
@@ -57,5 +58,7 @@ for ranks in sorted({1, args.np}):
         check.equal(f"{label}: exit status", code, 1)
         check.equal(f"{label}: message lines", len(lines), 1)
         check.true(f"{label}: the message names the option", bool(lines) and "bad option: -jacobian_mat_type" in lines[0])
+        reason = "not symmetric" if mat_type == "sbaij" else "runs on one rank only" if mat_type == "dense" else "assembles into aij, baij and dense only"
+        check.true(f"{label}: the message gives the reason ({reason})", bool(lines) and reason in lines[0])
         check.equal(f"{label}: PETSc trace-back lines", stderr.count("PETSC ERROR"), 0)
 check.finish()
