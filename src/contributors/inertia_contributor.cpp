@@ -95,11 +95,12 @@ void InertiaContributor::AddNode(const State &state, int l, NodeContribution *ou
   const NodeState     &s  = state.nodes[l];
   const Mat3          &J  = mass_.rotary_inertia[l];
   if (eq.Dynamic() && !J.isZero(0.0)) {
-    Vec3         moment;
-    Mat3         moment_tangent;
-    MotionUpdate update;
-    RotationalInertia(eq.scheme, J, QuaternionToMatrix(s.rotation_start), s.rotation_increment, s.rotation_motion, &moment,
-                      out->want_tangent ? &moment_tangent : nullptr, &update);
+    Vec3                    moment;
+    Mat3                    moment_tangent;
+    MotionUpdate            update;
+    const RotationIncrement increment{s.rotation_increment, s.rotation, s.rotation_tangent, s.tangent_scaled_increment, s.tangent_scaled_derivative};
+    RotationalInertia(eq.scheme, J, QuaternionToMatrix(s.rotation_start), increment, s.rotation_motion, &moment, out->want_tangent ? &moment_tangent : nullptr,
+                      &update);
     for (int i = 0; i < 3; ++i) out->residual[3 + i] += moment(i);
     // The kernel differentiates with respect to omega; spins: d omega = H(omega)^{-1} d theta.
     if (out->want_tangent) out->tangent.block<3, 3>(3, 3) += moment_tangent * TangentHInverse(s.rotation_increment);

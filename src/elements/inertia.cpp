@@ -5,12 +5,23 @@ namespace msflex {
 void RotationalInertia(const TimeScheme &scheme, const Mat3 &J, const Mat3 &rotation_start, const Vec3 &omega, const MotionState &start, Vec3 *moment,
                        Mat3 *tangent, MotionUpdate *update)
 {
-  const Mat3 R_new = ExpSO3(omega) * rotation_start;
-  const Mat3 H     = TangentH(omega);
+  RotationIncrement increment;
+  increment.omega    = omega;
+  increment.rotation = ExpSO3(omega) * rotation_start;
+  increment.tangent  = TangentH(omega);
+  if (scheme.Midpoint()) TangentScaledIncrement(omega, &increment.scaled, &increment.scaled_derivative);
+  RotationalInertia(scheme, J, rotation_start, increment, start, moment, tangent, update);
+}
+
+void RotationalInertia(const TimeScheme &scheme, const Mat3 &J, const Mat3 &rotation_start, const RotationIncrement &increment, const MotionState &start,
+                       Vec3 *moment, Mat3 *tangent, MotionUpdate *update)
+{
+  const Vec3 &omega = increment.omega;
+  const Mat3 &R_new = increment.rotation;
+  const Mat3 &H     = increment.tangent;
   if (scheme.Midpoint()) {
-    Vec3 alpha;
-    Mat3 dalpha;
-    TangentScaledIncrement(omega, &alpha, &dalpha);
+    const Vec3 &alpha   = increment.scaled;
+    const Mat3 &dalpha  = increment.scaled_derivative;
     *update             = AdvanceMotion(scheme, start, rotation_start.transpose() * alpha);
     const Vec3 momentum = R_new * (J * update->velocity);
     *moment             = (momentum - rotation_start * (J * start.velocity)) / scheme.dt;

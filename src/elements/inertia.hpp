@@ -33,6 +33,18 @@ using Mat6 = Eigen::Matrix<double, 6, 6, Eigen::RowMajor>;
 void RotationalInertia(const TimeScheme &scheme, const Mat3 &inertia, const Mat3 &rotation_start, const Vec3 &omega, const MotionState &start, Vec3 *moment,
                        Mat3 *tangent, MotionUpdate *update);
 
+// The incremental rotation omega of a step and what follows from it: Lambda_{n+1} = exp(hat omega)
+// Lambda_n, H(omega), and the mid-point schemes' alpha = 2 tan(|omega|/2) omega/|omega| with
+// d alpha/d omega (as the State keeps them per node, so the kernel need not form them again).
+struct RotationIncrement {
+  Vec3 omega;
+  Mat3 rotation, tangent;
+  Vec3 scaled;
+  Mat3 scaled_derivative;
+};
+void RotationalInertia(const TimeScheme &scheme, const Mat3 &inertia, const Mat3 &rotation_start, const RotationIncrement &increment, const MotionState &start,
+                       Vec3 *moment, Mat3 *tangent, MotionUpdate *update);
+
 // residual: (force, moment) on the node (6); tangent: d/d(u, omega) (6x6); update: the point's motion.
 // Mid-point family (the centre of mass moves with its own algorithmic velocity, which the
 // conserving scheme keeps consistent with the node); the Newmark family uses
