@@ -132,17 +132,21 @@ void BeamContributor::AddElement(const State &state, size_t k, ElementContributi
         out->correction_work_gradient[6 * a + 3 + i] += m_corr(i);
       }
     }
-    // K^T p: column j of K times p (with beta given, K_mc holds K_mc + beta K_corr and K_corr^T p
-    // is in it: grad M - beta grad C needs only the sum).
+    // K^T p, row by row of K (with beta given, K_mc holds K_mc + beta K_corr and K_corr^T p is in
+    // it: grad M - beta grad C needs only the sum).
+    double p[kBeamMaxDofs], mc[kBeamMaxDofs] = {}, corr[kBeamMaxDofs] = {};
+    for (int a = 0; a < n; ++a)
+      for (int i = 0; i < 3; ++i) p[6 * a + i] = u[a](i), p[6 * a + 3 + i] = alpha[a](i);
+    for (int i = 0; i < nd; ++i) {
+      const double *row = &K_mc[i * nd];
+      for (int j = 0; j < nd; ++j) mc[j] += row[j] * p[i];
+      if (!K_corr_apart) continue;
+      const double *correction_row = &K_corr[i * nd];
+      for (int j = 0; j < nd; ++j) corr[j] += correction_row[j] * p[i];
+    }
     for (int j = 0; j < nd; ++j) {
-      double mc = 0.0, corr = 0.0;
-      for (int i = 0; i < nd; ++i) {
-        const double p = i % 6 < 3 ? u[i / 6](i % 6) : alpha[i / 6](i % 6 - 3);
-        mc += K_mc[i * nd + j] * p;
-        if (K_corr_apart) corr += K_corr[i * nd + j] * p;
-      }
-      out->mismatch_gradient[j] -= mc;
-      out->correction_work_gradient[j] += corr;
+      out->mismatch_gradient[j] -= mc[j];
+      out->correction_work_gradient[j] += corr[j];
     }
     return;
   }
