@@ -793,10 +793,7 @@ PetscErrorCode Assembler::AssembleJacobian(Mat jacobian, PetscBool *geometry_ok)
       }
     } else if (fused && fused_beta != 0.0) {
       double gradient[kBeamMaxDofs];
-      for (int i = 0; i < nd; ++i) {
-        gradient[i] = fused_scale * (element.mismatch_gradient[i] - fused_beta * element.correction_work_gradient[i]);
-        element.residual[i] += fused_beta * element.correction[i];
-      }
+      for (int i = 0; i < nd; ++i) gradient[i] = fused_scale * (element.mismatch_gradient[i] - fused_beta * element.correction_work_gradient[i]);
       for (int a = 0; a <= element_nodes.order; ++a) {
         PetscCall(AddNodeVector(rank_one_left_, local_nodes[a], &element.correction[6 * a], Through::Rows));
         PetscCall(AddNodeVector(rank_one_right_, local_nodes[a], &gradient[6 * a], Through::Columns));
@@ -811,7 +808,7 @@ PetscErrorCode Assembler::AssembleJacobian(Mat jacobian, PetscBool *geometry_ok)
     for (int a = 0; a <= element_nodes.order; ++a) {
       if (!IsSlave(local_nodes[a])) continue;
       slave_residual_[local_nodes[a]] += Eigen::Map<const Vec6>(&element.residual[6 * a]);
-      if (separate_correction) slave_correction_residual_[local_nodes[a]] += Eigen::Map<const Vec6>(&element.correction[6 * a]);
+      if (em) slave_correction_residual_[local_nodes[a]] += Eigen::Map<const Vec6>(&element.correction[6 * a]);
     }
     PetscCall(AddExpandedMatrix(jacobian, element_nodes.order + 1, local_nodes, element.tangent));
     if (separate_correction) PetscCall(AddExpandedMatrix(correction_jacobian_, element_nodes.order + 1, local_nodes, element.tangent_correction));
@@ -831,39 +828,35 @@ PetscErrorCode Assembler::AssembleJacobian(Mat jacobian, PetscBool *geometry_ok)
   for (ForceContributor *c : contributors_) c->AddBlocks(*state_, true, this);
   block_jacobian_ = nullptr;
   PetscCheck(!block_trouble_, PETSC_COMM_SELF, PETSC_ERR_PLIB, "a contributor's block could not be added to the tangent");
-  // em: beta at these increments (eq. 20, with the residual's round-off rule) and the rank-one
-  // term R_corr (grad beta)^T, grad beta = (grad M - beta grad C) / C.
-  double beta = 0.0, correction_work = 0.0;
-  if (fused) {
+  // em: beta at these increments (eq. 20, BetaOfWorkSums) and the rank-one term R_corr (grad beta)^T,
+  // grad beta = (grad M - beta grad C) / C: with beta known from the residual the vectors already
+  // hold it; otherwise beta comes from this pass's sums and grad beta from its two gradients.
+  double beta = fused_beta;
+  if (em)
     for (Vec v : {rank_one_left_, rank_one_right_}) {
       PetscCall(VecAssemblyBegin(v));
       PetscCall(VecAssemblyEnd(v));
     }
-    rank_one_active_ = fused_beta != 0.0;
-  } else if (em) {
+  if (separate_correction) {
     double global[3];
     PetscCall(MPIU_Allreduce(sums, global, 3, MPI_DOUBLE, MPI_SUM, comm_));
-    beta            = BetaOfWorkSums(global);
-    correction_work = global[1];
-    for (Vec v : {rank_one_left_, rank_one_right_, beta_gradient_correction_}) {
-      PetscCall(VecAssemblyBegin(v));
-      PetscCall(VecAssemblyEnd(v));
-    }
+    beta = BetaOfWorkSums(global);
+    PetscCall(VecAssemblyBegin(beta_gradient_correction_));
+    PetscCall(VecAssemblyEnd(beta_gradient_correction_));
     PetscCall(MatAssemblyBegin(correction_jacobian_, MAT_FINAL_ASSEMBLY));
     PetscCall(MatAssemblyEnd(correction_jacobian_, MAT_FINAL_ASSEMBLY));
-    rank_one_active_ = beta != 0.0;
-    if (rank_one_active_) {
+    if (beta != 0.0) {
       PetscCall(VecAXPY(rank_one_right_, -beta, beta_gradient_correction_));
-      PetscCall(VecScale(rank_one_right_, 1.0 / correction_work));
-      for (size_t l = 0; l < slave_residual_.size(); ++l) slave_residual_[l] += beta * slave_correction_residual_[l];
+      PetscCall(VecScale(rank_one_right_, 1.0 / global[1]));
     }
-  } else {
-    rank_one_active_ = false;
   }
+  rank_one_active_ = em && beta != 0.0;
+  if (rank_one_active_)
+    for (size_t l = 0; l < slave_residual_.size(); ++l) slave_residual_[l] += beta * slave_correction_residual_[l];
   if (!eq.InitialAcceleration()) PetscCall(AddJointGeometricStiffness(jacobian));
   PetscCall(MatAssemblyBegin(jacobian, MAT_FINAL_ASSEMBLY));
   PetscCall(MatAssemblyEnd(jacobian, MAT_FINAL_ASSEMBLY));
-  if (beta != 0.0) PetscCall(MatAXPY(jacobian, beta, correction_jacobian_, SAME_NONZERO_PATTERN));
+  if (separate_correction && beta != 0.0) PetscCall(MatAXPY(jacobian, beta, correction_jacobian_, SAME_NONZERO_PATTERN));
   // (The global count: MatZeroRows is collective, also on a rank that owns no massless row.)
   if (state_->equations.InitialAcceleration() && !mass_matrix_only_ && num_massless_unknowns_ > 0) {
     // Massless unknowns: acceleration = 0 (the pattern is kept for the direct CSR assembly).

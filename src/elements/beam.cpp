@@ -371,15 +371,16 @@ BeamKernelStatus InternalForces(const BeamElementReference &ref, const BeamSecti
   return BeamKernelStatus::Ok;
 }
 
-// Strains (Gamma - Gamma_0, K - K_0) at a Gauss point from the local coordinates.
-void GaussStrains(const BeamElementReference &ref, int gp, const Vec3 *rho, const Vec3 *psi, Vec3 *strain, Vec3 *curvature)
+// Gamma = E^T rho', K = H^T Psi' at a Gauss point from the local coordinates (the reference's
+// Gamma_0, K_0 not taken off).
+void GaussDeformation(const BeamElementReference &ref, int gp, const Vec3 *rho, const Vec3 *psi, Vec3 *Gamma, Vec3 *K)
 {
   const auto [Psi, dPsi, drho] = InterpolateAtGauss(ref, gp, rho, psi);
   const double         x       = Psi.squaredNorm();
   const RotationSeries series  = ElementRotationSeries(x, 1, false);
   const RodriguesForm  Fe = ExpForm(series), Fh = TangentForm(series);
-  *strain    = FormTransposeTimes(Fe.alpha, Fe.beta, Psi, x, drho) - ref.strain0[gp];
-  *curvature = FormTransposeTimes(Fh.alpha, Fh.beta, Psi, x, dPsi) - ref.curvature0[gp];
+  *Gamma = FormTransposeTimes(Fe.alpha, Fe.beta, Psi, x, drho);
+  *K     = FormTransposeTimes(Fh.alpha, Fh.beta, Psi, x, dPsi);
 }
 
 // Mid-point forces and their exact linearisation with respect to the end of the step.
@@ -491,20 +492,19 @@ BeamKernelStatus MidpointForces(const BeamElementReference &ref, const BeamSecti
   if (combined_beta) tangent_correction = nullptr;
   const int         c                  = ref.reference_node;
   const bool        correction_moments = correction == EnergyCorrection::Resultants; // (N_d, M_d), else (N_d, 0)
-  Vec3              rho_n[NN], psi_n[NN], rho_1[NN], psi_1[NN], rho_m[NN], psi_m[NN];
+  Vec3              rho_1[NN], psi_1[NN], rho_m[NN], psi_m[NN];
   BeamMidpointStart computed;
   if (!start) {
     if (BeamMidpointStartState(ref, positions_start, triads_start, &computed) != BeamKernelStatus::Ok) return BeamKernelStatus::RotationTooLarge;
     start = &computed;
   }
-  for (int a = 0; a < NN; ++a) rho_n[a] = start->rho[a], psi_n[a] = start->psi[a];
   if (!LocalCoordinates(NN, c, positions, triads, rho_1, psi_1)) return BeamKernelStatus::RotationTooLarge;
   int others[NN - 1];
   for (int a = 0, o = 0; a < NN; ++a)
     if (a != c) others[o++] = a;
   for (int a = 0; a < NN; ++a) {
-    rho_m[a] = 0.5 * (rho_n[a] + rho_1[a]);
-    psi_m[a] = 0.5 * (psi_n[a] + psi_1[a]);
+    rho_m[a] = 0.5 * (start->rho[a] + rho_1[a]);
+    psi_m[a] = 0.5 * (start->psi[a] + psi_1[a]);
   }
   const bool  want_tangent = tangent_mc || tangent_correction;
   const bool  want_end     = want_tangent || end_residual_out; // the end-point operators A_1, B_1
@@ -642,12 +642,10 @@ BeamKernelStatus MidpointForces(const BeamElementReference &ref, const BeamSecti
       }
     }
   }
-  if (combined_beta) {
-    Vec3 combined_rho[NN], combined_psi[NN];
-    for (int a = 0; a < NN; ++a) combined_rho[a] = h_rho[a] + *combined_beta * k_rho[a], combined_psi[a] = h_psi[a] + *combined_beta * k_psi[a];
-    if (tangent_mc) MidpointTangent<NN>(ref, others, blocks_mc, maps, combined_rho, combined_psi, tangent_mc);
-    return BeamKernelStatus::Ok;
-  }
+  // With beta given, blocks_mc combine both tangents; so must the local gradients of the maps'
+  // variation (the forces are already out).
+  if (combined_beta)
+    for (int a = 0; a < NN; ++a) h_rho[a] += *combined_beta * k_rho[a], h_psi[a] += *combined_beta * k_psi[a];
   if (tangent_mc) MidpointTangent<NN>(ref, others, blocks_mc, maps, h_rho, h_psi, tangent_mc);
   if (tangent_correction) MidpointTangent<NN>(ref, others, blocks_corr, maps, k_rho, k_psi, tangent_correction);
   return BeamKernelStatus::Ok;
@@ -673,11 +671,7 @@ BeamKernelStatus BeamMidpointStartState(const BeamElementReference &ref, const V
   if (!LocalCoordinates(ref.num_nodes, c, positions_start, triads_start, start->rho, start->psi)) return BeamKernelStatus::RotationTooLarge;
   start->triad_c = triads_start[c];
   for (int a = 0; a < ref.num_nodes; ++a) start->d[a] = positions_start[a] - positions_start[c];
-  for (int gp = 0; gp < ref.num_gauss; ++gp) {
-    GaussStrains(ref, gp, start->rho, start->psi, &start->strain[gp], &start->curvature[gp]);
-    start->strain[gp] += ref.strain0[gp];
-    start->curvature[gp] += ref.curvature0[gp];
-  }
+  for (int gp = 0; gp < ref.num_gauss; ++gp) GaussDeformation(ref, gp, start->rho, start->psi, &start->strain[gp], &start->curvature[gp]);
   return BeamKernelStatus::Ok;
 }
 
