@@ -256,11 +256,6 @@ std::string TemporaryFile::Close()
   if (fd_ < 0) return "";
   const int fd = fd_;
   fd_          = -1;
-  if (::fsync(fd) != 0 && errno != EINVAL) {
-    const int error = errno;
-    ::close(fd);
-    return FileProblem("write", path_, error);
-  }
   if (::close(fd) != 0) return FileProblem("write", path_, errno);
   return "";
 }
@@ -275,17 +270,22 @@ std::string TemporaryFile::CheckStillOurs() const
   return "";
 }
 
-std::string TemporaryFile::Commit()
+std::string TemporaryFile::Commit(Durability durability)
 {
   if (path_.empty()) return "cannot commit: no temporary file";
-  std::string problem = Close();
+  // What this object or a library (by name) wrote reaches the device before the name switches:
+  // through the descriptor when it is still open, else by reopening the name once it is known to
+  // hold the file this object created.
+  const bool  synced_before_close = durability == Durability::Synced && fd_ >= 0;
+  std::string problem;
+  if (synced_before_close && ::fsync(fd_) != 0 && errno != EINVAL) problem = FileProblem("write", path_, errno);
+  if (const std::string closing = Close(); problem.empty()) problem = closing;
   if (problem.empty()) problem = CheckStillOurs();
-  if (problem.empty()) {
-    // What a library wrote by name reaches the device before the name switches.
+  if (problem.empty() && durability == Durability::Synced && !synced_before_close) {
     const int fd = ::open(path_.c_str(), O_RDONLY | O_NOFOLLOW | O_CLOEXEC);
     if (fd < 0) problem = FileProblem("open", path_, errno);
     else {
-      ::fsync(fd);
+      if (::fsync(fd) != 0 && errno != EINVAL) problem = FileProblem("write", path_, errno);
       ::close(fd);
     }
   }
@@ -295,7 +295,7 @@ std::string TemporaryFile::Commit()
     Discard();
     return problem;
   }
-  SyncDirectory(target_);
+  if (durability == Durability::Synced) SyncDirectory(target_);
   path_.clear();
   target_.clear();
   return "";
@@ -310,12 +310,12 @@ void TemporaryFile::Discard()
   target_.clear();
 }
 
-std::string WriteFileAtomically(const std::string &target, const std::string &contents)
+std::string WriteFileAtomically(const std::string &target, const std::string &contents, Durability durability)
 {
   TemporaryFile file;
   std::string   problem = file.Create(target);
   if (problem.empty()) problem = file.Write(contents.data(), contents.size());
-  if (problem.empty()) problem = file.Commit();
+  if (problem.empty()) problem = file.Commit(durability);
   return problem;
 }
 

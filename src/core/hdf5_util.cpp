@@ -98,18 +98,18 @@ PetscErrorCode CreateHdf5Temporary(const std::string &target, TemporaryFile *tem
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
-PetscErrorCode CommitHdf5Temporary(TemporaryFile *temporary)
+PetscErrorCode CommitHdf5Temporary(TemporaryFile *temporary, Durability durability)
 {
   PetscFunctionBeginUser;
-  const std::string problem = temporary->Commit();
+  const std::string problem = temporary->Commit(durability);
   PetscCheck(problem.empty(), PETSC_COMM_SELF, PETSC_ERR_FILE_WRITE, "%s", problem.c_str());
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
-PetscErrorCode WriteFileAtomicallyChecked(const std::string &target, const std::string &contents)
+PetscErrorCode WriteFileAtomicallyChecked(const std::string &target, const std::string &contents, Durability durability)
 {
   PetscFunctionBeginUser;
-  const std::string problem = WriteFileAtomically(target, contents);
+  const std::string problem = WriteFileAtomically(target, contents, durability);
   PetscCheck(problem.empty(), PETSC_COMM_SELF, PETSC_ERR_FILE_WRITE, "%s", problem.c_str());
   PetscFunctionReturn(PETSC_SUCCESS);
 }

@@ -134,11 +134,12 @@ PetscErrorCode OpenHdf5File(const std::string &path, unsigned flags, hid_t acces
 // and a failure (or a destroyed TemporaryFile) removes the temporary. `access`, `creation`: the
 // file access and creation property lists HDF5 creates it with (format version bounds, B-tree sizes).
 PetscErrorCode CreateHdf5Temporary(const std::string &target, TemporaryFile *temporary, H5Id *file, hid_t access = H5P_DEFAULT, hid_t creation = H5P_DEFAULT);
-// Checks that the temporary still holds the file created for it and renames it over its target.
-PetscErrorCode CommitHdf5Temporary(TemporaryFile *temporary);
+// Checks that the temporary still holds the file created for it and renames it over its target
+// (flushed to the device first when `durability` is Synced: see Durability).
+PetscErrorCode CommitHdf5Temporary(TemporaryFile *temporary, Durability durability);
 
 // Replaces `target` by `contents` atomically through a TemporaryFile (the XDMF sidecar).
-PetscErrorCode WriteFileAtomicallyChecked(const std::string &target, const std::string &contents);
+PetscErrorCode WriteFileAtomicallyChecked(const std::string &target, const std::string &contents, Durability durability);
 
 // Writes the marker attributes (format, model fingerprint, run id) into the root group of `file`.
 PetscErrorCode WriteFileMarkerChecked(const std::string &label, hid_t file, const FileMarker &marker);

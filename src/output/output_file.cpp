@@ -38,6 +38,8 @@ namespace {
 constexpr hsize_t  kHistoryChunkRows = 1024, kHistoryChunkMinRows = 16, kHistoryChunkFirstMinRows = 64;
 constexpr double   kHistoryChunkBudget = 8.0 * 1024 * 1024;
 constexpr unsigned kHistoryChunkIndexK = 4;
+// HDF5's type-conversion buffer for the variable-length string datasets (see WriteStrings).
+constexpr size_t kStringConversionBufferBytes = 64 * 1024;
 
 // Rows per chunk of the history series: kHistoryChunkRows, fewer when many series would make the
 // chunk cache large, and no more than the first write needs (rounded up to a power of two, at
@@ -377,7 +379,8 @@ struct OutputFile::Impl {
 
   // Creates dataset `name` under `parent` with shape `dims` ({} = scalar) and writes `data`, laid
   // out in `memory_type`, stored as `file_type`.
-  PetscErrorCode WriteDataset(hid_t parent, const char *name, hid_t file_type, hid_t memory_type, const std::vector<hsize_t> &dims, const void *data);
+  PetscErrorCode WriteDataset(hid_t parent, const char *name, hid_t file_type, hid_t memory_type, const std::vector<hsize_t> &dims, const void *data,
+                              hid_t transfer = H5P_DEFAULT);
   // Datasets of /mesh (or, `group` "", of the root), each with its unit and description.
   PetscErrorCode WriteDoubles(hid_t parent, const char *name, const std::vector<hsize_t> &dims, const std::vector<double> &data, const char *group = "mesh");
   PetscErrorCode WriteInts(hid_t parent, const char *name, const std::vector<hsize_t> &dims, const std::vector<int> &data, const char *group = "mesh");
@@ -460,7 +463,7 @@ PetscErrorCode OutputFile::Impl::CreateStringType(H5Id *type)
 }
 
 PetscErrorCode OutputFile::Impl::WriteDataset(hid_t parent, const char *name, hid_t file_type, hid_t memory_type, const std::vector<hsize_t> &dims,
-                                              const void *data)
+                                              const void *data, hid_t transfer)
 {
   H5Id    space, dataset;
   hsize_t n_values = 1;
@@ -470,7 +473,7 @@ PetscErrorCode OutputFile::Impl::WriteDataset(hid_t parent, const char *name, hi
   PetscCallHDF5(space = dims.empty() ? H5Screate(H5S_SCALAR) : H5Screate_simple((int)dims.size(), dims.data(), nullptr));
   PetscCallHDF5(dataset = H5Dcreate2(parent, name, file_type, space, H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT));
   // An empty vector may have no buffer, which H5Dwrite rejects even for nothing to write.
-  if (n_values > 0) PetscCallHDF5(H5Dwrite(dataset, memory_type, H5S_ALL, H5S_ALL, H5P_DEFAULT, data));
+  if (n_values > 0) PetscCallHDF5(H5Dwrite(dataset, memory_type, H5S_ALL, H5S_ALL, transfer, data));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
@@ -494,13 +497,18 @@ PetscErrorCode OutputFile::Impl::WriteInts(hid_t parent, const char *name, const
 PetscErrorCode OutputFile::Impl::WriteStrings(hid_t parent, const char *name, const std::vector<hsize_t> &dims, const std::vector<std::string> &strings,
                                               const char *group)
 {
-  H5Id                      type;
+  H5Id                      type, transfer;
   std::vector<const char *> pointers;
 
   PetscFunctionBeginUser;
   for (const std::string &s : strings) pointers.push_back(s.c_str());
   PetscCall(CreateStringType(&type));
-  PetscCall(WriteDataset(parent, name, type, type, dims, pointers.data()));
+  // Variable-length strings go through HDF5's type conversion, whose default buffer is 1 MiB,
+  // allocated per write; first touching its pages made each string dataset cost about 1 ms (most
+  // of the result file's creation on a small model). 64 KiB holds 4096 strings per pass.
+  PetscCallHDF5(transfer = H5Pcreate(H5P_DATASET_XFER));
+  PetscCallHDF5(H5Pset_buffer(transfer, kStringConversionBufferBytes, nullptr, nullptr));
+  PetscCall(WriteDataset(parent, name, type, type, dims, pointers.data(), transfer));
   PetscCall(Annotate(parent, name, DatasetQuantity(group, name, dynamic)));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
@@ -586,7 +594,9 @@ PetscErrorCode OutputFile::Impl::Create(bool overwrite, const std::string &input
   // Rank 0 wrote the replicated part; every rank reopens the file for the collective writes.
   std::vector<int>().swap(segment_element);
   PetscCallHDF5(H5Fclose(file.Release()));
-  PetscCall(CommitHdf5Temporary(&temporary));
+  // Not synced (Durability): until the first frame the file holds the model only, and a crash of
+  // the machine loses the run whatever this file holds.
+  PetscCall(CommitHdf5Temporary(&temporary, Durability::Unsynced));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
@@ -738,19 +748,25 @@ PetscErrorCode OutputFile::Impl::CheckNewStep(int step) const
 
 PetscErrorCode OutputFile::Impl::BufferHistory(const std::vector<std::string> &names, const std::vector<double> &values, const std::vector<ProbeSample> &probes)
 {
-  const std::vector<std::string> sample_names = ProbeNames(probes);
-
   PetscFunctionBeginUser;
-  PetscCheck(names.size() == values.size(), PETSC_COMM_SELF, PETSC_ERR_ARG_SIZ, "output file '%s': %zu history names but %zu values", path.c_str(),
-             names.size(), values.size());
-  PetscCheck(!names.empty() && names.front() == "time", PETSC_COMM_SELF, PETSC_ERR_ARG_WRONG, "output file '%s': the first history series must be 'time'",
-             path.c_str());
-  if (!names_known) { // the first row, or the first after Reopen
-    history_names = names;
-    probe_names   = sample_names;
+  if (names.empty()) {
+    // A row after the first: its names are those of the first (AppendHistory).
+    PetscCheck(names_known, PETSC_COMM_SELF, PETSC_ERR_ARG_WRONG, "output file '%s': the first history row must name its series", path.c_str());
+    PetscCheck(values.size() == history_names.size() && probes.size() == probe_names.size(), PETSC_COMM_SELF, PETSC_ERR_ARG_SIZ,
+               "output file '%s': a history row of %zu values and %zu probe samples, the first had %zu and %zu", path.c_str(), values.size(), probes.size(),
+               history_names.size(), probe_names.size());
+  } else {
+    const std::vector<std::string> sample_names = ProbeNames(probes);
+    PetscCheck(names.size() == values.size(), PETSC_COMM_SELF, PETSC_ERR_ARG_SIZ, "output file '%s': %zu history names but %zu values", path.c_str(),
+               names.size(), values.size());
+    PetscCheck(names.front() == "time", PETSC_COMM_SELF, PETSC_ERR_ARG_WRONG, "output file '%s': the first history series must be 'time'", path.c_str());
+    if (!names_known) { // the first row, or the first after Reopen
+      history_names = names;
+      probe_names   = sample_names;
+    }
+    PetscCheck(names == history_names && sample_names == probe_names, PETSC_COMM_SELF, PETSC_ERR_ARG_WRONG,
+               "output file '%s': history and probe names must be the same in every row", path.c_str());
   }
-  PetscCheck(names == history_names && sample_names == probe_names, PETSC_COMM_SELF, PETSC_ERR_ARG_WRONG,
-             "output file '%s': history and probe names must be the same in every row", path.c_str());
   // Room for the most rows a flush can wait for, reserved once (address space until written): no
   // copying as the buffer grows.
   if (buffered_values.capacity() == 0) {
@@ -1073,7 +1089,7 @@ PetscErrorCode OutputFile::Impl::WriteXdmfWhole()
   text += kXdmfTail;
   // Written under a new name beside it (O_EXCL, never through a link) and renamed over the old
   // sidecar, so a reader never sees a half-written one.
-  PetscCall(WriteFileAtomicallyChecked(xdmf_path, text));
+  PetscCall(WriteFileAtomicallyChecked(xdmf_path, text, Durability::Unsynced));
   xdmf_size = (long long)text.size();
   PetscFunctionReturn(PETSC_SUCCESS);
 }
@@ -1735,6 +1751,8 @@ PetscErrorCode OutputFile::AppendHistory(const std::vector<std::string> &names, 
   else PetscCall(FlushIfDue());
   PetscFunctionReturn(PETSC_SUCCESS);
 }
+
+bool OutputFile::HistoryNamesKnownImpl() const { return impl_->names_known; }
 
 PetscErrorCode OutputFile::FlushIfDue()
 {

@@ -138,8 +138,12 @@ public:
   PetscErrorCode WriteFrame(const OutputFrame &frame);
   // Appends one row to /history (one extensible 1-D dataset per name; the set of names must be
   // the same on every call, "time" first) and one sample per probe to /probes/<name>/..., in
-  // memory until the next flush.
+  // memory until the next flush. Once HistoryNamesKnown(), `names` may be empty (and the probe
+  // samples' names too): the row then only has to have as many values and samples as the first.
   PetscErrorCode AppendHistory(const std::vector<std::string> &names, const std::vector<double> &values, const std::vector<ProbeSample> &probes);
+  // Whether the series names are known (from the first row since Open or Reopen), so that a
+  // caller can leave building them out of the rows that follow.
+  bool HistoryNamesKnown() const { return impl_ != nullptr && HistoryNamesKnownImpl(); }
   // Writes the buffered history rows, makes the file consistent on disk and lists the new frames
   // in the sidecar. Does nothing when nothing was written since the last flush.
   PetscErrorCode Flush();
@@ -162,6 +166,7 @@ private:
   template <class RootWork> PetscErrorCode OpenWith(MPI_Comm comm, const std::string &path, RootWork &&root_work);
   // Flushes when the flush interval has passed since the last flush (rank 0's clock). Collective.
   PetscErrorCode FlushIfDue();
+  bool           HistoryNamesKnownImpl() const;
   Impl          *impl_           = nullptr;
   double         flush_interval_ = 10.0;
   XdmfFlavour    xdmf_flavour_   = XdmfFlavour::Xdmf3;

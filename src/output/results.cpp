@@ -360,7 +360,7 @@ PetscErrorCode ProbeHistory(MPI_Comm comm, const Model &model, const DofMap &map
   static const char *const reaction_names[6] = {"force_x", "force_y", "force_z", "moment_x", "moment_y", "moment_z"};
   static const char *const section_names[6]  = {"N1", "N2", "N3", "M1", "M2", "M3"};
   PetscFunctionBeginUser;
-  names->clear();
+  if (names) names->clear();
   values->clear();
   const size_t        count = model.probes.size();
   std::vector<double> local(6 * count, 0.0), global(6 * count, 0.0);
@@ -383,10 +383,15 @@ PetscErrorCode ProbeHistory(MPI_Comm comm, const Model &model, const DofMap &map
   for (size_t p = 0; p < count; ++p) {
     const Probe &probe = model.probes[p];
     if (probe.kind == Probe::Kind::Element)
-      for (int i = 0; i < 6; ++i) names->push_back(probe.name + "." + section_names[i]), values->push_back(global[6 * p + i]);
+      for (int i = 0; i < 6; ++i) {
+        if (names) names->push_back(probe.name + "." + section_names[i]);
+        values->push_back(global[6 * p + i]);
+      }
     else if (probe.kind == Probe::Kind::Reaction)
-      for (int i = 0; i < 6; ++i)
-        names->push_back(probe.name + "." + reaction_names[i]), values->push_back(p < state.probe_reactions.size() ? state.probe_reactions[p](i) : 0.0);
+      for (int i = 0; i < 6; ++i) {
+        if (names) names->push_back(probe.name + "." + reaction_names[i]);
+        values->push_back(p < state.probe_reactions.size() ? state.probe_reactions[p](i) : 0.0);
+      }
   }
   PetscFunctionReturn(PETSC_SUCCESS);
 }

@@ -51,7 +51,8 @@ PetscErrorCode JointHistory(MPI_Comm comm, const Model &model, const DofMap &map
 // The series of the reaction and element probes, "<probe>.<quantity>": a reaction probe's
 // force_x/_y/_z and moment_x/_y/_z (what the supports exert on the node, global axes,
 // State::probe_reactions), an element probe's N1 N2 N3 M1 M2 M3 (section frame, mean over the
-// Gauss points, from `element_results` of the local elements). Values on every rank. Collective.
+// Gauss points, from `element_results` of the local elements). Values on every rank; `names` may be
+// null (the rows after the first, whose names the result file knows). Collective.
 PetscErrorCode ProbeHistory(MPI_Comm comm, const Model &model, const DofMap &map, const State &state, const std::vector<ElementResults> &element_results,
                             std::vector<std::string> *names, std::vector<double> *values);
 

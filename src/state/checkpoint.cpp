@@ -262,7 +262,7 @@ PetscErrorCode CheckpointWrite(MPI_Comm comm, const std::string &path, const Che
   // Rank 0: the complete file replaces the previous checkpoint in one rename.
   PetscCall(RunOnRoot(comm, [&]() -> PetscErrorCode {
     PetscFunctionBeginUser;
-    PetscCall(CommitHdf5Temporary(&temporary));
+    PetscCall(CommitHdf5Temporary(&temporary, Durability::Synced));
     PetscFunctionReturn(PETSC_SUCCESS);
   }));
   PetscFunctionReturn(PETSC_SUCCESS);

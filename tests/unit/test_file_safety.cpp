@@ -232,7 +232,7 @@ TEST_F(FileSafety, RunPathsRefuseEveryAlias)
 TEST_F(FileSafety, AtomicWriteReplacesTargetAndLeavesNoTemporary)
 {
   WriteText("out.xmf", "old");
-  ASSERT_EQ(WriteFileAtomically("out.xmf", "new contents"), "");
+  ASSERT_EQ(WriteFileAtomically("out.xmf", "new contents", Durability::Synced), "");
   EXPECT_EQ(ReadAll("out.xmf"), "new contents");
   EXPECT_EQ(Entries("."), std::set<std::string>{"out.xmf"});
   struct stat info;
@@ -248,8 +248,8 @@ TEST_F(FileSafety, SymlinkAtOldFixedTemporaryNameIsNeverFollowed)
   WriteText("victim", "precious");
   ASSERT_EQ(::symlink("victim", "out.xmf.tmp"), 0);
   ASSERT_EQ(::symlink("victim", "out.ckpt.h5.tmp"), 0);
-  ASSERT_EQ(WriteFileAtomically("out.xmf", "sidecar"), "");
-  ASSERT_EQ(WriteFileAtomically("out.ckpt.h5", "checkpoint"), "");
+  ASSERT_EQ(WriteFileAtomically("out.xmf", "sidecar", Durability::Unsynced), "");
+  ASSERT_EQ(WriteFileAtomically("out.ckpt.h5", "checkpoint", Durability::Synced), "");
   EXPECT_EQ(ReadAll("victim"), "precious");
   EXPECT_TRUE(IsSymlink("out.xmf.tmp"));
   EXPECT_TRUE(IsSymlink("out.ckpt.h5.tmp"));
@@ -262,8 +262,8 @@ TEST_F(FileSafety, TargetSymlinkIsReplacedNotWrittenThrough)
   WriteText("victim", "precious");
   ASSERT_EQ(::symlink("victim", "out.xmf"), 0);
   ASSERT_EQ(::symlink("nowhere/at/all", "dangling.xmf"), 0);
-  ASSERT_EQ(WriteFileAtomically("out.xmf", "sidecar"), "");
-  ASSERT_EQ(WriteFileAtomically("dangling.xmf", "sidecar"), "");
+  ASSERT_EQ(WriteFileAtomically("out.xmf", "sidecar", Durability::Unsynced), "");
+  ASSERT_EQ(WriteFileAtomically("dangling.xmf", "sidecar", Durability::Synced), "");
   EXPECT_EQ(ReadAll("victim"), "precious");
   EXPECT_FALSE(IsSymlink("out.xmf"));
   EXPECT_FALSE(IsSymlink("dangling.xmf"));
@@ -301,27 +301,31 @@ TEST_F(FileSafety, TemporaryCreationFailsInMissingOrNonDirectoryPlaces)
 TEST_F(FileSafety, CommitOntoADirectoryFailsAndRemovesTheTemporary)
 {
   ASSERT_EQ(::mkdir("out.xmf", 0755), 0);
-  const std::string problem = WriteFileAtomically("out.xmf", "x");
-  EXPECT_TRUE(HasPrefix(problem, "cannot rename 'out.xmf.tmp.")) << problem;
-  EXPECT_NE(problem.find("to 'out.xmf': Is a directory"), std::string::npos) << problem;
-  EXPECT_EQ(Entries("."), std::set<std::string>{"out.xmf"});
+  for (const Durability durability : {Durability::Synced, Durability::Unsynced}) {
+    const std::string problem = WriteFileAtomically("out.xmf", "x", durability);
+    EXPECT_TRUE(HasPrefix(problem, "cannot rename 'out.xmf.tmp.")) << problem;
+    EXPECT_NE(problem.find("to 'out.xmf': Is a directory"), std::string::npos) << problem;
+    EXPECT_EQ(Entries("."), std::set<std::string>{"out.xmf"});
+  }
 }
 
 TEST_F(FileSafety, ReplacedTemporaryIsDetectedAndTheTargetKept)
 {
   WriteText("out.h5", "old result");
   WriteText("victim", "precious");
-  TemporaryFile file;
-  ASSERT_EQ(file.Create("out.h5"), "");
-  ASSERT_EQ(file.Close(), "");
-  // Another process swaps the temporary for a link while a library writes it by name.
-  ASSERT_EQ(::unlink(file.Path().c_str()), 0);
-  ASSERT_EQ(::symlink("victim", file.Path().c_str()), 0);
-  EXPECT_NE(file.CheckStillOurs(), "");
-  const std::string problem = file.Commit();
-  EXPECT_NE(problem.find("was replaced by another process"), std::string::npos) << problem;
-  EXPECT_EQ(ReadAll("out.h5"), "old result");
-  EXPECT_EQ(ReadAll("victim"), "precious");
+  for (const Durability durability : {Durability::Synced, Durability::Unsynced}) {
+    TemporaryFile file;
+    ASSERT_EQ(file.Create("out.h5"), "");
+    ASSERT_EQ(file.Close(), "");
+    // Another process swaps the temporary for a link while a library writes it by name.
+    ASSERT_EQ(::unlink(file.Path().c_str()), 0);
+    ASSERT_EQ(::symlink("victim", file.Path().c_str()), 0);
+    EXPECT_NE(file.CheckStillOurs(), "");
+    const std::string problem = file.Commit(durability);
+    EXPECT_NE(problem.find("was replaced by another process"), std::string::npos) << problem;
+    EXPECT_EQ(ReadAll("out.h5"), "old result");
+    EXPECT_EQ(ReadAll("victim"), "precious");
+  }
 }
 
 // Runs `checks` in a child process that sees a read-only tmpfs at `place` (its own mount
@@ -360,14 +364,14 @@ TEST_F(FileSafety, UnwritablePlaceIsOneLine)
   std::string report;
   if (::geteuid() != 0) {
     ASSERT_EQ(::chmod("readonly", 0555), 0);
-    report = CheckWritableTarget("output file", "readonly/out.h5") + "|" + WriteFileAtomically("readonly/out.xmf", "x");
+    report = CheckWritableTarget("output file", "readonly/out.h5") + "|" + WriteFileAtomically("readonly/out.xmf", "x", Durability::Synced);
     ::chmod("readonly", 0755);
     EXPECT_EQ(report, "cannot create output file 'readonly/out.h5': Permission denied|" + report.substr(report.find('|') + 1));
     EXPECT_NE(report.find("|cannot create 'readonly/out.xmf.tmp."), std::string::npos) << report;
     return;
   }
   report = InReadOnlyPlace(Abs("readonly"), [](const std::string &place) {
-    return CheckWritableTarget("output file", place + "/out.h5") + "|" + WriteFileAtomically(place + "/out.xmf", "x");
+    return CheckWritableTarget("output file", place + "/out.h5") + "|" + WriteFileAtomically(place + "/out.xmf", "x", Durability::Unsynced);
   });
   if (HasPrefix(report, "skip:")) GTEST_SKIP() << "running as root without a read-only place to test: " << report;
   EXPECT_EQ(report.substr(0, report.find('|')), "cannot create output file '" + Abs("readonly") + "/out.h5': Read-only file system");
