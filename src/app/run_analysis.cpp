@@ -345,7 +345,11 @@ PetscErrorCode RecordStep(Analysis &a, const StepRecord &record, bool write_fram
   PetscFunctionBeginUser;
   PetscCall(PetscLogStagePush(a.stage_output));
   PetscCall(PetscLogEventBegin(output_events.results, 0, 0, 0, 0));
-  PetscCall(a.integrator.ElementResults(&results, &strain_energy));
+  // The element results only for a frame or an element probe; the history's strain energy alone
+  // is what the converged step's last residual kept (MechanicalSystem::StrainEnergy).
+  const bool element_probes = std::any_of(a.model.probes.begin(), a.model.probes.end(), [](const Probe &p) { return p.kind == Probe::Kind::Element; });
+  if (write_frame || element_probes) PetscCall(a.integrator.ElementResults(&results, &strain_energy));
+  else PetscCall(a.integrator.StrainEnergy(&strain_energy));
   PetscCall(PetscLogEventEnd(output_events.results, 0, 0, 0, 0));
   if (write_frame) PetscCall(WriteFrame(a, record.step, record.time, &strain_energy, &results));
   PetscCall(WriteHistory(a, record, strain_energy, results, &kinetic_energy, &total_energy));

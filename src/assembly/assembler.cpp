@@ -640,8 +640,9 @@ PetscErrorCode Assembler::AssembleResidual(Vec residual, PetscBool *geometry_ok)
   PetscCall(VecSetOption(residual, VEC_IGNORE_NEGATIVE_INDICES, PETSC_TRUE));
   PetscCall(VecZeroEntries(residual));
   local_force_squares_ = 0.0;
-  // Pass 1: element vectors (and, for em, the pieces of beta).
-  double              sums[3] = {0.0, 0.0, 0.0}; // work mismatch, correction work, scale of the internal work
+  // Pass 1: element vectors (and, for em, the pieces of beta; the strain energy, kept for the history).
+  double              sums[3]       = {0.0, 0.0, 0.0}; // work mismatch, correction work, scale of the internal work
+  double              strain_energy = 0.0;
   ElementContribution element;
   for (size_t k = 0; k < map.local_elements.size(); ++k) {
     EvaluateElement(k, false, &element);
@@ -656,7 +657,10 @@ PetscErrorCode Assembler::AssembleResidual(Vec residual, PetscBool *geometry_ok)
     sums[0] += element.work_mismatch;
     sums[1] += element.correction_work;
     sums[2] += element.work_scale;
+    strain_energy += element.strain_energy;
   }
+  residual_strain_energy_         = strain_energy;
+  residual_strain_energy_version_ = *geometry_ok ? increments_version_ : -1;
   // em (eq. 20): beta makes the work of the internal forces equal the change of strain energy
   // (BetaOfWorkSums: 0 when either work is at round-off).
   energy_correction_ = 0.0;

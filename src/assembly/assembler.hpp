@@ -114,6 +114,24 @@ public:
   PetscErrorCode EvaluateJointReactions(double dt);
   // The energy-momentum scheme's beta of the last residual (0 otherwise).
   double EnergyCorrectionFactor() const { return energy_correction_; }
+  // This rank's strain energy of the beams at the unknowns of the last residual (each element's
+  // Pi in the configuration the residual evaluated, Pi_{n+1} in the mid-point schemes), when the
+  // State still holds those unknowns: no SetIncrements with other values and no ForgetIncrements
+  // since, and every element was evaluable. Saves the history a pass over the elements per step.
+  bool LastResidualStrainEnergy(double *local_energy) const
+  {
+    if (residual_strain_energy_version_ != increments_version_) return false;
+    *local_energy = residual_strain_energy_;
+    return true;
+  }
+  // The State changed other than through SetIncrements (a new step, the velocity projection, a
+  // discarded step, a state read from a checkpoint): the next SetIncrements starts a new version of
+  // the unknowns whatever its values, and what the last residual kept no longer describes the State.
+  void ForgetIncrements()
+  {
+    increments_known_ = false;
+    ++increments_version_;
+  }
 
   // Numerical trouble, for messages (collective; diagnostics.cpp). DescribeNonFinite: after a
   // residual or tangent holding NaN or Inf at the current increments, names where it first appears
@@ -194,13 +212,6 @@ private:
   // em's exact tangent: the rank-one term's vectors and, `with_matrix`, the correction's own matrix
   // (same pattern as the tangent), each made once when first needed.
   PetscErrorCode SetupEnergyCorrectionTangent(bool with_matrix);
-  // The State changed other than through SetIncrements (a new step, the velocity projection): the
-  // next SetIncrements starts a new version of the unknowns whatever its values.
-  void ForgetIncrements()
-  {
-    increments_known_ = false;
-    ++increments_version_;
-  }
   // Geometric stiffness of every local joint for the slave residuals gathered in slave_residual_.
   PetscErrorCode AddJointGeometricStiffness(Mat jacobian);
   // Slave residuals with what each slave passes on to its master along the chains (deepest first).
@@ -268,9 +279,10 @@ private:
   // Versions of the unknowns: increments_version_ grows whenever SetIncrements sets values other
   // than the last ones (set_increments_) or the State changes otherwise; energy_correction_version_
   // is the version at which the last residual computed beta.
-  long long increments_version_ = 0, energy_correction_version_ = -1;
-  bool      increments_known_ = false;
-  Vec       set_increments_   = nullptr;
+  long long increments_version_ = 0, energy_correction_version_ = -1, residual_strain_energy_version_ = -1;
+  double    residual_strain_energy_ = 0.0; // this rank's, at residual_strain_energy_version_
+  bool      increments_known_       = false;
+  Vec       set_increments_         = nullptr;
 
   Mat                   jacobian_            = nullptr;
   Mat                   correction_jacobian_ = nullptr; // em: K_corr, the pattern of jacobian_

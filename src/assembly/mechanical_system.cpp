@@ -83,6 +83,16 @@ PetscErrorCode MechanicalSystem::Momenta(msflex::Momenta *momenta)
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
+PetscErrorCode MechanicalSystem::StrainEnergy(double *strain_energy)
+{
+  double local = 0.0;
+  PetscFunctionBeginUser;
+  if (!assembler_.LastResidualStrainEnergy(&local))
+    PetscCheck(beams_.StrainEnergy(state_, &local), PETSC_COMM_SELF, PETSC_ERR_PLIB, "an element cannot be evaluated in a converged state");
+  PetscCall(MPIU_Allreduce(&local, strain_energy, 1, MPI_DOUBLE, MPI_SUM, comm_));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
 PetscErrorCode MechanicalSystem::ElementResults(std::vector<msflex::ElementResults> *results, double *strain_energy)
 {
   double local;

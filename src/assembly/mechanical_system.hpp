@@ -40,6 +40,9 @@ public:
   PetscErrorCode Momenta(msflex::Momenta *momenta);
   // Element results and strain energy of the current configuration (collective).
   PetscErrorCode ElementResults(std::vector<msflex::ElementResults> *results, double *strain_energy);
+  // The strain energy alone (collective): on each rank what the last residual kept when the State
+  // still holds its unknowns (Assembler::LastResidualStrainEnergy), else a pass over the elements.
+  PetscErrorCode StrainEnergy(double *strain_energy);
   // Stored energy of the force elements' springs in the current configuration (collective).
   PetscErrorCode SpringEnergy(double *energy);
   // Whether the model has force elements or damped beams (their history series). Not collective:

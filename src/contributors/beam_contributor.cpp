@@ -116,6 +116,7 @@ void BeamContributor::AddElement(const State &state, size_t k, ElementContributi
       out->correction_work += u[a].dot(Vec3(&correction[6 * a])) + alpha[a].dot(Vec3(&correction[6 * a + 3]));
     }
     out->work_mismatch += (energy_end - energy_start) - work;
+    out->strain_energy += energy_end;
     for (int i = 0; i < nd; ++i) out->residual[i] += force[i], out->correction[i] += correction[i];
     if (end_tangent)
       for (int i = 0; i < nd * nd; ++i) out->tangent[i] += K_mc[i];
@@ -150,11 +151,12 @@ void BeamContributor::AddElement(const State &state, size_t k, ElementContributi
     }
     return;
   }
-  double K[kBeamMaxDofs * kBeamMaxDofs];
-  if (BeamInternalForces(ref, section, positions, triads, force, end_tangent ? K : nullptr, nullptr, nullptr) != BeamKernelStatus::Ok) {
+  double K[kBeamMaxDofs * kBeamMaxDofs], energy = 0.0;
+  if (BeamInternalForces(ref, section, positions, triads, force, end_tangent ? K : nullptr, &energy, nullptr) != BeamKernelStatus::Ok) {
     out->evaluable = false;
     return;
   }
+  out->strain_energy += energy;
   for (int i = 0; i < nd; ++i) out->residual[i] += force[i];
   if (end_tangent)
     for (int i = 0; i < nd * nd; ++i) out->tangent[i] += K[i];
@@ -162,10 +164,28 @@ void BeamContributor::AddElement(const State &state, size_t k, ElementContributi
 
 void BeamContributor::AddStoredEnergy(const State &state, double *energy) const
 {
-  std::vector<ElementResults> unused;
-  double                      strain_energy = 0.0;
-  Results(state, &unused, &strain_energy);
+  double strain_energy = 0.0;
+  StrainEnergy(state, &strain_energy);
   *energy += strain_energy;
+}
+
+bool BeamContributor::StrainEnergy(const State &state, double *strain_energy) const
+{
+  bool all_ok    = true;
+  *strain_energy = 0.0;
+  for (size_t k = 0; k < references_.size(); ++k) {
+    const BeamElement &element = model_->elements[map_->local_elements[k]];
+    Vec3               positions[kBeamMaxNodes];
+    Mat3               triads[kBeamMaxNodes];
+    Configuration(state, k, positions, triads);
+    double r[kBeamMaxDofs], energy = 0.0;
+    if (BeamInternalForces(references_[k], sections_[element.section], positions, triads, r, nullptr, &energy, nullptr) != BeamKernelStatus::Ok) {
+      all_ok = false;
+      continue;
+    }
+    *strain_energy += energy;
+  }
+  return all_ok;
 }
 
 bool BeamContributor::Results(const State &state, std::vector<ElementResults> *results, double *strain_energy) const

@@ -35,6 +35,9 @@ public:
   // Element results for the local elements and their strain energy; false when an element cannot
   // be evaluated.
   bool Results(const State &state, std::vector<ElementResults> *results, double *strain_energy) const;
+  // The strain energy of the local elements in the current configuration alone (false: an element
+  // could not be evaluated).
+  bool StrainEnergy(const State &state, double *strain_energy) const;
   // The end-point tangent of element k (spin form), for diagnostics; false when it cannot be evaluated.
   bool EndPointTangent(const State &state, size_t k, double *residual, double *tangent) const;
 

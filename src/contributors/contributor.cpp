@@ -20,7 +20,7 @@ void ElementContribution::Clear(int nodes, bool tangent_wanted, bool energy_term
     std::fill(mismatch_gradient, mismatch_gradient + nd, 0.0);
     std::fill(correction_work_gradient, correction_work_gradient + nd, 0.0);
   }
-  work_mismatch = correction_work = work_scale = 0.0;
+  work_mismatch = correction_work = work_scale = strain_energy = 0.0;
 }
 
 void NodeContribution::Clear(bool tangent_wanted)

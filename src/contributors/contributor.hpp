@@ -45,6 +45,9 @@ struct ElementContribution {
   // the scale of its internal work (sum of |u.f|) for the round-off test.
   double correction[kBeamMaxDofs];
   double work_mismatch = 0.0, correction_work = 0.0, work_scale = 0.0;
+  // Strain energy of the element in the configuration evaluated (the end of the step; in the
+  // mid-point schemes Pi_{n+1}), which the residual pass keeps for the history (Assembler).
+  double strain_energy = 0.0;
   // em's exact linearisation (with a tangent in the energy-momentum scheme): the correction's
   // tangent K_corr, and the spin-form gradients of beta's numerator (the work mismatch
   // Pi_{n+1} - Pi_n - W_mc) and denominator (the correction's work W_corr), W = sum u.f + alpha.m.

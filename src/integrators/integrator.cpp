@@ -165,6 +165,7 @@ PetscErrorCode Integrator::TryEquations(const StepEquations &equations, double d
     PetscCall(NewtonForgetFactorization(snes_));
   }
   StateDiscardStep(*model_, &system_.GetState());
+  system_.GetAssembler().ForgetIncrements();
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
@@ -177,9 +178,8 @@ PetscErrorCode Integrator::ElementResults(std::vector<msflex::ElementResults> *r
 
 PetscErrorCode Integrator::StrainEnergy(double *strain_energy)
 {
-  std::vector<msflex::ElementResults> unused;
   PetscFunctionBeginUser;
-  PetscCall(system_.ElementResults(&unused, strain_energy));
+  PetscCall(system_.StrainEnergy(strain_energy));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 

@@ -79,7 +79,13 @@ public:
   void         SetDissipatedEnergy(double energy) { dissipated_energy_ = energy; }
   double       EnergyCorrectionFactor() const { return system_.GetAssembler().EnergyCorrectionFactor(); }
   const State &GetState() const { return system_.GetState(); }
-  State       *MutableState() { return &system_.GetState(); }
+  // The State to change directly (a restart reads it in): the assembler forgets what it kept of
+  // the last residual.
+  State *MutableState()
+  {
+    system_.GetAssembler().ForgetIncrements();
+    return &system_.GetState();
+  }
   const Model &GetModel() const { return *model_; }
   // The mechanical system, for what linearises it about the current state (path following,
   // stability, eigenanalysis).

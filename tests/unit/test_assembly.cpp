@@ -532,3 +532,48 @@ TEST(AssembledSystem, RestrictedModelAssemblesIdentically)
     }
   }
 }
+
+// The strain energy the residual pass keeps for the history: the same as a pass over the elements
+// at those unknowns (end-point and mid-point kernels), and given only while the State holds them.
+TEST(AssembledSystem, ResidualKeepsTheStrainEnergyOfItsUnknowns)
+{
+  for (Problem problem : {Problem::Static, Problem::Newmark, Problem::EnergyMomentum}) {
+    AssembledSystem system;
+    ASSERT_EQ(Build(kJointModel, problem, &system), PETSC_SUCCESS);
+    Assembler &assembler = system.system.GetAssembler();
+    Vec        x, r;
+    PetscInt   n, first, last;
+    ASSERT_EQ(VecDuplicate(assembler.SolutionTemplate(), &x), PETSC_SUCCESS);
+    ASSERT_EQ(VecDuplicate(x, &r), PETSC_SUCCESS);
+    ASSERT_EQ(VecGetSize(x, &n), PETSC_SUCCESS);
+    ASSERT_EQ(VecGetOwnershipRange(x, &first, &last), PETSC_SUCCESS);
+    for (PetscInt i = first; i < last; ++i) ASSERT_EQ(VecSetValue(x, i, 0.05 * std::sin(1.0 + 3.0 * (double)i), INSERT_VALUES), PETSC_SUCCESS);
+    ASSERT_EQ(VecAssemblyBegin(x), PETSC_SUCCESS);
+    ASSERT_EQ(VecAssemblyEnd(x), PETSC_SUCCESS);
+    double kept = 0.0, recomputed = 0.0;
+    EXPECT_FALSE(assembler.LastResidualStrainEnergy(&kept)) << "no residual yet";
+    ASSERT_EQ(Residual(assembler, x, r), PETSC_SUCCESS);
+    ASSERT_TRUE(assembler.LastResidualStrainEnergy(&kept));
+    ASSERT_TRUE(system.system.Beams().StrainEnergy(system.system.GetState(), &recomputed));
+    EXPECT_GT(recomputed, 0.0);
+    EXPECT_NEAR(kept, recomputed, 1e-12 * recomputed) << "problem " << (int)problem;
+    // The same unknowns again: still the residual's; other unknowns or a State changed otherwise: not.
+    ASSERT_EQ(assembler.SetIncrements(x), PETSC_SUCCESS);
+    EXPECT_TRUE(assembler.LastResidualStrainEnergy(&kept));
+    assembler.ForgetIncrements();
+    EXPECT_FALSE(assembler.LastResidualStrainEnergy(&kept));
+    ASSERT_EQ(Residual(assembler, x, r), PETSC_SUCCESS);
+    ASSERT_EQ(VecScale(x, 0.5), PETSC_SUCCESS);
+    ASSERT_EQ(assembler.SetIncrements(x), PETSC_SUCCESS);
+    EXPECT_FALSE(assembler.LastResidualStrainEnergy(&kept));
+    // MechanicalSystem::StrainEnergy is right either way (here from a pass over the elements).
+    double total = 0.0;
+    ASSERT_EQ(system.system.StrainEnergy(&total), PETSC_SUCCESS);
+    ASSERT_TRUE(system.system.Beams().StrainEnergy(system.system.GetState(), &recomputed));
+    double recomputed_total = 0.0;
+    MPI_Allreduce(&recomputed, &recomputed_total, 1, MPI_DOUBLE, MPI_SUM, PETSC_COMM_WORLD);
+    EXPECT_NEAR(total, recomputed_total, 1e-14 * recomputed_total);
+    VecDestroy(&x);
+    VecDestroy(&r);
+  }
+}
