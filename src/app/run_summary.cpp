@@ -74,6 +74,9 @@ PetscErrorCode RunSummary::Print(MPI_Comm comm, double wall_start, bool dynamic)
   text += Format("  steps              %lld accepted, %lld rejected%s\n", accepted_, num_rejected, rejected.c_str());
   text += Format("  Newton iterations  %lld in accepted steps, %lld in all attempts\n", newton_accepted_, newton_all_);
   text += Format("  Krylov iterations  %lld in all attempts\n", krylov_all_);
+  if (tangents_reused_ > 0)
+    text += Format("  tangents           %lld assembled and factored, %lld Newton iterations reused the last one (-analysis_jacobian_reuse)\n",
+                   tangents_formed_, tangents_reused_);
   if (dynamic && have_energy_)
     text += Format("  energy drift       %.4g (energy_balance at the end minus at the start), %.3g of the largest total energy; largest |drift| %.3g of it\n",
                    balance_last_ - balance_first_, max_total_ > 0 ? (balance_last_ - balance_first_) / max_total_ : 0.0,

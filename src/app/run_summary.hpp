@@ -18,12 +18,18 @@ public:
   void Attempt(const StepOutcome &outcome);
   // Every history row of a dynamic analysis: energy_balance = total energy - external work.
   void Energy(double energy_balance, double total_energy);
+  // Tangents assembled and factored, and Newton iterations that reused one (modified Newton).
+  void Tangents(long long formed, long long reused)
+  {
+    tangents_formed_ = formed;
+    tangents_reused_ = reused;
+  }
   // Collective: times and memory are reduced over the ranks. `wall_start`: MPI_Wtime at the start
   // of the run on this rank.
   PetscErrorCode Print(MPI_Comm comm, double wall_start, bool dynamic) const;
 
 private:
-  long long                  accepted_ = 0, newton_accepted_ = 0, newton_all_ = 0, krylov_all_ = 0;
+  long long                  accepted_ = 0, newton_accepted_ = 0, newton_all_ = 0, krylov_all_ = 0, tangents_formed_ = 0, tangents_reused_ = 0;
   std::map<std::string, int> rejected_; // by reason
   bool                       have_energy_   = false;
   double                     balance_first_ = 0.0, balance_last_ = 0.0, max_drift_ = 0.0, max_total_ = 0.0;

@@ -52,6 +52,7 @@ PetscErrorCode SettingsFromOptions(MPI_Comm comm, Model *model, RunOptions *opti
                              &a.max_rotation_increment, nullptr));
   PetscCall(PetscOptionsReal("-newton_rtol", OptionDescription("-analysis_newton_rtol"), "", a.newton_rtol, &a.newton_rtol, nullptr));
   PetscCall(PetscOptionsReal("-newton_atol", OptionDescription("-analysis_newton_atol"), "", a.newton_atol, &a.newton_atol, nullptr));
+  PetscCall(PetscOptionsReal("-jacobian_reuse", OptionDescription("-analysis_jacobian_reuse"), "", a.jacobian_reuse, &a.jacobian_reuse, nullptr));
   PetscCall(PetscOptionsRealArray("-output_times", OptionDescription("-analysis_output_times"), "", output_times.data(), &num_output_times, &output_times_set));
   PetscCall(PetscOptionsString("-control", OptionDescription("-analysis_control"), "", control, control, sizeof(control), nullptr));
   PetscCall(PetscOptionsReal("-arc_length_psi", OptionDescription("-analysis_arc_length_psi"), "", a.arc_length_psi, &a.arc_length_psi, nullptr));
@@ -121,6 +122,8 @@ PetscErrorCode SettingsFromOptions(MPI_Comm comm, Model *model, RunOptions *opti
   PetscCheck(a.spectral_radius >= 0.0 && a.spectral_radius <= 1.0, comm, PETSC_ERR_USER_INPUT, "option -analysis_spectral_radius must lie in [0, 1], got %g",
              a.spectral_radius);
   if (output_times_set) a.output_times.assign(output_times.begin(), output_times.begin() + num_output_times);
+  PetscCheck(std::isfinite(a.jacobian_reuse) && a.jacobian_reuse >= 0.0 && a.jacobian_reuse < 1.0, comm, PETSC_ERR_USER_INPUT,
+             "option -analysis_jacobian_reuse must lie in [0, 1), got %g", a.jacobian_reuse);
   a.easy_iterations       = (int)easy_iterations;
   a.easy_steps_to_grow    = (int)easy_steps;
   a.max_newton_iterations = (int)max_newton;

@@ -742,6 +742,7 @@ static PetscErrorCode RestoreCsrValues(Mat diagonal, Mat off_diagonal, PetscScal
 PetscErrorCode Assembler::AssembleJacobian(Mat jacobian, PetscBool *geometry_ok)
 {
   PetscFunctionBeginUser;
+  ++matrix_assemblies_;
   PetscCheck(jacobian == jacobian_, PETSC_COMM_SELF, PETSC_ERR_SUP, "the assembler assembles into its own matrix only");
   PetscCall(PetscLogEventBegin(event_jacobian, 0, 0, 0, 0));
   const DofMap        &map = *map_;
@@ -874,6 +875,7 @@ PetscErrorCode Assembler::AssembleJacobian(Mat jacobian, PetscBool *geometry_ok)
 PetscErrorCode Assembler::AssembleMassMatrix(Mat mass, PetscBool *geometry_ok)
 {
   PetscFunctionBeginUser;
+  ++matrix_assemblies_;
   PetscCheck(state_->equations.InitialAcceleration(), PETSC_COMM_SELF, PETSC_ERR_ARG_WRONGSTATE,
              "the mass matrix is the tangent of the initial-acceleration problem: begin that step first");
   mass_matrix_only_         = true;

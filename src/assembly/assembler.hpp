@@ -143,7 +143,10 @@ public:
   PetscErrorCode DescribeUnevaluable(std::string *where);
   PetscErrorCode DescribeUnknown(PetscInt row, std::string *what);
 
-  Mat                  Jacobian() const { return jacobian_; }
+  Mat Jacobian() const { return jacobian_; }
+  // How many matrices AssembleJacobian and AssembleMassMatrix have assembled (into any target):
+  // modified Newton keeps a factorisation only while no other matrix was assembled since.
+  long long            MatrixAssemblies() const { return matrix_assemblies_; }
   Vec                  SolutionTemplate() const { return solution_template_; }
   const DofMap        &Map() const { return *map_; }
   const State         &CurrentState() const { return *state_; }
@@ -281,6 +284,7 @@ private:
   // is the version at which the last residual computed beta.
   long long increments_version_ = 0, energy_correction_version_ = -1, residual_strain_energy_version_ = -1;
   double    residual_strain_energy_ = 0.0; // this rank's, at residual_strain_energy_version_
+  long long matrix_assemblies_      = 0;
   bool      increments_known_       = false;
   Vec       set_increments_         = nullptr;
 

@@ -162,7 +162,7 @@ PetscErrorCode Integrator::TryEquations(const StepEquations &equations, double d
     outcome->why = Format("a nodal rotation increment of %.4g rad exceeds max_rotation_increment = %.4g rad", max_rotation, analysis.max_rotation_increment);
   } else {
     PetscCall(NewtonDescribeFailure(snes_, &newton_context_, &outcome->why));
-    PetscCall(NewtonForgetFactorization(snes_));
+    PetscCall(NewtonForgetFactorization(snes_, &newton_context_));
   }
   StateDiscardStep(*model_, &system_.GetState());
   system_.GetAssembler().ForgetIncrements();

@@ -81,7 +81,11 @@ public:
   const State &GetState() const { return system_.GetState(); }
   // The State to change directly (a restart reads it in): the assembler forgets what it kept of
   // the last residual.
-  State *MutableState()
+  // Modified Newton (AnalysisSettings::jacobian_reuse): tangents assembled and factored, and
+  // iterations that reused the last one, over the whole run.
+  long long TangentsFormed() const { return newton_context_.tangents_formed; }
+  long long TangentsReused() const { return newton_context_.tangents_reused; }
+  State    *MutableState()
   {
     system_.GetAssembler().ForgetIncrements();
     return &system_.GetState();

@@ -37,16 +37,51 @@ PetscErrorCode FormResidual(SNES snes, Vec increments, Vec residual, void *ctx)
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
+// The step kind and length a tangent belongs to (NewtonContext::tangent_step).
+void TangentStep(const StepEquations &equations, double key[3])
+{
+  key[0] = (double)equations.problem;
+  key[1] = equations.InertiaCoefficient();
+  key[2] = equations.t_end - equations.t_start;
+}
+
+// Modified Newton's rule (NewtonContext::jacobian_reuse): whether the factored tangent serves
+// this iteration too. Every rank decides alike (the residual norms and the step are global).
+bool ReuseTangent(SNES snes, const NewtonContext &context)
+{
+  if (context.jacobian_reuse <= 0.0 || !context.tangent_factored) return false;
+  double key[3];
+  TangentStep(context.assembler->Equations(), key);
+  if (key[0] != context.tangent_step[0] || key[1] != context.tangent_step[1] || key[2] != context.tangent_step[2]) return false;
+  if (context.assembler->MatrixAssemblies() != context.tangent_assembly) return false; // the matrix holds something else now
+  PetscInt         iteration = 0, count = 0;
+  const PetscReal *norms = nullptr;
+  if (SNESGetIterationNumber(snes, &iteration) != PETSC_SUCCESS || SNESGetConvergenceHistory(snes, (PetscReal **)&norms, nullptr, &count) != PETSC_SUCCESS)
+    return false;
+  if (iteration == 0) return context.last_contracted;
+  return count > iteration && norms[iteration] <= context.jacobian_reuse * norms[iteration - 1];
+}
+
 PetscErrorCode FormJacobian(SNES snes, Vec increments, Mat jacobian, Mat preconditioner, void *ctx)
 {
   NewtonContext *context = static_cast<NewtonContext *>(ctx);
   PetscBool      geometry_ok, all_ok;
   PetscFunctionBeginUser;
+  // Modified Newton: the matrix is left as it is, so the preconditioner keeps its factorisation
+  // (PCSetUp skips an unchanged operator) and em's rank-one vectors stay those of that tangent.
+  if (ReuseTangent(snes, *context)) {
+    ++context->tangents_reused;
+    PetscFunctionReturn(PETSC_SUCCESS);
+  }
   if (context->assembly_stage >= 0) PetscCall(PetscLogStagePush(context->assembly_stage));
   // SNES asks for the tangent at the iterate whose residual it has just evaluated: the State holds it.
   PetscCall(context->assembler->SetIncrements(increments, true));
   PetscCall(context->assembler->AssembleJacobian(preconditioner, &geometry_ok));
   context->rank_one_solution_current = false;
+  context->tangent_factored          = context->jacobian_reuse > 0.0; // factored by the solve that follows
+  TangentStep(context->assembler->Equations(), context->tangent_step);
+  context->tangent_assembly = context->assembler->MatrixAssemblies();
+  ++context->tangents_formed;
   PetscCall(MPIU_Allreduce(&geometry_ok, &all_ok, 1, MPIU_BOOL, MPI_LAND, context->comm));
   if (context->assembly_stage >= 0) PetscCall(PetscLogStagePop());
   if (!all_ok) PetscCall(SNESSetJacobianDomainError(snes));
@@ -119,6 +154,13 @@ PetscErrorCode ForceScaledConvergenceTest(SNES snes, PetscInt iteration, PetscRe
   // the residual is near its floor too: far above it (a singular tangent, whose updates are
   // round-off in the null space) it is no convergence.
   else if (*reason == SNES_CONVERGED_SNORM_RELATIVE && fnorm > kStepTestResidualMargin * needed) *reason = SNES_CONVERGED_ITERATING;
+  // Modified Newton: whether the next solve may start on this tangent (its last iteration contracted).
+  if (context->jacobian_reuse > 0.0 && *reason > 0) {
+    PetscInt   count = 0;
+    PetscReal *norms = nullptr;
+    PetscCall(SNESGetConvergenceHistory(snes, &norms, nullptr, &count));
+    context->last_contracted = count > iteration && fnorm <= context->jacobian_reuse * norms[iteration - 1];
+  }
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
@@ -222,7 +264,8 @@ PetscErrorCode NewtonSolverCreate(MPI_Comm comm, const AnalysisSettings &analysi
   SNESLineSearch linesearch;
   Vec            residual;
   PetscFunctionBeginUser;
-  context->comm = comm;
+  context->comm           = comm;
+  context->jacobian_reuse = analysis.jacobian_reuse;
   PetscCall(SNESCreate(comm, snes));
   PetscCall(SNESSetType(*snes, SNESNEWTONLS));
   PetscCall(VecDuplicate(context->assembler->SolutionTemplate(), &residual));
@@ -682,11 +725,13 @@ PetscErrorCode NewtonDescribeFailure(SNES snes, NewtonContext *context, std::str
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
-PetscErrorCode NewtonForgetFactorization(SNES snes)
+PetscErrorCode NewtonForgetFactorization(SNES snes, NewtonContext *context)
 {
   KSP ksp;
   PC  pc;
   PetscFunctionBeginUser;
+  context->tangent_factored = false;
+  context->last_contracted  = false;
   PetscCall(SNESGetKSP(snes, &ksp));
   PetscCall(KSPGetPC(ksp, &pc));
   PetscCall(PCReset(pc));

@@ -49,6 +49,16 @@ struct NewtonContext {
   // (rank_one_solution_current is cleared whenever the tangent is assembled).
   Vec  rank_one_solution         = nullptr;
   bool rank_one_solution_current = false;
+  // Modified Newton (AnalysisSettings::jacobian_reuse, theta): the factored tangent is kept for an
+  // iteration when the last one reduced the residual by theta or more; at the first iteration of a
+  // solve, when the previous solve's last iteration did and its tangent was of a step of the same
+  // kind and length (tangent_step). 0: a new tangent every iteration.
+  double    jacobian_reuse   = 0.0;
+  bool      tangent_factored = false;           // the preconditioner holds the factorisation of tangent_step's tangent
+  bool      last_contracted  = false;           // the last solve's last iteration contracted by theta
+  double    tangent_step[3]  = {0.0, 0.0, 0.0}; // problem, inertia coefficient, step length
+  long long tangent_assembly = -1;              // Assembler::MatrixAssemblies() after that tangent (no matrix assembled since)
+  long long tangents_formed = 0, tangents_reused = 0;
 };
 
 // The Newton step's operator: the assembled tangent, or (em) the assembled tangent plus its
@@ -68,6 +78,7 @@ PetscErrorCode NewtonDescribeFailure(SNES snes, NewtonContext *context, std::str
 // After a failed solve: the preconditioner starts afresh (a new symbolic factorisation) at the
 // next solve. MUMPS skips the numeric factorisation of every later matrix once one has failed
 // (INFOG(1) < 0) and then fails in the solve phase, so a retried step needs a new analysis.
-PetscErrorCode NewtonForgetFactorization(SNES snes);
+// Modified Newton then forms a new tangent.
+PetscErrorCode NewtonForgetFactorization(SNES snes, NewtonContext *context);
 
 } // namespace msflex

@@ -602,6 +602,7 @@ void ReadAnalysis(const YAML::Node *mapping, const ReaderContext &context, Analy
                              "max_newton_iterations",
                              "newton_rtol",
                              "newton_atol",
+                             "jacobian_reuse",
                              "output_times",
                              "control",
                              "arc_length_psi",
@@ -661,6 +662,10 @@ void ReadAnalysis(const YAML::Node *mapping, const ReaderContext &context, Analy
   analysis.max_newton_iterations = entry.Integer("max_newton_iterations", 1, analysis.max_newton_iterations);
   analysis.newton_rtol           = entry.PositiveNumber("newton_rtol", analysis.newton_rtol);
   analysis.newton_atol           = entry.NonNegativeNumber("newton_atol", analysis.newton_atol);
+  analysis.jacobian_reuse        = entry.NonNegativeNumber("jacobian_reuse", analysis.jacobian_reuse);
+  if (analysis.jacobian_reuse >= 1.0)
+    FailAt(entry.Required("jacobian_reuse").Mark(),
+           "'jacobian_reuse' must be less than 1 (a contraction factor), got " + entry.Required("jacobian_reuse").Scalar());
   if (const YAML::Node *output_times = entry.Find("output_times")) ReadOutputTimes(*output_times, analysis);
   analysis.static_stage       = entry.Bool("static_stage", analysis.static_stage);
   analysis.static_stage_steps = entry.Integer("static_stage_steps", 1, analysis.static_stage_steps);
