@@ -404,6 +404,9 @@ PetscErrorCode WriteCheckpoint(Analysis &a, int step, double t, int last_written
   PetscCall(a.output.Flush()); // the result file holds run.history_rows rows, which a restart keeps
   PetscCall(CheckpointWrite(a.comm, a.options.checkpoint_file, run, a.integrator.GetState(), a.map));
   PetscCall(PetscLogStagePop());
+  // A restart from here starts on a new tangent; so does this run (modified Newton), which keeps
+  // the two bitwise alike.
+  a.integrator.ForgetKeptTangent();
   a.last_checkpoint_wall = WallClock(a.comm);
   PetscFunctionReturn(PETSC_SUCCESS);
 }

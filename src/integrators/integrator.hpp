@@ -85,7 +85,13 @@ public:
   // iterations that reused the last one, over the whole run.
   long long TangentsFormed() const { return newton_context_.tangents_formed; }
   long long TangentsReused() const { return newton_context_.tangents_reused; }
-  State    *MutableState()
+  // The next Newton iteration assembles a new tangent (after a checkpoint, as a restart would).
+  void ForgetKeptTangent()
+  {
+    newton_context_.tangent_factored = false;
+    newton_context_.last_contracted  = false;
+  }
+  State *MutableState()
   {
     system_.GetAssembler().ForgetIncrements();
     return &system_.GetState();

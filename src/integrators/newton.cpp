@@ -42,7 +42,7 @@ void TangentStep(const StepEquations &equations, double key[3])
 {
   key[0] = (double)equations.problem;
   key[1] = equations.InertiaCoefficient();
-  key[2] = equations.t_end - equations.t_start;
+  key[2] = equations.Dynamic() ? equations.scheme.dt : equations.t_end - equations.t_start; // dt as set, not a difference of times
 }
 
 // Modified Newton's rule (NewtonContext::jacobian_reuse): whether the factored tangent serves
@@ -142,6 +142,14 @@ PetscErrorCode ForceScaledConvergenceTest(SNES snes, PetscInt iteration, PetscRe
   if (iteration == 0) context->line_search_trouble = NewtonContext::StepTrouble::None; // a new solve
   PetscCall(SNESConvergedDefault(snes, iteration, xnorm, step_norm, fnorm, reason, nullptr));
   if (iteration == 0) PetscFunctionReturn(PETSC_SUCCESS);
+  // Modified Newton: whether the last iteration contracted by the factor, for the next tangent and,
+  // after the last iteration, for the next solve's first (NewtonContext::last_contracted).
+  if (context->jacobian_reuse > 0.0) {
+    PetscInt   count = 0;
+    PetscReal *norms = nullptr;
+    PetscCall(SNESGetConvergenceHistory(snes, &norms, nullptr, &count));
+    context->last_contracted = count > iteration && fnorm <= context->jacobian_reuse * norms[iteration - 1];
+  }
   if (*reason != SNES_CONVERGED_ITERATING && *reason != SNES_CONVERGED_SNORM_RELATIVE) PetscFunctionReturn(PETSC_SUCCESS);
   PetscReal atol, rtol, stol;
   PetscInt  max_iterations, max_evaluations;
@@ -154,13 +162,6 @@ PetscErrorCode ForceScaledConvergenceTest(SNES snes, PetscInt iteration, PetscRe
   // the residual is near its floor too: far above it (a singular tangent, whose updates are
   // round-off in the null space) it is no convergence.
   else if (*reason == SNES_CONVERGED_SNORM_RELATIVE && fnorm > kStepTestResidualMargin * needed) *reason = SNES_CONVERGED_ITERATING;
-  // Modified Newton: whether the next solve may start on this tangent (its last iteration contracted).
-  if (context->jacobian_reuse > 0.0 && *reason > 0) {
-    PetscInt   count = 0;
-    PetscReal *norms = nullptr;
-    PetscCall(SNESGetConvergenceHistory(snes, &norms, nullptr, &count));
-    context->last_contracted = count > iteration && fnorm <= context->jacobian_reuse * norms[iteration - 1];
-  }
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 

@@ -10,9 +10,13 @@ the residual by 0.1 or more:
 - the full run factors one tangent per Newton iteration, the modified run at most half as many
   (counted by -log_view's MatLUFactorNum in the LinearSolve stage) and its summary line counts
   the tangents assembled and reused alike;
+- a run that writes checkpoints starts on a new tangent after each, as its restart does: continued
+  from its last checkpoint with `msflex --restart`, the result file is bitwise the uninterrupted
+  one;
 - a factor outside [0, 1) is one line and exit status 1, as an option and in the input."""
 
 import re
+import shutil
 
 import h5py
 import numpy as np
@@ -87,6 +91,27 @@ for integrator in ("genalpha", "em"):
         for label, history in (("full", history_full), ("modified", history_modified)):
             balance = history["energy_balance"]
             check.less(f"em {label}: energy balance range / energy", np.ptp(balance[1:]) / energy, 1e-9)
+
+# Restart with modified Newton: bitwise the uninterrupted run.
+path = f"{args.work_dir}/cantilever_em.yaml"
+continued, reference = f"{args.work_dir}/restart_em.h5", f"{args.work_dir}/restart_em_reference.h5"
+checkpoint = f"{args.work_dir}/restart_em.ckpt.h5"
+mt.run_msflex(args, path, continued, extra=["-quiet", "-analysis_jacobian_reuse", "0.1", "-checkpoint_every", "7", "-checkpoint_file", checkpoint])
+shutil.copyfile(continued, reference)
+with h5py.File(checkpoint, "r") as f:
+    checkpoint_step = int(f["run/numbers"][0])
+restart = mt.mpi_launcher(args.mpiexec, args.np) + [args.msflex, "--restart", checkpoint, "-quiet"]
+result = mt.run_with_timeout(restart, args.work_dir, 300)
+check.true("restart: completes", result is not None and result[2] == 0)
+with h5py.File(continued, "r") as a, h5py.File(reference, "r") as b:
+    differences = [float(np.abs(a["frames"][name][()] - b["frames"][name][()]).max()) for name in b["frames"] if a["frames"][name].shape == b["frames"][name].shape]
+    same_shapes = all(a["frames"][name].shape == b["frames"][name].shape for name in b["frames"])
+    history_difference = max(float(np.abs(a["history"][name][()] - b["history"][name][()]).max()) for name in b["history"])
+print(f"restart from step {checkpoint_step}: largest frame difference {max(differences):.3e}, history {history_difference:.3e}")
+check.true(f"restart: checkpoint inside the run (step {checkpoint_step})", 0 < checkpoint_step < 20)
+check.true("restart: the same frames", same_shapes)
+check.less("restart: largest frame difference", max(differences), 1e-300)
+check.less("restart: largest history difference", history_difference, 1e-300)
 
 # A factor outside [0, 1): one line, exit status 1.
 path = f"{args.work_dir}/cantilever_em.yaml"
