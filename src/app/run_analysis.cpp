@@ -401,7 +401,10 @@ PetscErrorCode WriteCheckpoint(Analysis &a, int step, double t, int last_written
   run.output_file         = a.options.output_file;
   run.run_id              = a.options.run_id;
   PetscCall(PetscLogStagePush(a.stage_output));
-  PetscCall(a.output.Flush()); // the result file holds run.history_rows rows, which a restart keeps
+  // The result file holds run.history_rows rows, which a restart keeps: on the device with the
+  // sidecar before the checkpoint that counts them (a machine that fails after the checkpoint
+  // leaves a pair a restart can continue).
+  PetscCall(a.output.SyncToDevice());
   PetscCall(CheckpointWrite(a.comm, a.options.checkpoint_file, run, a.integrator.GetState(), a.map));
   PetscCall(PetscLogStagePop());
   // A restart from here starts on a new tangent; so does this run (modified Newton), which keeps

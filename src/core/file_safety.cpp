@@ -282,12 +282,16 @@ std::string TemporaryFile::Commit(Durability durability)
   if (const std::string closing = Close(); problem.empty()) problem = closing;
   if (problem.empty()) problem = CheckStillOurs();
   if (problem.empty() && durability == Durability::Synced && !synced_before_close) {
-    const int fd = ::open(path_.c_str(), O_RDONLY | O_NOFOLLOW | O_CLOEXEC);
+    // Opened first and identified by its descriptor, so that a file swapped in after the check
+    // above is not the one synced.
+    const int   fd = ::open(path_.c_str(), O_RDONLY | O_NOFOLLOW | O_CLOEXEC);
+    struct stat info;
     if (fd < 0) problem = FileProblem("open", path_, errno);
-    else {
-      if (::fsync(fd) != 0 && errno != EINVAL) problem = FileProblem("write", path_, errno);
-      ::close(fd);
-    }
+    else if (::fstat(fd, &info) != 0) problem = FileProblem("open", path_, errno);
+    else if (info.st_dev != device_ || info.st_ino != inode_)
+      problem = "the temporary file " + Quoted(path_) + " was replaced by another process while msflex wrote it";
+    else if (::fsync(fd) != 0 && errno != EINVAL) problem = FileProblem("write", path_, errno);
+    if (fd >= 0) ::close(fd);
   }
   if (problem.empty() && ::rename(path_.c_str(), target_.c_str()) != 0)
     problem = "cannot rename " + Quoted(path_) + " to " + Quoted(target_) + ": " + ErrnoText(errno);
@@ -308,6 +312,16 @@ void TemporaryFile::Discard()
   if (!path_.empty()) ::unlink(path_.c_str());
   path_.clear();
   target_.clear();
+}
+
+std::string SyncFile(const std::string &path)
+{
+  const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
+  if (fd < 0) return FileProblem("open", path, errno);
+  std::string problem;
+  if (::fsync(fd) != 0 && errno != EINVAL) problem = FileProblem("write", path, errno);
+  ::close(fd);
+  return problem;
 }
 
 std::string WriteFileAtomically(const std::string &target, const std::string &contents, Durability durability)

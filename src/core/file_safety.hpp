@@ -120,6 +120,10 @@ private:
   ino_t       inode_  = 0;
 };
 
+// Flushes the file at `path` to the device (fsync through a descriptor of its own); "" or the
+// problem ("cannot write 'out.h5': Input/output error").
+std::string SyncFile(const std::string &path);
+
 // Replaces `target` by `contents` through a TemporaryFile (the XDMF sidecar).
 std::string WriteFileAtomically(const std::string &target, const std::string &contents, Durability durability);
 

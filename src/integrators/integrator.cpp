@@ -166,6 +166,7 @@ PetscErrorCode Integrator::TryEquations(const StepEquations &equations, double d
   }
   StateDiscardStep(*model_, &system_.GetState());
   system_.GetAssembler().ForgetIncrements();
+  ForgetKeptTangent(); // the retried step starts on a new tangent, whatever its length
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 

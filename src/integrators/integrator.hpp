@@ -79,8 +79,6 @@ public:
   void         SetDissipatedEnergy(double energy) { dissipated_energy_ = energy; }
   double       EnergyCorrectionFactor() const { return system_.GetAssembler().EnergyCorrectionFactor(); }
   const State &GetState() const { return system_.GetState(); }
-  // The State to change directly (a restart reads it in): the assembler forgets what it kept of
-  // the last residual.
   // Modified Newton (AnalysisSettings::jacobian_reuse): tangents assembled and factored, and
   // iterations that reused the last one, over the whole run.
   long long TangentsFormed() const { return newton_context_.tangents_formed; }
@@ -91,6 +89,8 @@ public:
     newton_context_.tangent_factored = false;
     newton_context_.last_contracted  = false;
   }
+  // The State to change directly (a restart reads it in): the assembler forgets what it kept of
+  // the last residual.
   State *MutableState()
   {
     system_.GetAssembler().ForgetIncrements();

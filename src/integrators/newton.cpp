@@ -37,12 +37,15 @@ PetscErrorCode FormResidual(SNES snes, Vec increments, Vec residual, void *ctx)
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
-// The step kind and length a tangent belongs to (NewtonContext::tangent_step).
-void TangentStep(const StepEquations &equations, double key[3])
+// The step kind and length a tangent belongs to (NewtonContext::tangent_step): the problem, the
+// inertia coefficient, the step (dt as set, not a difference of times; a static step's length in
+// time) and the load scale (the static stage's steps share one time and differ in it).
+void TangentStep(const StepEquations &equations, double key[4])
 {
   key[0] = (double)equations.problem;
   key[1] = equations.InertiaCoefficient();
-  key[2] = equations.Dynamic() ? equations.scheme.dt : equations.t_end - equations.t_start; // dt as set, not a difference of times
+  key[2] = equations.Dynamic() ? equations.scheme.dt : equations.t_end - equations.t_start;
+  key[3] = equations.load_scale;
 }
 
 // Modified Newton's rule (NewtonContext::jacobian_reuse): whether the factored tangent serves
@@ -50,9 +53,9 @@ void TangentStep(const StepEquations &equations, double key[3])
 bool ReuseTangent(SNES snes, const NewtonContext &context)
 {
   if (context.jacobian_reuse <= 0.0 || !context.tangent_factored) return false;
-  double key[3];
+  double key[4];
   TangentStep(context.assembler->Equations(), key);
-  if (key[0] != context.tangent_step[0] || key[1] != context.tangent_step[1] || key[2] != context.tangent_step[2]) return false;
+  if (!std::equal(key, key + 4, context.tangent_step)) return false;
   if (context.assembler->MatrixAssemblies() != context.tangent_assembly) return false; // the matrix holds something else now
   PetscInt         iteration = 0, count = 0;
   const PetscReal *norms = nullptr;
@@ -68,9 +71,15 @@ PetscErrorCode FormJacobian(SNES snes, Vec increments, Mat jacobian, Mat precond
   PetscBool      geometry_ok, all_ok;
   PetscFunctionBeginUser;
   // Modified Newton: the matrix is left as it is, so the preconditioner keeps its factorisation
-  // (PCSetUp skips an unchanged operator) and em's rank-one vectors stay those of that tangent.
+  // (PCSetUp skips an unchanged operator) and em's rank-one vectors stay those of that tangent. A
+  // matrix-free operator (-snes_mf_operator) still moves to the new iterate: its assembly sets the
+  // point it differentiates at.
   if (ReuseTangent(snes, *context)) {
     ++context->tangents_reused;
+    if (jacobian != preconditioner) {
+      PetscCall(MatAssemblyBegin(jacobian, MAT_FINAL_ASSEMBLY));
+      PetscCall(MatAssemblyEnd(jacobian, MAT_FINAL_ASSEMBLY));
+    }
     PetscFunctionReturn(PETSC_SUCCESS);
   }
   if (context->assembly_stage >= 0) PetscCall(PetscLogStagePush(context->assembly_stage));

@@ -54,10 +54,10 @@ struct NewtonContext {
   // solve, when the previous solve's last iteration did and its tangent was of a step of the same
   // kind and length (tangent_step). 0: a new tangent every iteration.
   double    jacobian_reuse   = 0.0;
-  bool      tangent_factored = false;           // the preconditioner holds the factorisation of tangent_step's tangent
-  bool      last_contracted  = false;           // the last solve's last iteration contracted by theta
-  double    tangent_step[3]  = {0.0, 0.0, 0.0}; // problem, inertia coefficient, step length
-  long long tangent_assembly = -1;              // Assembler::MatrixAssemblies() after that tangent (no matrix assembled since)
+  bool      tangent_factored = false;                // the preconditioner holds the factorisation of tangent_step's tangent
+  bool      last_contracted  = false;                // the last solve's last iteration contracted by theta
+  double    tangent_step[4]  = {0.0, 0.0, 0.0, 0.0}; // problem, inertia coefficient, step length, load scale
+  long long tangent_assembly = -1;                   // Assembler::MatrixAssemblies() after that tangent (no matrix assembled since)
   long long tangents_formed = 0, tangents_reused = 0;
 };
 

@@ -321,6 +321,7 @@ PetscErrorCode PathFollower::TryArcLengthStep(double t, double dt, StepOutcome *
   PetscCall(Correct(dl, NAN, &dlambda, outcome));
   if (!outcome->converged) {
     StateDiscardStep(*model_, &state);
+    integrator_->System().GetAssembler().ForgetIncrements();
     PetscFunctionReturn(PETSC_SUCCESS);
   }
   // A step that passes end_time on a rising path lands on it by load control when it can.
@@ -328,6 +329,7 @@ PetscErrorCode PathFollower::TryArcLengthStep(double t, double dt, StepOutcome *
     StepOutcome landing;
     PetscCall(VecCopy(x_, trial_));
     StateDiscardStep(*model_, &state);
+    integrator_->System().GetAssembler().ForgetIncrements();
     PetscCall(integrator_->TryStep(lambda, end - lambda, &landing));
     if (landing.converged) {
       *outcome = landing;
@@ -367,6 +369,7 @@ PetscErrorCode PathFollower::TryDisplacementStep(double t, double dt, StepOutcom
   PetscCall(Correct(NAN, dc, &dlambda, outcome));
   if (!outcome->converged) {
     StateDiscardStep(*model_, &state);
+    integrator_->System().GetAssembler().ForgetIncrements();
     PetscFunctionReturn(PETSC_SUCCESS);
   }
   const double previous_rate = point_.load_factor_rate;
@@ -392,6 +395,7 @@ PetscErrorCode PathFollower::Commit(double dt, double dlambda, StepOutcome *outc
     outcome->converged = false;
     outcome->why = Format("a nodal rotation increment of %.4g rad exceeds max_rotation_increment = %.4g rad", max_rotation, analysis.max_rotation_increment);
     StateDiscardStep(*model_, &system.GetState());
+    assembler.ForgetIncrements();
     PetscFunctionReturn(PETSC_SUCCESS);
   }
   if (map_->global_count.joints > 0) PetscCall(assembler.EvaluateJointReactions(dt));

@@ -1764,6 +1764,21 @@ PetscErrorCode OutputFile::FlushIfDue()
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
+PetscErrorCode OutputFile::SyncToDevice()
+{
+  PetscFunctionBeginUser;
+  PetscCall(Flush());
+  PetscCall(RunOnRoot(comm_, [&]() -> PetscErrorCode {
+    PetscFunctionBeginUser;
+    for (const std::string *path : {&impl_->path, &impl_->xdmf_path}) {
+      const std::string problem = SyncFile(*path);
+      PetscCheck(problem.empty(), PETSC_COMM_SELF, PETSC_ERR_FILE_WRITE, "%s", problem.c_str());
+    }
+    PetscFunctionReturn(PETSC_SUCCESS);
+  }));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
 PetscErrorCode OutputFile::Flush()
 {
   PetscFunctionBeginUser;

@@ -147,6 +147,9 @@ public:
   // Writes the buffered history rows, makes the file consistent on disk and lists the new frames
   // in the sidecar. Does nothing when nothing was written since the last flush.
   PetscErrorCode Flush();
+  // Flush, then the result file and its sidecar to the device (fsync, rank 0: see docs/options.md
+  // for file systems shared by several nodes): a checkpoint counts what they hold.
+  PetscErrorCode SyncToDevice();
   // Flushes and closes.
   PetscErrorCode Close();
 

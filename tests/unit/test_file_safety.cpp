@@ -242,6 +242,14 @@ TEST_F(FileSafety, AtomicWriteReplacesTargetAndLeavesNoTemporary)
   EXPECT_EQ(info.st_mode & 0777, 0666 & ~mask); // not mkstemp's 0600
 }
 
+TEST_F(FileSafety, SyncFileNamesTheFileItCannotSync)
+{
+  WriteText("out.h5", "result");
+  EXPECT_EQ(SyncFile("out.h5"), "");
+  EXPECT_EQ(ReadAll("out.h5"), "result");
+  EXPECT_EQ(SyncFile("missing.xmf"), "cannot open 'missing.xmf': No such file or directory");
+}
+
 TEST_F(FileSafety, SymlinkAtOldFixedTemporaryNameIsNeverFollowed)
 {
   // The finding: out.xmf.tmp (or NAME.ckpt.h5.tmp) as a link to someone's file was written through.
