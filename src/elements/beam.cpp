@@ -339,17 +339,19 @@ BeamKernelStatus InternalForces(const BeamElementReference &ref, const BeamSecti
   Eigen::Map<NodalMatrix<NN>> K(tangent_out);
   K.setZero();
   auto add = [&K](int row, int column, const Mat3 &block) { K.template block<3, 3>(row, column) += block; };
+  auto sub = [&K](int row, int column, const Mat3 &block) { K.template block<3, 3>(row, column) -= block; }; // no negated temporary
   for (int a : others) {
     for (int b : others) {
       const Mat3 &xx = Nxx[a][b], &xt = Nxt[a][b], &tt = Ntt[a][b];
       const Mat3  tx = Nxt[b][a].transpose();
       const Mat3  Cx = TimesSkew(xx, d[b]), Ct = TimesSkew(tx, d[b]);
-      const Mat3  Rx = -SkewTimes(d[a], xx), Rt = -SkewTimes(d[a], xt), Ecc = -SkewTimes(d[a], Cx);
-      const int   ax = 6 * a, at = 6 * a + 3, bx = 6 * b, bt = 6 * b + 3, cx = 6 * c, ct = 6 * c + 3;
+      // The theta_c rows' terms negated (mR = -R = hat(d_a) N): subtracted, not negated and added.
+      const Mat3 mRx = SkewTimes(d[a], xx), mRt = SkewTimes(d[a], xt), mEcc = SkewTimes(d[a], Cx);
+      const int  ax = 6 * a, at = 6 * a + 3, bx = 6 * b, bt = 6 * b + 3, cx = 6 * c, ct = 6 * c + 3;
       add(ax, bx, xx), add(ax, bt, xt), add(at, bx, tx), add(at, bt, tt);
-      add(ax, cx, -xx), add(ax, ct, Cx - xt), add(at, cx, -tx), add(at, ct, Ct - tt);
-      add(cx, bx, -xx), add(cx, bt, -xt), add(ct, bx, Rx - tx), add(ct, bt, Rt - tt);
-      add(cx, cx, xx), add(cx, ct, xt - Cx), add(ct, cx, tx - Rx), add(ct, ct, tt - Ct - Rt + Ecc);
+      sub(ax, cx, xx), add(ax, ct, Cx - xt), sub(at, cx, tx), add(at, ct, Ct - tt);
+      sub(cx, bx, xx), sub(cx, bt, xt), sub(ct, bx, mRx + tx), sub(ct, bt, mRt + tt);
+      add(cx, cx, xx), add(cx, ct, xt - Cx), add(ct, cx, tx + mRx), add(ct, ct, tt - Ct + mRt - mEcc);
     }
   }
   // Terms from the configuration dependence of the map at fixed local gradient g:
@@ -431,6 +433,7 @@ void MidpointTangent(const BeamElementReference &ref, const int *others, const M
   Eigen::Map<NodalMatrix<NN>> K(tangent_out);
   K.setZero();
   auto add = [&K](int row, int column, const Mat3 &block) { K.template block<3, 3>(row, column) += block; };
+  auto sub = [&K](int row, int column, const Mat3 &block) { K.template block<3, 3>(row, column) -= block; }; // no negated temporary
   for (int o = 0; o < NN - 1; ++o) {
     const int a = others[o];
     for (int ob = 0; ob < NN - 1; ++ob) {
@@ -451,13 +454,13 @@ void MidpointTangent(const BeamElementReference &ref, const int *others, const M
       const Mat3 LKrr = Mul(maps.Lbar, Krr), LKrp = Mul(maps.Lbar, Krp), PKpr = Mul(maps.PbarT[a], Kpr), PKpp = Mul(maps.PbarT[a], Kpp);
       const Mat3 Nxx = Mul(LKrr, maps.LT), Nxt = Mul(LKrp, maps.P[b]), Ntx = Mul(PKpr, maps.LT), Ntt = Mul(PKpp, maps.P[b]);
       const Mat3 Nxc = TimesSkew(Nxx, maps.d[b]) - Nxt, Ntc = TimesSkew(Ntx, maps.d[b]) - Ntt; // theta_c columns
-      const Mat3 Cxx = -SkewTimes(maps.dbar[a], Nxx) - Ntx, Cxt = -SkewTimes(maps.dbar[a], Nxt) - Ntt,
-                 Cxc = -SkewTimes(maps.dbar[a], Nxc) - Ntc; // theta_c rows
-      const int ax = 6 * a, at = 6 * a + 3, bx = 6 * b, bt = 6 * b + 3, cx = 6 * c, ct = 6 * c + 3;
-      add(ax, bx, Nxx), add(ax, bt, Nxt), add(ax, cx, -Nxx), add(ax, ct, Nxc);
-      add(at, bx, Ntx), add(at, bt, Ntt), add(at, cx, -Ntx), add(at, ct, Ntc);
-      add(cx, bx, -Nxx), add(cx, bt, -Nxt), add(cx, cx, Nxx), add(cx, ct, -Nxc);
-      add(ct, bx, Cxx), add(ct, bt, Cxt), add(ct, cx, -Cxx), add(ct, ct, Cxc);
+      // theta_c rows, negated: -C = hat(dbar_a) N + N_t
+      const Mat3 mCxx = SkewTimes(maps.dbar[a], Nxx) + Ntx, mCxt = SkewTimes(maps.dbar[a], Nxt) + Ntt, mCxc = SkewTimes(maps.dbar[a], Nxc) + Ntc;
+      const int  ax = 6 * a, at = 6 * a + 3, bx = 6 * b, bt = 6 * b + 3, cx = 6 * c, ct = 6 * c + 3;
+      add(ax, bx, Nxx), add(ax, bt, Nxt), sub(ax, cx, Nxx), add(ax, ct, Nxc);
+      add(at, bx, Ntx), add(at, bt, Ntt), sub(at, cx, Ntx), add(at, ct, Ntc);
+      sub(cx, bx, Nxx), sub(cx, bt, Nxt), add(cx, cx, Nxx), sub(cx, ct, Nxc);
+      sub(ct, bx, mCxx), sub(ct, bt, mCxt), add(ct, cx, mCxx), sub(ct, ct, mCxc);
     }
   }
   // Variation of Tbar at fixed h, with g_a = L h_rho_a, w_a = L Hinv(psi_mid)^T h_psi_a:
