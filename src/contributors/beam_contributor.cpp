@@ -169,17 +169,23 @@ void BeamContributor::AddStoredEnergy(const State &state, double *energy) const
   *energy += strain_energy;
 }
 
+bool BeamContributor::EndPointForces(const State &state, size_t k, double *energy, BeamGaussResults *gauss) const
+{
+  const BeamElement &element = model_->elements[map_->local_elements[k]];
+  Vec3               positions[kBeamMaxNodes];
+  Mat3               triads[kBeamMaxNodes];
+  double             unused_residual[kBeamMaxDofs];
+  Configuration(state, k, positions, triads);
+  return BeamInternalForces(references_[k], sections_[element.section], positions, triads, unused_residual, nullptr, energy, gauss) == BeamKernelStatus::Ok;
+}
+
 bool BeamContributor::StrainEnergy(const State &state, double *strain_energy) const
 {
   bool all_ok    = true;
   *strain_energy = 0.0;
   for (size_t k = 0; k < references_.size(); ++k) {
-    const BeamElement &element = model_->elements[map_->local_elements[k]];
-    Vec3               positions[kBeamMaxNodes];
-    Mat3               triads[kBeamMaxNodes];
-    Configuration(state, k, positions, triads);
-    double r[kBeamMaxDofs], energy = 0.0;
-    if (BeamInternalForces(references_[k], sections_[element.section], positions, triads, r, nullptr, &energy, nullptr) != BeamKernelStatus::Ok) {
+    double energy = 0.0;
+    if (!EndPointForces(state, k, &energy, nullptr)) {
       all_ok = false;
       continue;
     }
@@ -194,15 +200,11 @@ bool BeamContributor::Results(const State &state, std::vector<ElementResults> *r
   *strain_energy = 0.0;
   results->resize(references_.size());
   for (size_t k = 0; k < references_.size(); ++k) {
-    const BeamElement &element = model_->elements[map_->local_elements[k]];
-    Vec3               positions[kBeamMaxNodes];
-    Mat3               triads[kBeamMaxNodes];
-    Configuration(state, k, positions, triads);
-    double           r[kBeamMaxDofs], energy = 0.0;
+    double           energy = 0.0;
     BeamGaussResults gauss;
     ElementResults  &out = (*results)[k];
     out                  = {Vec3::Zero(), Vec3::Zero(), Vec3::Zero(), Vec3::Zero()};
-    if (BeamInternalForces(references_[k], sections_[element.section], positions, triads, r, nullptr, &energy, &gauss) != BeamKernelStatus::Ok) {
+    if (!EndPointForces(state, k, &energy, &gauss)) {
       all_ok = false;
       continue;
     }

@@ -63,6 +63,10 @@ public:
   void StartConfiguration(const State &state, size_t k, Vec3 *positions, Mat3 *triads) const;
 
 private:
+  // Element k's end-point internal forces in the current configuration, for their energy and
+  // (gauss not null) Gauss-point results; false when it cannot be evaluated.
+  bool EndPointForces(const State &state, size_t k, double *energy, BeamGaussResults *gauss) const;
+
   const Model                      *model_ = nullptr;
   const DofMap                     *map_   = nullptr;
   std::vector<BeamElementReference> references_;            // per local element
