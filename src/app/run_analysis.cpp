@@ -324,6 +324,16 @@ PetscErrorCode WriteFrame(Analysis &a, int step, double time, double *strain_ene
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
+// The end-of-run summary, with the run's tangent counts (nothing with -quiet).
+PetscErrorCode PrintSummary(Analysis &a)
+{
+  PetscFunctionBeginUser;
+  if (a.options.quiet) PetscFunctionReturn(PETSC_SUCCESS);
+  a.summary.Tangents(a.integrator.TangentsFormed(), a.integrator.TangentsReused());
+  PetscCall(a.summary.Print(a.comm, a.run_wall_start, a.Dynamic()));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
 // Closes the result file (the last flush: buffered frames and rows, sidecar) in the Output stage.
 PetscErrorCode CloseOutput(Analysis &a)
 {
@@ -553,10 +563,7 @@ PetscErrorCode RunAnalysis(MPI_Comm comm, Model model, const RunOptions &options
         PetscCall(CheckpointIfDue(a, step, t, last_written, controller, &stop));
         if (stop) {
           PetscCall(CloseOutput(a));
-          if (!options.quiet) {
-            a.summary.Tangents(a.integrator.TangentsFormed(), a.integrator.TangentsReused());
-            PetscCall(a.summary.Print(comm, a.run_wall_start, a.Dynamic()));
-          }
+          PetscCall(PrintSummary(a));
           *end = RunEnd::StoppedBySignal;
           PetscFunctionReturn(PETSC_SUCCESS);
         }
@@ -575,10 +582,7 @@ PetscErrorCode RunAnalysis(MPI_Comm comm, Model model, const RunOptions &options
         }
         PetscCall(WriteCheckpoint(a, step, t, last_written, controller));
         PetscCall(CloseOutput(a));
-        if (!options.quiet) {
-          a.summary.Tangents(a.integrator.TangentsFormed(), a.integrator.TangentsReused());
-          PetscCall(a.summary.Print(comm, a.run_wall_start, a.Dynamic()));
-        }
+        PetscCall(PrintSummary(a));
         const std::string advice = a.Static() ? a.path.StopAdvice() : std::string();
         SETERRQ(comm, PETSC_ERR_NOT_CONVERGED,
                 "%s analysis stopped at t = %g after step %d: the step to t = %g failed (%s) and halving it would go below min_step = %g%s; the "
@@ -594,10 +598,7 @@ PetscErrorCode RunAnalysis(MPI_Comm comm, Model model, const RunOptions &options
     PetscCall(PetscPrintf(comm, "msflex: stopped after max_steps = %d steps at load factor %g without reaching end_time = %g\n", analysis.max_steps,
                           a.path.LoadFactor(), analysis.end_time));
   if (!options.quiet) PetscCall(PetscPrintf(comm, "msflex: completed %d steps to t = %g; results in %s\n", step, t, options.output_file.c_str()));
-  if (!options.quiet) {
-    a.summary.Tangents(a.integrator.TangentsFormed(), a.integrator.TangentsReused());
-    PetscCall(a.summary.Print(comm, a.run_wall_start, a.Dynamic()));
-  }
+  PetscCall(PrintSummary(a));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 

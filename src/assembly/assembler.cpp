@@ -421,6 +421,12 @@ PetscErrorCode Assembler::AddDirectElementMatrix(Mat target, size_t k, double *K
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
+void Assembler::DiscardStep()
+{
+  StateDiscardStep(*model_, state_);
+  ForgetIncrements();
+}
+
 PetscErrorCode Assembler::BeginStep(const StepEquations &equations)
 {
   PetscFunctionBeginUser;
@@ -875,7 +881,6 @@ PetscErrorCode Assembler::AssembleJacobian(Mat jacobian, PetscBool *geometry_ok)
 PetscErrorCode Assembler::AssembleMassMatrix(Mat mass, PetscBool *geometry_ok)
 {
   PetscFunctionBeginUser;
-  ++matrix_assemblies_;
   PetscCheck(state_->equations.InitialAcceleration(), PETSC_COMM_SELF, PETSC_ERR_ARG_WRONGSTATE,
              "the mass matrix is the tangent of the initial-acceleration problem: begin that step first");
   mass_matrix_only_         = true;

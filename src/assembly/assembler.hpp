@@ -62,6 +62,9 @@ public:
 
   // Prepares the step whose equations are given: prescribed values, drives, loads.
   PetscErrorCode BeginStep(const StepEquations &equations);
+  // Drops the step's increments (StateDiscardStep): the State is back at the start of the step,
+  // and what the last residual kept no longer describes it (ForgetIncrements).
+  void DiscardStep();
   // Initial guess of the step's unknowns: zero in statics and for initial accelerations, constant
   // velocity in dynamics (u = dt v_n, omega = dt Lambda_n W_n).
   PetscErrorCode PredictIncrements(Vec increments);
@@ -144,8 +147,9 @@ public:
   PetscErrorCode DescribeUnknown(PetscInt row, std::string *what);
 
   Mat Jacobian() const { return jacobian_; }
-  // How many matrices AssembleJacobian and AssembleMassMatrix have assembled (into any target):
-  // modified Newton keeps a factorisation only while no other matrix was assembled since.
+  // How many matrices AssembleJacobian has assembled (the tangent, or through AssembleMassMatrix
+  // the mass matrix, all into jacobian_): modified Newton keeps a factorisation only while no
+  // other matrix was assembled since.
   long long            MatrixAssemblies() const { return matrix_assemblies_; }
   Vec                  SolutionTemplate() const { return solution_template_; }
   const DofMap        &Map() const { return *map_; }

@@ -240,8 +240,7 @@ PetscErrorCode Assembler::ProjectInitialVelocities(double t, InitialVelocityRepo
   PetscCall(VecDestroy(&R));
   // Back to the start state (no increments).
   state.equations = StaticStep(t, t);
-  StateDiscardStep(model, state_);
-  ForgetIncrements();
+  DiscardStep();
   UpdateExpansions();
   PetscFunctionReturn(PETSC_SUCCESS);
 }

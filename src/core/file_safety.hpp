@@ -78,8 +78,9 @@ std::string CheckRunPaths(const std::vector<RunPath> &paths, const std::vector<s
 // only of the process. Synced costs an fsync of the file and of its directory (0.2-0.5 ms each on
 // a local disk, more on a parallel file system): checkpoints, whose purpose is to outlive a
 // failure, are synced; the result file as created at the start of a run (the model, no results
-// yet) and the XDMF sidecar (which a restart writes again from the result file) are not. The rename is atomic either
-// way, so a killed process leaves the old file or the new one, never half of one.
+// yet) and the XDMF sidecar are not (both are synced before each checkpoint instead:
+// OutputFile::SyncToDevice). The rename is atomic either way, so a killed process leaves the old
+// file or the new one, never half of one.
 enum class Durability { Synced, Unsynced };
 
 // A new file beside `target`, written and then renamed over it (see the header comment).

@@ -164,8 +164,7 @@ PetscErrorCode Integrator::TryEquations(const StepEquations &equations, double d
     PetscCall(NewtonDescribeFailure(snes_, &newton_context_, &outcome->why));
     PetscCall(NewtonForgetFactorization(snes_, &newton_context_));
   }
-  StateDiscardStep(*model_, &system_.GetState());
-  system_.GetAssembler().ForgetIncrements();
+  assembler.DiscardStep();
   ForgetKeptTangent(); // the retried step starts on a new tangent, whatever its length
   PetscFunctionReturn(PETSC_SUCCESS);
 }

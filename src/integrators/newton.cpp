@@ -57,10 +57,9 @@ bool ReuseTangent(SNES snes, const NewtonContext &context)
   TangentStep(context.assembler->Equations(), key);
   if (!std::equal(key, key + 4, context.tangent_step)) return false;
   if (context.assembler->MatrixAssemblies() != context.tangent_assembly) return false; // the matrix holds something else now
-  PetscInt         iteration = 0, count = 0;
-  const PetscReal *norms = nullptr;
-  if (SNESGetIterationNumber(snes, &iteration) != PETSC_SUCCESS || SNESGetConvergenceHistory(snes, (PetscReal **)&norms, nullptr, &count) != PETSC_SUCCESS)
-    return false;
+  PetscInt   iteration = 0, count = 0;
+  PetscReal *norms = nullptr;
+  if (SNESGetIterationNumber(snes, &iteration) != PETSC_SUCCESS || SNESGetConvergenceHistory(snes, &norms, nullptr, &count) != PETSC_SUCCESS) return false;
   if (iteration == 0) return context.last_contracted;
   return count > iteration && norms[iteration] <= context.jacobian_reuse * norms[iteration - 1];
 }

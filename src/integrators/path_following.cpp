@@ -299,7 +299,6 @@ PetscErrorCode PathFollower::TryStep(double t, double dt, StepOutcome *outcome)
 
 PetscErrorCode PathFollower::TryArcLengthStep(double t, double dt, StepOutcome *outcome)
 {
-  State       &state  = integrator_->System().GetState();
   const double lambda = point_.load_factor, end = model_->analysis.end_time;
   PetscFunctionBeginUser;
   *outcome = StepOutcome{};
@@ -320,16 +319,14 @@ PetscErrorCode PathFollower::TryArcLengthStep(double t, double dt, StepOutcome *
   PetscCall(VecAXPBY(x_, dlambda, 0.0, path_tangent_));
   PetscCall(Correct(dl, NAN, &dlambda, outcome));
   if (!outcome->converged) {
-    StateDiscardStep(*model_, &state);
-    integrator_->System().GetAssembler().ForgetIncrements();
+    integrator_->System().GetAssembler().DiscardStep();
     PetscFunctionReturn(PETSC_SUCCESS);
   }
   // A step that passes end_time on a rising path lands on it by load control when it can.
   if (dlambda > 0 && lambda < end && lambda + dlambda > end * (1.0 + 1e-12)) {
     StepOutcome landing;
     PetscCall(VecCopy(x_, trial_));
-    StateDiscardStep(*model_, &state);
-    integrator_->System().GetAssembler().ForgetIncrements();
+    integrator_->System().GetAssembler().DiscardStep();
     PetscCall(integrator_->TryStep(lambda, end - lambda, &landing));
     if (landing.converged) {
       *outcome = landing;
@@ -348,7 +345,6 @@ PetscErrorCode PathFollower::TryArcLengthStep(double t, double dt, StepOutcome *
 
 PetscErrorCode PathFollower::TryDisplacementStep(double t, double dt, StepOutcome *outcome)
 {
-  State &state  = integrator_->System().GetState();
   double path_c = 0;
   PetscFunctionBeginUser;
   *outcome = StepOutcome{};
@@ -368,8 +364,7 @@ PetscErrorCode PathFollower::TryDisplacementStep(double t, double dt, StepOutcom
   PetscCall(VecAXPBY(x_, dlambda, 0.0, path_tangent_));
   PetscCall(Correct(NAN, dc, &dlambda, outcome));
   if (!outcome->converged) {
-    StateDiscardStep(*model_, &state);
-    integrator_->System().GetAssembler().ForgetIncrements();
+    integrator_->System().GetAssembler().DiscardStep();
     PetscFunctionReturn(PETSC_SUCCESS);
   }
   const double previous_rate = point_.load_factor_rate;
@@ -394,8 +389,7 @@ PetscErrorCode PathFollower::Commit(double dt, double dlambda, StepOutcome *outc
   if (max_rotation > analysis.max_rotation_increment) {
     outcome->converged = false;
     outcome->why = Format("a nodal rotation increment of %.4g rad exceeds max_rotation_increment = %.4g rad", max_rotation, analysis.max_rotation_increment);
-    StateDiscardStep(*model_, &system.GetState());
-    assembler.ForgetIncrements();
+    assembler.DiscardStep();
     PetscFunctionReturn(PETSC_SUCCESS);
   }
   if (map_->global_count.joints > 0) PetscCall(assembler.EvaluateJointReactions(dt));
