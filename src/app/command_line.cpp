@@ -37,6 +37,7 @@ const OptionInfo kOptions[] = {
     {"-analysis_newton_rtol", "TOL", "Newton relative residual tolerance"},
     {"-analysis_newton_atol", "TOL", "Newton absolute residual tolerance"},
     {"-analysis_jacobian_reuse", "F", "keep the factored tangent while each iteration cuts the residual by F, in [0, 1); 0: off"},
+    {"-analysis_condensation_depth", "N", "dynamics: a relay node every N joints down a chain of joints (linear time); 0: condense whole chains"},
     {"-analysis_output_times", "T1,T2,...", "times the steps must land on (replaces the input's list)"},
     {"-analysis_control", "NAME", "path control of a static analysis: load, arc_length or displacement"},
     {"-analysis_arc_length_psi", "PSI", "weight of the load factor in the arc-length constraint (0: cylindrical)"},

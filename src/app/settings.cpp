@@ -22,6 +22,7 @@ PetscErrorCode SettingsFromOptions(MPI_Comm comm, Model *model, RunOptions *opti
   PetscInt               num_output_times = (PetscInt)output_times.size();
   PetscBool              output_times_set = PETSC_FALSE;
   char                   type[32], integrator[32], em_correction[32], control[32], control_node[256], control_joint[256], control_dof[8] = "";
+  PetscInt               condensation_depth = a.condensation_depth; // default: the input's (AnalysisSettings)
   PetscInt               desired_iterations = a.desired_iterations, max_steps = a.max_steps, eigenvalues = a.eigenvalues;
   PetscBool              stability = a.stability ? PETSC_TRUE : PETSC_FALSE, preload = a.preload ? PETSC_TRUE : PETSC_FALSE, shift_set = PETSC_FALSE;
   PetscReal              shift = a.shift;
@@ -53,6 +54,7 @@ PetscErrorCode SettingsFromOptions(MPI_Comm comm, Model *model, RunOptions *opti
   PetscCall(PetscOptionsReal("-newton_rtol", OptionDescription("-analysis_newton_rtol"), "", a.newton_rtol, &a.newton_rtol, nullptr));
   PetscCall(PetscOptionsReal("-newton_atol", OptionDescription("-analysis_newton_atol"), "", a.newton_atol, &a.newton_atol, nullptr));
   PetscCall(PetscOptionsReal("-jacobian_reuse", OptionDescription("-analysis_jacobian_reuse"), "", a.jacobian_reuse, &a.jacobian_reuse, nullptr));
+  PetscCall(PetscOptionsInt("-condensation_depth", OptionDescription("-analysis_condensation_depth"), "", condensation_depth, &condensation_depth, nullptr));
   PetscCall(PetscOptionsRealArray("-output_times", OptionDescription("-analysis_output_times"), "", output_times.data(), &num_output_times, &output_times_set));
   PetscCall(PetscOptionsString("-control", OptionDescription("-analysis_control"), "", control, control, sizeof(control), nullptr));
   PetscCall(PetscOptionsReal("-arc_length_psi", OptionDescription("-analysis_arc_length_psi"), "", a.arc_length_psi, &a.arc_length_psi, nullptr));
@@ -124,6 +126,9 @@ PetscErrorCode SettingsFromOptions(MPI_Comm comm, Model *model, RunOptions *opti
   if (output_times_set) a.output_times.assign(output_times.begin(), output_times.begin() + num_output_times);
   PetscCheck(std::isfinite(a.jacobian_reuse) && a.jacobian_reuse >= 0.0 && a.jacobian_reuse < 1.0, comm, PETSC_ERR_USER_INPUT,
              "option -analysis_jacobian_reuse must lie in [0, 1), got %g", a.jacobian_reuse);
+  PetscCheck(condensation_depth >= 0 && condensation_depth <= 1000000, comm, PETSC_ERR_USER_INPUT,
+             "option -analysis_condensation_depth must lie in [0, 1000000] (0: condense whole chains), got %" PetscInt_FMT, condensation_depth);
+  a.condensation_depth    = (int)condensation_depth;
   a.easy_iterations       = (int)easy_iterations;
   a.easy_steps_to_grow    = (int)easy_steps;
   a.max_newton_iterations = (int)max_newton;

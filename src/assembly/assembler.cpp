@@ -189,7 +189,7 @@ PetscErrorCode Assembler::Setup(MPI_Comm comm, const Model &model, const DofMap 
   ghosted_slot_.assign(6 * state->nodes.size(), -1);
   for (size_t l = 0; l < state->nodes.size(); ++l)
     for (int d = 0; d < 6; ++d) {
-      const PetscInt global = map.node_dofs[map.local_nodes[l]][d];
+      const PetscInt global = map.IsRelay((int)l) ? -1 : map.node_dofs[map.local_nodes[l]][d]; // a relay follows its joint
       if (global < 0) continue;
       ghosted_slot_[6 * l + d] = (PetscInt)from.size();
       from.push_back(global);
@@ -197,6 +197,9 @@ PetscErrorCode Assembler::Setup(MPI_Comm comm, const Model &model, const DofMap 
   expansion_rows_.assign(state->nodes.size(), {});
   expansion_columns_.assign(state->nodes.size(), {});
   slave_residual_.assign(state->nodes.size(), Vec6::Zero());
+  relay_force_.assign(state->nodes.size(), Vec6::Zero());
+  relay_anchor_.assign(state->nodes.size(), -1);
+  relay_joints_.clear();
   prescribed_residual_.assign(state->nodes.size(), Vec6::Zero());
   joint_slots_.assign(state->joints.size(), {-1, -1, -1, -1, -1, -1});
   size_t max_unknowns = 6;
@@ -208,12 +211,17 @@ PetscErrorCode Assembler::Setup(MPI_Comm comm, const Model &model, const DofMap 
       joint_slots_[j][c] = (PetscInt)from.size();
       from.push_back(map.joint_dofs[g][c]);
     }
-    const size_t m = map.node_unknowns[model.joints[g].slave].size();
+    const bool   relay = map.IsRelay(J.local_slave);
+    const size_t m     = (relay ? map.relay_unknowns : map.node_unknowns)[model.joints[g].slave].size();
+    // The relay a slave's expansion ends on (joints come masters first): its master if that is a
+    // relay, or its master's anchor.
+    if (relay) relay_joints_.push_back((int)j);
+    if (J.local_master >= 0) relay_anchor_[J.local_slave] = map.IsRelay(J.local_master) ? J.local_master : relay_anchor_[J.local_master];
     expansion_rows_[J.local_slave].assign(6 * m, 0.0);
     expansion_columns_[J.local_slave].assign(6 * m, 0.0);
     max_unknowns = std::max(max_unknowns, m);
   }
-  expansion_scratch_.assign(max_unknowns * max_unknowns, 0.0);
+  expansion_scratch_.assign(std::max(max_unknowns * max_unknowns, 6 * max_unknowns), 0.0);
   expansion_product_scratch_.assign(6 * std::max<size_t>(max_unknowns, 6), 0.0);
   joint_geometric_scratch_.assign(3 * (6 + kJointMaxReleased) * max_unknowns + max_unknowns * max_unknowns, 0.0);
   PetscCall(VecCreateMPI(comm, 12 * (PetscInt)map.num_owned_joints, 12 * map.global_count.joints, &joint_output_));
@@ -243,7 +251,8 @@ PetscErrorCode Assembler::AttachRigidBodyModes()
     PetscCall(VecZeroEntries(modes[k]));
   }
   for (PetscInt l = 0; l < map.num_owned_nodes; ++l) {
-    const int                      node = map.local_nodes[l];
+    const int node = map.local_nodes[l];
+    if (map.IsRelay((int)l)) continue; // its own unknowns follow its joint
     const std::array<PetscInt, 6> &dofs = map.node_dofs[node];
     const Vec3                     r    = model.nodes[node].position - centroid;
     for (int k = 0; k < 6; ++k) {
@@ -301,6 +310,16 @@ PetscErrorCode Assembler::CreateCsrDestinations()
       const std::vector<PetscInt> &unknowns = map.node_unknowns[map.local_nodes[l]];
       more_zeros.assign(unknowns.size() * unknowns.size(), 0.0);
       PetscCall(MatSetValues(jacobian_, (PetscInt)unknowns.size(), unknowns.data(), (PetscInt)unknowns.size(), unknowns.data(), more_zeros.data(), ADD_VALUES));
+    }
+    for (size_t l = 0; l < map.local_nodes.size(); ++l) {
+      if (!map.IsRelay((int)l) || (PetscInt)l >= map.num_owned_nodes) continue;
+      // A relay's coupling and its joint's geometric stiffness (DofMapPreallocation).
+      const int node = map.local_nodes[l];
+      coupled.assign(map.relay_unknowns[node].begin(), map.relay_unknowns[node].end());
+      coupled.insert(coupled.end(), map.node_dofs[node].begin(), map.node_dofs[node].end());
+      coupled.insert(coupled.end(), map.relay_forces[node].begin(), map.relay_forces[node].end());
+      more_zeros.assign(coupled.size() * coupled.size(), 0.0);
+      PetscCall(MatSetValues(jacobian_, (PetscInt)coupled.size(), coupled.data(), (PetscInt)coupled.size(), coupled.data(), more_zeros.data(), ADD_VALUES));
     }
     for (int e : map.local_elements) {
       coupled.clear();
@@ -548,6 +567,7 @@ PetscErrorCode Assembler::PredictIncrements(Vec increments)
   const DofMap &map = *map_;
   const double  dt  = state_->equations.scheme.dt;
   for (PetscInt l = 0; l < map.num_owned_nodes; ++l) {
+    if (map.IsRelay((int)l)) continue; // follows its joint
     const NodeState &s = state_->nodes[l];
     Vec6             guess;
     guess.head<3>() = dt * s.translation_motion.velocity;
@@ -681,6 +701,7 @@ PetscErrorCode Assembler::AssembleResidual(Vec residual, PetscBool *geometry_ok)
   // work over the increments counts as external work.
   for (Vec6 &reaction : prescribed_residual_) reaction.setZero();
   for (Vec6 &g : slave_residual_) g.setZero();
+  for (Vec6 &g : relay_force_) g.setZero();
   for (auto &row : coordinate_residual_) row.fill(0.0);
   for (size_t k = 0; k < map.local_elements.size(); ++k) {
     const BeamElement &element_nodes = model_->elements[map.local_elements[k]];
@@ -700,6 +721,7 @@ PetscErrorCode Assembler::AssembleResidual(Vec residual, PetscBool *geometry_ok)
   for (ForceContributor *c : contributors_) c->AddBlocks(*state_, false, this);
   block_residual_ = nullptr;
   PetscCheck(!block_trouble_, PETSC_COMM_SELF, PETSC_ERR_PLIB, "a contributor's block could not be added to the residual");
+  PetscCall(FinishRelayForces(residual));
   PetscCall(VecAssemblyBegin(residual));
   PetscCall(VecAssemblyEnd(residual));
   if (state_->equations.InitialAcceleration()) PetscCall(SetMasslessResidualRows(residual));
@@ -865,6 +887,7 @@ PetscErrorCode Assembler::AssembleJacobian(Mat jacobian, PetscBool *geometry_ok)
   if (rank_one_active_)
     for (size_t l = 0; l < slave_residual_.size(); ++l) slave_residual_[l] += beta * slave_correction_residual_[l];
   if (!eq.InitialAcceleration()) PetscCall(AddJointGeometricStiffness(jacobian));
+  PetscCall(AddRelayCoupling(jacobian));
   PetscCall(MatAssemblyBegin(jacobian, MAT_FINAL_ASSEMBLY));
   PetscCall(MatAssemblyEnd(jacobian, MAT_FINAL_ASSEMBLY));
   if (separate_correction && beta != 0.0) PetscCall(MatAXPY(jacobian, beta, correction_jacobian_, SAME_NONZERO_PATTERN));

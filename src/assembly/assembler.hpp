@@ -147,6 +147,11 @@ public:
   PetscErrorCode DescribeUnknown(PetscInt row, std::string *what);
 
   Mat Jacobian() const { return jacobian_; }
+  // Zeroes the relay nodes' own and force entries of an owned vector (a Newton step: they are not
+  // increments of the state, and its norms are those of the condensed unknowns).
+  void ZeroRelayEntries(Vec v) const;
+  // Copies the relay nodes' own and force entries of `from` into `to` (owned).
+  void CopyRelayEntries(Vec from, Vec to) const;
   // How many matrices AssembleJacobian has assembled (the tangent, or through AssembleMassMatrix
   // the mass matrix, all into jacobian_): modified Newton keeps a factorisation only while no
   // other matrix was assembled since.
@@ -193,6 +198,10 @@ private:
   void EvaluateNode(int l, bool want_tangent, NodeContribution *out);
   // Per local node, whether it is a slave (its expansion goes through its joint).
   bool IsSlave(int l) const { return state_->node_joint[l] >= 0; }
+  // Per local node, whether it is condensed: a slave that is not a relay node (DofMap). A relay
+  // expands like an independent node onto its own DOFs (spins, no H); its joint's expansion
+  // (onto DofMap::relay_unknowns) is kept in expansion_rows_/expansion_columns_ for the coupling.
+  bool IsCondensed(int l) const { return IsSlave(l) && !map_->IsRelay(l); }
 
   // Condensation (condensation.cpp). Expansions of the slave nodes from their joints' maps
   // (masters first), after every change of the increments.
@@ -222,7 +231,22 @@ private:
   // Geometric stiffness of every local joint for the slave residuals gathered in slave_residual_.
   PetscErrorCode AddJointGeometricStiffness(Mat jacobian);
   // Slave residuals with what each slave passes on to its master along the chains (deepest first).
-  void           PropagateSlaveResiduals();
+  void PropagateSlaveResiduals();
+  // Relay nodes. The residual: the force gathered on each relay (relay_force_) passes through its
+  // joint's rows to its anchor's unknowns, deepest relays first, so that the residual is the
+  // condensed one and zero on the relays' own rows. The matrix: per owned relay s, with U its
+  // relay_unknowns, R and C its joint's rows and columns and lambda its force unknowns,
+  //   [s, lambda] = -I,  [lambda, s] = -I,  [lambda, U] = C,  [U, lambda] = R^T,
+  // i.e. (K du)_s = lambda, du_s = C du_U and lambda's share R^T lambda on U: eliminating du_s and
+  // lambda gives the condensed tangent (symmetric where R = C).
+  PetscErrorCode FinishRelayForces(Vec residual);
+  // Removes from `empty_rows` (owned, of a matrix without the relay coupling) the rows reached
+  // through relay nodes and the relays' own rows (the velocity projection's rows left at rest).
+  PetscErrorCode DropRelayReachedRows(std::vector<PetscInt> *empty_rows) const;
+  PetscErrorCode AddRelayCoupling(Mat matrix);
+  // Adds `values` (over node_unknowns of a node whose anchor may be a relay) to v: the anchor
+  // relay's share (the first 6) into its gathered force, the rest into v.
+  PetscErrorCode AddThroughAnchor(Vec v, int anchor, PetscInt m, const PetscInt *unknowns, const double *values);
   PetscErrorCode CreateCsrDestinations();
   // The zero rows of the initial-acceleration problem's mass matrix (NumMasslessUnknowns).
   PetscErrorCode FindMasslessUnknowns();
@@ -250,6 +274,9 @@ private:
   // unknowns it depends on: R[unknowns] += rows^T g_spin, d(spin)/dX = columns.
   std::vector<std::vector<double>> expansion_rows_, expansion_columns_;
   std::vector<Vec6>                slave_residual_;            // per local node: spin residual gathered on slaves
+  std::vector<Vec6>                relay_force_;               // per local node: force gathered on a relay (residual pass)
+  std::vector<int>                 relay_anchor_;              // per local node: the relay its expansion ends on, or -1
+  std::vector<int>                 relay_joints_;              // local joints whose slave is a relay, masters first
   std::vector<Vec6>                slave_correction_residual_; // per local node: em's correction vector gathered on slaves
   Vec                              joint_output_ = nullptr;    // 12 per joint slot (DofMap::joint_slot): reaction (6), rates (6)
   std::vector<double>              expansion_scratch_;         // work space for expanded blocks

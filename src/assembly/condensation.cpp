@@ -8,6 +8,10 @@
 // where N_m (6x6) and N_q (6xk) are the master and released-coordinate parts of N, restricted to
 // the coordinates that are not driven. The rows use the joints' rows map (the conserving map of
 // the mid-point schemes), the columns N itself (state/state.hpp, StateUpdateSlaves).
+// Relay nodes (DofMap) cut long chains: a relay expands like an independent node onto its own DOFs,
+// in spins (columns = I), so the slaves below it depend on at most condensation_depth joints; its
+// joint enters the linear solve through AddRelayCoupling, and its gathered force passes up in
+// FinishRelayForces, so the residual stays the condensed one.
 #include "assembly/assembler.hpp"
 
 #include <algorithm>
@@ -19,8 +23,9 @@ void Assembler::IndependentExpansion(int l, double *rows, double *columns) const
 {
   const NodeState               &s    = state_->nodes[l];
   const std::array<PetscInt, 6> &dofs = map_->node_dofs[map_->local_nodes[l]];
-  // In the initial-acceleration problem the unknowns are the accelerations themselves: no H.
-  const Mat3 H      = state_->equations.InitialAcceleration() ? Mat3::Identity() : s.rotation_tangent;
+  // In the initial-acceleration problem the unknowns are the accelerations themselves, and a
+  // relay's own unknowns are spin increments: no H.
+  const Mat3 H      = state_->equations.InitialAcceleration() || map_->IsRelay(l) ? Mat3::Identity() : s.rotation_tangent;
   const int  m      = (int)map_->node_unknowns[map_->local_nodes[l]].size();
   int        column = 0;
   for (int i = 0; i < 6 * m; ++i) rows[i] = columns[i] = 0.0;
@@ -36,7 +41,7 @@ void Assembler::IndependentExpansion(int l, double *rows, double *columns) const
 
 void Assembler::NodeExpansion(int l, const double **rows, const double **columns, double *scratch_rows, double *scratch_columns) const
 {
-  if (IsSlave(l)) {
+  if (IsCondensed(l)) {
     *rows    = expansion_rows_[l].data();
     *columns = expansion_columns_[l].data();
     return;
@@ -54,8 +59,9 @@ void Assembler::UpdateExpansions()
     const Joint       &joint  = model_->joints[J.joint];
     const JointMatrix &N      = J.map;
     const JointMatrix &N_rows = J.rows_map;
-    // Expansion: the master's (through N_m) followed by the free released coordinates (N_q).
-    const int            m        = (int)map_->node_unknowns[joint.slave].size();
+    // Expansion: the master's (through N_m) followed by the free released coordinates (N_q); a
+    // relay's is its joint's map from relay_unknowns.
+    const int            m        = (int)(map_->IsRelay(J.local_slave) ? map_->relay_unknowns[joint.slave] : map_->node_unknowns[joint.slave]).size();
     std::vector<double> &rows     = expansion_rows_[J.local_slave];
     std::vector<double> &columns  = expansion_columns_[J.local_slave];
     int                  m_master = 0;
@@ -96,6 +102,10 @@ PetscErrorCode Assembler::AddNodeResidual(Vec residual, int l, const double *g)
     PetscFunctionReturn(PETSC_SUCCESS);
   }
   slave_residual_[l] += Eigen::Map<const Vec6>(g);
+  if (map_->IsRelay(l)) {
+    relay_force_[l] += Eigen::Map<const Vec6>(g); // passed up by FinishRelayForces
+    PetscFunctionReturn(PETSC_SUCCESS);
+  }
   const std::vector<PetscInt> &unknowns = map_->node_unknowns[node];
   const int                    m        = (int)unknowns.size();
   const double                *rows     = expansion_rows_[l].data();
@@ -104,19 +114,107 @@ PetscErrorCode Assembler::AddNodeResidual(Vec residual, int l, const double *g)
     values[col] = 0.0;
     for (int i = 0; i < 6; ++i) values[col] += rows[i * m + col] * g[i];
   }
-  PetscCall(VecSetValues(residual, m, unknowns.data(), values, ADD_VALUES));
+  PetscCall(AddThroughAnchor(residual, relay_anchor_[l], m, unknowns.data(), values));
   PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode Assembler::AddThroughAnchor(Vec v, int anchor, PetscInt m, const PetscInt *unknowns, const double *values)
+{
+  PetscFunctionBeginUser;
+  if (anchor >= 0) {
+    // The anchor relay's own DOFs come first in the unknowns: its share is gathered on it.
+    relay_force_[anchor] += Eigen::Map<const Vec6>(values);
+    unknowns += 6, values += 6, m -= 6;
+  }
+  PetscCall(VecSetValues(v, m, unknowns, values, ADD_VALUES));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode Assembler::FinishRelayForces(Vec residual)
+{
+  PetscFunctionBeginUser;
+  // Deepest relays first: each passes R^T (its gathered force) to its anchor's unknowns, a relay
+  // anchor gathering its share for its own turn.
+  for (size_t k = relay_joints_.size(); k-- > 0;) {
+    const JointState            &J        = state_->joints[relay_joints_[k]];
+    const int                    s        = J.local_slave;
+    const std::vector<PetscInt> &unknowns = map_->relay_unknowns[s];
+    const int                    m        = (int)unknowns.size();
+    const double                *rows     = expansion_rows_[s].data();
+    double                      *values   = expansion_scratch_.data();
+    const Vec6                   g        = relay_force_[s];
+    relay_force_[s].setZero();
+    for (int col = 0; col < m; ++col) {
+      values[col] = 0.0;
+      for (int i = 0; i < 6; ++i) values[col] += rows[i * m + col] * g[i];
+    }
+    PetscCall(AddThroughAnchor(residual, relay_anchor_[s], m, unknowns.data(), values));
+  }
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode Assembler::AddRelayCoupling(Mat matrix)
+{
+  PetscFunctionBeginUser;
+  for (const int j : relay_joints_) {
+    const JointState &J = state_->joints[j];
+    const int         s = J.local_slave;
+    if (s >= map_->num_owned_nodes) continue; // the owner adds it
+    const std::vector<PetscInt>   &unknowns = map_->relay_unknowns[s];
+    const std::array<PetscInt, 6> &own = map_->node_dofs[s], &force = map_->relay_forces[s];
+    const int                      m    = (int)unknowns.size();
+    const double                  *rows = expansion_rows_[s].data(), *columns = expansion_columns_[s].data();
+    double                        *values = expansion_scratch_.data();
+    // [s, lambda] = [lambda, s] = -I, [lambda, U] = C, [U, lambda] = R^T.
+    for (int i = 0; i < 6; ++i) PetscCall(MatSetValue(matrix, own[i], force[i], -1.0, ADD_VALUES));
+    for (int i = 0; i < 6; ++i) PetscCall(MatSetValue(matrix, force[i], own[i], -1.0, ADD_VALUES));
+    PetscCall(MatSetValues(matrix, 6, force.data(), m, unknowns.data(), columns, ADD_VALUES));
+    for (int a = 0; a < m; ++a)
+      for (int i = 0; i < 6; ++i) values[a * 6 + i] = rows[i * m + a];
+    PetscCall(MatSetValues(matrix, m, unknowns.data(), 6, force.data(), values, ADD_VALUES));
+  }
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+void Assembler::CopyRelayEntries(Vec from, Vec to) const
+{
+  if (map_->num_relays == 0) return;
+  const PetscScalar *source;
+  PetscScalar       *target;
+  if (VecGetArrayRead(from, &source) != PETSC_SUCCESS) return;
+  if (VecGetArray(to, &target) == PETSC_SUCCESS) {
+    for (PetscInt l = 0; l < map_->num_owned_nodes; ++l) {
+      if (!map_->IsRelay((int)l)) continue;
+      for (int i = 0; i < 6; ++i)
+        for (const PetscInt row : {map_->node_dofs[l][i], map_->relay_forces[l][i]}) target[row - map_->first_owned] = source[row - map_->first_owned];
+    }
+    (void)VecRestoreArray(to, &target);
+  }
+  (void)VecRestoreArrayRead(from, &source);
+}
+
+void Assembler::ZeroRelayEntries(Vec v) const
+{
+  if (map_->num_relays == 0) return;
+  PetscScalar *values;
+  if (VecGetArray(v, &values) != PETSC_SUCCESS) return;
+  for (PetscInt l = 0; l < map_->num_owned_nodes; ++l) {
+    if (!map_->IsRelay((int)l)) continue;
+    for (int i = 0; i < 6; ++i) values[map_->node_dofs[l][i] - map_->first_owned] = 0.0, values[map_->relay_forces[l][i] - map_->first_owned] = 0.0;
+  }
+  (void)VecRestoreArray(v, &values);
 }
 
 PetscErrorCode Assembler::AddNodeVector(Vec v, int l, const double *g, Through through)
 {
   PetscFunctionBeginUser;
   const int node = map_->local_nodes[l];
-  if (!IsSlave(l)) {
+  if (!IsCondensed(l)) {
     double values[6];
     for (int i = 0; i < 6; ++i) values[i] = g[i];
-    // Columns: d theta = H(omega) d omega, so the gradient in omega is H^T times the spin gradient.
-    if (through == Through::Columns && !state_->equations.InitialAcceleration()) {
+    // Columns: d theta = H(omega) d omega, so the gradient in omega is H^T times the spin gradient
+    // (a relay's own unknowns are spins, and the coupling carries the vector on through the solve).
+    if (through == Through::Columns && !state_->equations.InitialAcceleration() && !map_->IsRelay(l)) {
       const Vec3 rotated = state_->nodes[l].rotation_tangent.transpose() * Vec3(g[3], g[4], g[5]);
       for (int i = 0; i < 3; ++i) values[3 + i] = rotated(i);
     }
@@ -139,10 +237,12 @@ PetscErrorCode Assembler::AddNodeBlock(Mat jacobian, int l, const Mat6 &block)
 {
   PetscFunctionBeginUser;
   const int node = map_->local_nodes[l];
-  if (!IsSlave(l)) {
-    // Columns from spins to the node's unknowns: d theta = H(omega) d omega (accelerations: I).
+  if (!IsCondensed(l)) {
+    // Columns from spins to the node's unknowns: d theta = H(omega) d omega (accelerations and
+    // relays: I).
     Mat6 columns = block;
-    if (!state_->equations.InitialAcceleration()) columns.rightCols<3>() = (block.rightCols<3>() * state_->nodes[l].rotation_tangent).eval();
+    if (!state_->equations.InitialAcceleration() && !map_->IsRelay(l))
+      columns.rightCols<3>() = (block.rightCols<3>() * state_->nodes[l].rotation_tangent).eval();
     PetscCall(MatSetValues(jacobian, 6, map_->node_dofs[node].data(), 6, map_->node_dofs[node].data(), columns.data(), ADD_VALUES));
     PetscFunctionReturn(PETSC_SUCCESS);
   }
@@ -243,7 +343,7 @@ PetscErrorCode Assembler::AddJointGeometricStiffness(Mat jacobian)
     }
     // Rows: the master's rows for (x_m, theta_m), identity for the free coordinates; columns alike.
     const int                    k        = JointNumCoordinates(J.geometry);
-    const std::vector<PetscInt> &unknowns = map_->node_unknowns[joint.slave];
+    const std::vector<PetscInt> &unknowns = map_->IsRelay(J.local_slave) ? map_->relay_unknowns[joint.slave] : map_->node_unknowns[joint.slave];
     const int                    m        = (int)unknowns.size();
     const int                    m_master = J.local_master >= 0 ? (int)map_->node_unknowns[joint.master].size() : 0;
     // R, C ((6 + k) x m), G C and the block (m x m) live in preallocated scratch: no allocation per joint.

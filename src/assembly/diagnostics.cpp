@@ -165,9 +165,13 @@ PetscErrorCode Assembler::DescribeUnknown(PetscInt row, std::string *what)
   // Only the owner of the row holds the node or joint it belongs to.
   if (row >= map.first_owned && row < map.first_owned + map.num_owned) {
     for (PetscInt l = 0; l < map.num_owned_nodes && finding.text.empty(); ++l) {
-      const int node = map.local_nodes[l];
-      for (int d = 0; d < 6; ++d)
-        if (map.node_dofs[node][d] == row) finding.Offer(TroubleSource::NodeIncrement, row, NodeLabel(model, node) + " " + kDofNames[d]);
+      const int   node  = map.local_nodes[l];
+      const char *relay = map.IsRelay((int)l) ? " (relay node)" : "";
+      for (int d = 0; d < 6; ++d) {
+        if (map.node_dofs[node][d] == row) finding.Offer(TroubleSource::NodeIncrement, row, NodeLabel(model, node) + " " + kDofNames[d] + relay);
+        if (*relay && map.relay_forces[node][d] == row)
+          finding.Offer(TroubleSource::NodeIncrement, row, NodeLabel(model, node) + " relay force " + kDofNames[d]);
+      }
     }
     for (size_t i = 0; i < map.local_joints.size() && finding.text.empty(); ++i) {
       const int j = map.local_joints[i];

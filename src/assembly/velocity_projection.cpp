@@ -22,8 +22,69 @@
 #include <petscksp.h>
 
 #include <algorithm>
+#include <functional>
 
 namespace msflex {
+
+// The relay path of the projection: the condensed operator through the residual, and the coupled
+// matrix's LU as preconditioner (Assembler::ProjectInitialVelocities).
+struct RelayProjection {
+  Assembler                         *self = nullptr;
+  const std::vector<PetscInt>       *held = nullptr;
+  Vec                                y = nullptr, base_R = nullptr; // the given velocities and R there
+  KSP                                coupled = nullptr;
+  std::function<PetscErrorCode(Vec)> assemble; // R at the velocities set last
+  Vec                                trial = nullptr;
+};
+
+// out = A v on the condensed rows (held rows and the relays' rows: out = v).
+static PetscErrorCode RelayProjectionMult(Mat shell, Vec v, Vec out)
+{
+  RelayProjection *relay;
+  Vec              trial;
+  PetscFunctionBeginUser;
+  PetscCall(MatShellGetContext(shell, &relay));
+  const PetscInt first = relay->self->Map().first_owned;
+  PetscCall(VecDuplicate(v, &trial));
+  PetscCall(VecCopy(v, trial));
+  relay->self->ZeroRelayEntries(trial);
+  PetscScalar *values;
+  PetscCall(VecGetArray(trial, &values));
+  for (PetscInt row : *relay->held) values[row - first] = 0.0;
+  PetscCall(VecRestoreArray(trial, &values));
+  PetscCall(VecAXPY(trial, 1.0, relay->y));
+  PetscCall(relay->self->SetIncrements(trial));
+  PetscCall(relay->assemble(out));
+  PetscCall(VecAXPY(out, -1.0, relay->base_R));
+  const PetscScalar *given;
+  PetscCall(VecGetArrayRead(v, &given));
+  PetscCall(VecGetArray(out, &values));
+  for (PetscInt row : *relay->held) values[row - first] = given[row - first];
+  PetscCall(VecRestoreArray(out, &values));
+  PetscCall(VecRestoreArrayRead(v, &given));
+  relay->self->CopyRelayEntries(v, out);
+  PetscCall(VecDestroy(&trial));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+// z = the condensed rows of (coupled matrix + shift on the condensed rows)^{-1} b; relays' rows z = b.
+static PetscErrorCode RelayProjectionPreconditioner(PC pc, Vec b, Vec z)
+{
+  RelayProjection *relay;
+  Vec              rhs;
+  PetscFunctionBeginUser;
+  PetscCall(PCShellGetContext(pc, &relay));
+  PetscCall(VecDuplicate(b, &rhs));
+  PetscCall(VecCopy(b, rhs));
+  relay->self->ZeroRelayEntries(rhs);
+  PetscCall(KSPSolve(relay->coupled, rhs, z));
+  KSPConvergedReason reason;
+  PetscCall(KSPGetConvergedReason(relay->coupled, &reason));
+  if (reason < 0) PetscCall(PCSetFailedReason(pc, PC_SUBPC_ERROR));
+  relay->self->CopyRelayEntries(b, z);
+  PetscCall(VecDestroy(&rhs));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
 
 PetscErrorCode Assembler::ProjectInitialVelocities(double t, InitialVelocityReport *report)
 {
@@ -112,7 +173,7 @@ PetscErrorCode Assembler::ProjectInitialVelocities(double t, InitialVelocityRepo
   if (!(weight > 0.0)) weight = 1.0;
 
   // A and R = A y_g + r_0 (the strain-rate forces K_e V and the slaves' pulls to their given velocities).
-  auto assemble = [&](bool with_matrix, double *strain_rate) -> PetscErrorCode {
+  auto assemble_into = [&](Vec R, bool with_matrix, double *strain_rate) -> PetscErrorCode {
     PetscFunctionBeginUser;
     PetscCall(VecZeroEntries(R));
     if (with_matrix) PetscCall(MatZeroEntries(jacobian_));
@@ -145,6 +206,7 @@ PetscErrorCode Assembler::ProjectInitialVelocities(double t, InitialVelocityRepo
       PetscCall(AddNodeResidual(R, (int)l, g.data()));
       if (with_matrix) PetscCall(AddNodeBlock(jacobian_, (int)l, Mat6(weight * Mat6::Identity())));
     }
+    PetscCall(FinishRelayForces(R));
     PetscCall(VecAssemblyBegin(R));
     PetscCall(VecAssemblyEnd(R));
     if (with_matrix) {
@@ -154,12 +216,27 @@ PetscErrorCode Assembler::ProjectInitialVelocities(double t, InitialVelocityRepo
     PetscCall(MPIU_Allreduce(&local_rate, strain_rate, 1, MPI_DOUBLE, MPI_SUM, comm_));
     PetscFunctionReturn(PETSC_SUCCESS);
   };
+  auto assemble = [&](bool with_matrix, double *strain_rate) -> PetscErrorCode { return assemble_into(R, with_matrix, strain_rate); };
   PetscCall(assemble(true, &report->strain_rate_before));
+  // The preconditioner's shift scales with the largest diagonal entry of A itself, with 1 on the
+  // held rows (not with the relays' coupling, added below).
+  PetscReal largest_diagonal;
+  Vec       diagonal;
+  PetscCall(VecDuplicate(solution_template_, &diagonal));
+  PetscCall(MatGetDiagonal(jacobian_, diagonal));
 
-  // Rows no term reaches stay at rest; held rows stay at their given values.
+  // Rows no term reaches stay at rest; held rows stay at their given values. With relay nodes, a
+  // row reached only below a relay counts as reached (DropRelayReachedRows); the matrix then gets
+  // their exact coupling, for the preconditioner below.
   {
     std::vector<PetscInt> empty_rows, sorted_held = held;
     PetscCall(EmptyRowsOfJacobian(&empty_rows));
+    if (map.num_relays > 0) {
+      PetscCall(DropRelayReachedRows(&empty_rows));
+      PetscCall(AddRelayCoupling(jacobian_));
+      PetscCall(MatAssemblyBegin(jacobian_, MAT_FINAL_ASSEMBLY));
+      PetscCall(MatAssemblyEnd(jacobian_, MAT_FINAL_ASSEMBLY));
+    }
     std::sort(sorted_held.begin(), sorted_held.end());
     PetscInt at_rest = 0;
     for (const PetscInt row : empty_rows)
@@ -172,8 +249,14 @@ PetscErrorCode Assembler::ProjectInitialVelocities(double t, InitialVelocityRepo
     PetscCallMPI(MPIU_Allreduce(counts, totals, 2, MPIU_INT, MPI_SUM, comm_));
     report->held    = totals[0];
     report->at_rest = totals[1];
-    report->chosen  = map.num_global - totals[0] - totals[1];
+    report->chosen  = map.num_global - 12 * map.num_relays - totals[0] - totals[1]; // relays' rows are no velocities
   }
+  for (PetscInt row : held) PetscCall(VecSetValue(diagonal, row, 1.0, INSERT_VALUES));
+  PetscCall(VecAssemblyBegin(diagonal));
+  PetscCall(VecAssemblyEnd(diagonal));
+  PetscCall(VecAbs(diagonal));
+  PetscCall(VecMax(diagonal, nullptr, &largest_diagonal));
+  PetscCall(VecDestroy(&diagonal));
   PetscCall(MatSetOption(jacobian_, MAT_KEEP_NONZERO_PATTERN, PETSC_TRUE));
   PetscCall(MatZeroRowsColumns(jacobian_, (PetscInt)held.size(), held.data(), 1.0, nullptr, nullptr));
   for (PetscInt row : held) PetscCall(VecSetValue(R, row, 0.0, INSERT_VALUES));
@@ -182,25 +265,62 @@ PetscErrorCode Assembler::ProjectInitialVelocities(double t, InitialVelocityRepo
   PetscCall(VecScale(R, -1.0));
 
   // A delta = -R: minimum-norm solution by preconditioned conjugate gradients.
-  Mat       P;
-  KSP       ksp;
-  PC        pc;
-  Vec       diagonal;
-  PetscReal largest_diagonal;
+  Mat P;
+  KSP ksp;
+  PC  pc;
   PetscCall(MatDuplicate(jacobian_, MAT_COPY_VALUES, &P));
-  PetscCall(VecDuplicate(solution_template_, &diagonal));
-  PetscCall(MatGetDiagonal(jacobian_, diagonal));
-  PetscCall(VecAbs(diagonal));
-  PetscCall(VecMax(diagonal, nullptr, &largest_diagonal));
-  PetscCall(VecDestroy(&diagonal));
-  PetscCall(MatShift(P, 1e-8 * largest_diagonal));
   PetscCall(KSPCreate(comm_, &ksp));
   PetscCall(KSPSetOptionsPrefix(ksp, "velocity_projection_"));
-  PetscCall(KSPSetOperators(ksp, jacobian_, P));
   PetscCall(KSPSetType(ksp, KSPCG));
   PetscCall(KSPGetPC(ksp, &pc));
-  PetscCall(SetDirectSolver(pc, P));
   PetscCall(KSPSetTolerances(ksp, 1e-12, 0.0, PETSC_DEFAULT, 200));
+  // With relay nodes the matrix is a saddle point, not A: conjugate gradients run on the condensed
+  // A itself, applied as the change of the residual (exact: R is affine in the velocities, and
+  // condensed by FinishRelayForces), with identity on the held rows and the relays' rows; the
+  // preconditioner solves the coupled matrix shifted on the condensed rows only, whose condensed
+  // form is the A + shift I of the other case.
+  RelayProjection relay{};
+  Mat             shell   = nullptr;
+  Vec             base_R  = nullptr;
+  Vec             shifted = nullptr;
+  KSP             coupled = nullptr;
+  if (map.num_relays == 0) {
+    PetscCall(MatShift(P, 1e-8 * largest_diagonal));
+    PetscCall(KSPSetOperators(ksp, jacobian_, P));
+    PetscCall(SetDirectSolver(pc, P));
+  } else {
+    PetscCall(VecDuplicate(solution_template_, &shifted));
+    PetscCall(VecSet(shifted, 1e-8 * largest_diagonal));
+    ZeroRelayEntries(shifted);
+    PetscCall(MatDiagonalSet(P, shifted, ADD_VALUES));
+    PetscCall(VecDuplicate(solution_template_, &base_R));
+    PetscCall(VecCopy(R, base_R));
+    PetscCall(VecScale(base_R, -1.0)); // R at the given velocities
+    PetscCall(KSPCreate(comm_, &coupled));
+    PetscCall(KSPSetOptionsPrefix(coupled, "velocity_projection_coupled_"));
+    PetscCall(KSPSetType(coupled, KSPPREONLY));
+    PetscCall(KSPSetOperators(coupled, P, P));
+    PC coupled_pc;
+    PetscCall(KSPGetPC(coupled, &coupled_pc));
+    PetscCall(SetDirectSolver(coupled_pc, P));
+    PetscCall(KSPSetFromOptions(coupled));
+    PetscCall(WidenMumpsWorkspace(coupled_pc, P, 100));
+    relay.self     = this;
+    relay.held     = &held;
+    relay.y        = y;
+    relay.base_R   = base_R;
+    relay.coupled  = coupled;
+    relay.assemble = [&](Vec target) {
+      double rate;
+      return assemble_into(target, false, &rate);
+    };
+    PetscCall(MatCreateShell(comm_, map.num_owned, map.num_owned, map.num_global, map.num_global, &relay, &shell));
+    PetscCall(MatShellSetOperation(shell, MATOP_MULT, (void (*)(void))RelayProjectionMult));
+    PetscCall(KSPSetOperators(ksp, shell, shell));
+    PetscCall(PCSetType(pc, PCSHELL));
+    PetscCall(PCShellSetContext(pc, &relay));
+    PetscCall(PCShellSetApply(pc, RelayProjectionPreconditioner));
+  }
   PetscCall(KSPSetFromOptions(ksp));
   PetscCall(VecZeroEntries(delta));
   PetscCall(KSPSolve(ksp, R, delta));
@@ -208,9 +328,14 @@ PetscErrorCode Assembler::ProjectInitialVelocities(double t, InitialVelocityRepo
   PetscCall(KSPGetConvergedReason(ksp, &reason));
   PetscCall(KSPGetIterationNumber(ksp, &report->iterations));
   PetscCall(KSPDestroy(&ksp));
+  PetscCall(KSPDestroy(&coupled));
+  PetscCall(MatDestroy(&shell));
+  PetscCall(VecDestroy(&base_R));
+  PetscCall(VecDestroy(&shifted));
   PetscCall(MatDestroy(&P));
   PetscCheck(reason > 0, comm_, PETSC_ERR_NOT_CONVERGED,
              "the projection of the initial velocities did not converge (%s); run with -analysis_initial_velocities given", KSPConvergedReasons[reason]);
+  ZeroRelayEntries(delta);
   PetscCall(VecAXPY(y, 1.0, delta));
   PetscCall(SetIncrements(y));
   PetscCall(assemble(false, &report->strain_rate_after));
@@ -242,6 +367,58 @@ PetscErrorCode Assembler::ProjectInitialVelocities(double t, InitialVelocityRepo
   state.equations = StaticStep(t, t);
   DiscardStep();
   UpdateExpansions();
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode Assembler::DropRelayReachedRows(std::vector<PetscInt> *empty_rows) const
+{
+  const DofMap &map = *map_;
+  Vec           reached;
+  PetscFunctionBeginUser;
+  // reached = 1 on the rows some term reaches; then, deepest relays first and in rounds until the
+  // count stops growing (a chain may cross ranks), a relay whose own rows are reached reaches what
+  // its joint maps it from. A relay's own and force rows are never empty: the coupling holds them.
+  const auto owned = [&](PetscInt row) { return row >= map.first_owned && row < map.first_owned + map.num_owned; };
+  PetscCall(VecDuplicate(solution_template_, &reached));
+  PetscCall(VecSet(reached, 1.0));
+  for (PetscInt row : *empty_rows) PetscCall(VecSetValue(reached, row, 0.0, INSERT_VALUES));
+  PetscCall(VecAssemblyBegin(reached));
+  PetscCall(VecAssemblyEnd(reached));
+  for (PetscReal count = -1.0;;) {
+    PetscReal             new_count;
+    std::vector<PetscInt> elsewhere;
+    PetscScalar          *values;
+    PetscCall(VecGetArray(reached, &values));
+    for (size_t k = relay_joints_.size(); k-- > 0;) {
+      const int s = state_->joints[relay_joints_[k]].local_slave;
+      if (s >= map.num_owned_nodes) continue;
+      bool own_reached = false;
+      for (int i = 0; i < 6; ++i) own_reached |= PetscRealPart(values[map.node_dofs[s][i] - map.first_owned]) > 0.0;
+      if (!own_reached) continue;
+      for (PetscInt row : map.relay_unknowns[s])
+        if (owned(row)) values[row - map.first_owned] = 1.0;
+        else elsewhere.push_back(row);
+    }
+    PetscCall(VecRestoreArray(reached, &values));
+    for (PetscInt row : elsewhere) PetscCall(VecSetValue(reached, row, 1.0, INSERT_VALUES));
+    PetscCall(VecAssemblyBegin(reached));
+    PetscCall(VecAssemblyEnd(reached));
+    PetscCall(VecSum(reached, &new_count));
+    if (new_count == count) break;
+    count = new_count;
+  }
+  std::vector<char> relay_row(map.num_owned, 0);
+  for (PetscInt l = 0; l < map.num_owned_nodes; ++l)
+    if (map.IsRelay((int)l))
+      for (int i = 0; i < 6; ++i) relay_row[map.node_dofs[l][i] - map.first_owned] = relay_row[map.relay_forces[l][i] - map.first_owned] = 1;
+  const PetscScalar *values;
+  PetscCall(VecGetArrayRead(reached, &values));
+  std::vector<PetscInt> still_empty;
+  for (PetscInt row : *empty_rows)
+    if (!relay_row[row - map.first_owned] && PetscRealPart(values[row - map.first_owned]) == 0.0) still_empty.push_back(row);
+  PetscCall(VecRestoreArrayRead(reached, &values));
+  PetscCall(VecDestroy(&reached));
+  empty_rows->swap(still_empty);
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 

@@ -128,4 +128,22 @@ PetscErrorCode SetDirectSolver(PC pc, Mat matrix)
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
+PetscErrorCode WidenMumpsWorkspace(PC pc, Mat matrix, PetscInt percent)
+{
+  PCType        type;
+  MatSolverType package = nullptr;
+  PetscFunctionBeginUser;
+  PetscCall(PCGetType(pc, &type));
+  if (!type || strcmp(type, PCLU)) PetscFunctionReturn(PETSC_SUCCESS);
+  PetscCall(PCFactorGetMatSolverType(pc, &package));
+  if (!package || strcmp(package, MATSOLVERMUMPS)) PetscFunctionReturn(PETSC_SUCCESS);
+  Mat factor;
+  PetscCall(PCSetOperators(pc, matrix, matrix));
+  PetscCall(PCFactorSetUpMatSolverType(pc));
+  PetscCall(PCFactorGetMatrix(pc, &factor));
+  // The default of ICNTL(14); -mat_mumps_icntl_14, read at the symbolic factorisation, still wins.
+  PetscCall(MatMumpsSetIcntl(factor, 14, percent));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
 } // namespace msflex

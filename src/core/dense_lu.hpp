@@ -22,5 +22,9 @@ PetscErrorCode DenseLUDescribeFailure(PC pc, bool *is_dense_lu, std::string *det
 // msflex's direct solver for `matrix`: the dense LU above for a dense matrix (one rank only:
 // -jacobian_mat_type dense is refused on more), else MUMPS LU.
 PetscErrorCode SetDirectSolver(PC pc, Mat matrix);
+// MUMPS' work-space margin (ICNTL(14), percent over its estimate) for a tangent whose pivots are
+// found by numerical pivoting (relay nodes' zero diagonals: the estimate is too low for them);
+// nothing for other solvers. -mat_mumps_icntl_14 still wins.
+PetscErrorCode WidenMumpsWorkspace(PC pc, Mat matrix, PetscInt percent);
 
 } // namespace msflex

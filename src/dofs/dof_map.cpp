@@ -33,10 +33,13 @@ static PetscErrorCode CollectConstraints(const Model &model, DofMap *map)
 
 // Joints in an order where the joint of a master comes before the joints of its slaves: by depth
 // in their chain, found without recursion (a chain may be deeper than the stack) in O(joints).
-static std::vector<int> JointChainOrder(const Model &model, const std::vector<int> &node_joint)
+// depth[j]: the joints above joint j (0: its master is independent or the ground).
+static std::vector<int> JointChainOrder(const Model &model, const std::vector<int> &node_joint, std::vector<int> *depth_out)
 {
-  const size_t     num_joints = model.joints.size();
-  std::vector<int> depth(num_joints, -1), order(num_joints), path;
+  const size_t      num_joints = model.joints.size();
+  std::vector<int> &depth      = *depth_out;
+  std::vector<int>  order(num_joints), path;
+  depth.assign(num_joints, -1);
   for (size_t start = 0; start < num_joints; ++start) {
     // Up the chain to a joint whose depth is known (or the top), then down again.
     int j = (int)start;
@@ -71,9 +74,27 @@ PetscErrorCode DofMapCreate(MPI_Comm comm, const Model &model, const std::vector
   map->joint_rank.assign(num_joints, 0);
   for (size_t j = 0; j < num_joints; ++j) map->joint_rank[j] = node_rank[model.joints[j].slave];
 
-  // Number rank by rank: the free DOFs of its independent nodes, then its joints' free coordinates.
+  // Relay nodes: in dynamic analyses, every slave at a depth that is a multiple of the
+  // condensation depth (counted in joints from the top of its chain) and that is a master itself.
+  std::vector<int>       joint_depth;
+  const std::vector<int> chain_order = JointChainOrder(model, map->node_joint, &joint_depth);
+  const int              relay_depth = model.analysis.type == AnalysisType::Dynamic ? model.analysis.condensation_depth : 0;
+  std::vector<char>      is_relay(num_nodes, 0), is_master(num_nodes, 0);
+  map->num_relays = 0;
+  for (const Joint &joint : model.joints)
+    if (joint.master >= 0) is_master[joint.master] = 1;
+  if (relay_depth > 0)
+    for (size_t j = 0; j < num_joints; ++j) {
+      const int slave = model.joints[j].slave;
+      if (is_master[slave] && (joint_depth[j] + 1) % relay_depth == 0) is_relay[slave] = 1, ++map->num_relays;
+    }
+
+  // Number rank by rank: the free DOFs of its independent nodes, then its joints' free
+  // coordinates, then its relays' DOFs and forces.
   map->node_dofs.assign(num_nodes, {{-1, -1, -1, -1, -1, -1}});
   map->joint_dofs.assign(num_joints, {{-1, -1, -1, -1, -1, -1}});
+  map->relay_forces.assign(map->num_relays > 0 ? num_nodes : 0, {{-1, -1, -1, -1, -1, -1}});
+  map->relay_unknowns.assign(map->num_relays > 0 ? num_nodes : 0, {});
   PetscInt next = 0;
   for (int r = 0; r < size; ++r) {
     if (r == rank) map->first_owned = next;
@@ -88,6 +109,11 @@ PetscErrorCode DofMapCreate(MPI_Comm comm, const Model &model, const std::vector
       const int    k     = JointNumCoordinates(JointGeometryOf(joint));
       for (int c = 0; c < k; ++c)
         if (c != joint.driven_coordinate) map->joint_dofs[j][c] = next++;
+    }
+    for (size_t i = 0; i < num_nodes; ++i) {
+      if (node_rank[i] != r || !is_relay[i]) continue;
+      for (int d = 0; d < 6; ++d) map->node_dofs[i][d] = next++;
+      for (int d = 0; d < 6; ++d) map->relay_forces[i][d] = next++;
     }
     if (r == rank) map->num_owned = next - map->first_owned;
   }
@@ -115,15 +141,15 @@ PetscErrorCode DofMapCreate(MPI_Comm comm, const Model &model, const std::vector
   map->global_count = {(PetscInt)num_nodes, (PetscInt)model.elements.size(), (PetscInt)num_joints, (PetscInt)model.rigid_bodies.size()};
   map->restricted   = false;
 
-  // The unknowns each node depends on, masters first along every chain.
-  const std::vector<int> chain_order = JointChainOrder(model, map->node_joint);
+  // The unknowns each node depends on, masters first along every chain (a relay: its own DOFs,
+  // and what its joint maps it from in relay_unknowns).
   map->node_unknowns.assign(num_nodes, {});
   for (size_t i = 0; i < num_nodes; ++i)
     for (PetscInt dof : map->node_dofs[i])
       if (dof >= 0) map->node_unknowns[i].push_back(dof);
   for (int j : chain_order) {
     const Joint           &joint    = model.joints[j];
-    std::vector<PetscInt> &unknowns = map->node_unknowns[joint.slave];
+    std::vector<PetscInt> &unknowns = is_relay[joint.slave] ? map->relay_unknowns[joint.slave] : map->node_unknowns[joint.slave];
     if (joint.master >= 0) unknowns = map->node_unknowns[joint.master];
     for (PetscInt dof : map->joint_dofs[j])
       if (dof >= 0) unknowns.push_back(dof);
@@ -273,8 +299,13 @@ PetscErrorCode DofMapRestrictToLocal(const Model &model, const DofMap &map, Mode
   out.node_dofs       = RestrictArray(map.local_nodes, map.node_dofs);
   out.constraints     = RestrictArray(map.local_nodes, map.constraints);
   out.node_unknowns   = RestrictArray(map.local_nodes, map.node_unknowns);
-  out.global_nodes    = RestrictArray(map.local_nodes, map.global_nodes);
-  out.node_joint      = RestrictArray(map.local_nodes, map.node_joint);
+  out.num_relays      = map.num_relays;
+  if (map.num_relays > 0) {
+    out.relay_forces   = RestrictArray(map.local_nodes, map.relay_forces);
+    out.relay_unknowns = RestrictArray(map.local_nodes, map.relay_unknowns);
+  }
+  out.global_nodes = RestrictArray(map.local_nodes, map.global_nodes);
+  out.node_joint   = RestrictArray(map.local_nodes, map.node_joint);
   for (int &joint : out.node_joint) joint = joint >= 0 ? map.joint_to_local[joint] : -1;
   out.global_elements        = RestrictArray(map.local_elements, map.global_elements);
   out.element_first_segment  = RestrictArray(map.local_elements, map.element_first_segment);
@@ -312,6 +343,7 @@ PetscErrorCode DofMapPreallocation(const DofMap &map, const Model &model, std::v
   // nonzeros and takes O(N^2 log N), not the O(N^3) of uniting the holders' sets row by row.
   const PetscInt   first = map.first_owned, last = map.first_owned + map.num_owned;
   const size_t     num_nodes = map.node_unknowns.size();
+  constexpr int    kRelayRow = -2;                                 // row_node of the rows no node holds: a relay's forces and its joint's coordinates
   std::vector<int> element_start(num_nodes + 1, 0), node_elements; // node -> elements touching it
   for (const BeamElement &element : model.elements)
     for (int a = 0; a <= element.order; ++a) ++element_start[element.nodes[a] + 1];
@@ -359,7 +391,28 @@ PetscErrorCode DofMapPreallocation(const DofMap &map, const Model &model, std::v
       if (row >= first && row < last) row_node[row - first] = (int)n;
   for (size_t j = 0; j < map.joint_dofs.size(); ++j)
     for (PetscInt row : map.joint_dofs[j])
-      if (row >= first && row < last) row_node[row - first] = model.joints[j].slave;
+      if (row >= first && row < last) row_node[row - first] = map.IsRelay(model.joints[j].slave) ? kRelayRow : model.joints[j].slave;
+
+  // Relay nodes (DofMap::relay_forces): their coupling and their joint's geometric stiffness. With U
+  // a relay's relay_unknowns, s its own DOFs and f its force unknowns: rows U couple with U, s and
+  // f; rows s with f and U (and, as holders, through their elements); rows f with s and U (and f, for the diagonal PETSc factorisations and shifts expect). Its
+  // joint's coordinates are in U and have no holder.
+  std::vector<std::vector<PetscInt>> relay_columns(map.num_relays > 0 ? map.num_owned : 0);
+  if (map.num_relays > 0) {
+    for (PetscInt r = 0; r < map.num_owned; ++r)
+      if (row_node[r] < 0) row_node[r] = kRelayRow; // a relay's force row
+    const auto add = [&](PetscInt row, const PetscInt *columns, size_t count) {
+      if (row >= first && row < last) relay_columns[row - first].insert(relay_columns[row - first].end(), columns, columns + count);
+    };
+    for (size_t n = 0; n < num_nodes; ++n) {
+      if (!map.IsRelay((int)n)) continue;
+      const std::vector<PetscInt> &U = map.relay_unknowns[n];
+      const PetscInt              *s = map.node_dofs[n].data(), *f = map.relay_forces[n].data();
+      for (PetscInt row : U) add(row, U.data(), U.size()), add(row, s, 6), add(row, f, 6);
+      for (int i = 0; i < 6; ++i) add(s[i], f, 6), add(s[i], U.data(), U.size());
+      for (int i = 0; i < 6; ++i) add(f[i], s, 6), add(f[i], U.data(), U.size()), add(f[i], f, 6);
+    }
+  }
 
   // The joint forest: the slaves of each node; D is needed apart from C only for nodes with slaves.
   std::vector<int> slave_start(num_nodes + 1, 0), slaves, master_of(num_nodes, -1);
@@ -405,6 +458,7 @@ PetscErrorCode DofMapPreallocation(const DofMap &map, const Model &model, std::v
     add_node_columns(n, &columns);
     for (int k = slave_start[n]; k < slave_start[n + 1]; ++k) {
       const int c = slaves[(size_t)k];
+      if (map.IsRelay(c)) continue; // its holders are its own (the coupling is in relay_columns)
       if (has_slaves(c)) {
         columns.insert(columns.end(), tree_columns[c].begin(), tree_columns[c].end());
         std::vector<PetscInt>().swap(tree_columns[c]);
@@ -428,9 +482,13 @@ PetscErrorCode DofMapPreallocation(const DofMap &map, const Model &model, std::v
   }
   std::vector<PetscInt> node_columns;
   int                   cached_node = -1; // node_columns holds C(cached_node) when >= 0
+  std::vector<PetscInt> merged;
   for (PetscInt r = 0; r < map.num_owned; ++r) {
     const std::vector<PetscInt> *columns = &row_columns[r];
-    if (!from_tree[r]) {
+    if (row_node[r] == kRelayRow) {
+      columns = &merged;
+      merged.clear();
+    } else if (!from_tree[r]) {
       const int n = row_node[r];
       PetscCheck(n >= 0, PETSC_COMM_SELF, PETSC_ERR_PLIB, "unknown %" PetscInt_FMT " belongs to no node", first + r);
       if (n != cached_node) {
@@ -440,6 +498,13 @@ PetscErrorCode DofMapPreallocation(const DofMap &map, const Model &model, std::v
         cached_node = n;
       }
       columns = &node_columns;
+    }
+    if (!relay_columns.empty() && !relay_columns[r].empty()) {
+      if (columns != &merged) merged = *columns;
+      merged.insert(merged.end(), relay_columns[r].begin(), relay_columns[r].end());
+      sort_unique(&merged);
+      columns = &merged;
+      std::vector<PetscInt>().swap(relay_columns[r]);
     }
     for (PetscInt column : *columns) ++(column >= first && column < last ? (*diagonal_nonzeros)[r] : (*off_diagonal_nonzeros)[r]);
     if (want_pattern) {

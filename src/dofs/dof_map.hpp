@@ -53,8 +53,18 @@ struct DofMap {
   // Every node: the global unknowns its configuration depends on — its own free DOFs, or for a
   // slave those of its master followed by its joint's free coordinates.
   std::vector<std::vector<PetscInt>> node_unknowns;
-  std::vector<int>                   local_joints;   // joints whose slave node is local, each after the joint of its master
-  std::vector<int>                   joint_to_local; // every joint: index into local_joints, or -1
+  // Relay nodes (AnalysisSettings::condensation_depth): a slave every `depth` joints down a chain
+  // that is itself a master keeps its own 6 DOFs (spin increments, in node_dofs) and 6 more
+  // unknowns for the force it passes to its master (relay_forces, -1 elsewhere); its node_unknowns
+  // are its own DOFs, so the slaves below it expand onto them, and relay_unknowns (empty elsewhere)
+  // are what its joint maps it from: its master's node_unknowns followed by its joint's free
+  // coordinates. The linear solve carries the joint as  du_s = C du_anchor  and  R^T lambda_s, whose
+  // elimination is the condensation, so a chain costs O(depth^2) per joint instead of O(N^2).
+  std::vector<std::array<PetscInt, 6>> relay_forces;
+  std::vector<std::vector<PetscInt>>   relay_unknowns;
+  PetscInt                             num_relays = 0; // in the whole model
+  std::vector<int>                     local_joints;   // joints whose slave node is local, each after the joint of its master
+  std::vector<int>                     joint_to_local; // every joint: index into local_joints, or -1
 
   // Output numbering. Per model node / element: its number in the whole model (the identity
   // before restriction). Per model joint: its slot in joint data distributed by owner (joints
@@ -72,9 +82,13 @@ struct DofMap {
     PetscInt nodes = 0, elements = 0, joints = 0, rigid_bodies = 0;
   } global_count;
   bool restricted = false; // DofMapRestrictToLocal has run
+
+  bool IsRelay(int node) const { return !relay_forces.empty() && relay_forces[node][0] >= 0; }
 };
 
 // Builds the map; a DOF constrained twice by different supports is an input error naming both.
+// Relay nodes only in dynamic analyses (statics count the tangent's negative pivots, which the
+// relays' saddle-point rows would change; eigenanalyses need the condensed symmetric pencil).
 PetscErrorCode DofMapCreate(MPI_Comm comm, const Model &model, const std::vector<int> &node_rank, DofMap *map);
 
 // Exact nonzeros per owned row of the assembled matrix, split into the diagonal (owned columns)

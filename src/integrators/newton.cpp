@@ -10,6 +10,7 @@
 #include <cmath>
 #include <cstdarg>
 #include <cstdio>
+#include <cstring>
 
 namespace msflex {
 
@@ -109,6 +110,8 @@ PetscErrorCode SafeguardedNewtonStep(SNESLineSearch linesearch, void *ctx)
   PetscBool      geometry_ok = PETSC_FALSE, evaluable = PETSC_FALSE;
   PetscFunctionBeginUser;
   PetscCall(SNESLineSearchGetVecs(linesearch, &x, &f, &y, &w, &g));
+  // The relay nodes' entries of the step are the linear solve's, not increments of the state.
+  context->assembler->ZeroRelayEntries(y);
   for (int attempt = 0; attempt < 9; ++attempt) {
     if (attempt > 0) lambda *= 0.5;
     PetscCall(VecWAXPY(w, -lambda, y, x));
@@ -303,10 +306,34 @@ PetscErrorCode NewtonSolverCreate(MPI_Comm comm, const AnalysisSettings &analysi
   // dense LU, which reports a singular tangent instead of raising an error.
   PetscBool by_structure = PETSC_FALSE;
   PetscCall(PetscOptionsGetBool(nullptr, nullptr, "-newton_solver_by_structure", &by_structure, nullptr));
-  if (by_structure) PetscCall(ChooseDirectSolver(tangent, pc));
+  // Relay nodes put zeros on the diagonal (their force rows): they need a pivoting LU (MUMPS, LAPACK).
+  const bool relays = context->assembler->Map().num_relays > 0;
+  if (by_structure && !relays) PetscCall(ChooseDirectSolver(tangent, pc));
   else PetscCall(SetDirectSolver(pc, tangent));
   MSFLEX_CALL_READING_OPTIONS(PetscObjectComm((PetscObject)*snes), SNESSetFromOptions(*snes));
   PetscCall(CheckFactorSolverAvailable(ksp, tangent));
+  if (relays) {
+    // Their zero diagonals are pivoted numerically: MUMPS needs more work space than it estimates
+    // (a chain of 10^4 rigid bodies failed with INFOG(1) = -9 at the default 20 %).
+    PetscCall(WidenMumpsWorkspace(pc, tangent, 100));
+    PetscBool matrix_free = PETSC_FALSE, petsc_lu = PETSC_FALSE;
+    PCType    pc_type;
+    PetscCall(PetscOptionsHasName(nullptr, nullptr, "-snes_mf_operator", &matrix_free));
+    PetscCall(PCGetType(pc, &pc_type));
+    if (pc_type && !strcmp(pc_type, PCLU)) {
+      MatSolverType package = nullptr;
+      PetscCall(PCFactorGetMatSolverType(pc, &package));
+      petsc_lu = package && !strcmp(package, MATSOLVERPETSC) ? PETSC_TRUE : PETSC_FALSE;
+    }
+    PetscCheck(!matrix_free, comm, PETSC_ERR_USER_INPUT,
+               "bad option: -snes_mf_operator with relay nodes (chains deeper than -analysis_condensation_depth %d): the matrix-free operator does not see "
+               "their rows; give -analysis_condensation_depth 0",
+               analysis.condensation_depth);
+    PetscCheck(!petsc_lu, comm, PETSC_ERR_USER_INPUT,
+               "bad option: -pc_factor_mat_solver_type petsc with relay nodes (chains deeper than -analysis_condensation_depth %d): PETSc's LU does not "
+               "pivot, and their force rows have zero diagonals; use mumps, or -analysis_condensation_depth 0",
+               analysis.condensation_depth);
+  }
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 

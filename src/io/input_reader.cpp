@@ -603,6 +603,7 @@ void ReadAnalysis(const YAML::Node *mapping, const ReaderContext &context, Analy
                              "newton_rtol",
                              "newton_atol",
                              "jacobian_reuse",
+                             "condensation_depth",
                              "output_times",
                              "control",
                              "arc_length_psi",
@@ -666,6 +667,7 @@ void ReadAnalysis(const YAML::Node *mapping, const ReaderContext &context, Analy
   if (analysis.jacobian_reuse >= 1.0)
     FailAt(entry.Required("jacobian_reuse").Mark(),
            "'jacobian_reuse' must be less than 1 (a contraction factor), got " + entry.Required("jacobian_reuse").Scalar());
+  analysis.condensation_depth = entry.Integer("condensation_depth", 0, analysis.condensation_depth);
   if (const YAML::Node *output_times = entry.Find("output_times")) ReadOutputTimes(*output_times, analysis);
   analysis.static_stage       = entry.Bool("static_stage", analysis.static_stage);
   analysis.static_stage_steps = entry.Integer("static_stage_steps", 1, analysis.static_stage_steps);

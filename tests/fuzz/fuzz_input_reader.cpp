@@ -146,8 +146,8 @@ void CheckModel(const msflex::Model &model)
   }
   const msflex::AnalysisSettings &analysis = model.analysis;
   if (!(analysis.end_time > 0 && analysis.initial_step > 0 && analysis.min_step > 0 && analysis.max_step > 0 && analysis.newton_rtol > 0 &&
-        analysis.newton_atol >= 0 && analysis.jacobian_reuse >= 0 && analysis.jacobian_reuse < 1 && analysis.growth_factor >= 1 &&
-        analysis.min_step <= analysis.initial_step && analysis.initial_step <= analysis.max_step &&
+        analysis.newton_atol >= 0 && analysis.jacobian_reuse >= 0 && analysis.jacobian_reuse < 1 && analysis.condensation_depth >= 0 &&
+        analysis.growth_factor >= 1 && analysis.min_step <= analysis.initial_step && analysis.initial_step <= analysis.max_step &&
         std::isfinite(analysis.end_time + analysis.max_step + analysis.growth_factor)))
     Broken("accepted model", "bad analysis settings");
   if (model.output.every < 1 || model.output.file.empty()) Broken("accepted model", "bad output settings");

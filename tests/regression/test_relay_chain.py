@@ -1,0 +1,148 @@
+"""Relay nodes (-analysis_condensation_depth, docs/solvers.md): a chain of joints deeper than the
+condensation depth keeps every depth-th slave that is a master in the linear solve, with the joint
+as  du_s = C du_U  and its force  R^T lambda; eliminating them is the condensation, so the motion
+is the condensed one to round-off while the cost per joint no longer grows with the chain.
+
+1. A chain of 12 rigid bodies with offset centres of mass, each the master of the next through
+   revolute, spherical, universal, screw and prismatic joints, a bushing between bodies 3 and 9
+   (a force element between two slaves), a 4-element beam hanging from the last body, gravity:
+   with newmark, genalpha, mc and em, condensed whole (depth 0) and with relays every 1, 3 and 8
+   joints, the frames agree to 1e-9 of the chain's size and the Newton iterations per step are the
+   same; em's energy balance stays constant to 1e-9 of the energy with relays too.
+2. The projection of the initial velocities with relays (scripts/make-chain's rigid chain, a
+   given angular velocity on its first body): the same velocities as condensed whole, to 1e-12.
+3. Options that cannot serve relays are one line and exit status 1: -snes_mf_operator and
+   PETSc's LU (no pivoting); a negative depth, as an option and in the input."""
+
+import os
+import subprocess
+import sys
+
+import h5py
+import numpy as np
+
+import msflex_testing as mt
+
+args = mt.parse_arguments(__doc__)
+check = mt.Checker("relay nodes")
+scripts = os.path.join(args.source_dir, "scripts")
+
+KINDS = ["spherical", "revolute_y", "universal", "screw", "revolute_z", "prismatic"]
+
+
+def chain_model(integrator, bodies=12, extra=""):
+    lines = [
+        "title: deep chain of mixed joints",
+        "sections:",
+        "  - {name: s, EA: 1.0e5, GA2: 4.0e4, GA3: 4.0e4, GJ: 50, EI2: 80, EI3: 80, rhoA: 0.5, rhoJ: [0.02, 0.01, 0.01]}",
+        "nodes:",
+    ]
+    lines += [f"  b{k}: [{0.5 * (k + 1)}, 0, 0]" for k in range(bodies)]
+    lines += [f"  t0: [{0.5 * (bodies + 1)}, 0, 0]", f"  t1: [{0.5 * (bodies + 1) + 1.0}, 0.2, 0]"]
+    lines += ["beams:", "  - {name: tail, section: s, from: t0, to: t1, elements: 4}", "rigid_bodies:"]
+    lines += [f"  - {{node: b{k}, mass: 1.0, inertia: [0.02, 0.03, 0.04], offset: [0.1, 0.02, 0]}}" for k in range(bodies)]
+    lines += ["joints:", "  - {name: j0, type: revolute, master: ground, slave: b0, axis: [0, 0, 1]}"]
+    for k in range(1, bodies):
+        kind, m, s = KINDS[(k - 1) % len(KINDS)], f"b{k - 1}", f"b{k}"
+        spec = {
+            "spherical": "type: spherical",
+            "revolute_y": "type: revolute, axis: [0, 1, 0]",
+            "revolute_z": "type: revolute, axis: [0, 0, 1]",
+            "universal": "type: universal, axis: [0, 0, 1], second_axis: [0, -1, 0]",
+            "screw": "type: screw, axis: [1, 0, 0], pitch: 0.05",
+            "prismatic": "type: prismatic, axis: [1, 0, 0]",
+        }[kind]
+        lines.append(f"  - {{name: j{k}, master: {m}, slave: {s}, {spec}}}")
+    lines.append(f"  - {{name: jt, type: revolute, master: b{bodies - 1}, slave: t0, axis: [0, 0, 1]}}")
+    lines += [
+        "force_elements:",
+        "  - {name: link, type: bushing, nodes: [b3, b9], stiffness: [200, 200, 200, 5, 5, 5], damping: [1, 1, 1, 0.01, 0.01, 0.01]}",
+        "functions:",
+        "  - {name: always, type: constant, value: 1.0}",
+        "loads:",
+        "  - {gravity: [0, -9.81, 0], function: always}",
+        "initial_conditions:",
+        "  - {nodes: b0, angular_velocity: [0, 0, 1]}",
+        "analysis:",
+        "  type: dynamic",
+        f"  integrator: {integrator}",
+        "  end_time: 0.05",
+        "  initial_step: 0.005",
+        "  max_step: 0.005",
+        "  initial_velocities: given",
+    ]
+    return "\n".join(lines) + "\n" + extra
+
+
+def unknowns(stdout):
+    for line in stdout.splitlines():
+        if " unknowns;" in line:
+            return int(line.split(" unknowns;")[0].split()[-1])
+    return -1
+
+
+# 1. The same motion with and without relays.
+for integrator in ("newmark", "genalpha", "mc", "em"):
+    path = f"{args.work_dir}/chain_{integrator}.yaml"
+    with open(path, "w") as f:
+        f.write(chain_model(integrator))
+    runs = {}
+    for depth in (0, 1, 3, 8):
+        output = f"{args.work_dir}/chain_{integrator}_{depth}.h5"
+        _, stdout, _ = mt.run_msflex(args, path, output, extra=["-analysis_condensation_depth", str(depth)])
+        with h5py.File(output, "r") as f:
+            frames = {name: f["frames"][name][()] for name in ("position", "rotation", "velocity", "angular_velocity", "body_center")}
+        runs[depth] = (frames, mt.history(output), unknowns(stdout))
+    reference, history_reference, unknowns_reference = runs[0]
+    for depth in (1, 3, 8):
+        frames, history, count = runs[depth]
+        print(f"{integrator}, depth {depth}: {count} unknowns (condensed whole: {unknowns_reference})")
+        check.true(f"{integrator}, depth {depth}: relays add unknowns", count > unknowns_reference)
+        check.less(f"{integrator}, depth {depth}: max |x - x_condensed| / chain length", np.abs(frames["position"] - reference["position"]).max() / 7.0, 1e-9)
+        check.less(f"{integrator}, depth {depth}: max |body centre difference| / chain length", np.abs(frames["body_center"] - reference["body_center"]).max() / 7.0, 1e-9)
+        speed = np.abs(reference["velocity"]).max()
+        check.less(f"{integrator}, depth {depth}: max |v - v_condensed| / max |v|", np.abs(frames["velocity"] - reference["velocity"]).max() / speed, 1e-8)
+        check.equal(f"{integrator}, depth {depth}: Newton iterations", int(history["newton_iterations"].sum()), int(history_reference["newton_iterations"].sum()))
+        if integrator == "em":
+            energy = np.abs(history["total_energy"]).max()
+            check.less(f"em, depth {depth}: energy balance range / energy", np.ptp(history["energy_balance"][1:]) / energy, 1e-9)
+
+# 2. The projection of the initial velocities.
+chain = f"{args.work_dir}/rigid_chain.yaml"
+subprocess.run([sys.executable, os.path.join(scripts, "make-chain"), "--joints", "40", "-o", chain], check=True)
+velocities = {}
+for depth in (0, 1, 8):
+    output = f"{args.work_dir}/rigid_chain_{depth}.h5"
+    mt.run_msflex(args, chain, output, extra=["-analysis_condensation_depth", str(depth)])
+    with h5py.File(output, "r") as f:
+        velocities[depth] = (f["frames/velocity"][0], f["frames/angular_velocity"][0])
+for depth in (1, 8):
+    scale = np.abs(velocities[0][0]).max()
+    check.less(f"projected velocities, depth {depth}: max |v - v_condensed| / max |v|", np.abs(velocities[depth][0] - velocities[0][0]).max() / scale, 1e-12)
+    check.less(f"projected angular velocities, depth {depth}: max difference", np.abs(velocities[depth][1] - velocities[0][1]).max(), 1e-12)
+
+
+# 3. One line, exit status 1.
+def one_line(label, status, stderr, text):
+    lines = [line for line in stderr.splitlines() if line.startswith("msflex:")]  # not mpiexec's own report
+    check.equal(f"{label}: exit status", status, 1)
+    check.equal(f"{label}: message lines", len(lines), 1)
+    check.true(f"{label}: the line says why", bool(lines) and text in lines[0])
+    check.equal(f"{label}: PETSc trace-back lines", stderr.count("PETSC ERROR"), 0)
+
+
+path = f"{args.work_dir}/chain_em.yaml"
+for label, extra, text in (
+    ("-snes_mf_operator", ["-analysis_condensation_depth", "3", "-snes_mf_operator"], "bad option: -snes_mf_operator with relay nodes"),
+    # (on several ranks PETSc's LU is refused anyway, for being sequential)
+    ("PETSc's LU", ["-analysis_condensation_depth", "3", "-pc_factor_mat_solver_type", "petsc"], "bad option: -pc_factor_mat_solver_type petsc"),
+    ("depth -1", ["-analysis_condensation_depth", "-1"], "-analysis_condensation_depth must lie in [0, 1000000]"),
+):
+    status, _, stderr = mt.run_msflex(args, path, f"{args.work_dir}/bad.h5", extra=extra, expect_success=False)
+    one_line(label, status, stderr, text)
+bad = f"{args.work_dir}/bad_depth.yaml"
+with open(bad, "w") as f:
+    f.write(chain_model("em", extra="  condensation_depth: -2\n"))
+status, _, stderr = mt.run_msflex(args, bad, f"{args.work_dir}/bad.h5", expect_success=False)
+one_line("input -2", status, stderr, "bad_depth.yaml:")
+check.finish()
