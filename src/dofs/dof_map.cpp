@@ -74,11 +74,16 @@ PetscErrorCode DofMapCreate(MPI_Comm comm, const Model &model, const std::vector
   map->joint_rank.assign(num_joints, 0);
   for (size_t j = 0; j < num_joints; ++j) map->joint_rank[j] = node_rank[model.joints[j].slave];
 
-  // Relay nodes: in dynamic analyses, every slave at a depth that is a multiple of the
-  // condensation depth (counted in joints from the top of its chain) and that is a master itself.
+  // Relay nodes: every slave at a depth that is a multiple of the condensation depth (counted in
+  // joints from the top of its chain) that is a master itself; in dynamics, and in statics without
+  // the stability account (the negative pivots of the condensed tangent: a relay's rows are not
+  // symmetric where its joint carries a force, so the tangent with them could only be factored by
+  // LU, which gives no inertia); never in eigenanalyses (the condensed symmetric pencil).
   std::vector<int>       joint_depth;
   const std::vector<int> chain_order = JointChainOrder(model, map->node_joint, &joint_depth);
-  const int              relay_depth = model.analysis.type == AnalysisType::Dynamic ? model.analysis.condensation_depth : 0;
+  const AnalysisType     type        = model.analysis.type;
+  const bool             relays      = type == AnalysisType::Dynamic || (type == AnalysisType::Static && !model.analysis.stability);
+  const int              relay_depth = relays ? model.analysis.condensation_depth : 0;
   std::vector<char>      is_relay(num_nodes, 0), is_master(num_nodes, 0);
   map->num_relays = 0;
   for (const Joint &joint : model.joints)

@@ -87,8 +87,8 @@ struct DofMap {
 };
 
 // Builds the map; a DOF constrained twice by different supports is an input error naming both.
-// Relay nodes only in dynamic analyses (statics count the tangent's negative pivots, which the
-// relays' saddle-point rows would change; eigenanalyses need the condensed symmetric pencil).
+// Relay nodes in dynamic analyses and in statics without the stability account (its negative
+// pivots need the condensed symmetric tangent, as eigenanalyses need the condensed pencil).
 PetscErrorCode DofMapCreate(MPI_Comm comm, const Model &model, const std::vector<int> &node_rank, DofMap *map);
 
 // Exact nonzeros per owned row of the assembled matrix, split into the diagonal (owned columns)

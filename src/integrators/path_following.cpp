@@ -72,6 +72,11 @@ PetscErrorCode PathFollower::Setup(MPI_Comm comm, Integrator *integrator)
   PetscCall(KSPGetPC(ksp_, &pc));
   PetscCall(SetDirectSolver(pc, assembler.Jacobian()));
   MSFLEX_CALL_READING_OPTIONS(PetscObjectComm((PetscObject)ksp_), KSPSetFromOptions(ksp_));
+  if (map_->num_relays > 0) {
+    // Relay nodes' zero diagonals are pivoted: more work space than MUMPS estimates (solvers.md).
+    PetscCall(WidenMumpsWorkspace(pc, assembler.Jacobian(), 100));
+    factor_.SetWorkspaceMargin(100);
+  }
   if (control_ == PathControl::Displacement) {
     // The controlled unknown: a free DOF of an independent node or a released joint coordinate
     // (the reader checked both), held by the rank that owns the node or the joint.
@@ -81,7 +86,7 @@ PetscErrorCode PathFollower::Setup(MPI_Comm comm, Integrator *integrator)
     PetscInt row = -1;
     if (!a.control_node.empty()) {
       for (PetscInt l = 0; l < map_->num_owned_nodes; ++l)
-        if (model_->nodes[map_->local_nodes[l]].name == a.control_node) row = map_->node_dofs[map_->local_nodes[l]][a.control_dof];
+        if (model_->nodes[map_->local_nodes[l]].name == a.control_node && !map_->IsRelay((int)l)) row = map_->node_dofs[map_->local_nodes[l]][a.control_dof];
     } else {
       for (const JointState &J : integrator->GetState().joints) {
         const Joint &joint = model_->joints[J.joint];
@@ -137,9 +142,15 @@ PetscErrorCode PathFollower::Linearize(double t, double lambda, double load_fact
     PetscCall(StaticResidual(system, lambda, lambda, nullptr, residual_, &ok, &force_scale));
     PetscCall(StaticLoadPattern(system, lambda, lambda, nullptr, residual_, q_));
     PetscCall(factor_.Factor(tangent_, kSymmetryTolerance, &point_.inertia));
+    // Relay nodes: each relay's saddle-point rows (its increments and its force, eliminated exactly
+    // by its joint) add 6 negative and 6 positive pivots to the condensed tangent's (the inertia of
+    // a KKT matrix with a full-rank constraint block), and none to the determinant's sign.
+    Assembler &assembler = system.GetAssembler();
+    if (point_.inertia.negative_pivots >= 0) point_.inertia.negative_pivots -= 6 * assembler.Map().num_relays;
     if (point_.inertia.factored) {
       PetscScalar c;
       PetscCall(factor_.Solve(q_, path_tangent_));
+      assembler.ZeroRelayEntries(path_tangent_); // the condensed rows of K^{-1} q are the condensed solve's
       PetscCall(VecDot(q_, path_tangent_, &c));
       if (std::isnan(c_0_)) {
         // The first equilibrium sets the scales: the current stiffness, the arc length per unit
@@ -158,11 +169,14 @@ PetscErrorCode PathFollower::Linearize(double t, double lambda, double load_fact
         for (PetscInt i = 0; i < n; ++i)
           if (!(PetscRealPart(d[i]) > 0)) d[i] = 1.0;
         PetscCall(VecRestoreArray(scale_, &d));
+        // D = 0 on the relays' rows: inverse iteration then applies the condensed K^{-1}.
+        assembler.ZeroRelayEntries(scale_);
         PetscCall(VecSet(mode_, 1.0));
       }
       point_.stiffness_parameter = PetscRealPart(c) != 0.0 ? c_0_ / PetscRealPart(c) : NAN;
       PetscCall(LoadFactorRate());
       if (stability_) PetscCall(factor_.LowestEigenvalue(scale_, mode_, &point_.lowest_eigenvalue));
+      assembler.ZeroRelayEntries(mode_);
       tangent_ready_ = true;
     }
   }
@@ -462,6 +476,8 @@ PetscErrorCode PathFollower::Correct(double dl, double displacement_target, doub
     PetscCall(KSPGetConvergedReason(ksp_, &reason_R));
     PetscCall(KSPSolve(ksp_, q_, dx_F_));
     PetscCall(KSPGetConvergedReason(ksp_, &reason_F));
+    assembler.ZeroRelayEntries(dx_R_);
+    assembler.ZeroRelayEntries(dx_F_);
     if (reason_R < 0 || reason_F < 0) {
       PC pc;
       outcome->why =

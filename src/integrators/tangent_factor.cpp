@@ -66,6 +66,7 @@ PetscErrorCode TangentFactor::FactorAij(Mat K, double symmetry_tolerance, Tangen
   } else {
     PetscCall(MatMumpsSetIcntl(factor_, 33, 1)); // the determinant
   }
+  if (workspace_margin_ > 0) PetscCall(MatMumpsSetIcntl(factor_, 14, workspace_margin_));
   PetscCall(MatFactorInfoInitialize(&info));
   PetscCall(MatGetOrdering(K, MATORDERINGNATURAL, &row_order, &column_order));
   // A singular tangent makes MUMPS fail (INFOG(1) < 0): that is an answer here, not an error.

@@ -43,11 +43,15 @@ public:
   // The eigenvalue mu of smallest magnitude of K phi = mu D phi, by inverse iteration from *mode
   // (in: the start vector, e.g. the last mode; out: the mode, v^T D v = 1). Collective.
   PetscErrorCode LowestEigenvalue(Vec D, Vec mode, double *mu);
+  // MUMPS' work-space margin ICNTL(14) in percent (0: MUMPS' default): a tangent with relay nodes'
+  // zero diagonals needs more than MUMPS estimates (core/dense_lu.hpp, WidenMumpsWorkspace).
+  void SetWorkspaceMargin(PetscInt percent) { workspace_margin_ = percent; }
 
 private:
   PetscErrorCode FactorAij(Mat K, double symmetry_tolerance, TangentInertia *inertia);
-  Mat            factor_  = nullptr;
-  Vec            work_[2] = {nullptr, nullptr};
+  Mat            factor_           = nullptr;
+  PetscInt       workspace_margin_ = 0;
+  Vec            work_[2]          = {nullptr, nullptr};
 };
 
 } // namespace msflex

@@ -12,7 +12,10 @@ is the condensed one to round-off while the cost per joint no longer grows with 
 2. The projection of the initial velocities with relays (scripts/make-chain's rigid chain, a
    given angular velocity on its first body): the same velocities as condensed whole, to 1e-12.
 3. Options that cannot serve relays are one line and exit status 1: -snes_mf_operator and
-   PETSc's LU (no pivoting); a negative depth, as an option and in the input."""
+   PETSc's LU (no pivoting); a negative depth, as an option and in the input.
+4. Statics without the stability account (the only statics with relays): 12 hinges of alternating
+   axes in a chain, each slave held by a beam to a fixed point, a tip force; load control and arc
+   length give the same path with relays every 3 joints as condensed whole, to 1e-12."""
 
 import os
 import subprocess
@@ -145,4 +148,37 @@ with open(bad, "w") as f:
     f.write(chain_model("em", extra="  condensation_depth: -2\n"))
 status, _, stderr = mt.run_msflex(args, bad, f"{args.work_dir}/bad.h5", expect_success=False)
 one_line("input -2", status, stderr, "bad_depth.yaml:")
+
+
+# 4. Statics.
+def column_model(control):
+    lines = ["title: chain of hinges held by beams", "sections:", "  - {name: s, EA: 1.0e4, GA2: 4.0e3, GA3: 4.0e3, GJ: 5, EI2: 8, EI3: 8}", "nodes:"]
+    lines += [f"  b{k}: [0, {0.5 * (k + 1)}, 0]" for k in range(12)] + [f"  a{k}: [1, {0.5 * (k + 1)}, 0]" for k in range(12)]
+    lines += ["beams:"] + [f"  - {{name: arm{k}, section: s, from: b{k}, to: a{k}, elements: 2}}" for k in range(12)]
+    lines += ["supports:", "  - {nodes: [" + ", ".join(f"a{k}" for k in range(12)) + "], fix: all}"]
+    lines += ["joints:", "  - {name: j0, type: revolute, master: ground, slave: b0, axis: [0, 0, 1]}"]
+    axes = ["[0, 0, 1]", "[1, 0, 0]", "[0, 1, 0]"]
+    lines += [f"  - {{name: j{k}, type: revolute, master: b{k - 1}, slave: b{k}, axis: {axes[k % 3]}}}" for k in range(1, 12)]
+    lines += ["loads:", "  - {nodes: b11, force: [1, -2, 0.5]}", "analysis:", "  type: static", f"  control: {control}"]
+    lines += ["  end_time: 1.0", "  initial_step: 0.25", "  max_step: 0.25", "  stability: false"]
+    return "\n".join(lines) + "\n"
+
+
+for control in ("load", "arc_length"):
+    path = f"{args.work_dir}/column_{control}.yaml"
+    with open(path, "w") as f:
+        f.write(column_model(control))
+    results = {}
+    for depth in (0, 3):
+        output = f"{args.work_dir}/column_{control}_{depth}.h5"
+        _, stdout, _ = mt.run_msflex(args, path, output, extra=["-analysis_condensation_depth", str(depth)])
+        with h5py.File(output, "r") as f:
+            results[depth] = (f["frames/position"][()], f["frames/displacement"][()], mt.history(output), unknowns(stdout))
+    (x0, u0, h0, n0), (x3, _, h3, n3) = results[0], results[3]
+    check.true(f"statics, {control}: relays add unknowns ({n3} against {n0})", n3 > n0)
+    check.true(f"statics, {control}: the same frames", x0.shape == x3.shape)
+    if x0.shape == x3.shape:
+        check.less(f"statics, {control}: max |x - x_condensed| / max |u|", np.abs(x3 - x0).max() / np.abs(u0).max(), 1e-12)
+    if "load_factor" in h0 and len(h0["load_factor"]) == len(h3["load_factor"]):
+        check.less(f"statics, {control}: max |load factor difference|", np.abs(h3["load_factor"] - h0["load_factor"]).max(), 1e-12)
 check.finish()
