@@ -503,13 +503,17 @@ PetscErrorCode RunAnalysis(MPI_Comm comm, Model model, const RunOptions &options
   *end = RunEnd::Completed;
   PetscCall(Setup(a, std::move(model)));
   const AnalysisSettings &analysis = a.model.analysis;
+  // Relay nodes (docs/joints.md) named with their 12 rows each, so the count of unknowns adds up.
+  const std::string relays = a.map.num_relays > 0 ? Format(" (%" PetscInt_FMT " of them for %" PetscInt_FMT " relay nodes, condensation depth %d)",
+                                                           12 * a.map.num_relays, a.map.num_relays, analysis.condensation_depth)
+                                                  : "";
   if (!options.quiet)
     PetscCall(PetscPrintf(comm,
                           "msflex: %s analysis%s%s of '%s': %" PetscInt_FMT " nodes, %" PetscInt_FMT " elements, %" PetscInt_FMT " rigid bodies, %" PetscInt_FMT
-                          " joints, %" PetscInt_FMT " unknowns; output %s\n",
+                          " joints, %" PetscInt_FMT " unknowns%s; output %s\n",
                           AnalysisTypeName(analysis.type), a.Dynamic() ? " with " : "", a.Dynamic() ? TimeSchemeName(analysis.integrator) : "",
                           a.input_file.c_str(), a.map.global_count.nodes, a.map.global_count.elements, a.map.global_count.rigid_bodies,
-                          a.map.global_count.joints, a.map.num_global, options.output_file.c_str()));
+                          a.map.global_count.joints, a.map.num_global, relays.c_str(), options.output_file.c_str()));
   a.integrator.SetQuiet(options.quiet);
   if (IsEigenAnalysis(analysis.type)) {
     PetscCall(RunEigenAnalysis(comm, a.model, a.map, a.integrator, a.output, options.quiet));

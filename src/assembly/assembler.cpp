@@ -487,8 +487,14 @@ PetscErrorCode Assembler::FindMasslessUnknowns()
   // The mass matrix is the tangent of the initial-acceleration problem (the accelerations enter
   // linearly, so it does not depend on them). A zero row is an unknown no mass reaches; the mass
   // matrix is symmetric, so its column is zero too and the other equations do not see it.
-  PetscCall(AssembleJacobian(jacobian_, &ok));
+  // Without the relays' coupling, whose rows are never empty; a row reached only below a relay
+  // then counts as reached (DropRelayReachedRows, as in the velocity projection).
+  skip_relay_coupling_      = true;
+  const PetscErrorCode code = AssembleJacobian(jacobian_, &ok);
+  skip_relay_coupling_      = false;
+  PetscCall(code);
   PetscCall(EmptyRowsOfJacobian(&massless_rows_));
+  if (map_->num_relays > 0) PetscCall(DropRelayReachedRows(&massless_rows_));
   const PetscInt local = (PetscInt)massless_rows_.size();
   PetscCallMPI(MPIU_Allreduce(&local, &count, 1, MPIU_INT, MPI_SUM, comm_));
   num_massless_unknowns_ = count;
@@ -887,7 +893,7 @@ PetscErrorCode Assembler::AssembleJacobian(Mat jacobian, PetscBool *geometry_ok)
   if (rank_one_active_)
     for (size_t l = 0; l < slave_residual_.size(); ++l) slave_residual_[l] += beta * slave_correction_residual_[l];
   if (!eq.InitialAcceleration()) PetscCall(AddJointGeometricStiffness(jacobian));
-  PetscCall(AddRelayCoupling(jacobian));
+  if (!skip_relay_coupling_) PetscCall(AddRelayCoupling(jacobian));
   PetscCall(MatAssemblyBegin(jacobian, MAT_FINAL_ASSEMBLY));
   PetscCall(MatAssemblyEnd(jacobian, MAT_FINAL_ASSEMBLY));
   if (separate_correction && beta != 0.0) PetscCall(MatAXPY(jacobian, beta, correction_jacobian_, SAME_NONZERO_PATTERN));

@@ -149,9 +149,9 @@ public:
   Mat Jacobian() const { return jacobian_; }
   // Zeroes the relay nodes' own and force entries of an owned vector (a Newton step: they are not
   // increments of the state, and its norms are those of the condensed unknowns).
-  void ZeroRelayEntries(Vec v) const;
+  PetscErrorCode ZeroRelayEntries(Vec v) const;
   // Copies the relay nodes' own and force entries of `from` into `to` (owned).
-  void CopyRelayEntries(Vec from, Vec to) const;
+  PetscErrorCode CopyRelayEntries(Vec from, Vec to) const;
   // How many matrices AssembleJacobian has assembled (the tangent, or through AssembleMassMatrix
   // the mass matrix, all into jacobian_): modified Newton keeps a factorisation only while no
   // other matrix was assembled since.
@@ -273,16 +273,17 @@ private:
   // Per local slave node: rows and columns of its expansion (6 x m, row-major), m = number of
   // unknowns it depends on: R[unknowns] += rows^T g_spin, d(spin)/dX = columns.
   std::vector<std::vector<double>> expansion_rows_, expansion_columns_;
-  std::vector<Vec6>                slave_residual_;            // per local node: spin residual gathered on slaves
-  std::vector<Vec6>                relay_force_;               // per local node: force gathered on a relay (residual pass)
-  std::vector<int>                 relay_anchor_;              // per local node: the relay its expansion ends on, or -1
-  std::vector<int>                 relay_joints_;              // local joints whose slave is a relay, masters first
-  std::vector<Vec6>                slave_correction_residual_; // per local node: em's correction vector gathered on slaves
-  Vec                              joint_output_ = nullptr;    // 12 per joint slot (DofMap::joint_slot): reaction (6), rates (6)
-  std::vector<double>              expansion_scratch_;         // work space for expanded blocks
-  std::vector<double>              expansion_product_scratch_; // a block times a column map, 6 x unknowns
-  std::vector<double>              joint_geometric_scratch_;   // work space of AddJointGeometricStiffness
-  std::vector<PetscInt>            expanded_indices_scratch_;  // work space: an expanded element's unknowns
+  std::vector<Vec6>                slave_residual_;              // per local node: spin residual gathered on slaves
+  std::vector<Vec6>                relay_force_;                 // per local node: force gathered on a relay (residual pass)
+  std::vector<int>                 relay_anchor_;                // per local node: the relay its expansion ends on, or -1
+  std::vector<int>                 relay_joints_;                // local joints whose slave is a relay, masters first
+  bool                             skip_relay_coupling_ = false; // FindMasslessUnknowns: the mass matrix alone
+  std::vector<Vec6>                slave_correction_residual_;   // per local node: em's correction vector gathered on slaves
+  Vec                              joint_output_ = nullptr;      // 12 per joint slot (DofMap::joint_slot): reaction (6), rates (6)
+  std::vector<double>              expansion_scratch_;           // work space for expanded blocks
+  std::vector<double>              expansion_product_scratch_;   // a block times a column map, 6 x unknowns
+  std::vector<double>              joint_geometric_scratch_;     // work space of AddJointGeometricStiffness
+  std::vector<PetscInt>            expanded_indices_scratch_;    // work space: an expanded element's unknowns
   // Per local element: the residual and em's correction vector of the residual's first pass.
   std::vector<double> element_force_scratch_, element_correction_scratch_;
   std::vector<char>   element_has_slave_; // per local element

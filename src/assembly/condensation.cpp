@@ -176,33 +176,36 @@ PetscErrorCode Assembler::AddRelayCoupling(Mat matrix)
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
-void Assembler::CopyRelayEntries(Vec from, Vec to) const
+PetscErrorCode Assembler::CopyRelayEntries(Vec from, Vec to) const
 {
-  if (map_->num_relays == 0) return;
   const PetscScalar *source;
   PetscScalar       *target;
-  if (VecGetArrayRead(from, &source) != PETSC_SUCCESS) return;
-  if (VecGetArray(to, &target) == PETSC_SUCCESS) {
-    for (PetscInt l = 0; l < map_->num_owned_nodes; ++l) {
-      if (!map_->IsRelay((int)l)) continue;
-      for (int i = 0; i < 6; ++i)
-        for (const PetscInt row : {map_->node_dofs[l][i], map_->relay_forces[l][i]}) target[row - map_->first_owned] = source[row - map_->first_owned];
-    }
-    (void)VecRestoreArray(to, &target);
+  PetscFunctionBeginUser;
+  if (map_->num_relays == 0) PetscFunctionReturn(PETSC_SUCCESS);
+  PetscCall(VecGetArrayRead(from, &source));
+  PetscCall(VecGetArray(to, &target));
+  for (PetscInt l = 0; l < map_->num_owned_nodes; ++l) {
+    if (!map_->IsRelay((int)l)) continue;
+    for (int i = 0; i < 6; ++i)
+      for (const PetscInt row : {map_->node_dofs[l][i], map_->relay_forces[l][i]}) target[row - map_->first_owned] = source[row - map_->first_owned];
   }
-  (void)VecRestoreArrayRead(from, &source);
+  PetscCall(VecRestoreArray(to, &target));
+  PetscCall(VecRestoreArrayRead(from, &source));
+  PetscFunctionReturn(PETSC_SUCCESS);
 }
 
-void Assembler::ZeroRelayEntries(Vec v) const
+PetscErrorCode Assembler::ZeroRelayEntries(Vec v) const
 {
-  if (map_->num_relays == 0) return;
   PetscScalar *values;
-  if (VecGetArray(v, &values) != PETSC_SUCCESS) return;
+  PetscFunctionBeginUser;
+  if (map_->num_relays == 0) PetscFunctionReturn(PETSC_SUCCESS);
+  PetscCall(VecGetArray(v, &values));
   for (PetscInt l = 0; l < map_->num_owned_nodes; ++l) {
     if (!map_->IsRelay((int)l)) continue;
     for (int i = 0; i < 6; ++i) values[map_->node_dofs[l][i] - map_->first_owned] = 0.0, values[map_->relay_forces[l][i] - map_->first_owned] = 0.0;
   }
-  (void)VecRestoreArray(v, &values);
+  PetscCall(VecRestoreArray(v, &values));
+  PetscFunctionReturn(PETSC_SUCCESS);
 }
 
 PetscErrorCode Assembler::AddNodeVector(Vec v, int l, const double *g, Through through)

@@ -47,7 +47,7 @@ static PetscErrorCode RelayProjectionMult(Mat shell, Vec v, Vec out)
   const PetscInt first = relay->self->Map().first_owned;
   PetscCall(VecDuplicate(v, &trial));
   PetscCall(VecCopy(v, trial));
-  relay->self->ZeroRelayEntries(trial);
+  PetscCall(relay->self->ZeroRelayEntries(trial));
   PetscScalar *values;
   PetscCall(VecGetArray(trial, &values));
   for (PetscInt row : *relay->held) values[row - first] = 0.0;
@@ -62,7 +62,7 @@ static PetscErrorCode RelayProjectionMult(Mat shell, Vec v, Vec out)
   for (PetscInt row : *relay->held) values[row - first] = given[row - first];
   PetscCall(VecRestoreArray(out, &values));
   PetscCall(VecRestoreArrayRead(v, &given));
-  relay->self->CopyRelayEntries(v, out);
+  PetscCall(relay->self->CopyRelayEntries(v, out));
   PetscCall(VecDestroy(&trial));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
@@ -76,12 +76,12 @@ static PetscErrorCode RelayProjectionPreconditioner(PC pc, Vec b, Vec z)
   PetscCall(PCShellGetContext(pc, &relay));
   PetscCall(VecDuplicate(b, &rhs));
   PetscCall(VecCopy(b, rhs));
-  relay->self->ZeroRelayEntries(rhs);
+  PetscCall(relay->self->ZeroRelayEntries(rhs));
   PetscCall(KSPSolve(relay->coupled, rhs, z));
   KSPConvergedReason reason;
   PetscCall(KSPGetConvergedReason(relay->coupled, &reason));
   if (reason < 0) PetscCall(PCSetFailedReason(pc, PC_SUBPC_ERROR));
-  relay->self->CopyRelayEntries(b, z);
+  PetscCall(relay->self->CopyRelayEntries(b, z));
   PetscCall(VecDestroy(&rhs));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
@@ -175,6 +175,7 @@ PetscErrorCode Assembler::ProjectInitialVelocities(double t, InitialVelocityRepo
   // A and R = A y_g + r_0 (the strain-rate forces K_e V and the slaves' pulls to their given velocities).
   auto assemble_into = [&](Vec R, bool with_matrix, double *strain_rate) -> PetscErrorCode {
     PetscFunctionBeginUser;
+    PetscCall(VecSetOption(R, VEC_IGNORE_NEGATIVE_INDICES, PETSC_TRUE)); // also the CG's work vectors
     PetscCall(VecZeroEntries(R));
     if (with_matrix) PetscCall(MatZeroEntries(jacobian_));
     double local_rate = 0.0;
@@ -291,7 +292,7 @@ PetscErrorCode Assembler::ProjectInitialVelocities(double t, InitialVelocityRepo
   } else {
     PetscCall(VecDuplicate(solution_template_, &shifted));
     PetscCall(VecSet(shifted, 1e-8 * largest_diagonal));
-    ZeroRelayEntries(shifted);
+    PetscCall(ZeroRelayEntries(shifted));
     PetscCall(MatDiagonalSet(P, shifted, ADD_VALUES));
     PetscCall(VecDuplicate(solution_template_, &base_R));
     PetscCall(VecCopy(R, base_R));
@@ -335,7 +336,7 @@ PetscErrorCode Assembler::ProjectInitialVelocities(double t, InitialVelocityRepo
   PetscCall(MatDestroy(&P));
   PetscCheck(reason > 0, comm_, PETSC_ERR_NOT_CONVERGED,
              "the projection of the initial velocities did not converge (%s); run with -analysis_initial_velocities given", KSPConvergedReasons[reason]);
-  ZeroRelayEntries(delta);
+  PetscCall(ZeroRelayEntries(delta));
   PetscCall(VecAXPY(y, 1.0, delta));
   PetscCall(SetIncrements(y));
   PetscCall(assemble(false, &report->strain_rate_after));
@@ -395,9 +396,16 @@ PetscErrorCode Assembler::DropRelayReachedRows(std::vector<PetscInt> *empty_rows
       bool own_reached = false;
       for (int i = 0; i < 6; ++i) own_reached |= PetscRealPart(values[map.node_dofs[s][i] - map.first_owned]) > 0.0;
       if (!own_reached) continue;
-      for (PetscInt row : map.relay_unknowns[s])
-        if (owned(row)) values[row - map.first_owned] = 1.0;
-        else elsewhere.push_back(row);
+      // The unknowns of U its joint's map moves the relay by.
+      const std::vector<PetscInt> &unknowns = map.relay_unknowns[s];
+      const int                    m        = (int)unknowns.size();
+      for (int a = 0; a < m; ++a) {
+        bool moves = false;
+        for (int i = 0; i < 6; ++i) moves |= expansion_columns_[s][i * m + a] != 0.0 || expansion_rows_[s][i * m + a] != 0.0;
+        if (!moves) continue;
+        if (owned(unknowns[a])) values[unknowns[a] - map.first_owned] = 1.0;
+        else elsewhere.push_back(unknowns[a]);
+      }
     }
     PetscCall(VecRestoreArray(reached, &values));
     for (PetscInt row : elsewhere) PetscCall(VecSetValue(reached, row, 1.0, INSERT_VALUES));

@@ -128,6 +128,21 @@ PetscErrorCode SetDirectSolver(PC pc, Mat matrix)
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
+PetscErrorCode UsesNonPivotingLU(PC pc, Mat matrix, PetscBool *answer)
+{
+  PCType        type;
+  MatSolverType package = nullptr;
+  PetscBool     dense;
+  PetscFunctionBeginUser;
+  *answer = PETSC_FALSE;
+  PetscCall(PetscObjectTypeCompareAny((PetscObject)matrix, &dense, MATSEQDENSE, MATMPIDENSE, ""));
+  PetscCall(PCGetType(pc, &type));
+  if (dense || !type || strcmp(type, PCLU)) PetscFunctionReturn(PETSC_SUCCESS); // a dense LU is LAPACK's, which pivots
+  PetscCall(PCFactorGetMatSolverType(pc, &package));
+  *answer = package && !strcmp(package, MATSOLVERPETSC) ? PETSC_TRUE : PETSC_FALSE;
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
 PetscErrorCode WidenMumpsWorkspace(PC pc, Mat matrix, PetscInt percent)
 {
   PCType        type;

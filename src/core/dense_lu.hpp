@@ -26,5 +26,8 @@ PetscErrorCode SetDirectSolver(PC pc, Mat matrix);
 // found by numerical pivoting (relay nodes' zero diagonals: the estimate is too low for them);
 // nothing for other solvers. -mat_mumps_icntl_14 still wins.
 PetscErrorCode WidenMumpsWorkspace(PC pc, Mat matrix, PetscInt percent);
+// Whether the PC factors a sparse matrix by PETSc's own LU, which does not pivot (relay nodes'
+// zero diagonals need a pivoting LU: MUMPS, or LAPACK's for a dense matrix).
+PetscErrorCode UsesNonPivotingLU(PC pc, Mat matrix, PetscBool *answer);
 
 } // namespace msflex

@@ -404,8 +404,10 @@ PetscErrorCode DofMapPreallocation(const DofMap &map, const Model &model, std::v
   // joint's coordinates are in U and have no holder.
   std::vector<std::vector<PetscInt>> relay_columns(map.num_relays > 0 ? map.num_owned : 0);
   if (map.num_relays > 0) {
-    for (PetscInt r = 0; r < map.num_owned; ++r)
-      if (row_node[r] < 0) row_node[r] = kRelayRow; // a relay's force row
+    for (size_t n = 0; n < num_nodes; ++n)
+      if (map.IsRelay((int)n))
+        for (PetscInt row : map.relay_forces[n])
+          if (row >= first && row < last) row_node[row - first] = kRelayRow;
     const auto add = [&](PetscInt row, const PetscInt *columns, size_t count) {
       if (row >= first && row < last) relay_columns[row - first].insert(relay_columns[row - first].end(), columns, columns + count);
     };

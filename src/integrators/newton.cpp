@@ -111,7 +111,7 @@ PetscErrorCode SafeguardedNewtonStep(SNESLineSearch linesearch, void *ctx)
   PetscFunctionBeginUser;
   PetscCall(SNESLineSearchGetVecs(linesearch, &x, &f, &y, &w, &g));
   // The relay nodes' entries of the step are the linear solve's, not increments of the state.
-  context->assembler->ZeroRelayEntries(y);
+  PetscCall(context->assembler->ZeroRelayEntries(y));
   for (int attempt = 0; attempt < 9; ++attempt) {
     if (attempt > 0) lambda *= 0.5;
     PetscCall(VecWAXPY(w, -lambda, y, x));
@@ -316,15 +316,16 @@ PetscErrorCode NewtonSolverCreate(MPI_Comm comm, const AnalysisSettings &analysi
     // Their zero diagonals are pivoted numerically: MUMPS needs more work space than it estimates
     // (a chain of 10^4 rigid bodies failed with INFOG(1) = -9 at the default 20 %).
     PetscCall(WidenMumpsWorkspace(pc, tangent, 100));
-    PetscBool matrix_free = PETSC_FALSE, petsc_lu = PETSC_FALSE;
-    PCType    pc_type;
+    PetscBool          matrix_free = PETSC_FALSE, petsc_lu = PETSC_FALSE;
+    SNESLineSearchType line_search_type;
     PetscCall(PetscOptionsHasName(nullptr, nullptr, "-snes_mf_operator", &matrix_free));
-    PetscCall(PCGetType(pc, &pc_type));
-    if (pc_type && !strcmp(pc_type, PCLU)) {
-      MatSolverType package = nullptr;
-      PetscCall(PCFactorGetMatSolverType(pc, &package));
-      petsc_lu = package && !strcmp(package, MATSOLVERPETSC) ? PETSC_TRUE : PETSC_FALSE;
-    }
+    PetscCall(UsesNonPivotingLU(pc, tangent, &petsc_lu));
+    PetscCall(SNESLineSearchGetType(linesearch, &line_search_type));
+    // msflex's own line search drops the relays' entries of the step (they are no increments).
+    PetscCheck(!strcmp(line_search_type, SNESLINESEARCHSHELL), comm, PETSC_ERR_USER_INPUT,
+               "bad option: -snes_linesearch_type %s with relay nodes (chains deeper than -analysis_condensation_depth %d): msflex's own line search "
+               "keeps the relays' rows out of the update; give -analysis_condensation_depth 0",
+               line_search_type, analysis.condensation_depth);
     PetscCheck(!matrix_free, comm, PETSC_ERR_USER_INPUT,
                "bad option: -snes_mf_operator with relay nodes (chains deeper than -analysis_condensation_depth %d): the matrix-free operator does not see "
                "their rows; give -analysis_condensation_depth 0",

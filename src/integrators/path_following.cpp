@@ -74,6 +74,12 @@ PetscErrorCode PathFollower::Setup(MPI_Comm comm, Integrator *integrator)
   MSFLEX_CALL_READING_OPTIONS(PetscObjectComm((PetscObject)ksp_), KSPSetFromOptions(ksp_));
   if (map_->num_relays > 0) {
     // Relay nodes' zero diagonals are pivoted: more work space than MUMPS estimates (solvers.md).
+    PetscBool petsc_lu;
+    PetscCall(UsesNonPivotingLU(pc, assembler.Jacobian(), &petsc_lu));
+    PetscCheck(!petsc_lu, comm, PETSC_ERR_USER_INPUT,
+               "bad option: -path_pc_factor_mat_solver_type petsc with relay nodes (chains deeper than -analysis_condensation_depth %d): PETSc's LU "
+               "does not pivot, and their force rows have zero diagonals; use mumps, or -analysis_condensation_depth 0",
+               model_->analysis.condensation_depth);
     PetscCall(WidenMumpsWorkspace(pc, assembler.Jacobian(), 100));
     factor_.SetWorkspaceMargin(100);
   }
@@ -150,7 +156,7 @@ PetscErrorCode PathFollower::Linearize(double t, double lambda, double load_fact
     if (point_.inertia.factored) {
       PetscScalar c;
       PetscCall(factor_.Solve(q_, path_tangent_));
-      assembler.ZeroRelayEntries(path_tangent_); // the condensed rows of K^{-1} q are the condensed solve's
+      PetscCall(assembler.ZeroRelayEntries(path_tangent_)); // the condensed rows of K^{-1} q are the condensed solve's
       PetscCall(VecDot(q_, path_tangent_, &c));
       if (std::isnan(c_0_)) {
         // The first equilibrium sets the scales: the current stiffness, the arc length per unit
@@ -170,13 +176,13 @@ PetscErrorCode PathFollower::Linearize(double t, double lambda, double load_fact
           if (!(PetscRealPart(d[i]) > 0)) d[i] = 1.0;
         PetscCall(VecRestoreArray(scale_, &d));
         // D = 0 on the relays' rows: inverse iteration then applies the condensed K^{-1}.
-        assembler.ZeroRelayEntries(scale_);
+        PetscCall(assembler.ZeroRelayEntries(scale_));
         PetscCall(VecSet(mode_, 1.0));
       }
       point_.stiffness_parameter = PetscRealPart(c) != 0.0 ? c_0_ / PetscRealPart(c) : NAN;
       PetscCall(LoadFactorRate());
       if (stability_) PetscCall(factor_.LowestEigenvalue(scale_, mode_, &point_.lowest_eigenvalue));
-      assembler.ZeroRelayEntries(mode_);
+      PetscCall(assembler.ZeroRelayEntries(mode_));
       tangent_ready_ = true;
     }
   }
@@ -476,8 +482,8 @@ PetscErrorCode PathFollower::Correct(double dl, double displacement_target, doub
     PetscCall(KSPGetConvergedReason(ksp_, &reason_R));
     PetscCall(KSPSolve(ksp_, q_, dx_F_));
     PetscCall(KSPGetConvergedReason(ksp_, &reason_F));
-    assembler.ZeroRelayEntries(dx_R_);
-    assembler.ZeroRelayEntries(dx_F_);
+    PetscCall(assembler.ZeroRelayEntries(dx_R_));
+    PetscCall(assembler.ZeroRelayEntries(dx_F_));
     if (reason_R < 0 || reason_F < 0) {
       PC pc;
       outcome->why =

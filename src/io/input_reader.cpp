@@ -668,6 +668,9 @@ void ReadAnalysis(const YAML::Node *mapping, const ReaderContext &context, Analy
     FailAt(entry.Required("jacobian_reuse").Mark(),
            "'jacobian_reuse' must be less than 1 (a contraction factor), got " + entry.Required("jacobian_reuse").Scalar());
   analysis.condensation_depth = entry.Integer("condensation_depth", 0, analysis.condensation_depth);
+  if (analysis.condensation_depth > 1000000)
+    FailAt(entry.Required("condensation_depth").Mark(),
+           "'condensation_depth' must lie in [0, 1000000] (0: condense whole chains), got " + entry.Required("condensation_depth").Scalar());
   if (const YAML::Node *output_times = entry.Find("output_times")) ReadOutputTimes(*output_times, analysis);
   analysis.static_stage       = entry.Bool("static_stage", analysis.static_stage);
   analysis.static_stage_steps = entry.Integer("static_stage_steps", 1, analysis.static_stage_steps);

@@ -15,9 +15,16 @@ is the condensed one to round-off while the cost per joint no longer grows with 
    PETSc's LU (no pivoting); a negative depth, as an option and in the input.
 4. Statics without the stability account (the only statics with relays): 12 hinges of alternating
    axes in a chain, each slave held by a beam to a fixed point, a tip force; load control and arc
-   length give the same path with relays every 3 joints as condensed whole, to 1e-12."""
+   length give the same path with relays every 3 joints as condensed whole, to 1e-12.
+5. A chain of 12 bodies hanging from the tip of a clamped beam (fixed DOFs in the projection), an
+   initial angular velocity projected: the same velocities and motion as condensed whole.
+6. A chain whose last 6 joints carry no mass, only coordinate springs (the initial accelerations'
+   massless unknowns below a relay): the same count of massless unknowns and the same motion.
+7. -snes_linesearch_type (msflex's own line search keeps the relays' rows out of the update) is
+   one line and exit status 1."""
 
 import os
+import re
 import subprocess
 import sys
 
@@ -78,10 +85,13 @@ def chain_model(integrator, bodies=12, extra=""):
 
 
 def unknowns(stdout):
-    for line in stdout.splitlines():
-        if " unknowns;" in line:
-            return int(line.split(" unknowns;")[0].split()[-1])
-    return -1
+    """The count of unknowns in the run's first line; with relays it says how many are theirs."""
+    match = re.search(r" (\d+) unknowns(?: \((\d+) of them for (\d+) relay nodes, condensation depth \d+\))?;", stdout)
+    if not match:
+        return -1
+    if match.group(2):
+        check.equal("the relays' share of the unknowns is 12 per relay", int(match.group(2)), 12 * int(match.group(3)))
+    return int(match.group(1))
 
 
 # 1. The same motion with and without relays.
@@ -149,6 +159,9 @@ with open(bad, "w") as f:
 status, _, stderr = mt.run_msflex(args, bad, f"{args.work_dir}/bad.h5", expect_success=False)
 one_line("input -2", status, stderr, "bad_depth.yaml:")
 
+status, _, stderr = mt.run_msflex(args, path, f"{args.work_dir}/bad.h5", extra=["-analysis_condensation_depth", "3", "-snes_linesearch_type", "bt"], expect_success=False)
+one_line("-snes_linesearch_type bt", status, stderr, "bad option: -snes_linesearch_type bt with relay nodes")
+
 
 # 4. Statics.
 def column_model(control):
@@ -181,4 +194,46 @@ for control in ("load", "arc_length"):
         check.less(f"statics, {control}: max |x - x_condensed| / max |u|", np.abs(x3 - x0).max() / np.abs(u0).max(), 1e-12)
     if "load_factor" in h0 and len(h0["load_factor"]) == len(h3["load_factor"]):
         check.less(f"statics, {control}: max |load factor difference|", np.abs(h3["load_factor"] - h0["load_factor"]).max(), 1e-12)
+
+
+# 5 and 6. A chain on a clamped beam with a projected velocity; a chain with a massless tail.
+def hanging_chain(beam, massless_tail):
+    bodies = 12
+    lines = ["title: chain of hinges", "sections:", "  - {name: link, EA: 1.0e6, GA2: 4.0e5, GA3: 4.0e5, GJ: 50, EI2: 80, EI3: 80, rhoA: 1.0, rhoJ: [0.02, 0.01, 0.01]}"]
+    lines += ["nodes:"] + ([f"  root: [-1, 0, 0]", "  tip: [0, 0, 0]"] if beam else [])
+    lines += [f"  n{k}: [{k + 1}, 0, 0]" for k in range(bodies)]
+    if beam:
+        lines += ["beams:", "  - {name: beam, section: link, from: root, to: tip, elements: 2}", "supports:", "  - {nodes: root, fix: all}"]
+    massive = range(6) if massless_tail else range(bodies)
+    lines += ["rigid_bodies:"] + [f"  - {{node: n{k}, mass: 1.0, inertia: [0.01, 0.01, 0.01]}}" for k in massive]
+    lines += ["joints:", f"  - {{name: j0, type: revolute, master: {'tip' if beam else 'ground'}, slave: n0, axis: [0, 0, 1]}}"]
+    lines += [f"  - {{name: j{k}, type: revolute, master: n{k - 1}, slave: n{k}, axis: [0, {k % 2}, {1 - k % 2}]}}" for k in range(1, bodies)]
+    if massless_tail:
+        lines += ["force_elements:"] + [f"  - {{name: s{k}, type: coordinate, joint: j{k}, coordinate: rotation, stiffness: 10, free_value: 0.1}}" for k in range(6, bodies)]
+    lines += ["functions:", "  - {name: always, type: constant, value: 1.0}", "loads:", "  - {gravity: [0, -9.81, 0], function: always}"]
+    if beam:
+        lines += ["initial_conditions:", "  - {nodes: n0, angular_velocity: [0, 0, 0.1]}"]
+    lines += ["analysis:", "  {type: dynamic, integrator: genalpha, end_time: 0.01, initial_step: 0.002, max_step: 0.002}"]
+    return "\n".join(lines) + "\n"
+
+
+for label, beam, massless_tail in (("clamped beam, projected velocity", True, False), ("massless tail", False, True)):
+    path = f"{args.work_dir}/hanging_{int(beam)}.yaml"
+    with open(path, "w") as f:
+        f.write(hanging_chain(beam, massless_tail))
+    results = {}
+    for depth in (0, 3):
+        output = f"{args.work_dir}/hanging_{int(beam)}_{depth}.h5"
+        _, stdout, _ = mt.run_msflex(args, path, output, extra=["-analysis_condensation_depth", str(depth)])
+        with h5py.File(output, "r") as f:
+            results[depth] = (f["frames/position"][()], f["frames/velocity"][()], re.findall(r"(\d+) unknown\(s\) without mass", stdout))
+    (x0, v0, massless0), (x3, v3, massless3) = results[0], results[3]
+    check.true(f"{label}: the same frames", x0.shape == x3.shape)
+    if x0.shape == x3.shape:
+        check.less(f"{label}: max |x - x_condensed| / 12", np.abs(x3 - x0).max() / 12.0, 1e-9)
+        check.less(f"{label}: max |v - v_condensed| / max |v|", np.abs(v3 - v0).max() / max(np.abs(v0).max(), 1e-300), 1e-8)
+        check.less(f"{label}: initial velocities, max |v - v_condensed|", np.abs(v3[0] - v0[0]).max(), 1e-12)
+    check.true(f"{label}: the same massless unknowns ({massless0} and {massless3})", massless0 == massless3)
+    if massless_tail:
+        check.true(f"{label}: massless unknowns found", bool(massless0) and int(massless0[0]) > 0)
 check.finish()
