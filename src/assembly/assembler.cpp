@@ -200,6 +200,8 @@ PetscErrorCode Assembler::Setup(MPI_Comm comm, const Model &model, const DofMap 
   relay_force_.assign(state->nodes.size(), Vec6::Zero());
   relay_anchor_.assign(state->nodes.size(), -1);
   relay_joints_.clear();
+  relay_rows_ = map.OwnedRelayRows();
+  for (PetscInt &row : relay_rows_) row -= map.first_owned;
   prescribed_residual_.assign(state->nodes.size(), Vec6::Zero());
   joint_slots_.assign(state->joints.size(), {-1, -1, -1, -1, -1, -1});
   size_t max_unknowns = 6;

@@ -277,6 +277,7 @@ private:
   std::vector<Vec6>                relay_force_;                 // per local node: force gathered on a relay (residual pass)
   std::vector<int>                 relay_anchor_;                // per local node: the relay its expansion ends on, or -1
   std::vector<int>                 relay_joints_;                // local joints whose slave is a relay, masters first
+  std::vector<PetscInt>            relay_rows_;                  // DofMap::OwnedRelayRows, as offsets into the owned rows
   bool                             skip_relay_coupling_ = false; // FindMasslessUnknowns: the mass matrix alone
   std::vector<Vec6>                slave_correction_residual_;   // per local node: em's correction vector gathered on slaves
   Vec                              joint_output_ = nullptr;      // 12 per joint slot (DofMap::joint_slot): reaction (6), rates (6)

@@ -19,6 +19,15 @@
 
 namespace msflex {
 
+// values (m) = map^T g, map 6 x m row-major: a node's spin vector g through its expansion.
+static void TransposedTimes(const double *map, int m, const double *g, double *values)
+{
+  for (int col = 0; col < m; ++col) {
+    values[col] = 0.0;
+    for (int i = 0; i < 6; ++i) values[col] += map[i * m + col] * g[i];
+  }
+}
+
 void Assembler::IndependentExpansion(int l, double *rows, double *columns) const
 {
   const NodeState               &s    = state_->nodes[l];
@@ -108,12 +117,8 @@ PetscErrorCode Assembler::AddNodeResidual(Vec residual, int l, const double *g)
   }
   const std::vector<PetscInt> &unknowns = map_->node_unknowns[node];
   const int                    m        = (int)unknowns.size();
-  const double                *rows     = expansion_rows_[l].data();
   double                      *values   = expansion_scratch_.data();
-  for (int col = 0; col < m; ++col) {
-    values[col] = 0.0;
-    for (int i = 0; i < 6; ++i) values[col] += rows[i * m + col] * g[i];
-  }
+  TransposedTimes(expansion_rows_[l].data(), m, g, values);
   PetscCall(AddThroughAnchor(residual, relay_anchor_[l], m, unknowns.data(), values));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
@@ -140,14 +145,10 @@ PetscErrorCode Assembler::FinishRelayForces(Vec residual)
     const int                    s        = J.local_slave;
     const std::vector<PetscInt> &unknowns = map_->relay_unknowns[s];
     const int                    m        = (int)unknowns.size();
-    const double                *rows     = expansion_rows_[s].data();
     double                      *values   = expansion_scratch_.data();
     const Vec6                   g        = relay_force_[s];
     relay_force_[s].setZero();
-    for (int col = 0; col < m; ++col) {
-      values[col] = 0.0;
-      for (int i = 0; i < 6; ++i) values[col] += rows[i * m + col] * g[i];
-    }
+    TransposedTimes(expansion_rows_[s].data(), m, g.data(), values);
     PetscCall(AddThroughAnchor(residual, relay_anchor_[s], m, unknowns.data(), values));
   }
   PetscFunctionReturn(PETSC_SUCCESS);
@@ -181,14 +182,10 @@ PetscErrorCode Assembler::CopyRelayEntries(Vec from, Vec to) const
   const PetscScalar *source;
   PetscScalar       *target;
   PetscFunctionBeginUser;
-  if (map_->num_relays == 0) PetscFunctionReturn(PETSC_SUCCESS);
+  if (relay_rows_.empty()) PetscFunctionReturn(PETSC_SUCCESS);
   PetscCall(VecGetArrayRead(from, &source));
   PetscCall(VecGetArray(to, &target));
-  for (PetscInt l = 0; l < map_->num_owned_nodes; ++l) {
-    if (!map_->IsRelay((int)l)) continue;
-    for (int i = 0; i < 6; ++i)
-      for (const PetscInt row : {map_->node_dofs[l][i], map_->relay_forces[l][i]}) target[row - map_->first_owned] = source[row - map_->first_owned];
-  }
+  for (const PetscInt row : relay_rows_) target[row] = source[row];
   PetscCall(VecRestoreArray(to, &target));
   PetscCall(VecRestoreArrayRead(from, &source));
   PetscFunctionReturn(PETSC_SUCCESS);
@@ -198,13 +195,67 @@ PetscErrorCode Assembler::ZeroRelayEntries(Vec v) const
 {
   PetscScalar *values;
   PetscFunctionBeginUser;
-  if (map_->num_relays == 0) PetscFunctionReturn(PETSC_SUCCESS);
+  if (relay_rows_.empty()) PetscFunctionReturn(PETSC_SUCCESS);
   PetscCall(VecGetArray(v, &values));
-  for (PetscInt l = 0; l < map_->num_owned_nodes; ++l) {
-    if (!map_->IsRelay((int)l)) continue;
-    for (int i = 0; i < 6; ++i) values[map_->node_dofs[l][i] - map_->first_owned] = 0.0, values[map_->relay_forces[l][i] - map_->first_owned] = 0.0;
-  }
+  for (const PetscInt row : relay_rows_) values[row] = 0.0;
   PetscCall(VecRestoreArray(v, &values));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode Assembler::DropRelayReachedRows(std::vector<PetscInt> *empty_rows) const
+{
+  const DofMap &map = *map_;
+  Vec           reached;
+  PetscFunctionBeginUser;
+  // reached = 1 on the rows some term reaches; then, deepest relays first and in rounds until the
+  // count stops growing (a chain may cross ranks), a relay whose own rows are reached reaches what
+  // its joint maps it from. A relay's own and force rows are never empty: the coupling holds them.
+  const auto owned = [&](PetscInt row) { return row >= map.first_owned && row < map.first_owned + map.num_owned; };
+  PetscCall(VecDuplicate(solution_template_, &reached));
+  PetscCall(VecSet(reached, 1.0));
+  for (PetscInt row : *empty_rows) PetscCall(VecSetValue(reached, row, 0.0, INSERT_VALUES));
+  PetscCall(VecAssemblyBegin(reached));
+  PetscCall(VecAssemblyEnd(reached));
+  for (PetscReal count = -1.0;;) {
+    PetscReal             new_count;
+    std::vector<PetscInt> elsewhere;
+    PetscScalar          *values;
+    PetscCall(VecGetArray(reached, &values));
+    for (size_t k = relay_joints_.size(); k-- > 0;) {
+      const int s = state_->joints[relay_joints_[k]].local_slave;
+      if (s >= map.num_owned_nodes) continue;
+      bool own_reached = false;
+      for (int i = 0; i < 6; ++i) own_reached |= PetscRealPart(values[map.node_dofs[s][i] - map.first_owned]) > 0.0;
+      if (!own_reached) continue;
+      // The unknowns of U its joint's map moves the relay by.
+      const std::vector<PetscInt> &unknowns = map.relay_unknowns[s];
+      const int                    m        = (int)unknowns.size();
+      for (int a = 0; a < m; ++a) {
+        bool moves = false;
+        for (int i = 0; i < 6; ++i) moves |= expansion_columns_[s][i * m + a] != 0.0 || expansion_rows_[s][i * m + a] != 0.0;
+        if (!moves) continue;
+        if (owned(unknowns[a])) values[unknowns[a] - map.first_owned] = 1.0;
+        else elsewhere.push_back(unknowns[a]);
+      }
+    }
+    PetscCall(VecRestoreArray(reached, &values));
+    for (PetscInt row : elsewhere) PetscCall(VecSetValue(reached, row, 1.0, INSERT_VALUES));
+    PetscCall(VecAssemblyBegin(reached));
+    PetscCall(VecAssemblyEnd(reached));
+    PetscCall(VecSum(reached, &new_count));
+    if (new_count == count) break;
+    count = new_count;
+  }
+  std::vector<char> relay_row(map.num_owned, 0);
+  for (const PetscInt row : relay_rows_) relay_row[row] = 1;
+  const PetscScalar *values;
+  PetscCall(VecGetArrayRead(reached, &values));
+  std::vector<PetscInt> still_empty;
+  for (PetscInt row : *empty_rows)
+    if (!relay_row[row - map.first_owned] && PetscRealPart(values[row - map.first_owned]) == 0.0) still_empty.push_back(row);
+  PetscCall(VecRestoreArrayRead(reached, &values));
+  PetscCall(VecDestroy(&reached));
+  empty_rows->swap(still_empty);
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
@@ -228,10 +279,7 @@ PetscErrorCode Assembler::AddNodeVector(Vec v, int l, const double *g, Through t
   const int                    m        = (int)unknowns.size();
   const double                *map      = through == Through::Rows ? expansion_rows_[l].data() : expansion_columns_[l].data();
   double                      *values   = expansion_scratch_.data();
-  for (int col = 0; col < m; ++col) {
-    values[col] = 0.0;
-    for (int i = 0; i < 6; ++i) values[col] += map[i * m + col] * g[i];
-  }
+  TransposedTimes(map, m, g, values);
   PetscCall(VecSetValues(v, m, unknowns.data(), values, ADD_VALUES));
   PetscFunctionReturn(PETSC_SUCCESS);
 }

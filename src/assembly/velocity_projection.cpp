@@ -33,19 +33,18 @@ struct RelayProjection {
   const std::vector<PetscInt>       *held = nullptr;
   Vec                                y = nullptr, base_R = nullptr; // the given velocities and R there
   KSP                                coupled = nullptr;
-  std::function<PetscErrorCode(Vec)> assemble; // R at the velocities set last
-  Vec                                trial = nullptr;
+  std::function<PetscErrorCode(Vec)> assemble;       // R at the velocities set last
+  Vec                                work = nullptr; // the operator's and the preconditioner's scratch
 };
 
 // out = A v on the condensed rows (held rows and the relays' rows: out = v).
 static PetscErrorCode RelayProjectionMult(Mat shell, Vec v, Vec out)
 {
   RelayProjection *relay;
-  Vec              trial;
   PetscFunctionBeginUser;
   PetscCall(MatShellGetContext(shell, &relay));
   const PetscInt first = relay->self->Map().first_owned;
-  PetscCall(VecDuplicate(v, &trial));
+  Vec            trial = relay->work;
   PetscCall(VecCopy(v, trial));
   PetscCall(relay->self->ZeroRelayEntries(trial));
   PetscScalar *values;
@@ -63,7 +62,6 @@ static PetscErrorCode RelayProjectionMult(Mat shell, Vec v, Vec out)
   PetscCall(VecRestoreArray(out, &values));
   PetscCall(VecRestoreArrayRead(v, &given));
   PetscCall(relay->self->CopyRelayEntries(v, out));
-  PetscCall(VecDestroy(&trial));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
@@ -71,10 +69,9 @@ static PetscErrorCode RelayProjectionMult(Mat shell, Vec v, Vec out)
 static PetscErrorCode RelayProjectionPreconditioner(PC pc, Vec b, Vec z)
 {
   RelayProjection *relay;
-  Vec              rhs;
   PetscFunctionBeginUser;
   PetscCall(PCShellGetContext(pc, &relay));
-  PetscCall(VecDuplicate(b, &rhs));
+  Vec rhs = relay->work;
   PetscCall(VecCopy(b, rhs));
   PetscCall(relay->self->ZeroRelayEntries(rhs));
   PetscCall(KSPSolve(relay->coupled, rhs, z));
@@ -82,7 +79,6 @@ static PetscErrorCode RelayProjectionPreconditioner(PC pc, Vec b, Vec z)
   PetscCall(KSPGetConvergedReason(relay->coupled, &reason));
   if (reason < 0) PetscCall(PCSetFailedReason(pc, PC_SUBPC_ERROR));
   PetscCall(relay->self->CopyRelayEntries(b, z));
-  PetscCall(VecDestroy(&rhs));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
@@ -305,12 +301,13 @@ PetscErrorCode Assembler::ProjectInitialVelocities(double t, InitialVelocityRepo
     PetscCall(KSPGetPC(coupled, &coupled_pc));
     PetscCall(SetDirectSolver(coupled_pc, P));
     PetscCall(KSPSetFromOptions(coupled));
-    PetscCall(WidenMumpsWorkspace(coupled_pc, P, 100));
-    relay.self     = this;
-    relay.held     = &held;
-    relay.y        = y;
-    relay.base_R   = base_R;
-    relay.coupled  = coupled;
+    PetscCall(PrepareRelayDirectSolver(coupled_pc, P, "-velocity_projection_coupled_pc_factor_mat_solver_type", model.analysis.condensation_depth));
+    relay.self    = this;
+    relay.held    = &held;
+    relay.y       = y;
+    relay.base_R  = base_R;
+    relay.coupled = coupled;
+    PetscCall(VecDuplicate(solution_template_, &relay.work));
     relay.assemble = [&](Vec target) {
       double rate;
       return assemble_into(target, false, &rate);
@@ -330,6 +327,7 @@ PetscErrorCode Assembler::ProjectInitialVelocities(double t, InitialVelocityRepo
   PetscCall(KSPGetIterationNumber(ksp, &report->iterations));
   PetscCall(KSPDestroy(&ksp));
   PetscCall(KSPDestroy(&coupled));
+  PetscCall(VecDestroy(&relay.work));
   PetscCall(MatDestroy(&shell));
   PetscCall(VecDestroy(&base_R));
   PetscCall(VecDestroy(&shifted));
@@ -368,65 +366,6 @@ PetscErrorCode Assembler::ProjectInitialVelocities(double t, InitialVelocityRepo
   state.equations = StaticStep(t, t);
   DiscardStep();
   UpdateExpansions();
-  PetscFunctionReturn(PETSC_SUCCESS);
-}
-
-PetscErrorCode Assembler::DropRelayReachedRows(std::vector<PetscInt> *empty_rows) const
-{
-  const DofMap &map = *map_;
-  Vec           reached;
-  PetscFunctionBeginUser;
-  // reached = 1 on the rows some term reaches; then, deepest relays first and in rounds until the
-  // count stops growing (a chain may cross ranks), a relay whose own rows are reached reaches what
-  // its joint maps it from. A relay's own and force rows are never empty: the coupling holds them.
-  const auto owned = [&](PetscInt row) { return row >= map.first_owned && row < map.first_owned + map.num_owned; };
-  PetscCall(VecDuplicate(solution_template_, &reached));
-  PetscCall(VecSet(reached, 1.0));
-  for (PetscInt row : *empty_rows) PetscCall(VecSetValue(reached, row, 0.0, INSERT_VALUES));
-  PetscCall(VecAssemblyBegin(reached));
-  PetscCall(VecAssemblyEnd(reached));
-  for (PetscReal count = -1.0;;) {
-    PetscReal             new_count;
-    std::vector<PetscInt> elsewhere;
-    PetscScalar          *values;
-    PetscCall(VecGetArray(reached, &values));
-    for (size_t k = relay_joints_.size(); k-- > 0;) {
-      const int s = state_->joints[relay_joints_[k]].local_slave;
-      if (s >= map.num_owned_nodes) continue;
-      bool own_reached = false;
-      for (int i = 0; i < 6; ++i) own_reached |= PetscRealPart(values[map.node_dofs[s][i] - map.first_owned]) > 0.0;
-      if (!own_reached) continue;
-      // The unknowns of U its joint's map moves the relay by.
-      const std::vector<PetscInt> &unknowns = map.relay_unknowns[s];
-      const int                    m        = (int)unknowns.size();
-      for (int a = 0; a < m; ++a) {
-        bool moves = false;
-        for (int i = 0; i < 6; ++i) moves |= expansion_columns_[s][i * m + a] != 0.0 || expansion_rows_[s][i * m + a] != 0.0;
-        if (!moves) continue;
-        if (owned(unknowns[a])) values[unknowns[a] - map.first_owned] = 1.0;
-        else elsewhere.push_back(unknowns[a]);
-      }
-    }
-    PetscCall(VecRestoreArray(reached, &values));
-    for (PetscInt row : elsewhere) PetscCall(VecSetValue(reached, row, 1.0, INSERT_VALUES));
-    PetscCall(VecAssemblyBegin(reached));
-    PetscCall(VecAssemblyEnd(reached));
-    PetscCall(VecSum(reached, &new_count));
-    if (new_count == count) break;
-    count = new_count;
-  }
-  std::vector<char> relay_row(map.num_owned, 0);
-  for (PetscInt l = 0; l < map.num_owned_nodes; ++l)
-    if (map.IsRelay((int)l))
-      for (int i = 0; i < 6; ++i) relay_row[map.node_dofs[l][i] - map.first_owned] = relay_row[map.relay_forces[l][i] - map.first_owned] = 1;
-  const PetscScalar *values;
-  PetscCall(VecGetArrayRead(reached, &values));
-  std::vector<PetscInt> still_empty;
-  for (PetscInt row : *empty_rows)
-    if (!relay_row[row - map.first_owned] && PetscRealPart(values[row - map.first_owned]) == 0.0) still_empty.push_back(row);
-  PetscCall(VecRestoreArrayRead(reached, &values));
-  PetscCall(VecDestroy(&reached));
-  empty_rows->swap(still_empty);
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 

@@ -128,7 +128,9 @@ PetscErrorCode SetDirectSolver(PC pc, Mat matrix)
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
-PetscErrorCode UsesNonPivotingLU(PC pc, Mat matrix, PetscBool *answer)
+// Whether the PC factors a sparse matrix by PETSc's own LU, which does not pivot (a dense matrix's
+// LU is LAPACK's, which does).
+static PetscErrorCode UsesNonPivotingLU(PC pc, Mat matrix, PetscBool *answer)
 {
   PCType        type;
   MatSolverType package = nullptr;
@@ -137,7 +139,7 @@ PetscErrorCode UsesNonPivotingLU(PC pc, Mat matrix, PetscBool *answer)
   *answer = PETSC_FALSE;
   PetscCall(PetscObjectTypeCompareAny((PetscObject)matrix, &dense, MATSEQDENSE, MATMPIDENSE, ""));
   PetscCall(PCGetType(pc, &type));
-  if (dense || !type || strcmp(type, PCLU)) PetscFunctionReturn(PETSC_SUCCESS); // a dense LU is LAPACK's, which pivots
+  if (dense || !type || strcmp(type, PCLU)) PetscFunctionReturn(PETSC_SUCCESS);
   PetscCall(PCFactorGetMatSolverType(pc, &package));
   *answer = package && !strcmp(package, MATSOLVERPETSC) ? PETSC_TRUE : PETSC_FALSE;
   PetscFunctionReturn(PETSC_SUCCESS);
@@ -158,6 +160,19 @@ PetscErrorCode WidenMumpsWorkspace(PC pc, Mat matrix, PetscInt percent)
   PetscCall(PCFactorGetMatrix(pc, &factor));
   // The default of ICNTL(14); -mat_mumps_icntl_14, read at the symbolic factorisation, still wins.
   PetscCall(MatMumpsSetIcntl(factor, 14, percent));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode PrepareRelayDirectSolver(PC pc, Mat matrix, const char *package_option, int condensation_depth)
+{
+  PetscBool petsc_lu;
+  PetscFunctionBeginUser;
+  PetscCall(UsesNonPivotingLU(pc, matrix, &petsc_lu));
+  PetscCheck(!petsc_lu, PetscObjectComm((PetscObject)pc), PETSC_ERR_USER_INPUT,
+             "bad option: %s petsc with relay nodes (chains deeper than -analysis_condensation_depth %d): PETSc's LU does not pivot, and their force "
+             "rows have zero diagonals; use mumps, or -analysis_condensation_depth 0",
+             package_option, condensation_depth);
+  PetscCall(WidenMumpsWorkspace(pc, matrix, kRelayMumpsWorkspace));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 

@@ -23,11 +23,14 @@ PetscErrorCode DenseLUDescribeFailure(PC pc, bool *is_dense_lu, std::string *det
 // -jacobian_mat_type dense is refused on more), else MUMPS LU.
 PetscErrorCode SetDirectSolver(PC pc, Mat matrix);
 // MUMPS' work-space margin (ICNTL(14), percent over its estimate) for a tangent whose pivots are
-// found by numerical pivoting (relay nodes' zero diagonals: the estimate is too low for them);
-// nothing for other solvers. -mat_mumps_icntl_14 still wins.
+// found by numerical pivoting; nothing for other solvers. -mat_mumps_icntl_14 still wins.
 PetscErrorCode WidenMumpsWorkspace(PC pc, Mat matrix, PetscInt percent);
-// Whether the PC factors a sparse matrix by PETSc's own LU, which does not pivot (relay nodes'
-// zero diagonals need a pivoting LU: MUMPS, or LAPACK's for a dense matrix).
-PetscErrorCode UsesNonPivotingLU(PC pc, Mat matrix, PetscBool *answer);
+// Relay nodes' zero diagonals (DofMap) are pivoted numerically: MUMPS' estimate of its work space
+// is too low for them (a chain of 10^4 rigid bodies failed with INFOG(1) = -9 at the default 20 %).
+constexpr PetscInt kRelayMumpsWorkspace = 100;
+// A direct solver for a matrix with relay nodes: PETSc's sparse LU, which does not pivot, is
+// refused with one line naming `package_option` (the option that chose it); MUMPS gets the margin
+// above.
+PetscErrorCode PrepareRelayDirectSolver(PC pc, Mat matrix, const char *package_option, int condensation_depth);
 
 } // namespace msflex

@@ -400,8 +400,9 @@ PetscErrorCode DofMapPreallocation(const DofMap &map, const Model &model, std::v
 
   // Relay nodes (DofMap::relay_forces): their coupling and their joint's geometric stiffness. With U
   // a relay's relay_unknowns, s its own DOFs and f its force unknowns: rows U couple with U, s and
-  // f; rows s with f and U (and, as holders, through their elements); rows f with s and U (and f, for the diagonal PETSc factorisations and shifts expect). Its
-  // joint's coordinates are in U and have no holder.
+  // f; rows s with f and U (and, as holders, through their elements); rows f with s, U and f (the
+  // diagonal entry a shift of the diagonal needs, MatDiagonalSet). Its joint's coordinates are in
+  // U and have no holder.
   std::vector<std::vector<PetscInt>> relay_columns(map.num_relays > 0 ? map.num_owned : 0);
   if (map.num_relays > 0) {
     for (size_t n = 0; n < num_nodes; ++n)

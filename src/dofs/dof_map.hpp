@@ -84,6 +84,16 @@ struct DofMap {
   bool restricted = false; // DofMapRestrictToLocal has run
 
   bool IsRelay(int node) const { return !relay_forces.empty() && relay_forces[node][0] >= 0; }
+  // The global rows of the owned relays' own DOFs and forces (restricted map): no unknowns of the
+  // state, held apart from every norm, weight and update.
+  std::vector<PetscInt> OwnedRelayRows() const
+  {
+    std::vector<PetscInt> rows;
+    for (PetscInt l = 0; l < num_owned_nodes && num_relays > 0; ++l)
+      if (IsRelay((int)l))
+        rows.insert(rows.end(), node_dofs[l].begin(), node_dofs[l].end()), rows.insert(rows.end(), relay_forces[l].begin(), relay_forces[l].end());
+    return rows;
+  }
 };
 
 // Builds the map; a DOF constrained twice by different supports is an input error naming both.

@@ -167,12 +167,7 @@ PetscErrorCode UnknownWeights(MPI_Comm comm, const Model &model, const DofMap &m
     }
   }
   // Relay nodes' rows are no unknowns of the path (DofMap): weight 0.
-  for (PetscInt l = 0; l < map.num_owned_nodes; ++l)
-    if (map.IsRelay((int)l))
-      for (int d = 0; d < 6; ++d) {
-        PetscCall(VecSetValue(weights, map.node_dofs[l][d], 0.0, INSERT_VALUES));
-        PetscCall(VecSetValue(weights, map.relay_forces[l][d], 0.0, INSERT_VALUES));
-      }
+  for (PetscInt row : map.OwnedRelayRows()) PetscCall(VecSetValue(weights, row, 0.0, INSERT_VALUES));
   PetscCall(VecAssemblyBegin(weights));
   PetscCall(VecAssemblyEnd(weights));
   (void)comm;

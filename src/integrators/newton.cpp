@@ -313,13 +313,10 @@ PetscErrorCode NewtonSolverCreate(MPI_Comm comm, const AnalysisSettings &analysi
   MSFLEX_CALL_READING_OPTIONS(PetscObjectComm((PetscObject)*snes), SNESSetFromOptions(*snes));
   PetscCall(CheckFactorSolverAvailable(ksp, tangent));
   if (relays) {
-    // Their zero diagonals are pivoted numerically: MUMPS needs more work space than it estimates
-    // (a chain of 10^4 rigid bodies failed with INFOG(1) = -9 at the default 20 %).
-    PetscCall(WidenMumpsWorkspace(pc, tangent, 100));
-    PetscBool          matrix_free = PETSC_FALSE, petsc_lu = PETSC_FALSE;
+    PetscCall(PrepareRelayDirectSolver(pc, tangent, "-pc_factor_mat_solver_type", analysis.condensation_depth));
+    PetscBool          matrix_free = PETSC_FALSE;
     SNESLineSearchType line_search_type;
     PetscCall(PetscOptionsHasName(nullptr, nullptr, "-snes_mf_operator", &matrix_free));
-    PetscCall(UsesNonPivotingLU(pc, tangent, &petsc_lu));
     PetscCall(SNESLineSearchGetType(linesearch, &line_search_type));
     // msflex's own line search drops the relays' entries of the step (they are no increments).
     PetscCheck(!strcmp(line_search_type, SNESLINESEARCHSHELL), comm, PETSC_ERR_USER_INPUT,
@@ -329,10 +326,6 @@ PetscErrorCode NewtonSolverCreate(MPI_Comm comm, const AnalysisSettings &analysi
     PetscCheck(!matrix_free, comm, PETSC_ERR_USER_INPUT,
                "bad option: -snes_mf_operator with relay nodes (chains deeper than -analysis_condensation_depth %d): the matrix-free operator does not see "
                "their rows; give -analysis_condensation_depth 0",
-               analysis.condensation_depth);
-    PetscCheck(!petsc_lu, comm, PETSC_ERR_USER_INPUT,
-               "bad option: -pc_factor_mat_solver_type petsc with relay nodes (chains deeper than -analysis_condensation_depth %d): PETSc's LU does not "
-               "pivot, and their force rows have zero diagonals; use mumps, or -analysis_condensation_depth 0",
                analysis.condensation_depth);
   }
   PetscFunctionReturn(PETSC_SUCCESS);

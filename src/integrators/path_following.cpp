@@ -73,15 +73,8 @@ PetscErrorCode PathFollower::Setup(MPI_Comm comm, Integrator *integrator)
   PetscCall(SetDirectSolver(pc, assembler.Jacobian()));
   MSFLEX_CALL_READING_OPTIONS(PetscObjectComm((PetscObject)ksp_), KSPSetFromOptions(ksp_));
   if (map_->num_relays > 0) {
-    // Relay nodes' zero diagonals are pivoted: more work space than MUMPS estimates (solvers.md).
-    PetscBool petsc_lu;
-    PetscCall(UsesNonPivotingLU(pc, assembler.Jacobian(), &petsc_lu));
-    PetscCheck(!petsc_lu, comm, PETSC_ERR_USER_INPUT,
-               "bad option: -path_pc_factor_mat_solver_type petsc with relay nodes (chains deeper than -analysis_condensation_depth %d): PETSc's LU "
-               "does not pivot, and their force rows have zero diagonals; use mumps, or -analysis_condensation_depth 0",
-               model_->analysis.condensation_depth);
-    PetscCall(WidenMumpsWorkspace(pc, assembler.Jacobian(), 100));
-    factor_.SetWorkspaceMargin(100);
+    PetscCall(PrepareRelayDirectSolver(pc, assembler.Jacobian(), "-path_pc_factor_mat_solver_type", model_->analysis.condensation_depth));
+    factor_.SetRelays(map_->num_relays);
   }
   if (control_ == PathControl::Displacement) {
     // The controlled unknown: a free DOF of an independent node or a released joint coordinate
@@ -148,11 +141,7 @@ PetscErrorCode PathFollower::Linearize(double t, double lambda, double load_fact
     PetscCall(StaticResidual(system, lambda, lambda, nullptr, residual_, &ok, &force_scale));
     PetscCall(StaticLoadPattern(system, lambda, lambda, nullptr, residual_, q_));
     PetscCall(factor_.Factor(tangent_, kSymmetryTolerance, &point_.inertia));
-    // Relay nodes: each relay's saddle-point rows (its increments and its force, eliminated exactly
-    // by its joint) add 6 negative and 6 positive pivots to the condensed tangent's (the inertia of
-    // a KKT matrix with a full-rank constraint block), and none to the determinant's sign.
     Assembler &assembler = system.GetAssembler();
-    if (point_.inertia.negative_pivots >= 0) point_.inertia.negative_pivots -= 6 * assembler.Map().num_relays;
     if (point_.inertia.factored) {
       PetscScalar c;
       PetscCall(factor_.Solve(q_, path_tangent_));

@@ -1,4 +1,5 @@
 #include "integrators/tangent_factor.hpp"
+#include "core/dense_lu.hpp"
 
 #include <cmath>
 
@@ -66,7 +67,7 @@ PetscErrorCode TangentFactor::FactorAij(Mat K, double symmetry_tolerance, Tangen
   } else {
     PetscCall(MatMumpsSetIcntl(factor_, 33, 1)); // the determinant
   }
-  if (workspace_margin_ > 0) PetscCall(MatMumpsSetIcntl(factor_, 14, workspace_margin_));
+  if (num_relays_ > 0) PetscCall(MatMumpsSetIcntl(factor_, 14, kRelayMumpsWorkspace));
   PetscCall(MatFactorInfoInitialize(&info));
   PetscCall(MatGetOrdering(K, MATORDERINGNATURAL, &row_order, &column_order));
   // A singular tangent makes MUMPS fail (INFOG(1) < 0): that is an answer here, not an error.
@@ -88,6 +89,7 @@ PetscErrorCode TangentFactor::FactorAij(Mat K, double symmetry_tolerance, Tangen
   inertia->factored = true;
   if (inertia->symmetric) {
     PetscCall(MatMumpsGetInfog(factor_, 12, &inertia->negative_pivots));
+    inertia->negative_pivots -= 6 * num_relays_;
     inertia->determinant_sign = inertia->negative_pivots % 2 == 0 ? 1 : -1;
   } else {
     PetscReal mantissa;

@@ -43,15 +43,18 @@ public:
   // The eigenvalue mu of smallest magnitude of K phi = mu D phi, by inverse iteration from *mode
   // (in: the start vector, e.g. the last mode; out: the mode, v^T D v = 1). Collective.
   PetscErrorCode LowestEigenvalue(Vec D, Vec mode, double *mu);
-  // MUMPS' work-space margin ICNTL(14) in percent (0: MUMPS' default): a tangent with relay nodes'
-  // zero diagonals needs more than MUMPS estimates (core/dense_lu.hpp, WidenMumpsWorkspace).
-  void SetWorkspaceMargin(PetscInt percent) { workspace_margin_ = percent; }
+  // A tangent with relay nodes (DofMap): MUMPS gets the work space their pivoting needs
+  // (kRelayMumpsWorkspace), and the inertia is the condensed tangent's. Each relay's saddle-point
+  // rows (its increments and its force, which its joint eliminates) add 6 negative and 6 positive
+  // pivots (the inertia of a KKT matrix with a full-rank constraint block) and nothing to the
+  // determinant's sign.
+  void SetRelays(PetscInt num_relays) { num_relays_ = num_relays; }
 
 private:
   PetscErrorCode FactorAij(Mat K, double symmetry_tolerance, TangentInertia *inertia);
-  Mat            factor_           = nullptr;
-  PetscInt       workspace_margin_ = 0;
-  Vec            work_[2]          = {nullptr, nullptr};
+  Mat            factor_     = nullptr;
+  PetscInt       num_relays_ = 0;
+  Vec            work_[2]    = {nullptr, nullptr};
 };
 
 } // namespace msflex

@@ -264,9 +264,9 @@ struct AnalysisSettings {
   // least by this factor (in [0, 1); 0: a new tangent every iteration), also into the next step
   // when it has the same length and the last iteration contracted (docs/solvers.md).
   double jacobian_reuse = 0.0;
-  // Dynamics and statics without `stability`: a chain of joints deeper than this keeps every condensation_depth-th slave
-  // that is a master as a relay node in the linear solve (DofMap), so that a long chain costs
-  // linear time; 0 condenses every chain whole (docs/solvers.md).
+  // Dynamics, and statics without `stability`: a chain of joints deeper than this keeps every
+  // condensation_depth-th slave that is a master as a relay node in the linear solve (DofMap), so
+  // that a long chain costs linear time; 0 condenses every chain whole (docs/solvers.md).
   int                 condensation_depth = 8;
   std::vector<double> output_times; // steps are shortened to hit these exactly
   // Dynamic analyses: a static stage first (equilibrium under the loads at t = 0, reached in
