@@ -1,9 +1,12 @@
 """Time series of an msflex result file (layout: docs/output.md), for the post-processing scripts.
 
-A series is one column of the history: every /history/<name> dataset, and per probe
-<probe>.position.x|y|z, <probe>.displacement.x|y|z, <probe>.rotation.w|x|y|z and
-<probe>.rotation_angle. All series of a file have one value per history row. Each carries the
-`unit` and `description` attributes of its dataset (files of older msflex versions have none).
+A series is one column of the history table /history/values, named in /history/names (with its
+unit and description in /history/units and /history/descriptions): the history series (time,
+energies, joint coordinates and forces, ...) and per probe <probe>.position.x|y|z,
+<probe>.displacement.x|y|z, <probe>.rotation.w|x|y|z and <probe>.rotation_angle. All series of a
+file have one value per history row. Files of older msflex versions (`msflex result 2` and
+before) held a dataset per series, /history/<name> and /probes/<probe>/<quantity>, with `unit`
+and `description` attributes (or none); they are read as well.
 """
 
 import difflib
@@ -11,7 +14,7 @@ import sys
 
 import h5py
 
-# Probe datasets and the names of their columns (None: a 1-D dataset, one value per row).
+# Older files: probe datasets and the names of their columns (None: a 1-D dataset, one value per row).
 PROBE_COMPONENTS = {
     "position": "xyz",
     "displacement": "xyz",
@@ -21,13 +24,17 @@ PROBE_COMPONENTS = {
 
 SERIES_HELP = """\
 series names:
-  <name>                        every /history/<name>, e.g. time (the load factor in statics),
-                                newton_iterations, residual_norm, step_size
+  <name>                        every history series, e.g. time (the load factor in statics),
+                                newton_iterations, residual_norm, step_size, <joint>.rz
   <probe>.position.x|y|z        probed node's current position
   <probe>.displacement.x|y|z    probed node's displacement
   <probe>.rotation.w|x|y|z      probed node's rotation quaternion
   <probe>.rotation_angle        probed node's tracked rotation angle (rad)
 """
+
+
+def _text(value):
+    return value.decode() if isinstance(value, bytes) else value
 
 
 class UsageError(Exception):
@@ -39,10 +46,20 @@ class HistoryFile:
 
     def __init__(self, path):
         self._file = h5py.File(path, "r")
-        # Series name -> (dataset path, column or None for 1-D datasets).
-        self._series = {}
         history = self._file.get("history", {})
-        # time first, as in the writer; HDF5 itself lists names alphabetically.
+        # Series name -> (dataset path, column or None for 1-D datasets), and -> (unit, description)
+        # where the file keeps them in tables.
+        self._series, self._quantities = {}, {}
+        if "values" in history and "names" in history:
+            names = [_text(n) for n in history["names"][()]]
+            units = [_text(u) for u in history["units"][()]] if "units" in history else [None] * len(names)
+            descriptions = [_text(d) for d in history["descriptions"][()]] if "descriptions" in history else [""] * len(names)
+            for column, name in enumerate(names):
+                self._series[name] = ("history/values", column)
+                self._quantities[name] = (units[column], descriptions[column])
+            return
+        # An older file: a dataset per series, time first as in the writer (HDF5 lists names
+        # alphabetically).
         for name in sorted(history, key=lambda n: (n != "time", n)):
             self._series[name] = ("history/" + name, None)
         for probe in self._file.get("probes", {}):
@@ -61,24 +78,24 @@ class HistoryFile:
         self._file.close()
 
     def names(self):
-        """All series of the file: history series (time first), then probe series."""
+        """All series of the file, in the writer's order (time first)."""
         return list(self._series)
 
     def is_static(self):
         """Whether the file holds a static analysis (its time is the load factor)."""
         kind = self._file.attrs.get("analysis_type")
         if kind is None:  # older files: dynamics writes kinetic_energy
-            return "kinetic_energy" not in self._file.get("history", {})
-        return (kind.decode() if isinstance(kind, bytes) else str(kind)) == "static"
+            return "kinetic_energy" not in self._series
+        return _text(kind) == "static"
 
     def quantity(self, name):
         """(unit, description) of series `name`; unit None when the file does not say."""
         self._check(name)
+        if name in self._quantities:
+            return self._quantities[name]
         path, column = self._series[name]
         attributes = self._file[path].attrs
-        unit, description = attributes.get("unit"), attributes.get("description")
-        unit = unit.decode() if isinstance(unit, bytes) else unit
-        description = (description.decode() if isinstance(description, bytes) else description) or ""
+        unit, description = _text(attributes.get("unit")), _text(attributes.get("description")) or ""
         if column is not None:
             description += f", {name.rsplit('.', 1)[-1]}"
         return unit, description
@@ -104,9 +121,16 @@ class HistoryFile:
         dataset = self._file[path]
         return (dataset[:] if column is None else dataset[:, column]).astype(float)
 
+    def read_all(self):
+        """Every series, {name: 1-D float array}, reading the table once."""
+        if any(path != "history/values" for path, _ in self._series.values()):
+            return {name: self.read(name) for name in self._series}
+        table = self._file["history/values"][()].astype(float)
+        return {name: table[:, column] for name, (_, column) in self._series.items()}
+
     def read_columns(self, names):
-        """The named series as equally long arrays. A run killed while writing a row may leave
-        some series one row longer than others, so all are cut to the shortest."""
+        """The named series as equally long arrays. A run killed while writing a row of an older
+        file may leave some series one row longer than others, so all are cut to the shortest."""
         columns = [self.read(name) for name in names]
         rows = min(len(c) for c in columns)
         return [c[:rows] for c in columns]

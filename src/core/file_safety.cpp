@@ -505,9 +505,10 @@ std::string NewRunId()
 bool IsMsflexSidecar(const std::string &head)
 {
   if (head.compare(0, 5, "<?xml") != 0) return false;
-  // The marker; or, written before it, the single temporal collection named msflex, or the comment
+  // The marker of any version of the layout; or, written before it, the single temporal collection named msflex, or the comment
   // that opens the incremental layout's head.
-  return head.find(kSidecarMarker) != std::string::npos || head.find("<Grid Name=\"msflex\" GridType=\"Collection\"") != std::string::npos ||
+  return head.find("<Information Name=\"msflex_format\" Value=\"msflex result ") != std::string::npos ||
+         head.find("<Grid Name=\"msflex\" GridType=\"Collection\"") != std::string::npos ||
          head.find("<!-- msflex results (layout: docs/output.md)") != std::string::npos;
 }
 

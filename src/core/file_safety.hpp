@@ -169,12 +169,12 @@ std::string NewRunId();
 inline constexpr const char *kFormatAttribute  = "msflex_format"; // kResultFormat or kCheckpointFormat
 inline constexpr const char *kModelAttribute   = "msflex_model";  // ModelFingerprint(...)
 inline constexpr const char *kRunAttribute     = "msflex_run";    // NewRunId() of the result file
-inline constexpr const char *kResultFormat     = "msflex result 2";
+inline constexpr const char *kResultFormat     = "msflex result 3";
 inline constexpr const char *kCheckpointFormat = "msflex checkpoint 3";
 // The XDMF sidecar carries this element right after <Domain>; a sidecar without it is still
 // recognised by the collection grid msflex names "msflex" or the comment opening the incremental
 // layout (files written before the marker).
-inline constexpr const char *kSidecarMarker = "<Information Name=\"msflex_format\" Value=\"msflex result 2\"/>";
+inline constexpr const char *kSidecarMarker = "<Information Name=\"msflex_format\" Value=\"msflex result 3\"/>";
 // Whether `head` (the first bytes of a file, ReadFileHead) is an XDMF sidecar written by msflex.
 bool IsMsflexSidecar(const std::string &head);
 

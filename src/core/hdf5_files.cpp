@@ -6,6 +6,7 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cerrno>
 #include <cmath>
 #include <cstdlib>
@@ -425,6 +426,25 @@ std::string ReadExactDoubles(hid_t parent, const std::string &name, size_t count
   }
   for (size_t k = 0; k < count; ++k)
     if (!std::isfinite((*values)[k])) return name + " entry " + std::to_string(k) + " is not a finite number";
+  return "";
+}
+
+std::string ReadFixedStrings(hid_t parent, const std::string &name, std::vector<std::string> *strings)
+{
+  const Hdf5QuietScope quiet;
+  strings->clear();
+  Id                   dataset;
+  std::vector<hsize_t> dims;
+  if (std::string problem = OpenChecked(parent, name, 1, &dataset, &dims); !problem.empty()) return problem;
+  const Id type(H5Dget_type(dataset));
+  if (H5Tget_class(type) != H5T_STRING || H5Tis_variable_str(type) != 0) return name + " is not a list of fixed-length strings";
+  const size_t      length = H5Tget_size(type);
+  std::vector<char> packed(static_cast<size_t>(dims[0]) * length);
+  if (!packed.empty() && H5Dread(dataset, type, H5S_ALL, H5S_ALL, H5P_DEFAULT, packed.data()) < 0) return name + " cannot be read: " + Hdf5StackReason();
+  for (hsize_t k = 0; k < dims[0]; ++k) {
+    const char *first = packed.data() + k * length;
+    strings->emplace_back(first, std::find(first, first + length, '\0'));
+  }
   return "";
 }
 

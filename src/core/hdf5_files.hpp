@@ -124,6 +124,11 @@ std::string DatasetDims(hid_t parent, const std::string &name, std::vector<hsize
 // e.g. "/run/numbers has 100000 entries, expected 11", "/run/numbers entry 1 is not finite".
 std::string ReadExactDoubles(hid_t parent, const std::string &name, size_t count, std::vector<double> *values);
 
+// Reads the 1-D dataset `name` of fixed-length strings (NUL-padded; the storage checked as by
+// DatasetStorageProblem) into `strings`; "" or the problem, e.g. "/history/names is not a list
+// of fixed-length strings".
+std::string ReadFixedStrings(hid_t parent, const std::string &name, std::vector<std::string> *strings);
+
 // Reads the 1-D byte dataset `name` as text of at most `max_bytes` (and no more than its storage
 // and the file hold); "" or the problem, e.g. "/run/input_text claims 1099511627776 bytes".
 std::string ReadBoundedText(hid_t parent, const std::string &name, size_t max_bytes, std::string *text);

@@ -172,8 +172,8 @@ void ReadForceElements(const YAML::Node *list, ReaderContext &context)
     element.name   = entry.String("name");
     element.mark   = context.MarkOf(entry.Mark());
     if (const std::string problem = OutputNameProblem(element.name); !problem.empty())
-      FailAt(entry.Required("name").Mark(), "force element name " + Quote(element.name) +
-                                                " cannot begin the names of its history series /history/<name>.force, ... in the result file: " + problem);
+      FailAt(entry.Required("name").Mark(),
+             "force element name " + Quote(element.name) + " cannot begin the names of its history series <name>.force, ... in the result file: " + problem);
     if (const auto other = lines.find(element.name); other != lines.end())
       FailAt(entry.Required("name").Mark(),
              "duplicate force element name " + Quote(element.name) + " (first defined at line " + std::to_string(other->second) + ")");

@@ -245,7 +245,7 @@ std::string JointNameProblem(const std::string &name)
 {
   const std::string problem = OutputNameProblem(name);
   if (problem.empty()) return "";
-  return "joint name " + Quote(name) + " cannot begin the names of its history series /history/<name>.tx, ... in the result file: " + problem;
+  return "joint name " + Quote(name) + " cannot begin the names of its history series <name>.tx, ... in the result file: " + problem;
 }
 
 std::string JointParameterProblem(JointKind kind, double parameter)

@@ -485,7 +485,8 @@ Probe ReadProbe(const YAML::Node &item, const ReaderContext &context)
   probe.name = entry.String("name");
   probe.mark = context.MarkOf(entry.Mark());
   if (const std::string problem = OutputNameProblem(probe.name); !problem.empty())
-    FailAt(entry.Required("name").Mark(), "probe name " + Quote(probe.name) + " cannot name its group /probes/<name> in the result file: " + problem);
+    FailAt(entry.Required("name").Mark(),
+           "probe name " + Quote(probe.name) + " cannot begin the names of its history columns <name>.position.x, ... in the result file: " + problem);
   RequireUniqueName(model.probes, probe.name, "probe", entry);
   const int kinds = int(entry.Has("node")) + int(entry.Has("rigid_body")) + int(entry.Has("reaction")) + int(entry.Has("beam"));
   if (kinds != 1)

@@ -63,9 +63,10 @@ Vec3        ReadPosition(const YAML::Node &value, const std::string &key);
 int         ReadDofName(const YAML::Node &value, const std::string &key); // ux..rz -> DOF_UX..DOF_RZ
 const char *DofName(int dof);
 
-// "" when `name` can be one component of an HDF5 path in the result file (a probe's group
-// /probes/<name>, a joint's history series /history/<name>.tx, ...; docs/output.md), else what
-// is wrong: it is empty, is ".", or contains '/' or a NUL character.
+// "" when `name` can begin the names of history series in the result file (a probe's columns
+// <name>.position.x, a joint's <name>.tx, ...; docs/output.md) and still be one component of an
+// HDF5 path, for tools that file series by name; else what is wrong: it is empty, is ".", or
+// contains '/' or a NUL character.
 std::string OutputNameProblem(const std::string &name);
 
 // The largest coordinate of a point (m). Distances between points then stay far from overflow even

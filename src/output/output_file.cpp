@@ -31,18 +31,21 @@ namespace msflex {
 
 namespace {
 
-// Rows per chunk of the extensible history and probe datasets: 1024 (8 KiB per chunk of a
-// series), fewer when the series are many, so that one chunk of every series together stays
-// within kHistoryChunkBudget bytes: HDF5 allocates a whole chunk at the first row, and a model of
-// 10^4 joints has 7 x 10^4 series (1024 rows each would make a 570 MB file of a one-step run).
-constexpr hsize_t  kHistoryChunkRows = 1024, kHistoryChunkMinRows = 16, kHistoryChunkFirstMinRows = 64;
-constexpr double   kHistoryChunkBudget = 8.0 * 1024 * 1024;
-constexpr unsigned kHistoryChunkIndexK = 4;
+// Rows per chunk of the history table: 1024 (8 KiB per column), fewer when the columns are many,
+// so that one row of chunks across the table stays within kHistoryChunkBudget bytes: HDF5
+// allocates whole chunks at the first row, and a model of 10^4 joints has 7 x 10^4 columns (1024
+// rows each would make a 570 MB file of a one-step run).
+constexpr hsize_t kHistoryChunkRows = 1024, kHistoryChunkMinRows = 16, kHistoryChunkFirstMinRows = 64;
+constexpr double  kHistoryChunkBudget = 8.0 * 1024 * 1024;
+// Columns per chunk of the history table: a small model's table is one column of chunks, and
+// reading one series of a large model reads at most this many columns' chunks.
+constexpr hsize_t  kHistoryChunkColumns = 256;
+constexpr unsigned kHistoryChunkIndexK  = 4;
 // HDF5's type-conversion buffer for the variable-length string datasets (see WriteStrings).
 constexpr size_t kStringConversionBufferBytes = 64 * 1024;
 
-// Rows per chunk of the history series: kHistoryChunkRows, fewer when many series would make the
-// chunk cache large, and no more than the first write needs (rounded up to a power of two, at
+// Rows per chunk of the history table: kHistoryChunkRows, fewer when many columns would make a row
+// of chunks large, and no more than the first write needs (rounded up to a power of two, at
 // least kHistoryChunkFirstMinRows): a short run's chunks are not mostly fill.
 hsize_t HistoryChunkRows(size_t values_per_row, hsize_t first_rows)
 {
@@ -54,9 +57,6 @@ hsize_t HistoryChunkRows(size_t values_per_row, hsize_t first_rows)
 // History rows kept in memory at most: a run that makes more steps than this between two timed
 // flushes is flushed every so many rows (about 2 MB for 30 series).
 constexpr hsize_t kMaxBufferedRows = 8192;
-// Values of one probe sample in the history buffer: position (3), displacement (3), rotation (4),
-// rotation angle (1).
-constexpr int kProbeValues = 11;
 
 // The grids of the XDMF sidecar, one temporal collection each, in this order: ParaView's "XDMF
 // Reader" shows them as the blocks of these names.
@@ -312,15 +312,20 @@ struct OutputFile::Impl {
   PetscErrorCode WriteMesh(const OutputMesh &mesh);
   PetscErrorCode WriteBodies(hid_t group, const OutputMesh &mesh);
   PetscErrorCode WriteGround(hid_t group, const OutputMesh &mesh);
+  // The table's columns from history_names and probe_names: their names, and when asked their
+  // units and descriptions.
+  void TableColumns(std::vector<std::string> *names, std::vector<std::string> *units = nullptr, std::vector<std::string> *descriptions = nullptr) const;
+  // Creates the 1-D dataset `name` of fixed-length UTF-8 strings under `parent` (collective; rank 0
+  // writes the strings) with its unit and description from DatasetQuantity(group, name).
+  PetscErrorCode WriteFixedStrings(hid_t parent, const char *name, const std::vector<std::string> &strings, const char *group);
   // Rank 0: checks a history row against the first and keeps it in the buffer.
   PetscErrorCode BufferHistory(const std::vector<std::string> &names, const std::vector<double> &values, const std::vector<ProbeSample> &probes);
-  // Writes the buffered rows: every series and probe dataset extended once. Collective; rank 0's
-  // buffer is written, the other ranks take part with empty selections.
+  // Rank 0, before the first block after a restart: the run writes the columns the file holds.
+  PetscErrorCode CheckStoredColumns();
+  // Writes the buffered rows to the history table /history/values (created with its names, units
+  // and descriptions by the first block), extended once. Collective; rank 0's buffer is written,
+  // the other ranks take part with empty selections.
   PetscErrorCode WriteHistoryBlock();
-  // Writes `rows` new rows (values: rows x row_values, rank 0 only) at the end of the extensible
-  // float64 dataset `name` under `parent`, creating it (chunked, with its unit) when missing.
-  PetscErrorCode ExtendSeries(hid_t parent, const char *name, const std::vector<hsize_t> &entry_dims, const std::vector<double> &values,
-                              const Quantity &quantity);
   // The sidecar: written whole (Create, Resume, and when someone else changed it), or the frames
   // not yet listed appended over its tail.
   PetscErrorCode WriteXdmfWhole();
@@ -426,13 +431,14 @@ struct OutputFile::Impl {
   std::vector<int> segment_first;
 
   // History: the names of the series and probes, fixed by the first row (rank 0 checks every row
-  // against them; the other ranks learn them once, names_known); rows in the file and rows in the
-  // buffer (the same on every rank); the buffered values (rank 0): rows x names, and rows x probes
-  // x kProbeValues.
-  std::vector<std::string> history_names, probe_names;
+  // against them; the other ranks learn them once, names_known), and the columns of the table they
+  // make (every rank: the series, then kProbeColumns per probe); the columns of the table a
+  // restarted file holds (rank 0, from Resume: the run must write the same); rows in the file and
+  // rows in the buffer (the same on every rank); the buffered rows (rank 0): rows x columns.
+  std::vector<std::string> history_names, probe_names, columns, stored_columns;
   bool                     names_known  = false;
   hsize_t                  rows_written = 0, rows_buffered = 0;
-  std::vector<double>      buffered_values, buffered_probes;
+  std::vector<double>      buffered_values;
 
   // Flushing: anything written since the last flush (the same on every rank); rank 0's wall clock
   // at the last flush.
@@ -587,7 +593,7 @@ PetscErrorCode OutputFile::Impl::Create(bool overwrite, const std::string &input
   PetscCall(WriteStrings(file, "input", {}, {input_text}, ""));
   PetscCall(WriteStringAttribute(file, "input", "file", input_file));
   PetscCall(WriteMesh(mesh));
-  for (const char *name : {"/frames", "/history", "/probes"}) PetscCallHDF5(group = H5Gcreate2(file, name, H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT));
+  for (const char *name : {"/frames", "/history"}) PetscCallHDF5(group = H5Gcreate2(file, name, H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT));
   PetscCallHDF5(H5Fflush(file, H5F_SCOPE_LOCAL));
   // The sidecar is written now, empty, so that it never describes an earlier run's frames.
   PetscCall(WriteXdmfWhole());
@@ -763,111 +769,139 @@ PetscErrorCode OutputFile::Impl::BufferHistory(const std::vector<std::string> &n
     if (!names_known) { // the first row, or the first after Reopen
       history_names = names;
       probe_names   = sample_names;
+      // Each column is found by its name: two of one name would hide one.
+      std::vector<std::string> sorted;
+      TableColumns(&sorted);
+      std::sort(sorted.begin(), sorted.end());
+      const auto twice = std::adjacent_find(sorted.begin(), sorted.end());
+      PetscCheck(twice == sorted.end(), PETSC_COMM_SELF, PETSC_ERR_ARG_WRONG, "output file '%s': two history series are named '%s'", path.c_str(),
+                 twice == sorted.end() ? "" : twice->c_str());
     }
     PetscCheck(names == history_names && sample_names == probe_names, PETSC_COMM_SELF, PETSC_ERR_ARG_WRONG,
                "output file '%s': history and probe names must be the same in every row", path.c_str());
   }
-  // Room for the most rows a flush can wait for, reserved once (address space until written): no
-  // copying as the buffer grows.
-  if (buffered_values.capacity() == 0) {
-    buffered_values.reserve(kMaxBufferedRows * values.size());
-    buffered_probes.reserve(kMaxBufferedRows * probes.size() * kProbeValues);
-  }
+  // One row of the table: the series, then each probe's sample in the order of its columns (see
+  // ProbeColumnNames). Room for the most rows a flush can wait for is reserved once (address
+  // space until written): no copying as the buffer grows.
+  const size_t width = values.size() + probes.size() * kProbeColumns;
+  if (buffered_values.capacity() == 0) buffered_values.reserve(kMaxBufferedRows * width);
   buffered_values.insert(buffered_values.end(), values.begin(), values.end());
   for (const ProbeSample &probe : probes) {
-    buffered_probes.insert(buffered_probes.end(), probe.position, probe.position + 3);
-    buffered_probes.insert(buffered_probes.end(), probe.displacement, probe.displacement + 3);
-    buffered_probes.insert(buffered_probes.end(), probe.rotation, probe.rotation + 4);
-    buffered_probes.push_back(probe.rotation_angle);
+    buffered_values.insert(buffered_values.end(), probe.position, probe.position + 3);
+    buffered_values.insert(buffered_values.end(), probe.displacement, probe.displacement + 3);
+    buffered_values.insert(buffered_values.end(), probe.rotation, probe.rotation + 4);
+    buffered_values.push_back(probe.rotation_angle);
   }
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
-PetscErrorCode OutputFile::Impl::ExtendSeries(hid_t parent, const char *name, const std::vector<hsize_t> &entry_dims, const std::vector<double> &values,
-                                              const Quantity &quantity)
+void OutputFile::Impl::TableColumns(std::vector<std::string> *names, std::vector<std::string> *units, std::vector<std::string> *descriptions) const
 {
-  // Dataset shape (rows, entry_dims...); the new rows are one hyperslab of shape (rows_buffered, entry_dims...).
-  std::vector<hsize_t> dims{rows_written + rows_buffered}, start{rows_written}, count{rows_buffered};
-  H5Id                 dataset, file_space, memory_space;
+  names->assign(history_names.begin(), history_names.end());
+  if (units) units->clear();
+  if (descriptions) descriptions->clear();
+  for (const std::string &name : history_names) {
+    const Quantity quantity = HistoryQuantity(name, dynamic);
+    if (units) units->push_back(quantity.unit);
+    if (descriptions) descriptions->push_back(quantity.description);
+  }
+  for (const std::string &probe : probe_names) {
+    std::string probe_columns[kProbeColumns];
+    ProbeColumnNames(probe, probe_columns);
+    for (int c = 0; c < kProbeColumns; ++c) {
+      names->push_back(probe_columns[c]);
+      const Quantity quantity = ProbeColumnQuantity(probe, c);
+      if (units) units->push_back(quantity.unit);
+      if (descriptions) descriptions->push_back(quantity.description);
+    }
+  }
+}
+
+PetscErrorCode OutputFile::Impl::WriteFixedStrings(hid_t parent, const char *name, const std::vector<std::string> &strings, const char *group)
+{
+  // Fixed length (the longest string, NUL-padded): parallel HDF5 writes no variable-length data.
+  size_t longest = 1;
+  for (const std::string &text : strings) longest = std::max(longest, text.size());
+  std::vector<char> packed(strings.size() * longest, '\0');
+  for (size_t k = 0; k < strings.size(); ++k) std::copy(strings[k].begin(), strings[k].end(), packed.begin() + (std::ptrdiff_t)(k * longest));
+  const hsize_t count = strings.size();
+  H5Id          type, space, dataset;
 
   PetscFunctionBeginUser;
-  dims.insert(dims.end(), entry_dims.begin(), entry_dims.end());
-  start.resize(dims.size(), 0);
-  count.insert(count.end(), entry_dims.begin(), entry_dims.end());
-  const int    space_rank = (int)dims.size();
-  const htri_t exists     = H5Lexists(parent, name, H5P_DEFAULT);
-  PetscCallHDF5(exists);
-  if (!exists) {
-    std::vector<hsize_t> max_dims = dims, chunk = dims;
-    H5Id                 properties;
-    max_dims[0] = H5S_UNLIMITED;
-    chunk[0]    = HistoryChunkRows(history_names.size() + probe_names.size() * kProbeValues, rows_buffered);
-    PetscCallHDF5(file_space = H5Screate_simple(space_rank, dims.data(), max_dims.data()));
-    PetscCallHDF5(properties = H5Pcreate(H5P_DATASET_CREATE));
-    PetscCallHDF5(H5Pset_chunk(properties, space_rank, chunk.data()));
-    PetscCallHDF5(H5Pset_alloc_time(properties, H5D_ALLOC_TIME_EARLY)); // see FrameChunk
-    PetscCallHDF5(dataset = H5Dcreate2(parent, name, H5T_IEEE_F64LE, file_space, H5P_DEFAULT, properties, H5P_DEFAULT));
-    PetscCall(Annotate(parent, name, quantity));
-  } else {
-    PetscCallHDF5(dataset = H5Dopen2(parent, name, H5P_DEFAULT));
-    PetscCallHDF5(H5Dset_extent(dataset, dims.data()));
-    PetscCallHDF5(file_space = H5Dget_space(dataset));
-  }
-  PetscCallHDF5(memory_space = H5Screate_simple(space_rank, count.data(), nullptr));
-  if (rank != 0) {
-    // Rank 0 writes the rows; the others take part in the collective write with nothing.
-    PetscCallHDF5(H5Sselect_none(file_space));
-    PetscCallHDF5(H5Sselect_none(memory_space));
-  } else PetscCallHDF5(H5Sselect_hyperslab(file_space, H5S_SELECT_SET, start.data(), nullptr, count.data(), nullptr));
-  const double nothing = 0.0;
-  PetscCallHDF5(H5Dwrite(dataset, H5T_NATIVE_DOUBLE, memory_space, file_space, frame_transfer, values.empty() ? &nothing : values.data()));
+  PetscCallHDF5(type = H5Tcopy(H5T_C_S1));
+  PetscCallHDF5(H5Tset_size(type, longest));
+  PetscCallHDF5(H5Tset_strpad(type, H5T_STR_NULLPAD));
+  PetscCallHDF5(H5Tset_cset(type, H5T_CSET_UTF8));
+  PetscCallHDF5(space = H5Screate_simple(1, &count, nullptr));
+  PetscCallHDF5(dataset = H5Dcreate2(parent, name, type, space, H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT));
+  if (rank != 0) PetscCallHDF5(H5Sselect_none(space)); // rank 0 writes, the others take part
+  const char nothing = 0;
+  PetscCallHDF5(H5Dwrite(dataset, type, space, space, frame_transfer, packed.empty() || rank != 0 ? &nothing : packed.data()));
+  PetscCall(Annotate(parent, name, DatasetQuantity(group, name, dynamic)));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode OutputFile::Impl::CheckStoredColumns()
+{
+  PetscFunctionBeginUser;
+  if (stored_columns.empty() || rows_buffered == 0) PetscFunctionReturn(PETSC_SUCCESS);
+  size_t differ = 0;
+  while (differ < std::min(columns.size(), stored_columns.size()) && columns[differ] == stored_columns[differ]) ++differ;
+  PetscCheck(columns == stored_columns, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED,
+             "output file '%s': its history has %zu columns, this run writes %zu; the first that differs is column %zu ('%s' in the file, '%s' now)",
+             path.c_str(), stored_columns.size(), columns.size(), differ, differ < stored_columns.size() ? stored_columns[differ].c_str() : "",
+             differ < columns.size() ? columns[differ].c_str() : "");
+  stored_columns.clear(); // checked once
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
 PetscErrorCode OutputFile::Impl::WriteHistoryBlock()
 {
-  const size_t        n_series = history_names.size(), n_probes = probe_names.size();
-  std::vector<double> column;
-  H5Id                history, probes_group;
+  const hsize_t n_columns = columns.size(), dims[2] = {rows_written + rows_buffered, n_columns}, start[2] = {rows_written, 0},
+                count[2] = {rows_buffered, n_columns};
+  H5Id history, dataset, file_space, memory_space;
 
   PetscFunctionBeginUser;
   if (rows_buffered == 0) PetscFunctionReturn(PETSC_SUCCESS);
   if (rank == 0)
-    PetscCheck(buffered_values.size() == rows_buffered * n_series && buffered_probes.size() == rows_buffered * n_probes * kProbeValues, PETSC_COMM_SELF,
-               PETSC_ERR_PLIB, "output file '%s': history buffer of %zu values for %llu rows", path.c_str(), buffered_values.size(),
-               (unsigned long long)rows_buffered);
-  // Gathers value `offset` (and the `width` after it) of every buffered record of `stride` values.
-  const auto gather = [&](const std::vector<double> &records, size_t stride, size_t offset, size_t width) {
-    column.clear();
-    if (rank != 0) return;
-    for (hsize_t row = 0; row < rows_buffered; ++row) column.insert(column.end(), &records[row * stride + offset], &records[row * stride + offset + width]);
-  };
+    PetscCheck(buffered_values.size() == rows_buffered * n_columns, PETSC_COMM_SELF, PETSC_ERR_PLIB,
+               "output file '%s': history buffer of %zu values for %llu rows of %llu columns", path.c_str(), buffered_values.size(),
+               (unsigned long long)rows_buffered, (unsigned long long)n_columns);
   PetscCallHDF5(history = H5Gopen2(file, "/history", H5P_DEFAULT));
-  for (size_t i = 0; i < n_series; ++i) {
-    gather(buffered_values, n_series, i, 1);
-    PetscCall(ExtendSeries(history, history_names[i].c_str(), {}, column, HistoryQuantity(history_names[i], dynamic)));
+  const htri_t exists = H5Lexists(history, "values", H5P_DEFAULT);
+  PetscCallHDF5(exists);
+  if (!exists) {
+    // One dataset for every series: HDF5 spends tens of microseconds on each dataset it creates
+    // or extends, which a dataset per series multiplied by the joints and probes of a model.
+    const hsize_t max_dims[2] = {H5S_UNLIMITED, n_columns};
+    const hsize_t chunk[2]    = {HistoryChunkRows(n_columns, rows_buffered), std::min(n_columns, kHistoryChunkColumns)};
+    H5Id          properties;
+    PetscCallHDF5(file_space = H5Screate_simple(2, dims, max_dims));
+    PetscCallHDF5(properties = H5Pcreate(H5P_DATASET_CREATE));
+    PetscCallHDF5(H5Pset_chunk(properties, 2, chunk));
+    PetscCallHDF5(H5Pset_alloc_time(properties, H5D_ALLOC_TIME_EARLY)); // see FrameChunk
+    PetscCallHDF5(dataset = H5Dcreate2(history, "values", H5T_IEEE_F64LE, file_space, H5P_DEFAULT, properties, H5P_DEFAULT));
+    PetscCall(Annotate(history, "values", DatasetQuantity("history", "values", dynamic)));
+    std::vector<std::string> names, units, descriptions;
+    TableColumns(&names, &units, &descriptions);
+    PetscCall(WriteFixedStrings(history, "names", names, "history"));
+    PetscCall(WriteFixedStrings(history, "units", units, "history"));
+    PetscCall(WriteFixedStrings(history, "descriptions", descriptions, "history"));
+  } else {
+    PetscCallHDF5(dataset = H5Dopen2(history, "values", H5P_DEFAULT));
+    PetscCallHDF5(H5Dset_extent(dataset, dims));
+    PetscCallHDF5(file_space = H5Dget_space(dataset));
   }
-  PetscCallHDF5(probes_group = H5Gopen2(file, "/probes", H5P_DEFAULT));
-  const struct {
-    const char *name;
-    size_t      offset, width;
-  } probe_datasets[] = {{"position", 0, 3}, {"displacement", 3, 3}, {"rotation", 6, 4}, {"rotation_angle", 10, 1}};
-  for (size_t p = 0; p < n_probes; ++p) {
-    H5Id         group;
-    const htri_t exists = H5Lexists(probes_group, probe_names[p].c_str(), H5P_DEFAULT);
-    PetscCallHDF5(exists);
-    if (!exists) PetscCallHDF5(group = H5Gcreate2(probes_group, probe_names[p].c_str(), H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT));
-    else PetscCallHDF5(group = H5Gopen2(probes_group, probe_names[p].c_str(), H5P_DEFAULT));
-    for (const auto &d : probe_datasets) {
-      gather(buffered_probes, n_probes * kProbeValues, p * kProbeValues + d.offset, d.width);
-      const std::vector<hsize_t> entry = d.width == 1 ? std::vector<hsize_t>{} : std::vector<hsize_t>{d.width};
-      PetscCall(ExtendSeries(group, d.name, entry, column, DatasetQuantity("probes", d.name, dynamic)));
-    }
-  }
+  PetscCallHDF5(memory_space = H5Screate_simple(2, count, nullptr));
+  if (rank != 0) {
+    PetscCallHDF5(H5Sselect_none(file_space));
+    PetscCallHDF5(H5Sselect_none(memory_space));
+  } else PetscCallHDF5(H5Sselect_hyperslab(file_space, H5S_SELECT_SET, start, nullptr, count, nullptr));
+  const double nothing = 0.0;
+  PetscCallHDF5(H5Dwrite(dataset, H5T_NATIVE_DOUBLE, memory_space, file_space, frame_transfer, buffered_values.empty() ? &nothing : buffered_values.data()));
   rows_written += rows_buffered;
   rows_buffered = 0;
   buffered_values.clear();
-  buffered_probes.clear();
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
@@ -1427,10 +1461,9 @@ PetscErrorCode OutputFile::Impl::TruncateRows(hid_t parent, const std::string &n
 
 PetscErrorCode OutputFile::Impl::Resume(int last_step, long long history_rows, const std::string &run_id)
 {
-  H5Id                     frames_group, history, probes;
-  std::vector<std::string> names, probe_groups;
-  const char              *p    = path.c_str();
-  const hsize_t            rows = (hsize_t)history_rows;
+  H5Id          frames_group;
+  const char   *p    = path.c_str();
+  const hsize_t rows = (hsize_t)history_rows;
   PetscFunctionBeginUser;
   H5Id access;
   PetscCallHDF5(access = H5Pcreate(H5P_FILE_ACCESS));
@@ -1464,7 +1497,7 @@ PetscErrorCode OutputFile::Impl::Resume(int last_step, long long history_rows, c
   PetscCall(rows_of("/mesh/joint_names", 1, true, &n_joints));
   PetscCall(rows_of("/mesh/body_names", 1, true, &n_bodies));
   PetscCall(rows_of("/mesh/ground_names", 1, true, &n_ground));
-  for (const char *group : {"/frames", "/history", "/probes"})
+  for (const char *group : {"/frames", "/history"})
     PetscCheck(H5Lexists(file, group, H5P_DEFAULT) > 0, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "'%s' has no group %s", p, group);
   {
     // The kind of analysis, for the units of the history series still to be created.
@@ -1485,29 +1518,29 @@ PetscErrorCode OutputFile::Impl::Resume(int last_step, long long history_rows, c
   }
   // The frames: /frames/step, time and contents list them in the order written (steps rising).
   PetscCheck(marker.format.empty() || marker.format == kResultFormat, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED,
-             "'%s' is an older msflex result file ('%s': a group per frame), which a restart cannot continue; continue into a new file with "
+             "'%s' is a result file of an older msflex ('%s'; this one writes '%s'), which a restart cannot continue; continue into a new file with "
              "-output_file NEW.h5",
-             p, marker.format.c_str());
+             p, marker.format.c_str(), kResultFormat);
   PetscCallHDF5(frames_group = H5Gopen2(file, "/frames", H5P_DEFAULT));
   frames.clear();
   hsize_t kept = 0, stored = 0;
   {
     std::vector<hsize_t> dims[3];
-    const char          *columns[3] = {"/frames/step", "/frames/time", "/frames/contents"};
+    const char          *frame_columns[3] = {"/frames/step", "/frames/time", "/frames/contents"};
     for (int c = 0; c < 3; ++c) {
-      const std::string problem = DatasetDims(file, columns[c], &dims[c]);
+      const std::string problem = DatasetDims(file, frame_columns[c], &dims[c]);
       PetscCheck(problem.empty(), PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "'%s': %s", p, problem.c_str());
       PetscCheck(dims[c].size() == 1 && dims[c][0] == dims[0][0], PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "'%s': %s is not a list of %llu frames", p,
-                 columns[c], (unsigned long long)dims[0][0]);
+                 frame_columns[c], (unsigned long long)dims[0][0]);
     }
     stored = dims[0][0];
     std::vector<int>    steps(stored), contents(stored);
     std::vector<double> times(stored);
     if (stored > 0) {
       H5Id step, time, content;
-      PetscCallHDF5(step = H5Dopen2(file, columns[0], H5P_DEFAULT));
-      PetscCallHDF5(time = H5Dopen2(file, columns[1], H5P_DEFAULT));
-      PetscCallHDF5(content = H5Dopen2(file, columns[2], H5P_DEFAULT));
+      PetscCallHDF5(step = H5Dopen2(file, frame_columns[0], H5P_DEFAULT));
+      PetscCallHDF5(time = H5Dopen2(file, frame_columns[1], H5P_DEFAULT));
+      PetscCallHDF5(content = H5Dopen2(file, frame_columns[2], H5P_DEFAULT));
       PetscCallHDF5(H5Dread(step, H5T_NATIVE_INT, H5S_ALL, H5S_ALL, H5P_DEFAULT, steps.data()));
       PetscCallHDF5(H5Dread(time, H5T_NATIVE_DOUBLE, H5S_ALL, H5S_ALL, H5P_DEFAULT, times.data()));
       PetscCallHDF5(H5Dread(content, H5T_NATIVE_INT, H5S_ALL, H5S_ALL, H5P_DEFAULT, contents.data()));
@@ -1535,41 +1568,37 @@ PetscErrorCode OutputFile::Impl::Resume(int last_step, long long history_rows, c
     PetscCheck(!dims.empty() && dims[0] == stored, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "'%s': /frames/%s has %llu frames, /frames/step %llu", p,
                name.c_str(), dims.empty() ? 0ULL : (unsigned long long)dims[0], (unsigned long long)stored);
   }
-  // Every history and probe series (group, name) must hold the checkpoint's rows.
-  std::vector<std::pair<std::string, std::string>> series;
-  PetscCallHDF5(history = H5Gopen2(file, "/history", H5P_DEFAULT));
-  PetscCall(LinkNames(history, &names));
-  for (const std::string &name : names) series.emplace_back("/history", name);
-  PetscCallHDF5(probes = H5Gopen2(file, "/probes", H5P_DEFAULT));
-  PetscCall(LinkNames(probes, &probe_groups));
-  for (const std::string &probe : probe_groups) {
-    H5Id group;
-    PetscCallHDF5(group = H5Gopen2(probes, probe.c_str(), H5P_DEFAULT));
-    PetscCall(LinkNames(group, &names));
-    for (const std::string &name : names) series.emplace_back("/probes/" + probe, name);
-  }
-  PetscCheck(!series.empty() || rows == 0, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "'%s' has no history, the checkpoint expects %llu rows", p,
+  // The history table must hold the checkpoint's rows; its column names are what the run must
+  // go on writing (WriteHistoryBlock).
+  const htri_t has_table = H5Lexists(file, "/history/values", H5P_DEFAULT);
+  PetscCallHDF5(has_table);
+  PetscCheck(has_table || rows == 0, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "'%s' has no history, the checkpoint expects %llu rows", p,
              (unsigned long long)rows);
-  for (const auto &[group, name] : series) {
-    std::vector<hsize_t> dims;
-    const std::string    full    = group + "/" + name;
-    const std::string    problem = DatasetDims(file, full, &dims);
+  stored_columns.clear();
+  if (has_table) {
+    std::vector<hsize_t> dims, names_dims;
+    std::string          problem = DatasetDims(file, "/history/values", &dims);
     PetscCheck(problem.empty(), PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "'%s': %s", p, problem.c_str());
-    PetscCheck(!dims.empty() && dims[0] >= rows, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "'%s': %s has %llu rows, the checkpoint expects %llu", p,
-               full.c_str(), dims.empty() ? 0ULL : (unsigned long long)dims[0], (unsigned long long)rows);
+    PetscCheck(dims.size() == 2 && dims[0] >= rows, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED,
+               "'%s': /history/values has %llu rows, the checkpoint expects %llu", p, dims.empty() ? 0ULL : (unsigned long long)dims[0],
+               (unsigned long long)rows);
+    problem = ReadFixedStrings(file, "/history/names", &stored_columns);
+    PetscCheck(problem.empty(), PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "'%s': %s", p, problem.c_str());
+    PetscCheck(stored_columns.size() == dims[1], PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "'%s': /history/names names %zu columns, /history/values has %llu",
+               p, stored_columns.size(), (unsigned long long)dims[1]);
   }
-  // (2) Changes: frames written after the checkpoint go, the series are cut to its rows.
+  // (2) Changes: frames written after the checkpoint go, the table is cut to its rows.
   for (const std::string &name : frame_datasets) PetscCall(TruncateRows(frames_group, name, kept));
   frames_written = kept;
   for (int f = 0; f < kFrameFieldCount; ++f)
     field_exists[f] = std::find(frame_datasets.begin(), frame_datasets.end(), kFrameFields[f].name) != frame_datasets.end();
-  for (const auto &[group, name] : series) {
-    H5Id parent;
-    PetscCallHDF5(parent = H5Gopen2(file, group.c_str(), H5P_DEFAULT));
-    PetscCall(TruncateRows(parent, name, rows));
+  if (has_table) {
+    H5Id history;
+    PetscCallHDF5(history = H5Gopen2(file, "/history", H5P_DEFAULT));
+    PetscCall(TruncateRows(history, "values", rows));
   }
   rows_written = rows;
-  history_names.clear(); // taken from the next row, whose datasets must exist
+  history_names.clear(); // taken from the next row, which must have the stored columns
   probe_names.clear();
   PetscCallHDF5(H5Fflush(file, H5F_SCOPE_LOCAL));
   frames_listed = frames.size();
@@ -1743,6 +1772,7 @@ PetscErrorCode OutputFile::AppendHistory(const std::vector<std::string> &names, 
   if (!impl_->names_known) {
     PetscCall(BcastStrings(comm_, &impl_->history_names));
     PetscCall(BcastStrings(comm_, &impl_->probe_names));
+    impl_->TableColumns(&impl_->columns);
     impl_->names_known = true;
   }
   ++impl_->rows_buffered;
@@ -1785,6 +1815,8 @@ PetscErrorCode OutputFile::Flush()
   PetscCheck(impl_, PETSC_COMM_SELF, PETSC_ERR_ARG_WRONGSTATE, "Flush: no output file is open");
   if (!impl_->dirty) PetscFunctionReturn(PETSC_SUCCESS);
   PetscCall(PetscLogEventBegin(write_phase_events.history_block, 0, 0, 0, 0));
+  // Checked before the collective writes, so that every rank stops there.
+  PetscCall(RunOnRoot(comm_, [&] { return impl_->CheckStoredColumns(); }));
   PetscCall(RunCollective(comm_, [&] { return impl_->WriteHistoryBlock(); }));
   PetscCall(PetscLogEventEnd(write_phase_events.history_block, 0, 0, 0, 0));
   PetscCall(PetscLogEventBegin(write_phase_events.frame_block, 0, 0, 0, 0));

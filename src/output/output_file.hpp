@@ -121,24 +121,24 @@ public:
 
   // Creates `path` (an existing file is an error unless overwrite, and only an msflex result file
   // is ever replaced) and its sidecar `path` with the extension replaced by .xmf. Writes the
-  // marker (msflex_format "msflex result 2", msflex_model `model_fingerprint`, msflex_run
+  // marker (msflex_format kResultFormat, msflex_model `model_fingerprint`, msflex_run
   // `run_id`), the provenance attributes of the root group (version, git commit, command line,
   // options, ranks, start time), /input and /mesh into a new temporary file renamed over `path`
   // when complete.
   PetscErrorCode Open(MPI_Comm comm, const std::string &path, bool overwrite, const std::string &input_file, const std::string &input_text,
                       const OutputMesh &mesh, const std::string &model_fingerprint, const std::string &run_id);
   // Continues the result file of an interrupted run (a restart): keeps the frames up to step
-  // `last_step` and the first `history_rows` rows of the history and probe series, drops the
+  // `last_step` and the first `history_rows` rows of the history table, drops the
   // rest, rewrites the sidecar, and opens the file as Open does.
   // Nothing changes unless the file is the result of run `run_id` and holds the frame of
-  // `last_step` and `history_rows` rows of every series (one line naming what is missing).
+  // `last_step` and `history_rows` rows of history (one line naming what is missing).
   PetscErrorCode Reopen(MPI_Comm comm, const std::string &path, int last_step, long long history_rows, const std::string &run_id);
   // Appends a frame to the /frames datasets (one row each): kept in memory and written in blocks,
   // at the latest at the next flush, from which on the sidecar lists it.
   PetscErrorCode WriteFrame(const OutputFrame &frame);
-  // Appends one row to /history (one extensible 1-D dataset per name; the set of names must be
-  // the same on every call, "time" first) and one sample per probe to /probes/<name>/..., in
-  // memory until the next flush. Once HistoryNamesKnown(), `names` may be empty (and the probe
+  // Appends one row to the history table /history/values: one column per name (the set of names
+  // must be the same on every call, "time" first, no name twice), then kProbeColumns per probe
+  // sample (<probe>.position.x, ...), in memory until the next flush. Once HistoryNamesKnown(), `names` may be empty (and the probe
   // samples' names too): the row then only has to have as many values and samples as the first.
   PetscErrorCode AppendHistory(const std::vector<std::string> &names, const std::vector<double> &values, const std::vector<ProbeSample> &probes);
   // Whether the series names are known (from the first row since Open or Reopen), so that a

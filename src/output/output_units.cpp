@@ -8,7 +8,7 @@ struct Entry {
   const char *group, *name, *unit, *description;
 };
 
-// Every dataset of the root (group ""), /mesh, /frames and /probes/<probe>. "TIME" in a unit stands for the unit
+// Every dataset of the root (group ""), /mesh, /frames and /history. "TIME" in a unit stands for the unit
 // of time: s in dynamics, 1 (the load factor) in statics.
 const Entry kDatasets[] = {
     {"", "input", "", "the input file's text (YAML), verbatim"},
@@ -69,10 +69,27 @@ const Entry kDatasets[] = {
     {"frames", "joint_a1", "1", "joint axis a1 in its current orientation: master rotation times reference axis"},
     {"frames", "joint_a2", "1", "joint axis a2 in its current orientation: master rotation times reference axis"},
     {"frames", "joint_a3", "1", "joint axis a3 in its current orientation: master rotation times reference axis"},
-    {"probes", "position", "m", "current position of the probed node"},
-    {"probes", "displacement", "m", "displacement of the probed node"},
-    {"probes", "rotation", "1", "rotation of the probed node, unit quaternion (w, x, y, z)"},
-    {"probes", "rotation_angle", "rad", "tracked rotation angle 2 atan2(|q_v|, q_w) of the probed node, in [0, 2 pi]"},
+    {"history", "values", "mixed", "the history: one row per converged step (row 0: the initial state), one column per series, named in /history/names"},
+    {"history", "names", "", "name of each column of /history/values"},
+    {"history", "units", "", "unit of each column of /history/values"},
+    {"history", "descriptions", "", "what each column of /history/values holds"},
+};
+
+// The columns of a probe's sample, in the order of ProbeSample: quantity, component, unit, description.
+const struct {
+  const char *quantity, *component, *unit, *description;
+} kProbeSeries[kProbeColumns] = {
+    {"position", "x", "m", "current position of the probed node"},
+    {"position", "y", "m", "current position of the probed node"},
+    {"position", "z", "m", "current position of the probed node"},
+    {"displacement", "x", "m", "displacement of the probed node"},
+    {"displacement", "y", "m", "displacement of the probed node"},
+    {"displacement", "z", "m", "displacement of the probed node"},
+    {"rotation", "w", "1", "rotation of the probed node, unit quaternion (w, x, y, z)"},
+    {"rotation", "x", "1", "rotation of the probed node, unit quaternion (w, x, y, z)"},
+    {"rotation", "y", "1", "rotation of the probed node, unit quaternion (w, x, y, z)"},
+    {"rotation", "z", "1", "rotation of the probed node, unit quaternion (w, x, y, z)"},
+    {"rotation_angle", "", "rad", "tracked rotation angle 2 atan2(|q_v|, q_w) of the probed node, in [0, 2 pi]"},
 };
 
 // The fixed history series.
@@ -173,6 +190,22 @@ Quantity HistoryQuantity(const std::string &name, bool dynamic)
       }
   }
   return {"", "a series of unknown meaning"};
+}
+
+void ProbeColumnNames(const std::string &probe, std::string names[kProbeColumns])
+{
+  for (int c = 0; c < kProbeColumns; ++c) {
+    names[c] = probe + "." + kProbeSeries[c].quantity;
+    if (*kProbeSeries[c].component) names[c] += std::string(".") + kProbeSeries[c].component;
+  }
+}
+
+Quantity ProbeColumnQuantity(const std::string &probe, int column)
+{
+  const auto &series      = kProbeSeries[column];
+  std::string description = "probe " + probe + ": " + series.description;
+  if (*series.component) description += std::string(", ") + series.component;
+  return {series.unit, description};
 }
 
 std::string NameWithUnit(const std::string &name, const std::string &unit)

@@ -72,21 +72,30 @@ def run_msflex(args, input_file, output_file, extra=(), np_ranks=None, expect_su
     return result.returncode, result.stdout, result.stderr
 
 
+def _history_file(path):
+    sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "postproc"))
+    import msflex_h5
+    return msflex_h5.HistoryFile(path)
+
+
 def probe_history(path, probe):
-    """time column and the probe's datasets as numpy arrays."""
-    with h5py.File(path, "r") as f:
-        data = {"time": f["history/time"][()]}
-        for name, dataset in f["probes"][probe].items():
-            data[name] = dataset[()]
+    """time column and the probe's quantities as numpy arrays: position, displacement (rows x 3),
+    rotation (rows x 4, w x y z), rotation_angle (rows)."""
+    with _history_file(path) as h:
+        data = {"time": h.read("time")}
+        for quantity, components in (("position", "xyz"), ("displacement", "xyz"), ("rotation", "wxyz")):
+            data[quantity] = np.column_stack([h.read(f"{probe}.{quantity}.{c}") for c in components])
+        data["rotation_angle"] = h.read(f"{probe}.rotation_angle")
     return data
 
 
 def history(path):
-    with h5py.File(path, "r") as f:
-        return {name: dataset[()] for name, dataset in f["history"].items()}
+    """Every series of the history table (docs/output.md), {name: array}; probes' columns included."""
+    with _history_file(path) as h:
+        return h.read_all()
 
 
-# The result file's frames ("msflex result 2"): /frames/step, /frames/time and /frames/contents
+# The result file's frames (since "msflex result 2"): /frames/step, /frames/time and /frames/contents
 # list the frames in the order written (steps rising); every other dataset of /frames is
 # frames x rows x columns, frame k being its entry [k]. A dataset exists when any frame has it; a
 # frame without it (its bit of /frames/contents not set) holds zeros there. FRAME_CONTENT_BIT: the
@@ -220,11 +229,10 @@ def expected_results(input_file):
 
 
 def series_values(f, series):
-    """A series as postproc/msflex_h5.py names it (every /history/<name>; <probe>.position.x,
-    <probe>.rotation_angle, ...), or else any numeric dataset by its path, flattened."""
-    sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "postproc"))
-    import msflex_h5
-    with msflex_h5.HistoryFile(f.filename) as history:
+    """A series as postproc/msflex_h5.py names it (a column of the history table: time,
+    <probe>.position.x, <probe>.rotation_angle, ...), or else any numeric dataset by its path,
+    flattened."""
+    with _history_file(f.filename) as history:
         if series in history.names():
             return history.read(series)
     if series in f:
@@ -238,7 +246,8 @@ def check_expected(check, input_file, result_file, label, end_time=None):
     run was shortened, is skipped and said so. Returns (checked, skipped)."""
     checked = skipped = 0
     with h5py.File(result_file, "r") as f:
-        times = f["history/time"][()] if "history" in f and "time" in f["history"] else None
+        with _history_file(result_file) as h:
+            times = h.read("time") if "time" in h.names() else None
         for entry in expected_results(input_file):
             series = entry["series"]
             where = f"t = {entry['time']}" if "time" in entry else entry["statistic"]

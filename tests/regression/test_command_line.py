@@ -10,7 +10,6 @@
 
 import os
 
-import h5py
 import numpy as np
 
 import msflex_testing as mt
@@ -109,10 +108,10 @@ for ranks in sorted({1, args.np}):
     code, stdout, _ = run(top, short_top + ["-analysis_initial_step", "0.01"], ranks, expect_success=True)
     summary = stdout[stdout.index("msflex: summary"):] if "msflex: summary" in stdout else ""
     print(summary)
-    with h5py.File(output, "r") as f:
-        steps = len(f["history/time"]) - 1
-        newton = int(np.sum(f["history/newton_iterations"][()]))
-        balance = f["history/energy_balance"][()]
+    h = mt.history(output)
+    steps = len(h["time"]) - 1
+    newton = int(np.sum(h["newton_iterations"]))
+    balance = h["energy_balance"]
     check.true(f"np {ranks} summary printed", bool(summary))
     check.true(f"np {ranks} summary: steps = history rows - 1 ({steps})",
                f"steps              {steps} accepted, 0 rejected" in summary)

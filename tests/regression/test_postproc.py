@@ -1,8 +1,8 @@
 #!/usr/bin/env python3
 """Runs postproc/msflex-history, postproc/plot-history and postproc/msflex-modes on synthetic result
-files that follow docs/output.md (a history and one probe, with the units and descriptions msflex
-writes, of a static and of a dynamic analysis, and one of an older msflex without them; modes;
-critical points): the listing, CSV, the axis labels with units ("load factor" for a static
+files that follow docs/output.md (a history table with one probe's columns, with the units and
+descriptions msflex writes, of a static and of a dynamic analysis, and one of an older msflex: a
+dataset per series, without units; modes; critical points): the listing, CSV, the axis labels with units ("load factor" for a static
 analysis's time) and the errors. Run: python3 tests/regression/test_postproc.py"""
 
 import csv
@@ -29,31 +29,50 @@ TIP_ROTATION_ANGLE = np.array([0.0, 0.9, 2.1])
 
 
 # Units and descriptions as msflex writes them (docs/output.md); time's depend on the analysis.
-UNITS = {"history/load_factor": ("1", "a load factor"), "history/newton_iterations": ("1", "Newton iterations of the step"),
-         "history/strain_energy": ("J", "strain energy of the beams"),
-         "probes/tip/position": ("m", "current position of the probed node"), "probes/tip/displacement": ("m", "displacement of the probed node"),
-         "probes/tip/rotation": ("1", "rotation of the probed node, unit quaternion (w, x, y, z)"),
-         "probes/tip/rotation_angle": ("rad", "tracked rotation angle of the probed node")}
+UNITS = {"load_factor": ("1", "a load factor"), "newton_iterations": ("1", "Newton iterations of the step"),
+         "strain_energy": ("J", "strain energy of the beams")}
+PROBE_UNITS = {"position": ("m", "current position of the probed node"), "displacement": ("m", "displacement of the probed node"),
+               "rotation": ("1", "rotation of the probed node, unit quaternion (w, x, y, z)"),
+               "rotation_angle": ("rad", "tracked rotation angle of the probed node")}
+
+
+def write_table(f, columns, quantities=None):
+    """The history table of the current layout: /history/values (rows x columns) and the columns'
+    names, units and descriptions (`quantities`: name -> (unit, description); default none known)."""
+    names = list(columns)
+    f["history/values"] = np.column_stack([np.asarray(columns[name], dtype=float) for name in names])
+    quantities = quantities or {}
+    f["history/names"] = np.array([name.encode() for name in names])
+    f["history/units"] = np.array([quantities.get(name, ("", ""))[0].encode() for name in names])
+    f["history/descriptions"] = np.array([quantities.get(name, ("", "a series of unknown meaning"))[1].encode() for name in names])
 
 
 def write_result_file(path, analysis="static"):
-    """analysis: "static", "dynamic", or None for a file of an older msflex (no units)."""
+    """analysis: "static", "dynamic", or None for a file of an older msflex (a dataset per series,
+    no units)."""
     with h5py.File(path, "w") as f:
-        f["history/time"] = TIME
-        f["history/load_factor"] = LOAD_FACTOR
-        f["history/newton_iterations"] = NEWTON_ITERATIONS
-        f["history/strain_energy"] = 2 * LOAD_FACTOR
-        f["probes/tip/position"] = TIP_POSITION
-        f["probes/tip/displacement"] = TIP_POSITION - TIP_POSITION[0]
-        f["probes/tip/rotation"] = TIP_ROTATION
-        f["probes/tip/rotation_angle"] = TIP_ROTATION_ANGLE
         if analysis is None:
+            f["history/time"] = TIME
+            f["history/load_factor"] = LOAD_FACTOR
+            f["history/newton_iterations"] = NEWTON_ITERATIONS
+            f["history/strain_energy"] = 2 * LOAD_FACTOR
+            f["probes/tip/position"] = TIP_POSITION
+            f["probes/tip/displacement"] = TIP_POSITION - TIP_POSITION[0]
+            f["probes/tip/rotation"] = TIP_ROTATION
+            f["probes/tip/rotation_angle"] = TIP_ROTATION_ANGLE
             return
         f.attrs["analysis_type"] = analysis
-        units = dict(UNITS, **{"history/time": ("s", "time") if analysis == "dynamic" else ("1", "load factor: the pseudo-time")})
-        for dataset, (unit, description) in units.items():
-            f[dataset].attrs["unit"] = unit
-            f[dataset].attrs["description"] = description
+        columns = {"time": TIME, "load_factor": LOAD_FACTOR, "newton_iterations": NEWTON_ITERATIONS, "strain_energy": 2 * LOAD_FACTOR}
+        quantities = dict(UNITS, time=("s", "time") if analysis == "dynamic" else ("1", "load factor: the pseudo-time"))
+        probe = {"position": TIP_POSITION, "displacement": TIP_POSITION - TIP_POSITION[0], "rotation": TIP_ROTATION}
+        for quantity, values in probe.items():
+            unit, description = PROBE_UNITS[quantity]
+            for k, component in enumerate("wxyz" if quantity == "rotation" else "xyz"):
+                columns[f"tip.{quantity}.{component}"] = values[:, k]
+                quantities[f"tip.{quantity}.{component}"] = (unit, f"probe tip: {description}, {component}")
+        columns["tip.rotation_angle"] = TIP_ROTATION_ANGLE
+        quantities["tip.rotation_angle"] = (PROBE_UNITS["rotation_angle"][0], "probe tip: " + PROBE_UNITS["rotation_angle"][1])
+        write_table(f, columns, quantities)
 
 
 def plot_history_module():
@@ -97,14 +116,26 @@ class PostprocTest(unittest.TestCase):
         self.assertEqual(len(rows), 4 + 3 + 3 + 4 + 1)
         self.assertEqual(rows["time"], ["[1]", "load factor: the pseudo-time"])
         self.assertEqual(rows["strain_energy"], ["[J]", "strain energy of the beams"])
-        self.assertEqual(rows["tip.position.y"], ["[m]", "current position of the probed node, y"])
-        self.assertEqual(rows["tip.rotation_angle"], ["[rad]", "tracked rotation angle of the probed node"])
-        self.assertEqual(rows["tip.rotation.w"], ["[1]", "rotation of the probed node, unit quaternion (w, x, y, z), w"])
-        # A file without units (an older msflex) lists them as unknown.
+        self.assertEqual(rows["tip.position.y"], ["[m]", "probe tip: current position of the probed node, y"])
+        self.assertEqual(rows["tip.rotation_angle"], ["[rad]", "probe tip: tracked rotation angle of the probed node"])
+        self.assertEqual(rows["tip.rotation.w"], ["[1]", "probe tip: rotation of the probed node, unit quaternion (w, x, y, z), w"])
+        # A file of an older msflex (a dataset per series, no units) lists the same series, their
+        # units as unknown.
         write_result_file(self.h5, analysis=None)
         result = run("msflex-history", self.h5)
         self.assertEqual(result.returncode, 0, result.stderr)
         self.assertEqual(result.stdout.splitlines()[0].split(), ["time", "[?]"])
+        self.assertEqual(len(result.stdout.splitlines()), 4 + 3 + 3 + 4 + 1)
+
+    def test_reads_the_same_values_from_either_layout(self):
+        new = run("msflex-history", self.h5, "load_factor", "tip.position.z", "tip.rotation.w", "tip.rotation_angle")
+        write_result_file(self.h5, analysis=None)
+        old = run("msflex-history", self.h5, "load_factor", "tip.position.z", "tip.rotation.w", "tip.rotation_angle")
+        self.assertEqual(new.returncode, 0, new.stderr)
+        self.assertEqual(old.returncode, 0, old.stderr)
+        rows = list(csv.reader(io.StringIO(new.stdout)))
+        self.assertEqual(rows[1:], list(csv.reader(io.StringIO(old.stdout)))[1:])
+        self.assertEqual([float(x) for x in rows[3]], [1.0, 1.0, 0.7, 0.5, 2.1])
 
     def test_plot_axes_carry_names_and_units(self):
         plot_history = plot_history_module()
@@ -177,9 +208,8 @@ class PostprocTest(unittest.TestCase):
     def test_lists_modes(self):
         path = os.path.join(self.directory.name, "modes.h5")
         with h5py.File(path, "w") as f:
-            for name, values in {"time": [1, 2], "step": [1, 2], "mode": [1, 2], "eigenvalue": [-1e-9, 400.0], "angular_frequency": [0.0, 20.0],
-                                 "frequency": [0.0, 20.0 / (2 * np.pi)], "rigid_mode": [1, 0], "backward_error": [1e-16, 2e-16]}.items():
-                f[f"history/{name}"] = np.array(values, dtype=float)
+            write_table(f, {"time": [1, 2], "step": [1, 2], "mode": [1, 2], "eigenvalue": [-1e-9, 400.0], "angular_frequency": [0.0, 20.0],
+                            "frequency": [0.0, 20.0 / (2 * np.pi)], "rigid_mode": [1, 0], "backward_error": [1e-16, 2e-16]})
         result = run("msflex-modes", path)
         self.assertEqual(result.returncode, 0, result.stderr)
         lines = result.stdout.splitlines()
@@ -191,9 +221,8 @@ class PostprocTest(unittest.TestCase):
     def test_lists_critical_points(self):
         path = os.path.join(self.directory.name, "path.h5")
         with h5py.File(path, "w") as f:
-            for name, values in {"time": [0, 1, 2, 3], "step": [0, 1, 2, 3], "critical_point": [0, 1, 0, 2],
-                                 "critical_load_factor": [np.nan, 0.38, np.nan, 0.5], "negative_pivots": [0, 1, 1, 2]}.items():
-                f[f"history/{name}"] = np.array(values, dtype=float)
+            write_table(f, {"time": [0, 1, 2, 3], "step": [0, 1, 2, 3], "critical_point": [0, 1, 0, 2],
+                            "critical_load_factor": [np.nan, 0.38, np.nan, 0.5], "negative_pivots": [0, 1, 1, 2]})
         result = run("msflex-modes", path)
         self.assertEqual(result.returncode, 0, result.stderr)
         lines = result.stdout.splitlines()

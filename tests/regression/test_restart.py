@@ -57,13 +57,15 @@ def run(ranks, *arguments, expect=0):
 
 
 def read_all(path):
-    """Every frame dataset and every history/probe series, by name."""
+    """Every frame dataset ("frames/<name>") and every column of the history table, probes'
+    included ("history/<series>")."""
     data = {}
     with h5py.File(path, "r") as f:
         def visit(name, obj):
-            if isinstance(obj, h5py.Dataset) and (name.startswith("frames/") or name.startswith("history/") or name.startswith("probes/")):
-                data[name] = obj[()]
-        f.visititems(visit)
+            if isinstance(obj, h5py.Dataset):
+                data["frames/" + name] = obj[()]
+        f["frames"].visititems(visit)
+    data.update({"history/" + name: values for name, values in mt.history(path).items()})
     return data
 
 
@@ -78,8 +80,8 @@ ENERGY_SERIES = ("history/total_energy", "history/kinetic_energy", "history/stra
 
 def family_scales(data):
     """Per history series: the largest |value| among the series of its joint or probe ("ball.force_x"
-    and "ball.moment_x" share "ball"), or among the energy series; other datasets: their own
-    largest |value|."""
+    and "ball.moment_x" share "ball", "tip.position.x" and "tip.rotation.w" share "tip"), or among
+    the energy series; other datasets: their own largest |value|."""
     scales, families = {}, {}
     for name, values in data.items():
         family = name.rsplit("/", 1)[0] + "/" + name.rsplit("/", 1)[1].split(".")[0] if name.startswith("history/") and "." in name else name
@@ -147,8 +149,7 @@ for label, source, settings in cases:
     run(2, "--restart", checkpoint, "-output_file", other, "-checkpoint_file", f"{work}/{tag}_np2.ckpt.h5")
     got = read_all(other)
     frames = [name for name in got if name.startswith("frames/")]
-    with h5py.File(other, "r") as f:
-        first_step = int(f["history/step"][0])
+    first_step = int(mt.history(other)["step"][0])
     rows = slice(first_step, None)
     # The new file holds the frames after the checkpoint: the reference's frames of the same steps
     # (a step the reference lacks makes the shapes differ).
@@ -205,8 +206,7 @@ def interrupt(ranks, send, label, source, settings, expected):
     check.equal(f"{label}: exit status", process.returncode, 75)
     with h5py.File(checkpoint, "r") as f:
         stopped_at = int(f["run/numbers"][0])
-    with h5py.File(output, "r") as f:
-        history_steps = f["history/step"][()]
+    history_steps = mt.history(output)["step"]
     check.equal(f"{label}: the result file's history ends at the checkpoint (last step = checkpoint step)", history_steps[-1], stopped_at)
     run(ranks, "--restart", checkpoint, "-quiet")
     got = read_all(output)
@@ -233,9 +233,9 @@ for line in process.stdout:
         break
 process.kill()
 process.wait()
+history = mt.history(output)
+steps, times = history["step"], history["time"]
 with h5py.File(output, "r") as f:
-    steps = f["history/step"][()]
-    times = f["history/time"][()]
     n_frames = mt.frame_count(f)
     last_frame = mt.frame(f, -1) if n_frames else {"step": -1, "position": np.array([np.nan])}
     positions = last_frame["position"]
@@ -255,8 +255,7 @@ run(1, source, "-output_file", output, "-output_overwrite", "-quiet", "-checkpoi
 elapsed = time.time() - started
 with h5py.File(checkpoint, "r") as f:
     checkpoint_step = int(f["run/numbers"][0])
-with h5py.File(output, "r") as f:
-    last_step = int(f["history/step"][-1])
+last_step = int(mt.history(output)["step"][-1])
 print(f"wall-time checkpoints: run of {elapsed:.1f} s, last checkpoint at step {checkpoint_step} of {last_step}")
 if elapsed > 1.0:
     check.true(f"wall time: checkpoint of an intermediate step (0 < {checkpoint_step} < {last_step})", 0 < checkpoint_step < last_step)

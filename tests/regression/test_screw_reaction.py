@@ -11,7 +11,6 @@ its impulse over two consecutive steps is zero (to the Newton tolerance), its am
 scheme's released direction (pitch, 1) tilted by (W h)^2 / 12, and energy is conserved to the Newton
 tolerance at every step size."""
 
-import h5py
 import numpy as np
 
 import msflex_testing as mt
@@ -26,8 +25,8 @@ momentum_rate = mass * speed / 0.01  # m v / h: the scale of the forces in one s
 def history(integrator, step):
     output = f"{args.work_dir}/free_screw_{integrator}_{step}.h5"
     mt.run_msflex(args, source, output, extra=["-quiet", "-analysis_integrator", integrator, "-analysis_initial_step", str(step), "-analysis_max_step", str(step)])
-    with h5py.File(output, "r") as f:
-        return {name: f["history"][name][1:] for name in ("lead.force_z", "lead.moment_z", "lead.force_x", "lead.force_y", "total_energy")}
+    h = mt.history(output)
+    return {name: h[name][1:] for name in ("lead.force_z", "lead.moment_z", "lead.force_x", "lead.force_y", "total_energy")}
 
 
 h = history("newmark", 0.01)

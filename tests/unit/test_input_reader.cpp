@@ -1184,7 +1184,7 @@ TEST(InputMesh, BadMeshesNameFileDatasetAndRow)
       {"duplicate joint name", [](MeshSpec &spec) { spec["/joints/names"].strings[3] = "base"; }, "mesh.h5: /joints/names row 3: duplicate joint name 'base'"},
       {"slave is master", [](MeshSpec &spec) { spec["/joints/slave"].integers[1] = 2; }, "mesh.h5: /joints/slave row 1: the slave is the master, node 'p2'"},
       {"joint name with a slash", [](MeshSpec &spec) { spec["/joints/names"].strings[1] = "arm/hinge"; },
-       "mesh.h5: /joints/names row 1: joint name 'arm/hinge' cannot begin the names of its history series /history/<name>.tx, ... in the result file: it "
+       "mesh.h5: /joints/names row 1: joint name 'arm/hinge' cannot begin the names of its history series <name>.tx, ... in the result file: it "
        "contains '/', the HDF5 path separator"},
   };
   for (const BadMeshCase &bad : cases) {

@@ -3,7 +3,9 @@
 // rank its rows, for distributed frames), and only rank 0 reads the file back. Also: history rows
 // buffered and written in chunks, the flush semantics, the sidecar well-formed after every frame
 // and its cost per frame, rigid bodies, joints and ground, units and provenance.
+#include "core/hdf5_files.hpp"
 #include "output/output_file.hpp"
+#include "output/output_units.hpp"
 
 #include <gtest/gtest.h>
 #include <hdf5.h>
@@ -128,6 +130,57 @@ std::vector<double> ReadFrame(hid_t file, const std::string &field, size_t index
   *dims                  = {all[1], all[2]};
   const size_t per_frame = all[1] * all[2];
   return std::vector<double>(values.begin() + index * per_frame, values.begin() + (index + 1) * per_frame);
+}
+
+// The history table's column names (/history/names, fixed-length strings), read by msflex's own reader.
+std::vector<std::string> HistoryColumns(hid_t file, const char *list = "/history/names")
+{
+  std::vector<std::string> names;
+  const std::string        problem = ReadFixedStrings(file, list, &names);
+  EXPECT_EQ(problem, "");
+  return names;
+}
+
+// Column `series` of the history table /history/values; *dims = {rows}.
+std::vector<double> ReadSeries(hid_t file, const std::string &series, std::vector<hsize_t> *dims)
+{
+  std::vector<hsize_t>           table_dims;
+  const std::vector<double>      table = ReadDoubles(file, "/history/values", &table_dims);
+  const std::vector<std::string> names = HistoryColumns(file);
+  const auto                     found = std::find(names.begin(), names.end(), series);
+  dims->clear();
+  EXPECT_NE(found, names.end()) << "no history column " << series;
+  if (found == names.end() || table_dims.size() != 2) return {};
+  const size_t        column = (size_t)(found - names.begin());
+  std::vector<double> values;
+  for (hsize_t row = 0; row < table_dims[0]; ++row) values.push_back(table[row * table_dims[1] + column]);
+  *dims = {table_dims[0]};
+  return values;
+}
+
+// A probe's quantity from its history columns, row after row: position and displacement (x, y,
+// z), rotation (w, x, y, z), rotation_angle; *dims = {rows, components} ({rows} for the angle).
+std::vector<double> ReadProbe(hid_t file, const std::string &probe, const std::string &quantity, std::vector<hsize_t> *dims)
+{
+  const std::string components = quantity == "rotation" ? "wxyz" : quantity == "rotation_angle" ? "" : "xyz";
+  if (components.empty()) return ReadSeries(file, probe + "." + quantity, dims);
+  std::vector<std::vector<double>> columns;
+  for (const char c : components) columns.push_back(ReadSeries(file, probe + "." + quantity + "." + c, dims));
+  std::vector<double> values;
+  for (size_t row = 0; row < columns[0].size(); ++row)
+    for (const std::vector<double> &column : columns) values.push_back(column[row]);
+  *dims = {columns[0].size(), components.size()};
+  return values;
+}
+
+// The unit ("units") or description ("descriptions") of history column `series`.
+std::string SeriesQuantity(hid_t file, const std::string &series, const char *which)
+{
+  const std::vector<std::string> names = HistoryColumns(file),
+                                 texts = HistoryColumns(file, which == std::string("units") ? "/history/units" : "/history/descriptions");
+  const auto found                     = std::find(names.begin(), names.end(), series);
+  EXPECT_NE(found, names.end()) << "no history column " << series;
+  return found == names.end() || texts.size() != names.size() ? std::string("?") : texts[(size_t)(found - names.begin())];
 }
 
 // The in-memory type of the file's strings: HDF5 does not convert between character sets.
@@ -278,15 +331,15 @@ TEST_F(OutputFileTest, WritesMeshFramesHistoryAndSidecar)
   for (size_t i = 0; i < kHistoryNames.size(); ++i) {
     std::vector<double> expected;
     for (int row = 0; row < kHistoryRows; ++row) expected.push_back(HistoryRow(row)[i]);
-    EXPECT_EQ(ReadDoubles(file, "/history/" + kHistoryNames[i], &dims), expected) << kHistoryNames[i];
+    EXPECT_EQ(ReadSeries(file, kHistoryNames[i], &dims), expected) << kHistoryNames[i];
     EXPECT_EQ(dims, Shape{kHistoryRows});
   }
-  EXPECT_EQ(ReadDoubles(file, "/probes/tip/position", &dims), (std::vector<double>{0, 0.25, 0.5, 1, 1.25, 1.5, 2, 2.25, 2.5}));
+  EXPECT_EQ(ReadProbe(file, "tip", "position", &dims), (std::vector<double>{0, 0.25, 0.5, 1, 1.25, 1.5, 2, 2.25, 2.5}));
   EXPECT_EQ(dims, (Shape{kHistoryRows, 3}));
-  EXPECT_EQ(ReadDoubles(file, "/probes/tip/displacement", &dims), (std::vector<double>{0, 0, 0, -1, 0, 0, -2, 0, 0}));
-  EXPECT_EQ(ReadDoubles(file, "/probes/tip/rotation", &dims), (std::vector<double>{1, 0, 0, 0, 1, 0, 0, 0.1, 1, 0, 0, 0.2}));
+  EXPECT_EQ(ReadProbe(file, "tip", "displacement", &dims), (std::vector<double>{0, 0, 0, -1, 0, 0, -2, 0, 0}));
+  EXPECT_EQ(ReadProbe(file, "tip", "rotation", &dims), (std::vector<double>{1, 0, 0, 0, 1, 0, 0, 0.1, 1, 0, 0, 0.2}));
   EXPECT_EQ(dims, (Shape{kHistoryRows, 4}));
-  EXPECT_EQ(ReadDoubles(file, "/probes/tip/rotation_angle", &dims), (std::vector<double>{0, 0.2, 0.4}));
+  EXPECT_EQ(ReadProbe(file, "tip", "rotation_angle", &dims), (std::vector<double>{0, 0.2, 0.4}));
   EXPECT_EQ(dims, Shape{kHistoryRows});
   EXPECT_GE(H5Fclose(file), 0);
 
@@ -535,9 +588,9 @@ TEST_F(OutputFileTest, HistoryIsBufferedAndWrittenInChunks)
     EXPECT_TRUE(out.HistoryNamesKnown());
     EXPECT_EQ(out.HistoryRows(), row + 1);
     if (row == 6 || row == 1500) {
-      const long long before = IsRoot() ? RowsOnDisk(h5_path(), "/history/time") : 0;
+      const long long before = IsRoot() ? RowsOnDisk(h5_path(), "/history/values") : 0;
       ASSERT_EQ(out.Flush(), PETSC_SUCCESS);
-      const long long after = IsRoot() ? RowsOnDisk(h5_path(), "/history/time") : 0;
+      const long long after = IsRoot() ? RowsOnDisk(h5_path(), "/history/values") : 0;
       if (IsRoot()) {
         EXPECT_EQ(before, row == 6 ? -1 : 7) << "rows are kept in memory until a flush";
         EXPECT_EQ(after, row + 1) << "a flush writes every buffered row";
@@ -552,7 +605,7 @@ TEST_F(OutputFileTest, HistoryIsBufferedAndWrittenInChunks)
   for (size_t i = 0; i < kHistoryNames.size(); ++i) {
     std::vector<double> expected;
     for (int row = 0; row < kRows; ++row) expected.push_back(HistoryRow(row)[i]);
-    EXPECT_EQ(ReadDoubles(file, "/history/" + kHistoryNames[i], &dims), expected) << kHistoryNames[i];
+    EXPECT_EQ(ReadSeries(file, kHistoryNames[i], &dims), expected) << kHistoryNames[i];
   }
   std::vector<double> position, angle;
   for (int row = 0; row < kRows; ++row) {
@@ -560,15 +613,16 @@ TEST_F(OutputFileTest, HistoryIsBufferedAndWrittenInChunks)
     position.insert(position.end(), probe.position, probe.position + 3);
     angle.push_back(probe.rotation_angle);
   }
-  EXPECT_EQ(ReadDoubles(file, "/probes/tip/position", &dims), position);
+  EXPECT_EQ(ReadProbe(file, "tip", "position", &dims), position);
   EXPECT_EQ(dims, (std::vector<hsize_t>{kRows, 3}));
-  EXPECT_EQ(ReadDoubles(file, "/probes/tip/rotation_angle", &dims), angle);
+  EXPECT_EQ(ReadProbe(file, "tip", "rotation_angle", &dims), angle);
   // Chunks as large as the first write needs, rounded up to a power of two: the flush at 7 rows
-  // created the series, so their chunks have the fewest rows (64), not 1024.
-  const hid_t dataset = H5Dopen2(file, "/history/time", H5P_DEFAULT), properties = H5Dget_create_plist(dataset);
-  hsize_t     chunk[1] = {0};
-  EXPECT_EQ(H5Pget_chunk(properties, 1, chunk), 1);
+  // created the table, so its chunks have the fewest rows (64), not 1024, and every column.
+  const hid_t dataset = H5Dopen2(file, "/history/values", H5P_DEFAULT), properties = H5Dget_create_plist(dataset);
+  hsize_t     chunk[2] = {0, 0};
+  EXPECT_EQ(H5Pget_chunk(properties, 2, chunk), 2);
   EXPECT_EQ(chunk[0], 64u);
+  EXPECT_EQ(chunk[1], kHistoryNames.size() + kProbeColumns);
   H5Pclose(properties);
   H5Dclose(dataset);
   EXPECT_GE(H5Fclose(file), 0);
@@ -609,7 +663,7 @@ TEST_F(OutputFileTest, FlushIntervalZeroWritesEveryRowAndATimedFlushComesWhenDue
   for (int row = 0; row < 3; ++row) {
     ASSERT_EQ(out.AppendHistory(kHistoryNames, HistoryRow(row), {ProbeOfRow(row)}), PETSC_SUCCESS);
     if (IsRoot()) {
-      EXPECT_EQ(RowsOnDisk(h5_path(), "/history/time"), row + 1);
+      EXPECT_EQ(RowsOnDisk(h5_path(), "/history/values"), row + 1);
     }
   }
   // One second between flushes: a row right after a flush stays in memory, one after a second does not.
@@ -617,12 +671,12 @@ TEST_F(OutputFileTest, FlushIntervalZeroWritesEveryRowAndATimedFlushComesWhenDue
   ASSERT_EQ(out.Flush(), PETSC_SUCCESS);
   ASSERT_EQ(out.AppendHistory(kHistoryNames, HistoryRow(3), {ProbeOfRow(3)}), PETSC_SUCCESS);
   if (IsRoot()) {
-    EXPECT_EQ(RowsOnDisk(h5_path(), "/history/time"), 3);
+    EXPECT_EQ(RowsOnDisk(h5_path(), "/history/values"), 3);
   }
   usleep(1100000);
   ASSERT_EQ(out.AppendHistory(kHistoryNames, HistoryRow(4), {ProbeOfRow(4)}), PETSC_SUCCESS);
   if (IsRoot()) {
-    EXPECT_EQ(RowsOnDisk(h5_path(), "/history/time"), 5);
+    EXPECT_EQ(RowsOnDisk(h5_path(), "/history/values"), 5);
   }
   ASSERT_EQ(out.Close(), PETSC_SUCCESS);
 }
@@ -871,19 +925,8 @@ TEST_F(OutputFileTest, EveryDatasetHasAUnitAndADescription)
     EXPECT_FALSE(ReadStringAttribute(file, dataset, "description").empty()) << dataset << " has no description";
   }
   const std::pair<const char *, const char *> units[] = {
-      {"/history/time", "s"},
-      {"/history/kinetic_energy", "J"},
-      {"/history/linear_momentum_x", "kg m/s"},
-      {"/history/angular_momentum_z", "kg m^2/s"},
-      {"/history/hinge.rx", "rad"},
-      {"/history/hinge.rx_rate", "rad/s"},
-      {"/history/slider.tx", "m"},
-      {"/history/slider.force_y", "N"},
-      {"/history/slider.moment_z", "N m"},
-      {"/history/residual_norm", "mixed"},
-      {"/probes/tip/position", "m"},
-      {"/probes/tip/rotation", "1"},
-      {"/probes/tip/rotation_angle", "rad"},
+      {"/history/values", "mixed"},
+      {"/history/names", ""},
       {"/mesh/node_coordinates", "m"},
       {"/mesh/body_inertia", "kg m^2"},
       {"/mesh/body_mass", "kg"},
@@ -901,6 +944,29 @@ TEST_F(OutputFileTest, EveryDatasetHasAUnitAndADescription)
       {"/input", ""},
   };
   for (const auto &[dataset, unit] : units) EXPECT_EQ(ReadStringAttribute(file, dataset, "unit"), unit) << dataset;
+  // Every column of the history table has its unit and a description.
+  const std::pair<const char *, const char *> series_units[] = {
+      {"time", "s"},
+      {"kinetic_energy", "J"},
+      {"linear_momentum_x", "kg m/s"},
+      {"angular_momentum_z", "kg m^2/s"},
+      {"hinge.rx", "rad"},
+      {"hinge.rx_rate", "rad/s"},
+      {"slider.tx", "m"},
+      {"slider.force_y", "N"},
+      {"slider.moment_z", "N m"},
+      {"residual_norm", "mixed"},
+      {"tip.position.x", "m"},
+      {"tip.rotation.w", "1"},
+      {"tip.rotation_angle", "rad"},
+  };
+  for (const auto &[series, unit] : series_units) EXPECT_EQ(SeriesQuantity(file, series, "units"), unit) << series;
+  const std::vector<std::string> columns = HistoryColumns(file), units_of_columns = HistoryColumns(file, "/history/units"),
+                                 descriptions = HistoryColumns(file, "/history/descriptions");
+  EXPECT_EQ(units_of_columns.size(), columns.size());
+  ASSERT_EQ(descriptions.size(), columns.size());
+  for (size_t k = 0; k < columns.size(); ++k) EXPECT_FALSE(descriptions[k].empty()) << columns[k] << " has no description";
+  EXPECT_EQ(SeriesQuantity(file, "tip.position.y", "descriptions"), "probe tip: current position of the probed node, y");
   EXPECT_GE(H5Fclose(file), 0);
 }
 
@@ -914,10 +980,10 @@ TEST_F(OutputFileTest, StaticHistoryTimeIsTheDimensionlessLoadFactor)
   if (!IsRoot()) return;
   const hid_t file = H5Fopen(h5_path().c_str(), H5F_ACC_RDONLY, H5P_DEFAULT);
   ASSERT_GE(file, 0);
-  EXPECT_EQ(ReadStringAttribute(file, "/history/time", "unit"), "1");
-  EXPECT_NE(ReadStringAttribute(file, "/history/time", "description").find("load factor"), std::string::npos);
-  EXPECT_EQ(ReadStringAttribute(file, "/history/step_size", "unit"), "1");
-  EXPECT_EQ(ReadStringAttribute(file, "/history/j.tx_rate", "unit"), "m");
+  EXPECT_EQ(SeriesQuantity(file, "time", "units"), "1");
+  EXPECT_NE(SeriesQuantity(file, "time", "descriptions").find("load factor"), std::string::npos);
+  EXPECT_EQ(SeriesQuantity(file, "step_size", "units"), "1");
+  EXPECT_EQ(SeriesQuantity(file, "j.tx_rate", "units"), "m");
   EXPECT_EQ(ReadStringAttribute(file, "/", "analysis_type"), "static");
   EXPECT_GE(H5Fclose(file), 0);
 }
@@ -980,19 +1046,65 @@ TEST_F(OutputFileTest, ReopenKeepsTheCheckpointedRowsAndFramesAndGoesOn)
   std::vector<hsize_t> dims;
   std::vector<double>  expected;
   for (int row = 0; row < 13; ++row) expected.push_back(HistoryRow(row < 10 ? row : 100 + row)[2]);
-  EXPECT_EQ(ReadDoubles(file, "/history/newton_iterations", &dims), expected);
-  EXPECT_EQ(ReadDoubles(file, "/probes/tip/rotation_angle", &dims).size(), 13u);
+  EXPECT_EQ(ReadSeries(file, "newton_iterations", &dims), expected);
+  EXPECT_EQ(ReadProbe(file, "tip", "rotation_angle", &dims).size(), 13u);
   EXPECT_EQ(ReadInts(file, "/frames/step", &dims), (std::vector<int>{0, 5, 11})) << "the frame after the checkpoint (12) is dropped";
   EXPECT_EQ(ReadFrame(file, "position", 2, &dims), FrameOfStep(11).position);
   ReadDoubles(file, "/frames/element_strains", &dims);
   EXPECT_EQ(dims, (std::vector<hsize_t>{3, 2, 6})) << "every frame dataset holds the kept frames";
-  EXPECT_EQ(ReadStringAttribute(file, "/history/time", "unit"), "1");
+  EXPECT_EQ(SeriesQuantity(file, "time", "units"), "1");
   EXPECT_GE(H5Fclose(file), 0);
   const std::string xdmf = ReadText(xdmf_path());
   std::string       why;
   EXPECT_TRUE(WellFormedXml(xdmf, &why)) << why;
   EXPECT_EQ(CountOf(xdmf, "<Grid Name=\"beams\" GridType=\"Uniform\">"), 3u);
   EXPECT_EQ(xdmf.find("<Time Value=\"3\"/>"), std::string::npos) << "the dropped frame (t = 3) is not listed";
+}
+
+// A history column is found by its name: the same name twice is refused; a restarted file goes on
+// with the columns it holds, and a run that writes others is refused at its first flush.
+TEST_F(OutputFileTest, HistoryColumnsAreUniqueAndARestartKeepsThem)
+{
+  const auto failure = [](PetscErrorCode status) {
+    char *message = nullptr;
+    PetscErrorMessage(status, nullptr, &message);
+    return std::string(message ? message : "");
+  };
+  {
+    OutputFile out;
+    ASSERT_EQ(OpenTiny(&out, false), PETSC_SUCCESS);
+    ProbeSample probe = ProbeOfRow(0);
+    probe.name        = "j";
+    EXPECT_EQ(PetscPushErrorHandler(PetscReturnErrorHandler, nullptr), PETSC_SUCCESS);
+    const PetscErrorCode twice = out.AppendHistory({"time", "step", "step"}, {0.0, 0.0, 0.0}, {});
+    EXPECT_NE(twice, PETSC_SUCCESS);
+    EXPECT_NE(failure(twice).find("two history series are named 'step'"), std::string::npos) << failure(twice);
+    // A series named like a probe's column.
+    const PetscErrorCode clash = out.AppendHistory({"time", "j.position.x"}, {0.0, 0.0}, {probe});
+    EXPECT_NE(clash, PETSC_SUCCESS);
+    EXPECT_NE(failure(clash).find("two history series are named 'j.position.x'"), std::string::npos) << failure(clash);
+    EXPECT_EQ(PetscPopErrorHandler(), PETSC_SUCCESS);
+    ASSERT_EQ(out.AppendHistory(kHistoryNames, HistoryRow(0), {ProbeOfRow(0)}), PETSC_SUCCESS);
+    ASSERT_EQ(out.WriteFrame(IsRoot() ? FrameOfStep(0) : OutputFrame{}), PETSC_SUCCESS);
+    ASSERT_EQ(out.AppendHistory(kHistoryNames, HistoryRow(1), {ProbeOfRow(1)}), PETSC_SUCCESS);
+    ASSERT_EQ(out.Close(), PETSC_SUCCESS);
+  }
+  OutputFile out;
+  ASSERT_EQ(out.Reopen(PETSC_COMM_WORLD, h5_path().string(), 0, 1, kRunId), PETSC_SUCCESS);
+  std::vector<std::string> other = kHistoryNames;
+  other.back() += "_renamed";
+  ASSERT_EQ(out.AppendHistory(other, HistoryRow(1), {ProbeOfRow(1)}), PETSC_SUCCESS); // buffered
+  EXPECT_EQ(PetscPushErrorHandler(PetscReturnErrorHandler, nullptr), PETSC_SUCCESS);
+  const PetscErrorCode flushed = out.Flush();
+  EXPECT_EQ(PetscPopErrorHandler(), PETSC_SUCCESS);
+  EXPECT_NE(flushed, PETSC_SUCCESS);
+  const std::string expected = "its history has " + std::to_string(kHistoryNames.size() + kProbeColumns) + " columns, this run writes " +
+                               std::to_string(kHistoryNames.size() + kProbeColumns) + "; the first that differs is column " +
+                               std::to_string(kHistoryNames.size() - 1) + " ('" + kHistoryNames.back() + "' in the file, '" + other.back() + "' now)";
+  EXPECT_NE(failure(flushed).find(expected), std::string::npos) << failure(flushed);
+  EXPECT_EQ(PetscPushErrorHandler(PetscReturnErrorHandler, nullptr), PETSC_SUCCESS);
+  (void)out.Close(); // fails on the same flush
+  EXPECT_EQ(PetscPopErrorHandler(), PETSC_SUCCESS);
 }
 
 } // namespace
