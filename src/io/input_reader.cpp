@@ -17,6 +17,7 @@
 #include <filesystem>
 #include <fstream>
 #include <iterator>
+#include <map>
 #include <memory>
 #include <new>
 #include <utility>
@@ -81,6 +82,28 @@ void RequireUniqueName(const std::vector<NamedType> &objects, const std::string 
   if (existing >= 0)
     FailAt(entry.Required("name").Mark(),
            "duplicate " + kind + " name " + Quote(name) + " (first defined at line " + std::to_string(objects[existing].mark.line) + ")");
+}
+
+// Joints, force elements and probes name the history series they add (<name>.force_x, ...), one
+// column each in one table: a joint and a reaction probe called alike would both write
+// hinge.force_x. Their names may repeat within no kind (each reader checks) nor across kinds.
+void CheckHistoryNamesDistinct(const Model &model)
+{
+  struct Named {
+    const char       *kind;
+    const SourceMark *mark;
+  };
+  std::map<std::string, Named> first;
+  const auto                   add = [&](const char *kind, const std::string &name, const SourceMark &mark) {
+    const auto [existing, inserted] = first.emplace(name, Named{kind, &mark});
+    if (!inserted)
+      FailAt(mark, std::string(kind) + " name " + Quote(name) + " is also the name of the " + existing->second.kind + " at line " +
+                                         std::to_string(existing->second.mark->line) + ": both would write the history series " + name +
+                                         ".*; joints, force elements and probes need names of their own");
+  };
+  for (const Joint &joint : model.joints) add("joint", joint.name, joint.mark);
+  for (const ForceElement &element : model.force_elements) add("force element", element.name, element.mark);
+  for (const Probe &probe : model.probes) add("probe", probe.name, probe.mark);
 }
 
 } // namespace
@@ -785,6 +808,7 @@ Model ParseModel(const std::string &text, const std::string &file_label, MPI_Com
   for (const YAML::Node &item : ReadOptionalList(top.Find("loads"), "loads")) ReadLoad(item, context);
   ReadInitialConditions(top.Find("initial_conditions"), context);
   for (const YAML::Node &item : ReadOptionalList(top.Find("probes"), "probes")) model.probes.push_back(ReadProbe(item, context));
+  CheckHistoryNamesDistinct(model);
   ReadAnalysis(top.Find("analysis"), context, model.analysis);
   ReadOutput(top.Find("output"), context, model.output);
   ReadExpected(top.Find("expected"), context);

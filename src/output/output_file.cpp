@@ -320,7 +320,8 @@ struct OutputFile::Impl {
   PetscErrorCode WriteFixedStrings(hid_t parent, const char *name, const std::vector<std::string> &strings, const char *group);
   // Rank 0: checks a history row against the first and keeps it in the buffer.
   PetscErrorCode BufferHistory(const std::vector<std::string> &names, const std::vector<double> &values, const std::vector<ProbeSample> &probes);
-  // Rank 0, before the first block after a restart: the run writes the columns the file holds.
+  // Rank 0, at the first row after a restart and again before writing it: the run writes the
+  // columns the file holds.
   PetscErrorCode CheckStoredColumns();
   // Writes the buffered rows to the history table /history/values (created with its names, units
   // and descriptions by the first block), extended once. Collective; rank 0's buffer is written,
@@ -844,7 +845,7 @@ PetscErrorCode OutputFile::Impl::WriteFixedStrings(hid_t parent, const char *nam
 PetscErrorCode OutputFile::Impl::CheckStoredColumns()
 {
   PetscFunctionBeginUser;
-  if (stored_columns.empty() || rows_buffered == 0) PetscFunctionReturn(PETSC_SUCCESS);
+  if (stored_columns.empty()) PetscFunctionReturn(PETSC_SUCCESS);
   size_t differ = 0;
   while (differ < std::min(columns.size(), stored_columns.size()) && columns[differ] == stored_columns[differ]) ++differ;
   PetscCheck(columns == stored_columns, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED,
@@ -1774,6 +1775,9 @@ PetscErrorCode OutputFile::AppendHistory(const std::vector<std::string> &names, 
     PetscCall(BcastStrings(comm_, &impl_->probe_names));
     impl_->TableColumns(&impl_->columns);
     impl_->names_known = true;
+    // After a restart the file's columns are known: a run that writes others stops at its first
+    // row, not at the first flush (up to flush_interval later).
+    PetscCall(RunOnRoot(comm_, [&] { return impl_->CheckStoredColumns(); }));
   }
   ++impl_->rows_buffered;
   impl_->dirty = true;

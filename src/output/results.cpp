@@ -289,15 +289,20 @@ PetscErrorCode JointHistory(MPI_Comm comm, const Model &model, const DofMap &map
     if (map.joint_rank[J.joint] == rank) owned.push_back(&J);
   std::sort(owned.begin(), owned.end(), [&](const JointState *a, const JointState *b) { return map.joint_slot[a->joint] < map.joint_slot[b->joint]; });
   const bool          need_names = !cache->gathered;
-  std::vector<double> local;
+  std::vector<double> local, local_orders;
   std::string         local_names; // '\0'-terminated series names
   for (const JointState *J : owned) {
     const Joint            &joint = model.joints[J->joint];
     const JointCoordinates &q     = J->start;
     const int               nt    = joint.num_translations;
-    // The name (base + suffix) is only built when it is needed, not for every row.
+    const size_t            first = local_orders.size(); // the joint's first series (fewer than 64 per joint)
+    // The name (base + suffix) and the series' place (the joint's index in the model, then the
+    // series' within the joint) are only made when they are needed, not for every row.
     auto add = [&](const char *base, double value, const char *suffix = "") {
-      if (need_names) local_names += joint.name + "." + base + suffix + '\0';
+      if (need_names) {
+        local_names += joint.name + "." + base + suffix + '\0';
+        local_orders.push_back(64.0 * map.global_joints[J->joint] + (double)(local_orders.size() - first));
+      }
       local.push_back(value);
     };
     for (int c = 0; c < nt; ++c) {
@@ -327,13 +332,24 @@ PetscErrorCode JointHistory(MPI_Comm comm, const Model &model, const DofMap &map
     return GatherToRoot(comm, send, count, type, received, element_size);
   };
   if (need_names) {
-    std::vector<char> gathered;
+    // The series in the order of the joints in the model, whatever the partition: the history's
+    // columns are the same on any number of ranks (a restart may change it).
+    std::vector<char> gathered, gathered_orders;
     PetscCall(gather(local_names.data(), (int)local_names.size(), MPI_CHAR, &gathered, 1));
+    PetscCall(gather(local_orders.data(), (int)local_orders.size(), MPI_DOUBLE, &gathered_orders, sizeof(double)));
+    std::vector<std::string> unordered;
     for (size_t start = 0; start < gathered.size();) {
       const size_t end = std::find(gathered.begin() + (std::ptrdiff_t)start, gathered.end(), '\0') - gathered.begin();
-      cache->names.emplace_back(gathered.data() + start, end - start);
+      unordered.emplace_back(gathered.data() + start, end - start);
       start = end + 1;
     }
+    const double       *orders = reinterpret_cast<const double *>(gathered_orders.data());
+    std::vector<size_t> sorted(unordered.size());
+    for (size_t i = 0; i < sorted.size(); ++i) sorted[i] = i;
+    std::sort(sorted.begin(), sorted.end(), [&](size_t a, size_t b) { return orders[a] < orders[b]; });
+    cache->permutation.assign(sorted.size(), 0);
+    cache->names.resize(sorted.size());
+    for (size_t place = 0; place < sorted.size(); ++place) cache->permutation[sorted[place]] = place, cache->names[place] = unordered[sorted[place]];
     cache->gathered = true;
   }
   std::vector<char> gathered_values;
@@ -345,7 +361,8 @@ PetscErrorCode JointHistory(MPI_Comm comm, const Model &model, const DofMap &map
     values->resize(names->size());
     PetscCheck(gathered_values.size() == sizeof(double) * names->size(), PETSC_COMM_SELF, PETSC_ERR_PLIB, "joint history: %zu values for %zu series",
                gathered_values.size() / sizeof(double), names->size());
-    std::memcpy(values->data(), gathered_values.data(), gathered_values.size());
+    const double *in = reinterpret_cast<const double *>(gathered_values.data());
+    for (size_t i = 0; i < names->size(); ++i) (*values)[cache->permutation[i]] = in[i];
   }
   PetscFunctionReturn(PETSC_SUCCESS);
 }

@@ -43,7 +43,8 @@ PetscErrorCode SampleProbes(MPI_Comm comm, const Model &model, const DofMap &map
 // rank 0 once (kept in *cache); values and names are filled on rank 0, empty elsewhere. Collective.
 struct JointHistoryNames {
   bool                     gathered = false;
-  std::vector<std::string> names;
+  std::vector<std::string> names;       // in the order of the joints in the model
+  std::vector<size_t>      permutation; // gathered position (ranks' parts in slot order) -> place in names
 };
 PetscErrorCode JointHistory(MPI_Comm comm, const Model &model, const DofMap &map, const State &state, JointHistoryNames *cache, std::vector<std::string> *names,
                             std::vector<double> *values);

@@ -20,7 +20,11 @@
 4. SIGKILL during a run: the result file stays readable and holds whole frames and rows up to the
    last completed step.
 5. Checkpoints by wall time (-checkpoint_wall_time 0.2): a run of more than a second leaves a
-   checkpoint of an intermediate step, from which the restart again ends bitwise equal."""
+   checkpoint of an intermediate step, from which the restart again ends bitwise equal.
+6. A serial run continued on 2 ranks into the same file, for two pendulums whose joints are listed
+   against the order of their slave nodes (so that 2 ranks own them in the other order): the
+   history's columns are those of the serial run, and the continued file equals an uninterrupted
+   serial run to round-off."""
 
 import os
 import shutil
@@ -262,4 +266,27 @@ if elapsed > 1.0:
 run(1, "--restart", checkpoint)
 difference, compared = largest_difference(expected, read_all(output))
 check.less("wall time: restarted run equals the uninterrupted one", difference, 1e-300)
+
+# 6. Into the same file on another number of ranks.
+source = f"{args.source_dir}/tests/regression/inputs/crossed_pendulums.yaml"
+serial, parallel = f"{work}/crossed_np1.h5", f"{work}/crossed_np2.h5"
+run(1, source, "-output_file", serial, "-output_overwrite", "-quiet", "-analysis_end_time", 0.3)
+run(2, source, "-output_file", parallel, "-output_overwrite", "-quiet", "-analysis_end_time", 0.3)
+with h5py.File(parallel, "r") as f:
+    mesh = f["mesh"]
+    names = [name.decode() for name in mesh["joint_names"][()]]
+    slave_rank = {name: int(mesh["node_rank"][slave]) for name, slave in zip(names, mesh["joint_slave"][()])}
+    columns_np2 = f["history/names"][()]
+with h5py.File(serial, "r") as f:
+    columns_np1 = f["history/names"][()]
+check.true(f"crossed pendulums: 2 ranks own the joints against the model's order (slave ranks {slave_rank})", slave_rank["jA"] > slave_rank["jB"])
+check.true("crossed pendulums: the same history columns on 1 and 2 ranks", list(columns_np1) == list(columns_np2))
+continued = f"{work}/crossed_continued.h5"
+run(1, source, "-output_file", continued, "-output_overwrite", "-quiet", "-analysis_end_time", 0.1, "-checkpoint_every", 50)
+run(2, "--restart", continued.replace(".h5", ".ckpt.h5"), "-quiet", "-analysis_end_time", 0.3)
+reference, got = mt.history(serial), mt.history(continued)
+check.true("crossed pendulums: the continued file has the serial run's series", list(reference) == list(got))
+difference = max(float(np.abs(reference[name] - got[name]).max()) for name in reference if name not in ("residual_norm", "newton_iterations"))
+print(f"crossed pendulums: continued on 2 ranks, {len(got['time'])} rows, largest difference from the serial run {difference:.3e}")
+check.less("crossed pendulums: continued on 2 ranks equals the serial run (round-off)", difference, 1e-10)
 check.finish()
