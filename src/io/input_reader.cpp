@@ -84,9 +84,11 @@ void RequireUniqueName(const std::vector<NamedType> &objects, const std::string 
            "duplicate " + kind + " name " + Quote(name) + " (first defined at line " + std::to_string(objects[existing].mark.line) + ")");
 }
 
-// Joints, force elements and probes name the history series they add (<name>.force_x, ...), one
-// column each in one table: a joint and a reaction probe called alike would both write
-// hinge.force_x. Their names may repeat within no kind (each reader checks) nor across kinds.
+// Joints, force elements and probes name the history series they add after themselves, one column
+// each in one table. Joints, bushings and reaction probes all add <name>.force_x ... <name>.moment_z,
+// so a joint and a reaction probe called alike would write the same columns; their names must
+// differ (each kind's names are unique already). The other series' suffixes never meet (a node
+// probe's <name>.position.x, a joint's <name>.rx, a spring's <name>.tension, ...).
 void CheckHistoryNamesDistinct(const Model &model)
 {
   struct Named {
@@ -98,12 +100,14 @@ void CheckHistoryNamesDistinct(const Model &model)
     const auto [existing, inserted] = first.emplace(name, Named{kind, &mark});
     if (!inserted)
       FailAt(mark, std::string(kind) + " name " + Quote(name) + " is also the name of the " + existing->second.kind + " at line " +
-                                         std::to_string(existing->second.mark->line) + ": both would write the history series " + name +
-                                         ".*; joints, force elements and probes need names of their own");
+                                         std::to_string(existing->second.mark->line) + ": both would write the history series " + name + ".force_x ... " + name +
+                                         ".moment_z; joints, bushings and reaction probes need names of their own");
   };
   for (const Joint &joint : model.joints) add("joint", joint.name, joint.mark);
-  for (const ForceElement &element : model.force_elements) add("force element", element.name, element.mark);
-  for (const Probe &probe : model.probes) add("probe", probe.name, probe.mark);
+  for (const ForceElement &element : model.force_elements)
+    if (element.kind == ForceElement::Kind::Bushing) add("bushing", element.name, element.mark);
+  for (const Probe &probe : model.probes)
+    if (probe.kind == Probe::Kind::Reaction) add("reaction probe", probe.name, probe.mark);
 }
 
 } // namespace
