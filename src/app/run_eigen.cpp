@@ -82,6 +82,19 @@ PetscErrorCode DisplayShape(Vec mode, Vec weights, double length, Vec shape)
 
 } // namespace
 
+// The shift-and-invert's MUMPS Cholesky takes AIJ (and SBAIJ) only: the pencil assembled as BAIJ
+// or dense (-jacobian_mat_type) is converted once, when it is complete.
+static PetscErrorCode ConvertForCholesky(Mat *K, Mat *B)
+{
+  PetscFunctionBeginUser;
+  for (Mat *matrix : {K, B}) {
+    PetscBool is_aij;
+    PetscCall(PetscObjectTypeCompareAny((PetscObject)*matrix, &is_aij, MATSEQAIJ, MATMPIAIJ, ""));
+    if (!is_aij) PetscCall(MatConvert(*matrix, MATAIJ, MAT_INPLACE_MATRIX, matrix));
+  }
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
 PetscErrorCode RunEigenAnalysis(MPI_Comm comm, const Model &model, const DofMap &map, Integrator &integrator, OutputFile &output, bool quiet)
 {
   const AnalysisSettings &a         = model.analysis;
@@ -104,6 +117,7 @@ PetscErrorCode RunEigenAnalysis(MPI_Comm comm, const Model &model, const DofMap 
   PetscCall(EquilibriumTangent(system, lambda, K));
   if (!buckling) {
     PetscCall(MassMatrix(system, lambda, B));
+    PetscCall(ConvertForCholesky(&K, &B));
     PetscCall(SolveVibrationModes(K, B, a.eigenvalues, a.shift, &pairs));
   } else {
     // The direction of the linear path, u' = K^{-1} q; K must be positive definite.
@@ -130,6 +144,7 @@ PetscErrorCode RunEigenAnalysis(MPI_Comm comm, const Model &model, const DofMap 
     PetscCall(VecNorm(shape, NORM_INFINITY, &largest));
     PetscCheck(largest > 0, comm, PETSC_ERR_USER_INPUT, "buckling analysis: the loads do not deform the structure (no loads?)");
     PetscCall(GeometricStiffness(system, model, map, lambda, direction, 1e-4 * length / largest, B));
+    PetscCall(ConvertForCholesky(&K, &B));
     PetscCall(SolveBucklingModes(K, B, a.eigenvalues, &pairs));
     PetscCall(VecDestroy(&residual));
     PetscCall(VecDestroy(&q));

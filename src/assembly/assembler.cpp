@@ -75,6 +75,37 @@ Assembler::~Assembler()
   VecDestroy(&joint_output_);
 }
 
+// Whether the scalar pattern (this rank's rows from global row `first_row`, CSR with global
+// columns) is made of whole aligned blocks of `bs`: the rows come in groups of bs from a multiple
+// of bs, the rows of a group have the same columns, and those form whole groups of bs. Then the
+// block rows' nonzero blocks, inside and outside the diagonal part, are *diagonal and
+// *off_diagonal (for MatXAIJSetPreallocation with block size bs).
+static bool BlockPattern(const MatrixPattern &pattern, PetscInt first_row, PetscInt bs, std::vector<PetscInt> *diagonal, std::vector<PetscInt> *off_diagonal)
+{
+  const PetscInt rows = (PetscInt)pattern.diagonal_nonzeros.size();
+  diagonal->clear();
+  off_diagonal->clear();
+  if (first_row % bs != 0 || rows % bs != 0) return false;
+  for (PetscInt block = 0; block < rows / bs; ++block) {
+    const PetscInt first = block * bs, begin = pattern.row_start[first], length = pattern.row_start[first + 1] - begin;
+    if (length % bs != 0) return false;
+    for (PetscInt r = first + 1; r < first + bs; ++r) {
+      if (pattern.row_start[r + 1] - pattern.row_start[r] != length) return false;
+      if (!std::equal(pattern.columns.begin() + begin, pattern.columns.begin() + begin + length, pattern.columns.begin() + pattern.row_start[r])) return false;
+    }
+    // Sorted columns (the CSR's) in runs of bs from multiples of bs.
+    for (PetscInt k = 0; k < length; k += bs) {
+      const PetscInt column = pattern.columns[begin + k];
+      if (column % bs != 0) return false;
+      for (PetscInt c = 1; c < bs; ++c)
+        if (pattern.columns[begin + k + c] != column + c) return false;
+    }
+    diagonal->push_back(pattern.diagonal_nonzeros[first] / bs);
+    off_diagonal->push_back(pattern.off_diagonal_nonzeros[first] / bs);
+  }
+  return true;
+}
+
 PetscErrorCode Assembler::Setup(MPI_Comm comm, const Model &model, const DofMap &map, MatrixPattern pattern, std::vector<ForceContributor *> contributors,
                                 const BeamContributor *beams, const InertiaContributor *inertia, State *state)
 {
@@ -135,8 +166,8 @@ PetscErrorCode Assembler::Setup(MPI_Comm comm, const Model &model, const DofMap 
   PetscCall(MatSetType(jacobian_, ranks == 1 && map.num_global <= dense_below ? MATSEQDENSE : MATAIJ));
   PetscCall(MatSetOptionsPrefix(jacobian_, "jacobian_"));
   MSFLEX_CALL_READING_OPTIONS(PetscObjectComm((PetscObject)jacobian_), MatSetFromOptions(jacobian_));
-  // -jacobian_mat_type: AIJ (the default), BAIJ with block size 1 (the unknowns of a node are not
-  // a block of 6 once supports and joints remove some) and dense (small models). SBAIJ stores one
+  // -jacobian_mat_type: AIJ (the default), BAIJ (blocks of 6 when every unknown is in a node's
+  // block, else 1: BlockPattern) and dense (small models). SBAIJ stores one
   // triangle of a symmetric matrix, and the tangent is not symmetric (follower loads, joints,
   // out of equilibrium); other types cannot be assembled into.
   PetscBool is_aij, is_baij, is_dense;
@@ -159,7 +190,24 @@ PetscErrorCode Assembler::Setup(MPI_Comm comm, const Model &model, const DofMap 
     PetscCall(MatSeqAIJSetPreallocationCSR(jacobian_, pattern.row_start.data(), pattern.columns.data(), nullptr));
     PetscCall(MatMPIAIJSetPreallocationCSR(jacobian_, pattern.row_start.data(), pattern.columns.data(), nullptr));
   } else if (is_baij) {
-    PetscCall(MatXAIJSetPreallocation(jacobian_, 1, pattern.diagonal_nonzeros.data(), pattern.off_diagonal_nonzeros.data(), nullptr, nullptr));
+    // Blocks of 6 where every unknown belongs to one: a node's 6 unknowns consecutive from a
+    // multiple of 6 and coupled as a whole, on every rank (no partly supported node, no joint
+    // coordinate); else blocks of 1.
+    constexpr PetscInt    kNodeBlock = 6;
+    std::vector<PetscInt> block_diagonal, block_off_diagonal;
+    PetscBool             blocked = BlockPattern(pattern, map.first_owned, kNodeBlock, &block_diagonal, &block_off_diagonal) ? PETSC_TRUE : PETSC_FALSE;
+    PetscCall(MPIU_Allreduce(MPI_IN_PLACE, &blocked, 1, MPIU_BOOL, MPI_LAND, comm));
+    if (blocked) {
+      PetscCall(MatSetBlockSize(jacobian_, kNodeBlock));
+      PetscCall(MatXAIJSetPreallocation(jacobian_, kNodeBlock, block_diagonal.data(), block_off_diagonal.data(), nullptr, nullptr));
+    } else PetscCall(MatXAIJSetPreallocation(jacobian_, 1, pattern.diagonal_nonzeros.data(), pattern.off_diagonal_nonzeros.data(), nullptr, nullptr));
+    // The exact pattern as zeros, row by row (assembled with the first matrix, CreateCsrDestinations).
+    std::vector<double> zeros;
+    for (PetscInt r = 0; r + 1 < (PetscInt)pattern.row_start.size(); ++r) {
+      const PetscInt row = map.first_owned + r, count = pattern.row_start[r + 1] - pattern.row_start[r];
+      zeros.assign((size_t)count, 0.0);
+      PetscCall(MatSetValues(jacobian_, 1, &row, count, pattern.columns.data() + pattern.row_start[r], zeros.data(), ADD_VALUES));
+    }
   } else {
     PetscCall(MatSetUp(jacobian_));
   }
@@ -292,8 +340,8 @@ PetscErrorCode Assembler::AttachRigidBodyModes()
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
-// Fixes the pattern with one assembly of zeros, then records where each element-matrix entry
-// lands in the CSR arrays of the owned rows.
+// Fixes the pattern with one assembly, then records where each element-matrix entry lands in the
+// CSR arrays of the owned rows (AIJ).
 PetscErrorCode Assembler::CreateCsrDestinations()
 {
   const DofMap &map = *map_;
@@ -301,36 +349,7 @@ PetscErrorCode Assembler::CreateCsrDestinations()
   PetscFunctionBeginUser;
   PetscCall(PetscObjectTypeCompare((PetscObject)jacobian_, MATSEQAIJ, &is_seq));
   PetscCall(PetscObjectTypeCompare((PetscObject)jacobian_, MATMPIAIJ, &is_mpi));
-  // AIJ matrices got the pattern from the CSR preallocation; other types get it entry by entry:
-  // the nodal blocks (inertia, follower loads, rigid bodies, joints' geometric stiffness, also of
-  // nodes without elements, and the couplings slave nodes create), then every element's
-  // coupling of the unknowns of all its nodes.
-  if (!is_seq && !is_mpi) {
-    std::vector<double>   more_zeros;
-    std::vector<PetscInt> coupled;
-    for (size_t l = 0; l < map.local_nodes.size(); ++l) {
-      const std::vector<PetscInt> &unknowns = map.node_unknowns[map.local_nodes[l]];
-      more_zeros.assign(unknowns.size() * unknowns.size(), 0.0);
-      PetscCall(MatSetValues(jacobian_, (PetscInt)unknowns.size(), unknowns.data(), (PetscInt)unknowns.size(), unknowns.data(), more_zeros.data(), ADD_VALUES));
-    }
-    for (size_t l = 0; l < map.local_nodes.size(); ++l) {
-      if (!map.IsRelay((int)l) || (PetscInt)l >= map.num_owned_nodes) continue;
-      // A relay's coupling and its joint's geometric stiffness (DofMapPreallocation).
-      const int node = map.local_nodes[l];
-      coupled.assign(map.relay_unknowns[node].begin(), map.relay_unknowns[node].end());
-      coupled.insert(coupled.end(), map.node_dofs[node].begin(), map.node_dofs[node].end());
-      coupled.insert(coupled.end(), map.relay_forces[node].begin(), map.relay_forces[node].end());
-      more_zeros.assign(coupled.size() * coupled.size(), 0.0);
-      PetscCall(MatSetValues(jacobian_, (PetscInt)coupled.size(), coupled.data(), (PetscInt)coupled.size(), coupled.data(), more_zeros.data(), ADD_VALUES));
-    }
-    for (int e : map.local_elements) {
-      coupled.clear();
-      for (int a = 0; a <= model_->elements[e].order; ++a)
-        coupled.insert(coupled.end(), map.node_unknowns[model_->elements[e].nodes[a]].begin(), map.node_unknowns[model_->elements[e].nodes[a]].end());
-      more_zeros.assign(coupled.size() * coupled.size(), 0.0);
-      PetscCall(MatSetValues(jacobian_, (PetscInt)coupled.size(), coupled.data(), (PetscInt)coupled.size(), coupled.data(), more_zeros.data(), ADD_VALUES));
-    }
-  }
+  // AIJ matrices got the pattern from the CSR preallocation, BAIJ as zeros (Setup); dense needs none.
   PetscCall(MatAssemblyBegin(jacobian_, MAT_FINAL_ASSEMBLY));
   PetscCall(MatAssemblyEnd(jacobian_, MAT_FINAL_ASSEMBLY));
   csr_destinations_.clear();
@@ -402,6 +421,29 @@ PetscErrorCode Assembler::CreateCsrDestinations()
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
+// A BAIJ matrix of block size 6 takes a node's 6 x 6 blocks whole (MatSetValuesBlocked skips the
+// -1 of a node without unknowns); any other matrix, or unknowns not in whole aligned blocks, entry
+// by entry.
+bool NodeBlockIndices(Mat target, int n, const PetscInt *indices, PetscInt *block_indices)
+{
+  PetscInt bs = 1;
+  if (MatGetBlockSize(target, &bs) != PETSC_SUCCESS || bs != 6) return false;
+  for (int b = 0; b < n; ++b) {
+    const PetscInt *node = indices + 6 * b;
+    if (node[0] < 0) {
+      for (int d = 1; d < 6; ++d)
+        if (node[d] >= 0) return false;
+      block_indices[b] = -1;
+      continue;
+    }
+    if (node[0] % 6 != 0) return false;
+    for (int d = 1; d < 6; ++d)
+      if (node[d] != node[0] + d) return false;
+    block_indices[b] = node[0] / 6;
+  }
+  return true;
+}
+
 // Columns from spins to the nodes' unknowns (d theta_b = H(omega_b) d omega_b; none for
 // accelerations), then owned rows straight into the CSR values, rows of other ranks through
 // MatSetValues (PETSc's stash); without CSR destinations (non-AIJ matrices) all through MatSetValues.
@@ -422,7 +464,9 @@ PetscErrorCode Assembler::AddDirectElementMatrix(Mat target, size_t k, double *K
     }
   ElementIndices(element, *map_, indices);
   if (csr_destinations_.empty()) {
-    PetscCall(MatSetValues(target, nd, indices, nd, indices, K, ADD_VALUES));
+    PetscInt block_indices[kBeamMaxNodes];
+    if (NodeBlockIndices(target, n, indices, block_indices)) PetscCall(MatSetValuesBlocked(target, n, block_indices, n, block_indices, K, ADD_VALUES));
+    else PetscCall(MatSetValues(target, nd, indices, nd, indices, K, ADD_VALUES));
     PetscFunctionReturn(PETSC_SUCCESS);
   }
   const PetscInt *destination = csr_destinations_.data() + csr_destination_offsets_[k];

@@ -47,6 +47,11 @@ struct MatrixPattern {
   std::vector<PetscInt> diagonal_nonzeros, off_diagonal_nonzeros, row_start, columns;
 };
 
+// For a matrix of block size 6 (-jacobian_mat_type baij where every unknown is in a node's
+// block): the block indices of `n` nodes' unknowns `indices` (6 each; -1 for a node without
+// unknowns) when they are whole aligned blocks, for MatSetValuesBlocked; false otherwise.
+bool NodeBlockIndices(Mat target, int n, const PetscInt *indices, PetscInt *block_indices);
+
 class Assembler : public BlockSink {
 public:
   Assembler()                             = default;

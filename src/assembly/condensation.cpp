@@ -294,7 +294,10 @@ PetscErrorCode Assembler::AddNodeBlock(Mat jacobian, int l, const Mat6 &block)
     Mat6 columns = block;
     if (!state_->equations.InitialAcceleration() && !map_->IsRelay(l))
       columns.rightCols<3>() = (block.rightCols<3>() * state_->nodes[l].rotation_tangent).eval();
-    PetscCall(MatSetValues(jacobian, 6, map_->node_dofs[node].data(), 6, map_->node_dofs[node].data(), columns.data(), ADD_VALUES));
+    PetscInt block;
+    if (NodeBlockIndices(jacobian, 1, map_->node_dofs[node].data(), &block))
+      PetscCall(MatSetValuesBlocked(jacobian, 1, &block, 1, &block, columns.data(), ADD_VALUES));
+    else PetscCall(MatSetValues(jacobian, 6, map_->node_dofs[node].data(), 6, map_->node_dofs[node].data(), columns.data(), ADD_VALUES));
     PetscFunctionReturn(PETSC_SUCCESS);
   }
   const std::vector<PetscInt> &unknowns = map_->node_unknowns[node];
