@@ -274,6 +274,32 @@ PetscErrorCode SampleProbes(MPI_Comm comm, const Model &model, const DofMap &map
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
+// Gathers the ranks' series names ('\0'-terminated in `local_names`) and their places
+// (`local_orders`) to rank 0, which puts the names in the order of the places (ties in the order
+// gathered) and records each gathered position's place in *permutation. Collective.
+static PetscErrorCode GatherNamesInOrder(MPI_Comm comm, const std::string &local_names, const std::vector<double> &local_orders,
+                                         std::vector<std::string> *names, std::vector<size_t> *permutation)
+{
+  std::vector<char> gathered_names, gathered_orders;
+  PetscFunctionBeginUser;
+  PetscCall(GatherToRoot(comm, local_names.data(), (int)local_names.size(), MPI_CHAR, &gathered_names, 1));
+  PetscCall(GatherToRoot(comm, local_orders.data(), (int)local_orders.size(), MPI_DOUBLE, &gathered_orders, sizeof(double)));
+  std::vector<std::string> unordered;
+  for (size_t start = 0; start < gathered_names.size();) {
+    const size_t end = std::find(gathered_names.begin() + (std::ptrdiff_t)start, gathered_names.end(), '\0') - gathered_names.begin();
+    unordered.emplace_back(gathered_names.data() + start, end - start);
+    start = end + 1;
+  }
+  const double       *orders = reinterpret_cast<const double *>(gathered_orders.data());
+  std::vector<size_t> sorted(unordered.size());
+  for (size_t i = 0; i < sorted.size(); ++i) sorted[i] = i;
+  std::stable_sort(sorted.begin(), sorted.end(), [&](size_t a, size_t b) { return orders[a] < orders[b]; });
+  permutation->assign(sorted.size(), 0);
+  names->resize(sorted.size());
+  for (size_t place = 0; place < sorted.size(); ++place) (*permutation)[sorted[place]] = place, (*names)[place] = unordered[sorted[place]];
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
 PetscErrorCode JointHistory(MPI_Comm comm, const Model &model, const DofMap &map, const State &state, JointHistoryNames *cache, std::vector<std::string> *names,
                             std::vector<double> *values)
 {
@@ -334,22 +360,7 @@ PetscErrorCode JointHistory(MPI_Comm comm, const Model &model, const DofMap &map
   if (need_names) {
     // The series in the order of the joints in the model, whatever the partition: the history's
     // columns are the same on any number of ranks (a restart may change it).
-    std::vector<char> gathered, gathered_orders;
-    PetscCall(gather(local_names.data(), (int)local_names.size(), MPI_CHAR, &gathered, 1));
-    PetscCall(gather(local_orders.data(), (int)local_orders.size(), MPI_DOUBLE, &gathered_orders, sizeof(double)));
-    std::vector<std::string> unordered;
-    for (size_t start = 0; start < gathered.size();) {
-      const size_t end = std::find(gathered.begin() + (std::ptrdiff_t)start, gathered.end(), '\0') - gathered.begin();
-      unordered.emplace_back(gathered.data() + start, end - start);
-      start = end + 1;
-    }
-    const double       *orders = reinterpret_cast<const double *>(gathered_orders.data());
-    std::vector<size_t> sorted(unordered.size());
-    for (size_t i = 0; i < sorted.size(); ++i) sorted[i] = i;
-    std::sort(sorted.begin(), sorted.end(), [&](size_t a, size_t b) { return orders[a] < orders[b]; });
-    cache->permutation.assign(sorted.size(), 0);
-    cache->names.resize(sorted.size());
-    for (size_t place = 0; place < sorted.size(); ++place) cache->permutation[sorted[place]] = place, cache->names[place] = unordered[sorted[place]];
+    PetscCall(GatherNamesInOrder(comm, local_names, local_orders, &cache->names, &cache->permutation));
     cache->gathered = true;
   }
   std::vector<char> gathered_values;
@@ -427,24 +438,7 @@ PetscErrorCode GatherHistory(MPI_Comm comm, const std::vector<HistoryValue> &loc
     std::string         local_names; // '\0'-terminated
     std::vector<double> local_orders;
     for (const HistoryValue &v : local) local_names += v.name + '\0', local_orders.push_back((double)v.order);
-    std::vector<char> gathered_names, gathered_orders;
-    PetscCall(gather(local_names.data(), (int)local_names.size(), MPI_CHAR, &gathered_names, 1));
-    PetscCall(gather(local_orders.data(), (int)local_orders.size(), MPI_DOUBLE, &gathered_orders, sizeof(double)));
-    if (rank == 0) {
-      std::vector<std::string> unordered;
-      for (size_t start = 0; start < gathered_names.size();) {
-        const size_t end = std::find(gathered_names.begin() + (std::ptrdiff_t)start, gathered_names.end(), '\0') - gathered_names.begin();
-        unordered.emplace_back(gathered_names.data() + start, end - start);
-        start = end + 1;
-      }
-      const double       *orders = reinterpret_cast<const double *>(gathered_orders.data());
-      std::vector<size_t> sorted(unordered.size());
-      for (size_t i = 0; i < sorted.size(); ++i) sorted[i] = i;
-      std::stable_sort(sorted.begin(), sorted.end(), [&](size_t a, size_t b) { return orders[a] < orders[b]; });
-      cache->permutation.assign(unordered.size(), 0);
-      cache->names.resize(unordered.size());
-      for (size_t place = 0; place < sorted.size(); ++place) cache->permutation[sorted[place]] = place, cache->names[place] = unordered[sorted[place]];
-    }
+    PetscCall(GatherNamesInOrder(comm, local_names, local_orders, &cache->names, &cache->permutation));
     cache->gathered = true;
   }
   std::vector<double> local_values;
