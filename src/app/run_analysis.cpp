@@ -87,7 +87,7 @@ struct Analysis {
   Integrator           integrator;
   PathFollower         path; // statics: the control of the steps and the stability of the path
   OutputFile           output;
-  JointHistoryNames    joint_history_names;
+  HistoryGather        joint_history;
   HistoryGather        force_element_history;
   const CheckpointRun *restart      = nullptr;                      // the checkpoint this run continues, or null
   long long            history_rows = 0;                            // rows written to /history
@@ -278,7 +278,7 @@ PetscErrorCode WriteHistory(Analysis &a, const StepRecord &record, double strain
   if (a.map.global_count.joints > 0) {
     std::vector<std::string> joint_names;
     std::vector<double>      joint_values;
-    PetscCall(JointHistory(a.comm, a.model, a.map, state, &a.joint_history_names, &joint_names, &joint_values));
+    PetscCall(JointHistory(a.comm, a.model, a.map, state, &a.joint_history, &joint_names, &joint_values));
     append(joint_names, joint_values);
   }
   if (force_elements) {

@@ -197,6 +197,7 @@ PetscErrorCode Assembler::Setup(MPI_Comm comm, const Model &model, const DofMap 
     std::vector<PetscInt> block_diagonal, block_off_diagonal;
     PetscBool             blocked = BlockPattern(pattern, map.first_owned, kNodeBlock, &block_diagonal, &block_off_diagonal) ? PETSC_TRUE : PETSC_FALSE;
     PetscCall(MPIU_Allreduce(MPI_IN_PLACE, &blocked, 1, MPIU_BOOL, MPI_LAND, comm));
+    node_blocks_ = blocked == PETSC_TRUE;
     if (blocked) {
       PetscCall(MatSetBlockSize(jacobian_, kNodeBlock));
       PetscCall(MatXAIJSetPreallocation(jacobian_, kNodeBlock, block_diagonal.data(), block_off_diagonal.data(), nullptr, nullptr));
@@ -261,11 +262,10 @@ PetscErrorCode Assembler::Setup(MPI_Comm comm, const Model &model, const DofMap 
       joint_slots_[j][c] = (PetscInt)from.size();
       from.push_back(map.joint_dofs[g][c]);
     }
-    const bool   relay = map.IsRelay(J.local_slave);
-    const size_t m     = (relay ? map.relay_unknowns : map.node_unknowns)[model.joints[g].slave].size();
+    const size_t m = map.JointMapUnknowns(model.joints[g].slave).size();
     // The relay a slave's expansion ends on (joints come masters first): its master if that is a
     // relay, or its master's anchor.
-    if (relay) relay_joints_.push_back((int)j);
+    if (map.IsRelay(J.local_slave)) relay_joints_.push_back((int)j);
     if (J.local_master >= 0) relay_anchor_[J.local_slave] = map.IsRelay(J.local_master) ? J.local_master : relay_anchor_[J.local_master];
     expansion_rows_[J.local_slave].assign(6 * m, 0.0);
     expansion_columns_[J.local_slave].assign(6 * m, 0.0);
@@ -421,13 +421,9 @@ PetscErrorCode Assembler::CreateCsrDestinations()
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
-// A BAIJ matrix of block size 6 takes a node's 6 x 6 blocks whole (MatSetValuesBlocked skips the
-// -1 of a node without unknowns); any other matrix, or unknowns not in whole aligned blocks, entry
-// by entry.
-bool NodeBlockIndices(Mat target, int n, const PetscInt *indices, PetscInt *block_indices)
+bool Assembler::NodeBlockIndices(int n, const PetscInt *indices, PetscInt *block_indices) const
 {
-  PetscInt bs = 1;
-  if (MatGetBlockSize(target, &bs) != PETSC_SUCCESS || bs != 6) return false;
+  if (!node_blocks_) return false;
   for (int b = 0; b < n; ++b) {
     const PetscInt *node = indices + 6 * b;
     if (node[0] < 0) {
@@ -465,7 +461,7 @@ PetscErrorCode Assembler::AddDirectElementMatrix(Mat target, size_t k, double *K
   ElementIndices(element, *map_, indices);
   if (csr_destinations_.empty()) {
     PetscInt block_indices[kBeamMaxNodes];
-    if (NodeBlockIndices(target, n, indices, block_indices)) PetscCall(MatSetValuesBlocked(target, n, block_indices, n, block_indices, K, ADD_VALUES));
+    if (NodeBlockIndices(n, indices, block_indices)) PetscCall(MatSetValuesBlocked(target, n, block_indices, n, block_indices, K, ADD_VALUES));
     else PetscCall(MatSetValues(target, nd, indices, nd, indices, K, ADD_VALUES));
     PetscFunctionReturn(PETSC_SUCCESS);
   }

@@ -47,11 +47,6 @@ struct MatrixPattern {
   std::vector<PetscInt> diagonal_nonzeros, off_diagonal_nonzeros, row_start, columns;
 };
 
-// For a matrix of block size 6 (-jacobian_mat_type baij where every unknown is in a node's
-// block): the block indices of `n` nodes' unknowns `indices` (6 each; -1 for a node without
-// unknowns) when they are whole aligned blocks, for MatSetValuesBlocked; false otherwise.
-bool NodeBlockIndices(Mat target, int n, const PetscInt *indices, PetscInt *block_indices);
-
 class Assembler : public BlockSink {
 public:
   Assembler()                             = default;
@@ -203,6 +198,11 @@ private:
   void EvaluateNode(int l, bool want_tangent, NodeContribution *out);
   // Per local node, whether it is a slave (its expansion goes through its joint).
   bool IsSlave(int l) const { return state_->node_joint[l] >= 0; }
+  // With node blocks (the tangent is BAIJ of block size 6, and every matrix assembled is it or a
+  // duplicate): the block indices of `n` nodes' unknowns `indices` (6 each; -1 for a node without
+  // unknowns, which MatSetValuesBlocked skips) when they are whole aligned blocks; else false
+  // (entry by entry).
+  bool NodeBlockIndices(int n, const PetscInt *indices, PetscInt *block_indices) const;
   // Per local node, whether it is condensed: a slave that is not a relay node (DofMap). A relay
   // expands like an independent node onto its own DOFs (spins, no H); its joint's expansion
   // (onto DofMap::relay_unknowns) is kept in expansion_rows_/expansion_columns_ for the coupling.
@@ -284,6 +284,7 @@ private:
   std::vector<int>                 relay_joints_;                // local joints whose slave is a relay, masters first
   std::vector<PetscInt>            relay_rows_;                  // DofMap::OwnedRelayRows, as offsets into the owned rows
   bool                             skip_relay_coupling_ = false; // FindMasslessUnknowns: the mass matrix alone
+  bool                             node_blocks_         = false; // the tangent is BAIJ with blocks of 6 (Setup)
   std::vector<Vec6>                slave_correction_residual_;   // per local node: em's correction vector gathered on slaves
   Vec                              joint_output_ = nullptr;      // 12 per joint slot (DofMap::joint_slot): reaction (6), rates (6)
   std::vector<double>              expansion_scratch_;           // work space for expanded blocks

@@ -70,7 +70,7 @@ void Assembler::UpdateExpansions()
     const JointMatrix &N_rows = J.rows_map;
     // Expansion: the master's (through N_m) followed by the free released coordinates (N_q); a
     // relay's is its joint's map from relay_unknowns.
-    const int            m        = (int)(map_->IsRelay(J.local_slave) ? map_->relay_unknowns[joint.slave] : map_->node_unknowns[joint.slave]).size();
+    const int            m        = (int)map_->JointMapUnknowns(joint.slave).size();
     std::vector<double> &rows     = expansion_rows_[J.local_slave];
     std::vector<double> &columns  = expansion_columns_[J.local_slave];
     int                  m_master = 0;
@@ -295,8 +295,7 @@ PetscErrorCode Assembler::AddNodeBlock(Mat jacobian, int l, const Mat6 &block)
     if (!state_->equations.InitialAcceleration() && !map_->IsRelay(l))
       columns.rightCols<3>() = (block.rightCols<3>() * state_->nodes[l].rotation_tangent).eval();
     PetscInt block;
-    if (NodeBlockIndices(jacobian, 1, map_->node_dofs[node].data(), &block))
-      PetscCall(MatSetValuesBlocked(jacobian, 1, &block, 1, &block, columns.data(), ADD_VALUES));
+    if (NodeBlockIndices(1, map_->node_dofs[node].data(), &block)) PetscCall(MatSetValuesBlocked(jacobian, 1, &block, 1, &block, columns.data(), ADD_VALUES));
     else PetscCall(MatSetValues(jacobian, 6, map_->node_dofs[node].data(), 6, map_->node_dofs[node].data(), columns.data(), ADD_VALUES));
     PetscFunctionReturn(PETSC_SUCCESS);
   }
@@ -397,7 +396,7 @@ PetscErrorCode Assembler::AddJointGeometricStiffness(Mat jacobian)
     }
     // Rows: the master's rows for (x_m, theta_m), identity for the free coordinates; columns alike.
     const int                    k        = JointNumCoordinates(J.geometry);
-    const std::vector<PetscInt> &unknowns = map_->IsRelay(J.local_slave) ? map_->relay_unknowns[joint.slave] : map_->node_unknowns[joint.slave];
+    const std::vector<PetscInt> &unknowns = map_->JointMapUnknowns(joint.slave);
     const int                    m        = (int)unknowns.size();
     const int                    m_master = J.local_master >= 0 ? (int)map_->node_unknowns[joint.master].size() : 0;
     // R, C ((6 + k) x m), G C and the block (m x m) live in preallocated scratch: no allocation per joint.

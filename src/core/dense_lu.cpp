@@ -128,33 +128,37 @@ PetscErrorCode SetDirectSolver(PC pc, Mat matrix)
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
+// The factorisation package of a PC of type LU (nullptr for any other PC, or none chosen yet).
+static PetscErrorCode LUPackage(PC pc, MatSolverType *package)
+{
+  PCType type;
+  PetscFunctionBeginUser;
+  *package = nullptr;
+  PetscCall(PCGetType(pc, &type));
+  if (type && !strcmp(type, PCLU)) PetscCall(PCFactorGetMatSolverType(pc, package));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
 // Whether the PC factors a sparse matrix by PETSc's own LU, which does not pivot (a dense matrix's
 // LU is LAPACK's, which does).
 static PetscErrorCode UsesNonPivotingLU(PC pc, Mat matrix, PetscBool *answer)
 {
-  PCType        type;
-  MatSolverType package = nullptr;
+  MatSolverType package;
   PetscBool     dense;
   PetscFunctionBeginUser;
-  *answer = PETSC_FALSE;
   PetscCall(PetscObjectTypeCompareAny((PetscObject)matrix, &dense, MATSEQDENSE, MATMPIDENSE, ""));
-  PetscCall(PCGetType(pc, &type));
-  if (dense || !type || strcmp(type, PCLU)) PetscFunctionReturn(PETSC_SUCCESS);
-  PetscCall(PCFactorGetMatSolverType(pc, &package));
-  *answer = package && !strcmp(package, MATSOLVERPETSC) ? PETSC_TRUE : PETSC_FALSE;
+  PetscCall(LUPackage(pc, &package));
+  *answer = !dense && package && !strcmp(package, MATSOLVERPETSC) ? PETSC_TRUE : PETSC_FALSE;
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
 PetscErrorCode WidenMumpsWorkspace(PC pc, Mat matrix, PetscInt percent)
 {
-  PCType        type;
-  MatSolverType package = nullptr;
+  MatSolverType package;
+  Mat           factor;
   PetscFunctionBeginUser;
-  PetscCall(PCGetType(pc, &type));
-  if (!type || strcmp(type, PCLU)) PetscFunctionReturn(PETSC_SUCCESS);
-  PetscCall(PCFactorGetMatSolverType(pc, &package));
+  PetscCall(LUPackage(pc, &package));
   if (!package || strcmp(package, MATSOLVERMUMPS)) PetscFunctionReturn(PETSC_SUCCESS);
-  Mat factor;
   PetscCall(PCSetOperators(pc, matrix, matrix));
   PetscCall(PCFactorSetUpMatSolverType(pc));
   PetscCall(PCFactorGetMatrix(pc, &factor));

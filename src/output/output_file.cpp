@@ -320,9 +320,9 @@ struct OutputFile::Impl {
   PetscErrorCode WriteFixedStrings(hid_t parent, const char *name, const std::vector<std::string> &strings, const char *group);
   // Rank 0: checks a history row against the first and keeps it in the buffer.
   PetscErrorCode BufferHistory(const std::vector<std::string> &names, const std::vector<double> &values, const std::vector<ProbeSample> &probes);
-  // Rank 0, at the first row after a restart and again before writing it: the run writes the
-  // columns the file holds.
-  PetscErrorCode CheckStoredColumns();
+  // Rank 0, at the first row (since Open or Reopen), before it is kept: the table's columns from
+  // the row's names, each name once, and after a restart the columns the file holds.
+  PetscErrorCode SetColumns();
   // Writes the buffered rows to the history table /history/values (created with its names, units
   // and descriptions by the first block), extended once. Collective; rank 0's buffer is written,
   // the other ranks take part with empty selections.
@@ -767,16 +767,10 @@ PetscErrorCode OutputFile::Impl::BufferHistory(const std::vector<std::string> &n
     PetscCheck(names.size() == values.size(), PETSC_COMM_SELF, PETSC_ERR_ARG_SIZ, "output file '%s': %zu history names but %zu values", path.c_str(),
                names.size(), values.size());
     PetscCheck(names.front() == "time", PETSC_COMM_SELF, PETSC_ERR_ARG_WRONG, "output file '%s': the first history series must be 'time'", path.c_str());
-    if (!names_known) { // the first row, or the first after Reopen
+    if (!names_known) { // the first row, or the first after Reopen: checked before it is kept
       history_names = names;
       probe_names   = sample_names;
-      // Each column is found by its name: two of one name would hide one.
-      std::vector<std::string> sorted;
-      TableColumns(&sorted);
-      std::sort(sorted.begin(), sorted.end());
-      const auto twice = std::adjacent_find(sorted.begin(), sorted.end());
-      PetscCheck(twice == sorted.end(), PETSC_COMM_SELF, PETSC_ERR_ARG_WRONG, "output file '%s': two history series are named '%s'", path.c_str(),
-                 twice == sorted.end() ? "" : twice->c_str());
+      PetscCall(SetColumns());
     }
     PetscCheck(names == history_names && sample_names == probe_names, PETSC_COMM_SELF, PETSC_ERR_ARG_WRONG,
                "output file '%s': history and probe names must be the same in every row", path.c_str());
@@ -842,17 +836,26 @@ PetscErrorCode OutputFile::Impl::WriteFixedStrings(hid_t parent, const char *nam
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
-PetscErrorCode OutputFile::Impl::CheckStoredColumns()
+PetscErrorCode OutputFile::Impl::SetColumns()
 {
   PetscFunctionBeginUser;
-  if (stored_columns.empty()) PetscFunctionReturn(PETSC_SUCCESS);
-  size_t differ = 0;
-  while (differ < std::min(columns.size(), stored_columns.size()) && columns[differ] == stored_columns[differ]) ++differ;
-  PetscCheck(columns == stored_columns, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED,
-             "output file '%s': its history has %zu columns, this run writes %zu; the first that differs is column %zu ('%s' in the file, '%s' now)",
-             path.c_str(), stored_columns.size(), columns.size(), differ, differ < stored_columns.size() ? stored_columns[differ].c_str() : "",
-             differ < columns.size() ? columns[differ].c_str() : "");
-  stored_columns.clear(); // checked once
+  TableColumns(&columns);
+  // Each column is found by its name: two of one name would hide one.
+  std::vector<std::string> sorted = columns;
+  std::sort(sorted.begin(), sorted.end());
+  const auto twice = std::adjacent_find(sorted.begin(), sorted.end());
+  PetscCheck(twice == sorted.end(), PETSC_COMM_SELF, PETSC_ERR_ARG_WRONG, "output file '%s': two history series are named '%s'", path.c_str(),
+             twice == sorted.end() ? "" : twice->c_str());
+  // A restarted file goes on with the columns it holds.
+  if (!stored_columns.empty()) {
+    size_t differ = 0;
+    while (differ < std::min(columns.size(), stored_columns.size()) && columns[differ] == stored_columns[differ]) ++differ;
+    PetscCheck(columns == stored_columns, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED,
+               "output file '%s': its history has %zu columns, this run writes %zu; the first that differs is column %zu ('%s' in the file, '%s' now)",
+               path.c_str(), stored_columns.size(), columns.size(), differ, differ < stored_columns.size() ? stored_columns[differ].c_str() : "",
+               differ < columns.size() ? columns[differ].c_str() : "");
+    stored_columns.clear(); // checked once
+  }
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
@@ -1443,7 +1446,7 @@ PetscErrorCode OutputFile::Impl::LinkNames(hid_t group, std::vector<std::string>
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
-// Cuts an extensible dataset (history or probe series) to its first `rows` rows.
+// Cuts an extensible dataset (a frame dataset or the history table) to its first `rows` rows.
 PetscErrorCode OutputFile::Impl::TruncateRows(hid_t parent, const std::string &name, hsize_t rows) const
 {
   H5Id dataset, space;
@@ -1593,11 +1596,7 @@ PetscErrorCode OutputFile::Impl::Resume(int last_step, long long history_rows, c
   frames_written = kept;
   for (int f = 0; f < kFrameFieldCount; ++f)
     field_exists[f] = std::find(frame_datasets.begin(), frame_datasets.end(), kFrameFields[f].name) != frame_datasets.end();
-  if (has_table) {
-    H5Id history;
-    PetscCallHDF5(history = H5Gopen2(file, "/history", H5P_DEFAULT));
-    PetscCall(TruncateRows(history, "values", rows));
-  }
+  if (has_table) PetscCall(TruncateRows(file, "/history/values", rows));
   rows_written = rows;
   history_names.clear(); // taken from the next row, which must have the stored columns
   probe_names.clear();
@@ -1773,11 +1772,8 @@ PetscErrorCode OutputFile::AppendHistory(const std::vector<std::string> &names, 
   if (!impl_->names_known) {
     PetscCall(BcastStrings(comm_, &impl_->history_names));
     PetscCall(BcastStrings(comm_, &impl_->probe_names));
-    impl_->TableColumns(&impl_->columns);
+    if (impl_->rank != 0) impl_->TableColumns(&impl_->columns); // rank 0's, checked by BufferHistory
     impl_->names_known = true;
-    // After a restart the file's columns are known: a run that writes others stops at its first
-    // row, not at the first flush (up to flush_interval later).
-    PetscCall(RunOnRoot(comm_, [&] { return impl_->CheckStoredColumns(); }));
   }
   ++impl_->rows_buffered;
   impl_->dirty = true;
@@ -1819,8 +1815,6 @@ PetscErrorCode OutputFile::Flush()
   PetscCheck(impl_, PETSC_COMM_SELF, PETSC_ERR_ARG_WRONGSTATE, "Flush: no output file is open");
   if (!impl_->dirty) PetscFunctionReturn(PETSC_SUCCESS);
   PetscCall(PetscLogEventBegin(write_phase_events.history_block, 0, 0, 0, 0));
-  // Checked before the collective writes, so that every rank stops there.
-  PetscCall(RunOnRoot(comm_, [&] { return impl_->CheckStoredColumns(); }));
   PetscCall(RunCollective(comm_, [&] { return impl_->WriteHistoryBlock(); }));
   PetscCall(PetscLogEventEnd(write_phase_events.history_block, 0, 0, 0, 0));
   PetscCall(PetscLogEventBegin(write_phase_events.frame_block, 0, 0, 0, 0));

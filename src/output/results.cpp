@@ -300,7 +300,7 @@ static PetscErrorCode GatherNamesInOrder(MPI_Comm comm, const std::string &local
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
-PetscErrorCode JointHistory(MPI_Comm comm, const Model &model, const DofMap &map, const State &state, JointHistoryNames *cache, std::vector<std::string> *names,
+PetscErrorCode JointHistory(MPI_Comm comm, const Model &model, const DofMap &map, const State &state, HistoryGather *cache, std::vector<std::string> *names,
                             std::vector<double> *values)
 {
   static const char *const translation_names[3] = {"tx", "ty", "tz"}, *rotation_names[3] = {"rx", "ry", "rz"};

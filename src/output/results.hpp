@@ -41,12 +41,14 @@ PetscErrorCode SampleProbes(MPI_Comm comm, const Model &model, const DofMap &map
 // rotation in joint axes; a dependent translation under its axis) and their rates, and the force
 // and moment the joint exerts on its slave (State::joints' reactions). The names are gathered to
 // rank 0 once (kept in *cache); values and names are filled on rank 0, empty elsewhere. Collective.
-struct JointHistoryNames {
+// The series' names in the model's order, whatever the partition (gathered once, on rank 0), and
+// where each value gathered in the ranks' order goes: the joints' and the force elements' alike.
+struct HistoryGather {
   bool                     gathered = false;
-  std::vector<std::string> names;       // in the order of the joints in the model
-  std::vector<size_t>      permutation; // gathered position (ranks' parts in slot order) -> place in names
+  std::vector<std::string> names;       // in order
+  std::vector<size_t>      permutation; // gathered position (the ranks' parts one after the other) -> place in names
 };
-PetscErrorCode JointHistory(MPI_Comm comm, const Model &model, const DofMap &map, const State &state, JointHistoryNames *cache, std::vector<std::string> *names,
+PetscErrorCode JointHistory(MPI_Comm comm, const Model &model, const DofMap &map, const State &state, HistoryGather *cache, std::vector<std::string> *names,
                             std::vector<double> *values);
 
 // The series of the reaction and element probes, "<probe>.<quantity>": a reaction probe's
@@ -60,11 +62,6 @@ PetscErrorCode ProbeHistory(MPI_Comm comm, const Model &model, const DofMap &map
 // History values the ranks hold (HistoryValue: force elements), gathered to rank 0 in the order
 // of their keys; names and order are gathered once (kept in *cache). Values and names on rank 0,
 // empty elsewhere. Collective.
-struct HistoryGather {
-  bool                     gathered = false;
-  std::vector<std::string> names;       // in order
-  std::vector<size_t>      permutation; // gathered position -> place in order
-};
 PetscErrorCode GatherHistory(MPI_Comm comm, const std::vector<HistoryValue> &local, HistoryGather *cache, std::vector<std::string> *names,
                              std::vector<double> *values);
 

@@ -11,6 +11,10 @@ import sys
 import h5py
 import numpy as np
 
+# The post-processing scripts' reader of the history (postproc/msflex_h5.py), for every layout.
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "postproc"))
+import msflex_h5  # noqa: E402
+
 
 def parse_arguments(description):
     parser = argparse.ArgumentParser(description=description)
@@ -72,16 +76,10 @@ def run_msflex(args, input_file, output_file, extra=(), np_ranks=None, expect_su
     return result.returncode, result.stdout, result.stderr
 
 
-def _history_file(path):
-    sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "postproc"))
-    import msflex_h5
-    return msflex_h5.HistoryFile(path)
-
-
 def probe_history(path, probe):
     """time column and the probe's quantities as numpy arrays: position, displacement (rows x 3),
     rotation (rows x 4, w x y z), rotation_angle (rows)."""
-    with _history_file(path) as h:
+    with msflex_h5.HistoryFile(path) as h:
         data = {"time": h.read("time")}
         for quantity, components in (("position", "xyz"), ("displacement", "xyz"), ("rotation", "wxyz")):
             data[quantity] = np.column_stack([h.read(f"{probe}.{quantity}.{c}") for c in components])
@@ -91,7 +89,7 @@ def probe_history(path, probe):
 
 def history(path):
     """Every series of the history table (docs/output.md), {name: array}; probes' columns included."""
-    with _history_file(path) as h:
+    with msflex_h5.HistoryFile(path) as h:
         return h.read_all()
 
 
@@ -232,7 +230,7 @@ def series_values(f, series):
     """A series as postproc/msflex_h5.py names it (a column of the history table: time,
     <probe>.position.x, <probe>.rotation_angle, ...), or else any numeric dataset by its path,
     flattened."""
-    with _history_file(f.filename) as history:
+    with msflex_h5.HistoryFile(f.filename) as history:
         if series in history.names():
             return history.read(series)
     if series in f:
@@ -246,7 +244,7 @@ def check_expected(check, input_file, result_file, label, end_time=None):
     run was shortened, is skipped and said so. Returns (checked, skipped)."""
     checked = skipped = 0
     with h5py.File(result_file, "r") as f:
-        with _history_file(result_file) as h:
+        with msflex_h5.HistoryFile(result_file) as h:
             times = h.read("time") if "time" in h.names() else None
         for entry in expected_results(input_file):
             series = entry["series"]

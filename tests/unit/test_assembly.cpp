@@ -444,9 +444,9 @@ struct AssembledState {
 
 PetscErrorCode AssembleState(const Model &model, const DofMap &map, MechanicalSystem &system, Vec x, AssembledState *state)
 {
-  PetscBool         ok;
-  Assembler        &assembler = system.GetAssembler();
-  JointHistoryNames names;
+  PetscBool     ok;
+  Assembler    &assembler = system.GetAssembler();
+  HistoryGather names;
   PetscFunctionBeginUser;
   PetscCall(assembler.SetIncrements(x));
   PetscCall(VecDuplicate(x, &state->residual));
