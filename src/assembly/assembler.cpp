@@ -568,9 +568,8 @@ void Assembler::AddCoordinate(int joint, int coordinate, double residual, double
       local_force_squares_ += residual * residual;
       code = VecSetValue(block_residual_, row, residual, ADD_VALUES);
     }
-  } else if (block_jacobian_ && row >= 0) {
-    code = MatSetValue(block_jacobian_, row, row, tangent, ADD_VALUES);
   }
+  if (block_jacobian_ && row >= 0 && code == PETSC_SUCCESS) code = MatSetValue(block_jacobian_, row, row, tangent, ADD_VALUES);
   if (code != PETSC_SUCCESS) block_trouble_ = true;
 }
 
@@ -773,6 +772,8 @@ PetscErrorCode Assembler::AssembleResidual(Vec residual, PetscBool *geometry_ok)
   PetscCall(VecAssemblyBegin(residual));
   PetscCall(VecAssemblyEnd(residual));
   if (state_->equations.InitialAcceleration()) PetscCall(SetMasslessResidualRows(residual));
+  by_products_version_    = increments_version_;
+  by_products_propagated_ = false;
   PetscCall(PetscLogEventEnd(event_residual, 0, 0, 0, 0));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
@@ -818,6 +819,31 @@ static PetscErrorCode RestoreCsrValues(Mat diagonal, Mat off_diagonal, PetscScal
 PetscErrorCode Assembler::AssembleJacobian(Mat jacobian, PetscBool *geometry_ok)
 {
   PetscFunctionBeginUser;
+  PetscCall(AssembleTangentPass(jacobian, nullptr, geometry_ok));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+bool Assembler::CanAssembleResidualWithJacobian() const
+{
+  const StepEquations &eq = state_->equations;
+  return !(eq.Dynamic() && eq.scheme.kind == TimeSchemeKind::EnergyMomentum) && !eq.InitialAcceleration() && !mass_matrix_only_;
+}
+
+PetscErrorCode Assembler::AssembleResidualWithJacobian(Vec residual, PetscBool *geometry_ok)
+{
+  PetscFunctionBeginUser;
+  PetscCheck(CanAssembleResidualWithJacobian(), PETSC_COMM_SELF, PETSC_ERR_ARG_WRONGSTATE,
+             "the residual and the tangent are assembled together only outside em and the initial-acceleration problem");
+  PetscCall(AssembleTangentPass(jacobian_, residual, geometry_ok));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+// One pass over elements, nodes and blocks for the tangent and, when `residual` is given (not em,
+// not the initial-acceleration problem: CanAssembleResidualWithJacobian), the residual too, from
+// the same kernel calls: every residual entry is added in the order AssembleResidual adds it.
+PetscErrorCode Assembler::AssembleTangentPass(Mat jacobian, Vec residual, PetscBool *geometry_ok)
+{
+  PetscFunctionBeginUser;
   ++matrix_assemblies_;
   PetscCheck(jacobian == jacobian_, PETSC_COMM_SELF, PETSC_ERR_SUP, "the assembler assembles into its own matrix only");
   PetscCall(PetscLogEventBegin(event_jacobian, 0, 0, 0, 0));
@@ -825,6 +851,18 @@ PetscErrorCode Assembler::AssembleJacobian(Mat jacobian, PetscBool *geometry_ok)
   const StepEquations &eq  = state_->equations;
   const bool           em  = eq.Dynamic() && eq.scheme.kind == TimeSchemeKind::EnergyMomentum;
   *geometry_ok             = PETSC_TRUE;
+  tangent_version_         = -1;
+  by_products_version_     = -1; // slave_residual_ is rebuilt
+  double strain_energy     = 0.0;
+  if (residual) {
+    PetscCall(VecSetOption(residual, VEC_IGNORE_NEGATIVE_INDICES, PETSC_TRUE));
+    PetscCall(VecZeroEntries(residual));
+    local_force_squares_ = 0.0;
+    energy_correction_   = 0.0;
+    for (Vec6 &reaction : prescribed_residual_) reaction.setZero();
+    for (Vec6 &g : relay_force_) g.setZero();
+    for (auto &row : coordinate_residual_) row.fill(0.0);
+  }
   // em: when the last residual was assembled at these unknowns (SNES's order: residual, then the
   // tangent at the same iterate), its beta and correction work hold here: the beam kernel builds
   // K_mc + beta K_corr at once, and b = (grad M - beta grad C) / C goes into one vector.
@@ -865,6 +903,10 @@ PetscErrorCode Assembler::AssembleJacobian(Mat jacobian, PetscBool *geometry_ok)
     const int          nd            = 6 * (element_nodes.order + 1);
     int                local_nodes[kBeamMaxNodes];
     for (int a = 0; a <= element_nodes.order; ++a) local_nodes[a] = map.node_to_local[element_nodes.nodes[a]];
+    if (residual) {
+      strain_energy += element.strain_energy;
+      for (int a = 0; a <= element_nodes.order; ++a) PetscCall(AddNodeResidual(residual, local_nodes[a], &element.residual[6 * a])); // slaves' too
+    }
     if (separate_correction) {
       sums[0] += element.work_mismatch, sums[1] += element.correction_work, sums[2] += element.work_scale;
       for (int a = 0; a <= element_nodes.order; ++a) {
@@ -888,7 +930,7 @@ PetscErrorCode Assembler::AssembleJacobian(Mat jacobian, PetscBool *geometry_ok)
     }
     for (int a = 0; a <= element_nodes.order; ++a) {
       if (!IsSlave(local_nodes[a])) continue;
-      slave_residual_[local_nodes[a]] += Eigen::Map<const Vec6>(&element.residual[6 * a]);
+      if (!residual) slave_residual_[local_nodes[a]] += Eigen::Map<const Vec6>(&element.residual[6 * a]);
       if (em) slave_correction_residual_[local_nodes[a]] += Eigen::Map<const Vec6>(&element.correction[6 * a]);
     }
     PetscCall(AddExpandedMatrix(jacobian, element_nodes.order + 1, local_nodes, element.tangent));
@@ -900,15 +942,24 @@ PetscErrorCode Assembler::AssembleJacobian(Mat jacobian, PetscBool *geometry_ok)
   NodeContribution node;
   for (PetscInt l = 0; l < map.num_owned_nodes; ++l) {
     EvaluateNode((int)l, true, &node);
-    if (IsSlave((int)l)) slave_residual_[l] += Eigen::Map<const Vec6>(node.residual);
+    if (residual) PetscCall(AddNodeResidual(residual, (int)l, node.residual));
+    else if (IsSlave((int)l)) slave_residual_[l] += Eigen::Map<const Vec6>(node.residual);
     if (!node.tangent.isZero(0.0)) PetscCall(AddNodeBlock(jacobian, (int)l, node.tangent));
   }
-  block_residual_ = nullptr;
+  block_residual_ = residual;
   block_jacobian_ = jacobian;
   block_trouble_  = false;
   for (ForceContributor *c : contributors_) c->AddBlocks(*state_, true, this);
+  block_residual_ = nullptr;
   block_jacobian_ = nullptr;
   PetscCheck(!block_trouble_, PETSC_COMM_SELF, PETSC_ERR_PLIB, "a contributor's block could not be added to the tangent");
+  if (residual) {
+    PetscCall(FinishRelayForces(residual));
+    PetscCall(VecAssemblyBegin(residual));
+    PetscCall(VecAssemblyEnd(residual));
+    residual_strain_energy_         = strain_energy;
+    residual_strain_energy_version_ = *geometry_ok ? increments_version_ : -1;
+  }
   // em: beta at these increments (eq. 20, BetaOfWorkSums) and the rank-one term R_corr (grad beta)^T,
   // grad beta = (grad M - beta grad C) / C: with beta known from the residual the vectors already
   // hold it; otherwise beta comes from this pass's sums and grad beta from its two gradients.
@@ -945,6 +996,12 @@ PetscErrorCode Assembler::AssembleJacobian(Mat jacobian, PetscBool *geometry_ok)
     PetscCall(MatSetOption(jacobian, MAT_KEEP_NONZERO_PATTERN, PETSC_TRUE));
     PetscCall(MatZeroRows(jacobian, (PetscInt)massless_rows_.size(), massless_rows_.data(), 1.0, nullptr, nullptr));
   }
+  if (residual) {
+    tangent_version_        = increments_version_;
+    tangent_assembly_       = matrix_assemblies_;
+    by_products_version_    = increments_version_;
+    by_products_propagated_ = true; // by AddJointGeometricStiffness
+  }
   PetscCall(PetscLogEventEnd(event_jacobian, 0, 0, 0, 0));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
@@ -978,14 +1035,22 @@ PetscErrorCode Assembler::MaxRotationIncrement(double *max_rotation)
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
+PetscErrorCode Assembler::CurrentResidualByProducts()
+{
+  PetscBool evaluable;
+  PetscFunctionBeginUser;
+  if (by_products_version_ != increments_version_) PetscCall(AssembleResidual(scratch_residual_, &evaluable));
+  if (!by_products_propagated_) PropagateSlaveResiduals();
+  by_products_propagated_ = true;
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
 PetscErrorCode Assembler::StepExternalWork(double *work)
 {
-  PetscBool            evaluable;
   const StepEquations &eq = state_->equations;
   PetscFunctionBeginUser;
   // The reactions on prescribed DOFs and drives at exactly these increments.
-  PetscCall(AssembleResidual(scratch_residual_, &evaluable));
-  PropagateSlaveResiduals();
+  PetscCall(CurrentResidualByProducts());
   double local = 0.0;
   for (const ForceContributor *c : contributors_) c->AddStepWork(*state_, &local);
   // Prescribed DOFs: reaction (mid-point, or the mean of both ends) times (u, alpha or omega).
@@ -1017,10 +1082,8 @@ PetscErrorCode Assembler::StepExternalWork(double *work)
 
 PetscErrorCode Assembler::StoreReactions()
 {
-  PetscBool evaluable;
   PetscFunctionBeginUser;
-  PetscCall(AssembleResidual(scratch_residual_, &evaluable));
-  PropagateSlaveResiduals();
+  PetscCall(CurrentResidualByProducts());
   for (size_t l = 0; l < state_->nodes.size(); ++l) state_->nodes[l].prescribed_reaction = prescribed_residual_[l];
   for (size_t j = 0; j < state_->joints.size(); ++j) {
     JointState &J    = state_->joints[j];
@@ -1033,12 +1096,10 @@ PetscErrorCode Assembler::StoreReactions()
 PetscErrorCode Assembler::EvaluateJointReactions(double dt)
 {
   const DofMap &map = *map_;
-  PetscBool     evaluable;
   PetscMPIInt   rank;
   PetscFunctionBeginUser;
   PetscCallMPI(MPI_Comm_rank(comm_, &rank));
-  PetscCall(AssembleResidual(scratch_residual_, &evaluable));
-  PropagateSlaveResiduals();
+  PetscCall(CurrentResidualByProducts());
   // Every rank adds the slave residual it assembled into the joint's slot; the owner adds the rates.
   PetscCall(VecZeroEntries(joint_output_));
   for (const JointState &J : state_->joints) {

@@ -81,6 +81,17 @@ public:
   // global ratio); RankOneTerm gives its two vectors (the Newton solve applies them by
   // Sherman-Morrison, integrators/newton.cpp).
   PetscErrorCode AssembleJacobian(Mat jacobian, PetscBool *geometry_ok);
+  // The residual and the tangent (into the assembler's own matrix) at the current unknowns in one
+  // pass: each kernel evaluated once for both, the residual equal to AssembleResidual's. Newton
+  // assembles the next tangent with the residual of its line search this way (integrators/newton.cpp),
+  // so an iteration costs one pass instead of a residual pass and a tangent pass. Not in em (its
+  // tangent needs beta of the whole residual first: K_corr kept apart until it is known cost more
+  // than the residual pass it saved, docs/performance.md) nor the initial-acceleration problem.
+  bool           CanAssembleResidualWithJacobian() const;
+  PetscErrorCode AssembleResidualWithJacobian(Vec residual, PetscBool *geometry_ok);
+  // Whether the matrix holds the tangent at the current unknowns from AssembleResidualWithJacobian
+  // (the unknowns unchanged and no other matrix assembled since).
+  bool JacobianCurrent() const { return tangent_version_ == increments_version_ && tangent_assembly_ == matrix_assemblies_; }
   // The rank-one term a b^T of the last tangent: a = R_corr, b = grad beta in the unknowns;
   // *active = false when there is none (not em, or beta = 0 at round-off).
   void RankOneTerm(Vec *a, Vec *b, bool *active) const
@@ -191,6 +202,8 @@ public:
   PetscInt NumMasslessUnknowns() const { return num_massless_unknowns_; }
 
 private:
+  // AssembleJacobian (residual null) and AssembleResidualWithJacobian.
+  PetscErrorCode AssembleTangentPass(Mat jacobian, Vec residual, PetscBool *geometry_ok);
   // The element loop's evaluation of local element k by every element contributor.
   // `combined_beta` (em with beta known): the elements' tangents are K_mc + beta K_corr.
   void EvaluateElement(size_t k, bool want_tangent, ElementContribution *out, const double *combined_beta = nullptr);
@@ -237,6 +250,11 @@ private:
   PetscErrorCode AddJointGeometricStiffness(Mat jacobian);
   // Slave residuals with what each slave passes on to its master along the chains (deepest first).
   void PropagateSlaveResiduals();
+  // What a residual at the current unknowns leaves besides the vector: the reactions on prescribed
+  // DOFs (prescribed_residual_), the force elements' terms on coordinates (coordinate_residual_) and
+  // the slave residuals propagated along the chains. Newton's last residual left them at the
+  // converged unknowns as a rule; otherwise a residual pass makes them. Collective.
+  PetscErrorCode CurrentResidualByProducts();
   // Relay nodes. The residual: the force gathered on each relay (relay_force_) passes through its
   // joint's rows to its anchor's unknowns, deepest relays first, so that the residual is the
   // condensed one and zero on the relays' own rows. The matrix: per owned relay s, with U its
@@ -324,6 +342,13 @@ private:
   long long increments_version_ = 0, energy_correction_version_ = -1, residual_strain_energy_version_ = -1;
   double    residual_strain_energy_ = 0.0; // this rank's, at residual_strain_energy_version_
   long long matrix_assemblies_      = 0;
+  // The version of the unknowns whose tangent AssembleResidualWithJacobian left in jacobian_, and
+  // matrix_assemblies_ after it (JacobianCurrent).
+  long long tangent_version_ = -1, tangent_assembly_ = -1;
+  // The version whose residual by-products (CurrentResidualByProducts) the last pass left, and
+  // whether slave_residual_ is propagated along the chains already.
+  long long by_products_version_    = -1;
+  bool      by_products_propagated_ = false;
   bool      increments_known_       = false;
   Vec       set_increments_         = nullptr;
 

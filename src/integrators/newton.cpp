@@ -17,23 +17,60 @@ namespace msflex {
 namespace {
 
 // Residual on every rank; false on every rank when any element could not be evaluated.
-PetscErrorCode EvaluateResidual(NewtonContext *context, Vec increments, Vec residual, PetscBool *all_ok)
+// The residual at `increments`; with `with_tangent` also the tangent there, in the same pass
+// (Assembler::AssembleResidualWithJacobian), for the FormJacobian that follows.
+PetscErrorCode EvaluateResidual(NewtonContext *context, Vec increments, Vec residual, PetscBool *all_ok, bool with_tangent = false)
 {
   PetscBool geometry_ok;
   PetscFunctionBeginUser;
   if (context->assembly_stage >= 0) PetscCall(PetscLogStagePush(context->assembly_stage));
   PetscCall(context->assembler->SetIncrements(increments));
-  PetscCall(context->assembler->AssembleResidual(residual, &geometry_ok));
+  if (with_tangent) PetscCall(context->assembler->AssembleResidualWithJacobian(residual, &geometry_ok));
+  else PetscCall(context->assembler->AssembleResidual(residual, &geometry_ok));
   PetscCall(MPIU_Allreduce(&geometry_ok, all_ok, 1, MPIU_BOOL, MPI_LAND, context->comm));
+  context->tangent_ahead = with_tangent && *all_ok;
   if (context->assembly_stage >= 0) PetscCall(PetscLogStagePop());
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+// Whether a residual evaluation should assemble the tangent with it: SNES asks for the tangent at
+// every iterate whose residual does not pass the convergence test, and one pass for both costs
+// little more than the tangent's alone (the residual pass it saves is a third of an iteration of a
+// beam model).
+bool TangentWithResidual(const NewtonContext &context) { return context.tangent_with_residual && context.assembler->CanAssembleResidualWithJacobian(); }
+
+// Whether the Newton step about to be taken (from iterate k, residual norm f_k) most likely ends
+// the solve: with quadratic convergence f_{k+1} = C f_k^2, and C from the last iteration,
+// f_{k+1} = f_k^3 / f_{k-1}^2. Then its residual is assembled alone, as no tangent will follow.
+// A wrong guess costs a pass, never the answer. Collective (ForceScale), alike on every rank.
+PetscErrorCode StepLikelyConverges(SNES snes, NewtonContext *context, bool *converges)
+{
+  PetscInt   iteration = 0, count = 0, max_iterations, max_evaluations;
+  PetscReal *norms = nullptr, atol, rtol, stol;
+  double     force_scale;
+  PetscFunctionBeginUser;
+  *converges = false;
+  PetscCall(SNESGetIterationNumber(snes, &iteration));
+  PetscCall(SNESGetConvergenceHistory(snes, &norms, nullptr, &count));
+  if (iteration < 1 || count <= iteration) PetscFunctionReturn(PETSC_SUCCESS);
+  const double previous = norms[iteration - 1], current = norms[iteration];
+  if (!(current < previous) || previous <= 0.0) PetscFunctionReturn(PETSC_SUCCESS);
+  PetscCall(SNESGetTolerances(snes, &atol, &rtol, &stol, &max_iterations, &max_evaluations));
+  PetscCall(context->assembler->ForceScale(&force_scale));
+  const double needed    = std::max({(double)atol, (double)rtol * force_scale, context->assembler->RoundoffForceLevel()});
+  const double predicted = current * (current / previous) * (current / previous);
+  *converges             = predicted <= needed;
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
 PetscErrorCode FormResidual(SNES snes, Vec increments, Vec residual, void *ctx)
 {
-  PetscBool all_ok;
+  NewtonContext *context = static_cast<NewtonContext *>(ctx);
+  PetscBool      all_ok;
   PetscFunctionBeginUser;
-  PetscCall(EvaluateResidual(static_cast<NewtonContext *>(ctx), increments, residual, &all_ok));
+  // With msflex's line search SNES evaluates the residual itself only at the start of a solve,
+  // and the tangent there follows unless the start already converged.
+  PetscCall(EvaluateResidual(context, increments, residual, &all_ok, TangentWithResidual(*context)));
   if (!all_ok) PetscCall(SNESSetFunctionDomainError(snes));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
@@ -83,9 +120,12 @@ PetscErrorCode FormJacobian(SNES snes, Vec increments, Mat jacobian, Mat precond
     PetscFunctionReturn(PETSC_SUCCESS);
   }
   if (context->assembly_stage >= 0) PetscCall(PetscLogStagePush(context->assembly_stage));
-  // SNES asks for the tangent at the iterate whose residual it has just evaluated: the State holds it.
+  // SNES asks for the tangent at the iterate whose residual it has just evaluated: the State holds
+  // it, and so may the matrix (the residual was assembled with it, on every rank alike).
   PetscCall(context->assembler->SetIncrements(increments, true));
-  PetscCall(context->assembler->AssembleJacobian(preconditioner, &geometry_ok));
+  if (context->tangent_ahead && context->assembler->JacobianCurrent() && preconditioner == context->assembler->Jacobian()) geometry_ok = PETSC_TRUE;
+  else PetscCall(context->assembler->AssembleJacobian(preconditioner, &geometry_ok));
+  context->tangent_ahead             = false;
   context->rank_one_solution_current = false;
   context->tangent_factored          = context->jacobian_reuse > 0.0; // factored by the solve that follows
   TangentStep(context->assembler->Equations(), context->tangent_step);
@@ -112,10 +152,20 @@ PetscErrorCode SafeguardedNewtonStep(SNESLineSearch linesearch, void *ctx)
   PetscCall(SNESLineSearchGetVecs(linesearch, &x, &f, &y, &w, &g));
   // The relay nodes' entries of the step are the linear solve's, not increments of the state.
   PetscCall(context->assembler->ZeroRelayEntries(y));
+  PetscCall(VecNorm(y, NORM_2, &ynorm));
+  // A non-finite update leaves the tangent it came from in the matrix, for the diagnosis.
+  bool with_tangent = TangentWithResidual(*context) && std::isfinite(ynorm);
+  if (with_tangent) {
+    SNES snes;
+    bool converges;
+    PetscCall(SNESLineSearchGetSNES(linesearch, &snes));
+    PetscCall(StepLikelyConverges(snes, context, &converges));
+    with_tangent = !converges;
+  }
   for (int attempt = 0; attempt < 9; ++attempt) {
     if (attempt > 0) lambda *= 0.5;
     PetscCall(VecWAXPY(w, -lambda, y, x));
-    PetscCall(EvaluateResidual(context, w, g, &geometry_ok));
+    PetscCall(EvaluateResidual(context, w, g, &geometry_ok, with_tangent));
     evaluable = geometry_ok;
     if (evaluable) {
       PetscCall(VecNorm(g, NORM_2, &fnorm));
@@ -135,7 +185,6 @@ PetscErrorCode SafeguardedNewtonStep(SNESLineSearch linesearch, void *ctx)
   PetscCall(VecCopy(w, x));
   PetscCall(VecCopy(g, f));
   PetscCall(VecNorm(x, NORM_2, &xnorm));
-  PetscCall(VecNorm(y, NORM_2, &ynorm));
   PetscCall(SNESLineSearchSetLambda(linesearch, lambda));
   PetscCall(SNESLineSearchSetNorms(linesearch, xnorm, fnorm, lambda * ynorm));
   PetscCall(SNESLineSearchSetReason(linesearch, SNES_LINESEARCH_SUCCEEDED));
@@ -267,6 +316,32 @@ PetscErrorCode   ChooseDirectSolver(Mat tangent, PC pc)
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
+// Whether residual evaluations assemble the tangent with them (NewtonContext::tangent_with_residual):
+// only when SNES is sure to ask for the tangent at each iterate whose residual msflex's line search
+// (or SNES at the start) evaluates, and to solve with the assembled matrix. Not with modified Newton
+// (the matrix keeps an older tangent), a lagged Jacobian, a matrix-free or finite-difference
+// Jacobian (-snes_mf, -snes_mf_operator, -snes_fd: other residual evaluations, another matrix), or
+// -snes_test_jacobian (its finite differences evaluate residuals between the tangent and its solve).
+PetscErrorCode DecideTangentWithResidual(SNES snes, SNESLineSearch linesearch, NewtonContext *context)
+{
+  PetscBool          newton_ls, shell_line_search, matrix_free, matrix_free_operator, test_jacobian;
+  PetscInt           lag;
+  SNESLineSearchType line_search_type;
+  PetscErrorCode (*jacobian_function)(SNES, Vec, Mat, Mat, void *) = nullptr;
+  PetscFunctionBeginUser;
+  PetscCall(PetscObjectTypeCompare((PetscObject)snes, SNESNEWTONLS, &newton_ls));
+  PetscCall(SNESLineSearchGetType(linesearch, &line_search_type));
+  shell_line_search = !strcmp(line_search_type, SNESLINESEARCHSHELL) ? PETSC_TRUE : PETSC_FALSE;
+  PetscCall(SNESGetLagJacobian(snes, &lag));
+  PetscCall(SNESGetJacobian(snes, nullptr, nullptr, &jacobian_function, nullptr));
+  PetscCall(PetscOptionsHasName(nullptr, nullptr, "-snes_mf", &matrix_free));
+  PetscCall(PetscOptionsHasName(nullptr, nullptr, "-snes_mf_operator", &matrix_free_operator));
+  PetscCall(PetscOptionsHasName(nullptr, nullptr, "-snes_test_jacobian", &test_jacobian));
+  context->tangent_with_residual = newton_ls && shell_line_search && lag == 1 && jacobian_function == FormJacobian && !matrix_free && !matrix_free_operator &&
+                                   !test_jacobian && context->jacobian_reuse <= 0.0;
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
 } // namespace
 
 PetscErrorCode NewtonSolverCreate(MPI_Comm comm, const AnalysisSettings &analysis, NewtonOperator newton_operator, NewtonContext *context, SNES *snes)
@@ -312,6 +387,7 @@ PetscErrorCode NewtonSolverCreate(MPI_Comm comm, const AnalysisSettings &analysi
   else PetscCall(SetDirectSolver(pc, tangent));
   MSFLEX_CALL_READING_OPTIONS(PetscObjectComm((PetscObject)*snes), SNESSetFromOptions(*snes));
   PetscCall(CheckFactorSolverAvailable(ksp, tangent));
+  PetscCall(DecideTangentWithResidual(*snes, linesearch, context));
   if (relays) {
     PetscCall(PrepareRelayDirectSolver(pc, tangent, "-pc_factor_mat_solver_type", analysis.condensation_depth));
     PetscBool          matrix_free = PETSC_FALSE;

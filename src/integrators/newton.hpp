@@ -59,6 +59,12 @@ struct NewtonContext {
   double    tangent_step[4]  = {0.0, 0.0, 0.0, 0.0}; // problem, inertia coefficient, step length, load scale
   long long tangent_assembly = -1;                   // Assembler::MatrixAssemblies() after that tangent (no matrix assembled since)
   long long tangents_formed = 0, tangents_reused = 0;
+  // The tangent assembled with the residual (Assembler::AssembleResidualWithJacobian): possible when
+  // SNES is Newton with msflex's line search, a tangent at every iteration and the assembled matrix
+  // as operator (NewtonSolverCreate decides, once, alike on every rank); tangent_ahead: the last
+  // residual evaluation left the tangent of its iterate in the matrix, on every rank.
+  bool tangent_with_residual = false;
+  bool tangent_ahead         = false;
 };
 
 // The Newton step's operator: the assembled tangent, or (em) the assembled tangent plus its

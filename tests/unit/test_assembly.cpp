@@ -577,3 +577,102 @@ TEST(AssembledSystem, ResidualKeepsTheStrainEnergyOfItsUnknowns)
     VecDestroy(&r);
   }
 }
+
+// Newton assembles the residual of its line search and the tangent there in one pass
+// (AssembleResidualWithJacobian): the residual, the tangent and what the residual leaves behind
+// for the step's external work and the joint reactions (CurrentResidualByProducts) equal those of
+// the separate passes, on joints with chains (condensed whole, and with relay nodes every joint),
+// rigid bodies, follower loads, force elements on coordinates and nodes, drives and damped
+// sections, in statics, the Newmark family and mc. The matrix counts as the tangent of its
+// unknowns only until they or the matrix change.
+TEST(AssembledSystem, ResidualWithJacobianEqualsTheSeparatePasses)
+{
+  const std::string joints = kJointModel;
+  const std::string relays = joints.substr(0, joints.rfind("analysis:")) + "analysis: {type: dynamic, condensation_depth: 1}\n";
+  const struct {
+    const char *name;
+    std::string text;
+  } models[] = {{"joints", joints}, {"joints with relays", relays}, {"force elements", kForceElementModel}};
+  for (const auto &model : models) {
+    for (Problem problem : {Problem::Static, Problem::Newmark, Problem::GeneralizedAlpha, Problem::MomentumConserving}) {
+      AssembledSystem separate, together;
+      ASSERT_EQ(Build(model.text.c_str(), problem, &separate), PETSC_SUCCESS);
+      ASSERT_EQ(Build(model.text.c_str(), problem, &together), PETSC_SUCCESS);
+      Assembler &a = separate.system.GetAssembler(), &b = together.system.GetAssembler();
+      ASSERT_TRUE(b.CanAssembleResidualWithJacobian());
+      Vec      x, r_separate, r_together;
+      Mat      J_separate;
+      PetscInt first, last;
+      ASSERT_EQ(VecDuplicate(a.SolutionTemplate(), &x), PETSC_SUCCESS);
+      ASSERT_EQ(VecDuplicate(x, &r_separate), PETSC_SUCCESS);
+      ASSERT_EQ(VecDuplicate(x, &r_together), PETSC_SUCCESS);
+      ASSERT_EQ(VecGetOwnershipRange(x, &first, &last), PETSC_SUCCESS);
+      for (PetscInt i = first; i < last; ++i) ASSERT_EQ(VecSetValue(x, i, 0.04 * std::sin(0.7 + 2.3 * (double)i), INSERT_VALUES), PETSC_SUCCESS);
+      ASSERT_EQ(VecAssemblyBegin(x), PETSC_SUCCESS);
+      ASSERT_EQ(VecAssemblyEnd(x), PETSC_SUCCESS);
+      // Separate: residual, then the tangent (whose pass rebuilds the slave residuals, so the
+      // by-products come from a new residual pass).
+      PetscBool ok_separate, ok_together;
+      ASSERT_EQ(a.SetIncrements(x), PETSC_SUCCESS);
+      ASSERT_EQ(a.AssembleResidual(r_separate, &ok_separate), PETSC_SUCCESS);
+      ASSERT_EQ(a.AssembleJacobian(a.Jacobian(), &ok_separate), PETSC_SUCCESS);
+      EXPECT_FALSE(a.JacobianCurrent()) << "AssembleJacobian alone is no residual's tangent";
+      ASSERT_EQ(MatDuplicate(a.Jacobian(), MAT_COPY_VALUES, &J_separate), PETSC_SUCCESS);
+      // Together: one pass, whose by-products serve the work and the reactions.
+      ASSERT_EQ(b.SetIncrements(x), PETSC_SUCCESS);
+      ASSERT_EQ(b.AssembleResidualWithJacobian(r_together, &ok_together), PETSC_SUCCESS);
+      ASSERT_TRUE(ok_separate && ok_together);
+      EXPECT_TRUE(b.JacobianCurrent());
+      ASSERT_EQ(b.SetIncrements(x, true), PETSC_SUCCESS);
+      EXPECT_TRUE(b.JacobianCurrent()) << "the same unknowns again";
+
+      PetscReal residual_norm, residual_difference, tangent_norm, tangent_difference;
+      ASSERT_EQ(VecNorm(r_separate, NORM_INFINITY, &residual_norm), PETSC_SUCCESS);
+      ASSERT_EQ(VecAXPY(r_together, -1.0, r_separate), PETSC_SUCCESS);
+      ASSERT_EQ(VecNorm(r_together, NORM_INFINITY, &residual_difference), PETSC_SUCCESS);
+      ASSERT_EQ(MatNorm(J_separate, NORM_FROBENIUS, &tangent_norm), PETSC_SUCCESS);
+      ASSERT_EQ(MatAXPY(J_separate, -1.0, b.Jacobian(), SAME_NONZERO_PATTERN), PETSC_SUCCESS);
+      ASSERT_EQ(MatNorm(J_separate, NORM_FROBENIUS, &tangent_difference), PETSC_SUCCESS);
+      EXPECT_GT(residual_norm, 0.0);
+      EXPECT_LE(residual_difference, 1e-13 * residual_norm) << model.name << ", problem " << (int)problem;
+      EXPECT_LE(tangent_difference, 1e-13 * tangent_norm) << model.name << ", problem " << (int)problem;
+      if (problem != Problem::Static) {
+        double work_separate = 0.0, work_together = 0.0;
+        ASSERT_EQ(a.StepExternalWork(&work_separate), PETSC_SUCCESS);
+        ASSERT_EQ(b.StepExternalWork(&work_together), PETSC_SUCCESS);
+        EXPECT_NE(work_separate, 0.0);
+        EXPECT_NEAR(work_together, work_separate, 1e-13 * std::abs(work_separate)) << model.name << ", problem " << (int)problem;
+      }
+      ASSERT_EQ(a.EvaluateJointReactions(0.05), PETSC_SUCCESS);
+      ASSERT_EQ(b.EvaluateJointReactions(0.05), PETSC_SUCCESS);
+      const State &state_separate = separate.system.GetState(), &state_together = together.system.GetState();
+      ASSERT_EQ(state_separate.joints.size(), state_together.joints.size());
+      for (size_t j = 0; j < state_separate.joints.size(); ++j) {
+        const double scale = std::max(1.0, state_separate.joints[j].reaction.norm());
+        EXPECT_LE((state_together.joints[j].reaction - state_separate.joints[j].reaction).norm(), 1e-12 * scale) << model.name << ", joint " << j;
+      }
+
+      // Other unknowns, or another matrix assembled: the matrix is no longer the current tangent.
+      ASSERT_EQ(b.AssembleResidualWithJacobian(r_together, &ok_together), PETSC_SUCCESS);
+      ASSERT_EQ(VecScale(x, 0.5), PETSC_SUCCESS);
+      ASSERT_EQ(b.SetIncrements(x, true), PETSC_SUCCESS);
+      EXPECT_FALSE(b.JacobianCurrent());
+      ASSERT_EQ(b.AssembleResidualWithJacobian(r_together, &ok_together), PETSC_SUCCESS);
+      ASSERT_EQ(b.AssembleJacobian(b.Jacobian(), &ok_together), PETSC_SUCCESS);
+      EXPECT_FALSE(b.JacobianCurrent());
+      ASSERT_EQ(b.AssembleResidualWithJacobian(r_together, &ok_together), PETSC_SUCCESS);
+      b.ForgetIncrements();
+      EXPECT_FALSE(b.JacobianCurrent());
+      MatDestroy(&J_separate);
+      VecDestroy(&x);
+      VecDestroy(&r_separate);
+      VecDestroy(&r_together);
+    }
+  }
+  // em (its tangent needs beta of the whole residual first) and the initial accelerations assemble apart.
+  for (Problem problem : {Problem::EnergyMomentum, Problem::InitialAcceleration}) {
+    AssembledSystem system;
+    ASSERT_EQ(Build(kJointModel, problem, &system), PETSC_SUCCESS);
+    EXPECT_FALSE(system.system.GetAssembler().CanAssembleResidualWithJacobian()) << (int)problem;
+  }
+}
