@@ -533,6 +533,18 @@ TEST(AssembledSystem, RestrictedModelAssemblesIdentically)
   }
 }
 
+// Unknowns x_i = amplitude sin(phase + rate i): a deformed, moving state with every unknown set.
+PetscErrorCode SetWavyIncrements(Vec x, double amplitude, double phase, double rate)
+{
+  PetscInt first, last;
+  PetscFunctionBeginUser;
+  PetscCall(VecGetOwnershipRange(x, &first, &last));
+  for (PetscInt i = first; i < last; ++i) PetscCall(VecSetValue(x, i, amplitude * std::sin(phase + rate * (double)i), INSERT_VALUES));
+  PetscCall(VecAssemblyBegin(x));
+  PetscCall(VecAssemblyEnd(x));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
 // The strain energy the residual pass keeps for the history: the same as a pass over the elements
 // at those unknowns (end-point and mid-point kernels), and given only while the State holds them.
 TEST(AssembledSystem, ResidualKeepsTheStrainEnergyOfItsUnknowns)
@@ -542,14 +554,9 @@ TEST(AssembledSystem, ResidualKeepsTheStrainEnergyOfItsUnknowns)
     ASSERT_EQ(Build(kJointModel, problem, &system), PETSC_SUCCESS);
     Assembler &assembler = system.system.GetAssembler();
     Vec        x, r;
-    PetscInt   n, first, last;
     ASSERT_EQ(VecDuplicate(assembler.SolutionTemplate(), &x), PETSC_SUCCESS);
     ASSERT_EQ(VecDuplicate(x, &r), PETSC_SUCCESS);
-    ASSERT_EQ(VecGetSize(x, &n), PETSC_SUCCESS);
-    ASSERT_EQ(VecGetOwnershipRange(x, &first, &last), PETSC_SUCCESS);
-    for (PetscInt i = first; i < last; ++i) ASSERT_EQ(VecSetValue(x, i, 0.05 * std::sin(1.0 + 3.0 * (double)i), INSERT_VALUES), PETSC_SUCCESS);
-    ASSERT_EQ(VecAssemblyBegin(x), PETSC_SUCCESS);
-    ASSERT_EQ(VecAssemblyEnd(x), PETSC_SUCCESS);
+    ASSERT_EQ(SetWavyIncrements(x, 0.05, 1.0, 3.0), PETSC_SUCCESS);
     double kept = 0.0, recomputed = 0.0;
     EXPECT_FALSE(assembler.LastResidualStrainEnergy(&kept)) << "no residual yet";
     ASSERT_EQ(Residual(assembler, x, r), PETSC_SUCCESS);
@@ -600,16 +607,12 @@ TEST(AssembledSystem, ResidualWithJacobianEqualsTheSeparatePasses)
       ASSERT_EQ(Build(model.text.c_str(), problem, &together), PETSC_SUCCESS);
       Assembler &a = separate.system.GetAssembler(), &b = together.system.GetAssembler();
       ASSERT_TRUE(b.CanAssembleResidualWithJacobian());
-      Vec      x, r_separate, r_together;
-      Mat      J_separate;
-      PetscInt first, last;
+      Vec x, r_separate, r_together;
+      Mat J_separate;
       ASSERT_EQ(VecDuplicate(a.SolutionTemplate(), &x), PETSC_SUCCESS);
       ASSERT_EQ(VecDuplicate(x, &r_separate), PETSC_SUCCESS);
       ASSERT_EQ(VecDuplicate(x, &r_together), PETSC_SUCCESS);
-      ASSERT_EQ(VecGetOwnershipRange(x, &first, &last), PETSC_SUCCESS);
-      for (PetscInt i = first; i < last; ++i) ASSERT_EQ(VecSetValue(x, i, 0.04 * std::sin(0.7 + 2.3 * (double)i), INSERT_VALUES), PETSC_SUCCESS);
-      ASSERT_EQ(VecAssemblyBegin(x), PETSC_SUCCESS);
-      ASSERT_EQ(VecAssemblyEnd(x), PETSC_SUCCESS);
+      ASSERT_EQ(SetWavyIncrements(x, 0.04, 0.7, 2.3), PETSC_SUCCESS);
       // Separate: residual, then the tangent (whose pass rebuilds the slave residuals, so the
       // by-products come from a new residual pass).
       PetscBool ok_separate, ok_together;
