@@ -68,9 +68,13 @@ PetscErrorCode FormResidual(SNES snes, Vec increments, Vec residual, void *ctx)
   NewtonContext *context = static_cast<NewtonContext *>(ctx);
   PetscBool      all_ok;
   PetscFunctionBeginUser;
-  // With msflex's line search SNES evaluates the residual itself only at the start of a solve,
-  // and the tangent there follows unless the start already converged.
-  PetscCall(EvaluateResidual(context, increments, residual, &all_ok, TangentWithResidual(*context)));
+  // With msflex's line search SNES evaluates the residual itself at the start of a solve, and the
+  // tangent there follows unless the start already converged. Between a tangent and its solve it
+  // evaluates residuals only to check that tangent by finite differences (-snes_compare_explicit,
+  // -snes_compare_coloring, -snes_test_jacobian_display_threshold, ...), at other unknowns: those
+  // must leave the matrix alone.
+  const bool with_tangent = TangentWithResidual(*context) && !context->tangent_awaits_solve;
+  PetscCall(EvaluateResidual(context, increments, residual, &all_ok, with_tangent));
   if (!all_ok) PetscCall(SNESSetFunctionDomainError(snes));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
@@ -111,6 +115,7 @@ PetscErrorCode FormJacobian(SNES snes, Vec increments, Mat jacobian, Mat precond
   // (PCSetUp skips an unchanged operator) and em's rank-one vectors stay those of that tangent. A
   // matrix-free operator (-snes_mf_operator) still moves to the new iterate: its assembly sets the
   // point it differentiates at.
+  context->tangent_awaits_solve = true; // until msflex's line search takes the step it gives
   if (ReuseTangent(snes, *context)) {
     ++context->tangents_reused;
     if (jacobian != preconditioner) {
@@ -150,6 +155,7 @@ PetscErrorCode SafeguardedNewtonStep(SNESLineSearch linesearch, void *ctx)
   PetscBool      geometry_ok = PETSC_FALSE, evaluable = PETSC_FALSE;
   PetscFunctionBeginUser;
   PetscCall(SNESLineSearchGetVecs(linesearch, &x, &f, &y, &w, &g));
+  context->tangent_awaits_solve = false;
   // The relay nodes' entries of the step are the linear solve's, not increments of the state.
   PetscCall(context->assembler->ZeroRelayEntries(y));
   PetscCall(VecNorm(y, NORM_2, &ynorm));

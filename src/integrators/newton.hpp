@@ -65,6 +65,9 @@ struct NewtonContext {
   // residual evaluation left the tangent of its iterate in the matrix, on every rank.
   bool tangent_with_residual = false;
   bool tangent_ahead         = false;
+  // From FormJacobian until msflex's line search: residuals SNES evaluates in between (finite-
+  // difference checks of the tangent) are assembled alone, so that the matrix stays the tangent.
+  bool tangent_awaits_solve = false;
 };
 
 // The Newton step's operator: the assembled tangent, or (em) the assembled tangent plus its

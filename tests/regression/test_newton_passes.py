@@ -1,0 +1,95 @@
+"""One pass over the model per Newton iteration (docs/solvers.md): outside em, msflex's line
+search assembles the residual of the new iterate together with the tangent there, and the last
+iteration of a converged step, predicted from quadratic convergence, the residual alone.
+
+1. The 40-element dynamic cantilever of scripts/bench-dynamics (tip force switched on in 1 ms,
+   20 steps of 10 ms, 3 Newton iterations per step) with newmark, genalpha and mc: the element
+   passes of the whole run (-log_view's AssembleResidual and AssembleJacobian events) are at most
+   1.5 per Newton iteration (a residual pass and a tangent pass each, as before, would be more
+   than 2), and the tangents assembled are at least the Newton iterations (each iteration solves
+   with the tangent of its iterate). With em, whose tangent needs beta of the whole residual first,
+   the passes stay two per iteration.
+2. PETSc's finite-difference checks of the tangent evaluate residuals between the tangent and its
+   solve (-snes_compare_coloring, -snes_test_jacobian_display_threshold): they must leave the
+   matrix alone. The cantilever (genalpha) and a floating chain of joints (genalpha, relays
+   excluded: -jacobian_dense_below 0 for coloring) give the same history with the check as
+   without, to 1e-12 of each series' size, in the same Newton iterations."""
+
+import re
+
+import numpy as np
+
+import msflex_testing as mt
+
+MODEL = """
+functions:
+  - {{name: step, type: table, points: [[0, 0], [0.001, 1]]}}
+sections:
+  - {{name: s, EA: 1.0e7, GA2: 4.0e6, GA3: 4.0e6, GJ: 8.0e5, EI2: 8.0e5, EI3: 8.0e5, rhoA: 1.0, rhoJ: [2.0e-2, 1.0e-2, 1.0e-2]}}
+nodes:
+  root: [0, 0, 0]
+  tip: [10, 0, 0]
+beams:
+  - {{name: beam, section: s, from: root, to: tip, elements: 40}}
+supports:
+  - {{nodes: root, fix: all}}
+loads:
+  - {{nodes: tip, force: [0, 1000, 2000], function: step}}
+analysis:
+  type: dynamic
+  integrator: {integrator}
+  end_time: 0.2
+  initial_step: 0.01
+  max_step: 0.01
+"""
+
+args = mt.parse_arguments(__doc__)
+check = mt.Checker("Newton passes")
+
+
+def event_count(stdout, event):
+    """Calls of a -log_view event, summed over the stages."""
+    return sum(int(count) for count in re.findall(rf"^{event}\s+(\d+)\s", stdout, re.MULTILINE))
+
+
+# 1. Passes per Newton iteration.
+for integrator in ("newmark", "genalpha", "mc", "em"):
+    path = f"{args.work_dir}/cantilever_{integrator}.yaml"
+    with open(path, "w") as f:
+        f.write(MODEL.format(integrator=integrator))
+    output = f"{args.work_dir}/cantilever_{integrator}.h5"
+    _, stdout, _ = mt.run_msflex(args, path, output, extra=["-log_view", "-quiet"])
+    iterations = int(mt.history(output)["newton_iterations"].sum())
+    residual_passes, tangent_passes = event_count(stdout, "AssembleResidual"), event_count(stdout, "AssembleJacobian")
+    passes = (residual_passes + tangent_passes) / iterations
+    print(f"{integrator}: {iterations} Newton iterations, {residual_passes} residual passes, {tangent_passes} tangent passes: {passes:.2f} per iteration")
+    check.true(f"{integrator}: Newton iterations counted", iterations >= 40)
+    check.true(f"{integrator}: a tangent for every Newton iteration", tangent_passes >= iterations)
+    if integrator == "em":
+        check.true("em: a residual pass and a tangent pass per iteration", passes > 2.0)
+    else:
+        check.less(f"{integrator}: element passes per Newton iteration", passes, 1.5)
+
+# 2. Finite-difference checks of the tangent change nothing.
+cases = [
+    ("cantilever", f"{args.work_dir}/cantilever_genalpha.yaml", []),
+    ("floating chain", f"{args.source_dir}/tests/regression/inputs/floating_chain.yaml", ["-analysis_integrator", "genalpha", "-analysis_end_time", "0.02"]),
+]
+for name, path, extra in cases:
+    runs = {}
+    for label, check_options in (("plain", []), ("coloring", ["-snes_compare_coloring"]), ("display threshold", ["-snes_test_jacobian_display_threshold", "1e-3"])):
+        output = f"{args.work_dir}/fd_check_{name.replace(' ', '_')}_{label.replace(' ', '_')}.h5"
+        mt.run_msflex(args, path, output, extra=["-quiet", "-jacobian_dense_below", "0"] + extra + check_options)
+        runs[label] = mt.history(output)
+    plain = runs["plain"]
+    for label in ("coloring", "display threshold"):
+        other = runs[label]
+        check.equal(f"{name}, {label}: Newton iterations", int(other["newton_iterations"].sum()), int(plain["newton_iterations"].sum()))
+        worst = 0.0
+        for series, values in plain.items():
+            if series in ("residual_norm",) or values.dtype.kind not in "fi":
+                continue
+            scale = max(np.abs(values).max(), 1e-300)
+            worst = max(worst, float(np.abs(other[series] - values).max() / scale))
+        check.less(f"{name}, {label}: largest difference of a series / its size", worst, 1e-12)
+check.finish()
