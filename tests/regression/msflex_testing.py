@@ -16,6 +16,39 @@ sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."
 import msflex_h5  # noqa: E402
 
 
+# scripts/bench-dynamics' cantilever at 40 two-node elements: L = 10, root clamped, a tip force
+# switched on within 1 ms and held, 20 steps of 10 ms (one period of the first bending mode), so
+# that every step needs 3-4 Newton iterations. `extra`: further lines of the analysis section.
+DYNAMIC_CANTILEVER = """
+functions:
+  - {{name: step, type: table, points: [[0, 0], [0.001, 1]]}}
+sections:
+  - {{name: s, EA: 1.0e7, GA2: 4.0e6, GA3: 4.0e6, GJ: 8.0e5, EI2: 8.0e5, EI3: 8.0e5, rhoA: 1.0, rhoJ: [2.0e-2, 1.0e-2, 1.0e-2]}}
+nodes:
+  root: [0, 0, 0]
+  tip: [10, 0, 0]
+beams:
+  - {{name: beam, section: s, from: root, to: tip, elements: 40}}
+supports:
+  - {{nodes: root, fix: all}}
+loads:
+  - {{nodes: tip, force: [0, 1000, 2000], function: step}}
+analysis:
+  type: dynamic
+  integrator: {integrator}
+  end_time: 0.2
+  initial_step: 0.01
+  max_step: 0.01
+{extra}"""
+
+
+def write_dynamic_cantilever(path, integrator, extra=""):
+    """Writes DYNAMIC_CANTILEVER with the given integrator to path; returns path."""
+    with open(path, "w") as f:
+        f.write(DYNAMIC_CANTILEVER.format(integrator=integrator, extra=extra))
+    return path
+
+
 def parse_arguments(description):
     parser = argparse.ArgumentParser(description=description)
     parser.add_argument("--msflex", required=True, help="path of the msflex executable")

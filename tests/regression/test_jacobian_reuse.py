@@ -23,28 +23,6 @@ import numpy as np
 
 import msflex_testing as mt
 
-MODEL = """
-functions:
-  - {{name: step, type: table, points: [[0, 0], [0.001, 1]]}}
-sections:
-  - {{name: s, EA: 1.0e7, GA2: 4.0e6, GA3: 4.0e6, GJ: 8.0e5, EI2: 8.0e5, EI3: 8.0e5, rhoA: 1.0, rhoJ: [2.0e-2, 1.0e-2, 1.0e-2]}}
-nodes:
-  root: [0, 0, 0]
-  tip: [10, 0, 0]
-beams:
-  - {{name: beam, section: s, from: root, to: tip, elements: 40}}
-supports:
-  - {{nodes: root, fix: all}}
-loads:
-  - {{nodes: tip, force: [0, 1000, 2000], function: step}}
-analysis:
-  type: dynamic
-  integrator: {integrator}
-  end_time: 0.2
-  initial_step: 0.01
-  max_step: 0.01
-{extra}"""
-
 args = mt.parse_arguments(__doc__)
 check = mt.Checker("Jacobian reuse")
 
@@ -60,9 +38,7 @@ def factorisations(stdout):
 
 
 for integrator in ("genalpha", "em"):
-    path = f"{args.work_dir}/cantilever_{integrator}.yaml"
-    with open(path, "w") as f:
-        f.write(MODEL.format(integrator=integrator, extra=""))
+    path = mt.write_dynamic_cantilever(f"{args.work_dir}/cantilever_{integrator}.yaml", integrator)
     results = {}
     for label, extra in (("full", []), ("modified", ["-analysis_jacobian_reuse", "0.1"])):
         output = f"{args.work_dir}/cantilever_{integrator}_{label}.h5"
@@ -122,8 +98,7 @@ check.equal("option 1.5: message lines", len(lines), 1)
 check.true("option 1.5: the line names it", bool(lines) and "-analysis_jacobian_reuse must lie in [0, 1), got 1.5" in lines[0])
 check.equal("option 1.5: PETSc trace-back lines", stderr.count("PETSC ERROR"), 0)
 bad = f"{args.work_dir}/bad_reuse.yaml"
-with open(bad, "w") as f:
-    f.write(MODEL.format(integrator="em", extra="  jacobian_reuse: -0.2\n"))
+mt.write_dynamic_cantilever(bad, "em", extra="  jacobian_reuse: -0.2\n")
 status, stdout, stderr = mt.run_msflex(args, bad, f"{args.work_dir}/bad.h5", expect_success=False)
 check.equal("input -0.2: exit status", status, 1)
 lines = [line for line in stderr.splitlines() if line.startswith("msflex:")]

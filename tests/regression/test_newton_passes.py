@@ -21,28 +21,6 @@ import numpy as np
 
 import msflex_testing as mt
 
-MODEL = """
-functions:
-  - {{name: step, type: table, points: [[0, 0], [0.001, 1]]}}
-sections:
-  - {{name: s, EA: 1.0e7, GA2: 4.0e6, GA3: 4.0e6, GJ: 8.0e5, EI2: 8.0e5, EI3: 8.0e5, rhoA: 1.0, rhoJ: [2.0e-2, 1.0e-2, 1.0e-2]}}
-nodes:
-  root: [0, 0, 0]
-  tip: [10, 0, 0]
-beams:
-  - {{name: beam, section: s, from: root, to: tip, elements: 40}}
-supports:
-  - {{nodes: root, fix: all}}
-loads:
-  - {{nodes: tip, force: [0, 1000, 2000], function: step}}
-analysis:
-  type: dynamic
-  integrator: {integrator}
-  end_time: 0.2
-  initial_step: 0.01
-  max_step: 0.01
-"""
-
 args = mt.parse_arguments(__doc__)
 check = mt.Checker("Newton passes")
 
@@ -54,9 +32,7 @@ def event_count(stdout, event):
 
 # 1. Passes per Newton iteration.
 for integrator in ("newmark", "genalpha", "mc", "em"):
-    path = f"{args.work_dir}/cantilever_{integrator}.yaml"
-    with open(path, "w") as f:
-        f.write(MODEL.format(integrator=integrator))
+    path = mt.write_dynamic_cantilever(f"{args.work_dir}/cantilever_{integrator}.yaml", integrator)
     output = f"{args.work_dir}/cantilever_{integrator}.h5"
     _, stdout, _ = mt.run_msflex(args, path, output, extra=["-log_view", "-quiet"])
     iterations = int(mt.history(output)["newton_iterations"].sum())
