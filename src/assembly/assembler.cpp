@@ -703,16 +703,50 @@ void Assembler::Add(const NodeBlock &block, const double *residual, const double
   if (code != PETSC_SUCCESS) block_trouble_ = true;
 }
 
+PetscErrorCode Assembler::StartResidual(Vec residual)
+{
+  PetscFunctionBeginUser;
+  // Constrained DOFs have index -1; Vecs (unlike Mats) must be told to skip them.
+  PetscCall(VecSetOption(residual, VEC_IGNORE_NEGATIVE_INDICES, PETSC_TRUE));
+  PetscCall(VecZeroEntries(residual));
+  local_force_squares_ = 0.0;
+  for (Vec6 &reaction : prescribed_residual_) reaction.setZero();
+  for (Vec6 &g : relay_force_) g.setZero();
+  for (auto &row : coordinate_residual_) row.fill(0.0);
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode Assembler::AddContributorBlocks(Vec residual, Mat jacobian)
+{
+  PetscFunctionBeginUser;
+  block_residual_ = residual;
+  block_jacobian_ = jacobian;
+  block_trouble_  = false;
+  for (ForceContributor *c : contributors_) c->AddBlocks(*state_, jacobian != nullptr, this);
+  block_residual_ = nullptr;
+  block_jacobian_ = nullptr;
+  PetscCheck(!block_trouble_, PETSC_COMM_SELF, PETSC_ERR_PLIB, "a contributor's block could not be added to the %s", jacobian ? "tangent" : "residual");
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode Assembler::FinishResidual(Vec residual, double strain_energy, PetscBool geometry_ok)
+{
+  PetscFunctionBeginUser;
+  PetscCall(FinishRelayForces(residual));
+  PetscCall(VecAssemblyBegin(residual));
+  PetscCall(VecAssemblyEnd(residual));
+  residual_strain_energy_         = strain_energy;
+  residual_strain_energy_version_ = geometry_ok ? increments_version_ : -1;
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
 PetscErrorCode Assembler::AssembleResidual(Vec residual, PetscBool *geometry_ok)
 {
   PetscFunctionBeginUser;
   PetscCall(PetscLogEventBegin(event_residual, 0, 0, 0, 0));
   const DofMap &map = *map_;
   *geometry_ok      = PETSC_TRUE;
-  // Constrained DOFs have index -1; Vecs (unlike Mats) must be told to skip them.
-  PetscCall(VecSetOption(residual, VEC_IGNORE_NEGATIVE_INDICES, PETSC_TRUE));
-  PetscCall(VecZeroEntries(residual));
-  local_force_squares_ = 0.0;
+  PetscCall(StartResidual(residual));
   // Pass 1: element vectors (and, for em, the pieces of beta; the strain energy, kept for the history).
   double              sums[3]       = {0.0, 0.0, 0.0}; // work mismatch, correction work, scale of the internal work
   double              strain_energy = 0.0;
@@ -732,8 +766,6 @@ PetscErrorCode Assembler::AssembleResidual(Vec residual, PetscBool *geometry_ok)
     sums[2] += element.work_scale;
     strain_energy += element.strain_energy;
   }
-  residual_strain_energy_         = strain_energy;
-  residual_strain_energy_version_ = *geometry_ok ? increments_version_ : -1;
   // em (eq. 20): beta makes the work of the internal forces equal the change of strain energy
   // (BetaOfWorkSums: 0 when either work is at round-off).
   energy_correction_ = 0.0;
@@ -746,10 +778,7 @@ PetscErrorCode Assembler::AssembleResidual(Vec residual, PetscBool *geometry_ok)
   }
   // Pass 2: assemble. The residual left on prescribed DOFs is the reaction that drives them; its
   // work over the increments counts as external work.
-  for (Vec6 &reaction : prescribed_residual_) reaction.setZero();
   for (Vec6 &g : slave_residual_) g.setZero();
-  for (Vec6 &g : relay_force_) g.setZero();
-  for (auto &row : coordinate_residual_) row.fill(0.0);
   for (size_t k = 0; k < map.local_elements.size(); ++k) {
     const BeamElement &element_nodes = model_->elements[map.local_elements[k]];
     double            *f             = &element_force_scratch_[kBeamMaxDofs * k];
@@ -762,15 +791,8 @@ PetscErrorCode Assembler::AssembleResidual(Vec residual, PetscBool *geometry_ok)
     EvaluateNode((int)l, false, &node);
     PetscCall(AddNodeResidual(residual, (int)l, node.residual));
   }
-  block_residual_ = residual;
-  block_jacobian_ = nullptr;
-  block_trouble_  = false;
-  for (ForceContributor *c : contributors_) c->AddBlocks(*state_, false, this);
-  block_residual_ = nullptr;
-  PetscCheck(!block_trouble_, PETSC_COMM_SELF, PETSC_ERR_PLIB, "a contributor's block could not be added to the residual");
-  PetscCall(FinishRelayForces(residual));
-  PetscCall(VecAssemblyBegin(residual));
-  PetscCall(VecAssemblyEnd(residual));
+  PetscCall(AddContributorBlocks(residual, nullptr));
+  PetscCall(FinishResidual(residual, strain_energy, *geometry_ok));
   if (state_->equations.InitialAcceleration()) PetscCall(SetMasslessResidualRows(residual));
   by_products_version_    = increments_version_;
   by_products_propagated_ = false;
@@ -855,13 +877,8 @@ PetscErrorCode Assembler::AssembleTangentPass(Mat jacobian, Vec residual, PetscB
   by_products_version_     = -1; // slave_residual_ is rebuilt
   double strain_energy     = 0.0;
   if (residual) {
-    PetscCall(VecSetOption(residual, VEC_IGNORE_NEGATIVE_INDICES, PETSC_TRUE));
-    PetscCall(VecZeroEntries(residual));
-    local_force_squares_ = 0.0;
-    energy_correction_   = 0.0;
-    for (Vec6 &reaction : prescribed_residual_) reaction.setZero();
-    for (Vec6 &g : relay_force_) g.setZero();
-    for (auto &row : coordinate_residual_) row.fill(0.0);
+    PetscCall(StartResidual(residual));
+    energy_correction_ = 0.0; // not em
   }
   // em: when the last residual was assembled at these unknowns (SNES's order: residual, then the
   // tangent at the same iterate), its beta and correction work hold here: the beam kernel builds
@@ -946,20 +963,8 @@ PetscErrorCode Assembler::AssembleTangentPass(Mat jacobian, Vec residual, PetscB
     else if (IsSlave((int)l)) slave_residual_[l] += Eigen::Map<const Vec6>(node.residual);
     if (!node.tangent.isZero(0.0)) PetscCall(AddNodeBlock(jacobian, (int)l, node.tangent));
   }
-  block_residual_ = residual;
-  block_jacobian_ = jacobian;
-  block_trouble_  = false;
-  for (ForceContributor *c : contributors_) c->AddBlocks(*state_, true, this);
-  block_residual_ = nullptr;
-  block_jacobian_ = nullptr;
-  PetscCheck(!block_trouble_, PETSC_COMM_SELF, PETSC_ERR_PLIB, "a contributor's block could not be added to the tangent");
-  if (residual) {
-    PetscCall(FinishRelayForces(residual));
-    PetscCall(VecAssemblyBegin(residual));
-    PetscCall(VecAssemblyEnd(residual));
-    residual_strain_energy_         = strain_energy;
-    residual_strain_energy_version_ = *geometry_ok ? increments_version_ : -1;
-  }
+  PetscCall(AddContributorBlocks(residual, jacobian));
+  if (residual) PetscCall(FinishResidual(residual, strain_energy, *geometry_ok));
   // em: beta at these increments (eq. 20, BetaOfWorkSums) and the rank-one term R_corr (grad beta)^T,
   // grad beta = (grad M - beta grad C) / C: with beta known from the residual the vectors already
   // hold it; otherwise beta comes from this pass's sums and grad beta from its two gradients.

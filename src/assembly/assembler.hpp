@@ -204,6 +204,15 @@ public:
 private:
   // AssembleJacobian (residual null) and AssembleResidualWithJacobian.
   PetscErrorCode AssembleTangentPass(Mat jacobian, Vec residual, PetscBool *geometry_ok);
+  // A residual's assembly, in AssembleResidual and AssembleTangentPass alike: StartResidual zeroes
+  // the vector and what the residual leaves besides it (the reactions on prescribed DOFs, the
+  // relays' gathered forces, the force elements' terms on coordinates, the force level);
+  // AddContributorBlocks adds the contributors' free blocks to the residual and/or the tangent
+  // (either may be null); FinishResidual passes the relays' forces up, assembles the vector and
+  // keeps the beams' strain energy of these unknowns (LastResidualStrainEnergy).
+  PetscErrorCode StartResidual(Vec residual);
+  PetscErrorCode AddContributorBlocks(Vec residual, Mat jacobian);
+  PetscErrorCode FinishResidual(Vec residual, double strain_energy, PetscBool geometry_ok);
   // The element loop's evaluation of local element k by every element contributor.
   // `combined_beta` (em with beta known): the elements' tangents are K_mc + beta K_corr.
   void EvaluateElement(size_t k, bool want_tangent, ElementContribution *out, const double *combined_beta = nullptr);

@@ -39,6 +39,21 @@ PetscErrorCode EvaluateResidual(NewtonContext *context, Vec increments, Vec resi
 // beam model).
 bool TangentWithResidual(const NewtonContext &context) { return context.tangent_with_residual && context.assembler->CanAssembleResidualWithJacobian(); }
 
+// The residual norm that converges (ForceScaledConvergenceTest, besides SNES's own atol): rtol
+// times the force level of the last residual, or the residual's round-off floor where that is
+// higher. Collective (ForceScale).
+PetscErrorCode ConvergedResidualNorm(SNES snes, NewtonContext *context, double *needed)
+{
+  PetscReal atol, rtol, stol;
+  PetscInt  max_iterations, max_evaluations;
+  double    force_scale;
+  PetscFunctionBeginUser;
+  PetscCall(SNESGetTolerances(snes, &atol, &rtol, &stol, &max_iterations, &max_evaluations));
+  PetscCall(context->assembler->ForceScale(&force_scale));
+  *needed = std::max((double)rtol * force_scale, context->assembler->RoundoffForceLevel());
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
 // Whether the Newton step about to be taken (from iterate k, residual norm f_k) most likely ends
 // the solve: with quadratic convergence f_{k+1} = C f_k^2, and C from the last iteration,
 // f_{k+1} = f_k^3 / f_{k-1}^2. Then its residual is assembled alone, as no tangent will follow.
@@ -47,7 +62,7 @@ PetscErrorCode StepLikelyConverges(SNES snes, NewtonContext *context, bool *conv
 {
   PetscInt   iteration = 0, count = 0, max_iterations, max_evaluations;
   PetscReal *norms = nullptr, atol, rtol, stol;
-  double     force_scale;
+  double     needed;
   PetscFunctionBeginUser;
   *converges = false;
   PetscCall(SNESGetIterationNumber(snes, &iteration));
@@ -56,10 +71,9 @@ PetscErrorCode StepLikelyConverges(SNES snes, NewtonContext *context, bool *conv
   const double previous = norms[iteration - 1], current = norms[iteration];
   if (!(current < previous) || previous <= 0.0) PetscFunctionReturn(PETSC_SUCCESS);
   PetscCall(SNESGetTolerances(snes, &atol, &rtol, &stol, &max_iterations, &max_evaluations));
-  PetscCall(context->assembler->ForceScale(&force_scale));
-  const double needed    = std::max({(double)atol, (double)rtol * force_scale, context->assembler->RoundoffForceLevel()});
+  PetscCall(ConvergedResidualNorm(snes, context, &needed));
   const double predicted = current * (current / previous) * (current / previous);
-  *converges             = predicted <= needed;
+  *converges             = predicted <= std::max((double)atol, needed);
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
@@ -217,12 +231,8 @@ PetscErrorCode ForceScaledConvergenceTest(SNES snes, PetscInt iteration, PetscRe
     context->last_contracted = count > iteration && fnorm <= context->jacobian_reuse * norms[iteration - 1];
   }
   if (*reason != SNES_CONVERGED_ITERATING && *reason != SNES_CONVERGED_SNORM_RELATIVE) PetscFunctionReturn(PETSC_SUCCESS);
-  PetscReal atol, rtol, stol;
-  PetscInt  max_iterations, max_evaluations;
-  double    force_scale;
-  PetscCall(SNESGetTolerances(snes, &atol, &rtol, &stol, &max_iterations, &max_evaluations));
-  PetscCall(context->assembler->ForceScale(&force_scale));
-  const double needed = std::max((double)rtol * force_scale, context->assembler->RoundoffForceLevel());
+  double needed;
+  PetscCall(ConvergedResidualNorm(snes, context, &needed));
   if (fnorm <= needed) *reason = SNES_CONVERGED_FNORM_RELATIVE;
   // The step-size test (a relative update below stol) means the iterate is at round-off only when
   // the residual is near its floor too: far above it (a singular tangent, whose updates are
@@ -325,12 +335,13 @@ PetscErrorCode   ChooseDirectSolver(Mat tangent, PC pc)
 // Whether residual evaluations assemble the tangent with them (NewtonContext::tangent_with_residual):
 // only when SNES is sure to ask for the tangent at each iterate whose residual msflex's line search
 // (or SNES at the start) evaluates, and to solve with the assembled matrix. Not with modified Newton
-// (the matrix keeps an older tangent), a lagged Jacobian, a matrix-free or finite-difference
-// Jacobian (-snes_mf, -snes_mf_operator, -snes_fd: other residual evaluations, another matrix), or
-// -snes_test_jacobian (its finite differences evaluate residuals between the tangent and its solve).
+// (the matrix keeps an older tangent), a lagged Jacobian, or a matrix-free or finite-difference
+// Jacobian (-snes_mf, -snes_mf_operator, -snes_fd: other residual evaluations, another matrix). The
+// finite-difference checks of a tangent (-snes_test_jacobian, -snes_compare_*) need no rule of
+// their own: FormResidual assembles their residuals alone (NewtonContext::tangent_awaits_solve).
 PetscErrorCode DecideTangentWithResidual(SNES snes, SNESLineSearch linesearch, NewtonContext *context)
 {
-  PetscBool          newton_ls, shell_line_search, matrix_free, matrix_free_operator, test_jacobian;
+  PetscBool          newton_ls, shell_line_search, matrix_free, matrix_free_operator;
   PetscInt           lag;
   SNESLineSearchType line_search_type;
   PetscErrorCode (*jacobian_function)(SNES, Vec, Mat, Mat, void *) = nullptr;
@@ -342,9 +353,8 @@ PetscErrorCode DecideTangentWithResidual(SNES snes, SNESLineSearch linesearch, N
   PetscCall(SNESGetJacobian(snes, nullptr, nullptr, &jacobian_function, nullptr));
   PetscCall(PetscOptionsHasName(nullptr, nullptr, "-snes_mf", &matrix_free));
   PetscCall(PetscOptionsHasName(nullptr, nullptr, "-snes_mf_operator", &matrix_free_operator));
-  PetscCall(PetscOptionsHasName(nullptr, nullptr, "-snes_test_jacobian", &test_jacobian));
   context->tangent_with_residual = newton_ls && shell_line_search && lag == 1 && jacobian_function == FormJacobian && !matrix_free && !matrix_free_operator &&
-                                   !test_jacobian && context->jacobian_reuse <= 0.0;
+                                   context->jacobian_reuse <= 0.0;
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 

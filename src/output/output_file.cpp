@@ -312,8 +312,8 @@ struct OutputFile::Impl {
   PetscErrorCode WriteMesh(const OutputMesh &mesh);
   PetscErrorCode WriteBodies(hid_t group, const OutputMesh &mesh);
   PetscErrorCode WriteGround(hid_t group, const OutputMesh &mesh);
-  // The table's columns from history_names and probe_names: their names, and when asked their
-  // units and descriptions.
+  // The table's columns from history_names and probe_names: their names, units and descriptions
+  // (each when asked for, non-null).
   void TableColumns(std::vector<std::string> *names, std::vector<std::string> *units = nullptr, std::vector<std::string> *descriptions = nullptr) const;
   // Creates the 1-D dataset `name` of fixed-length UTF-8 strings under `parent` (collective; rank 0
   // writes the strings) with its unit and description from DatasetQuantity(group, name).
@@ -792,11 +792,11 @@ PetscErrorCode OutputFile::Impl::BufferHistory(const std::vector<std::string> &n
 
 void OutputFile::Impl::TableColumns(std::vector<std::string> *names, std::vector<std::string> *units, std::vector<std::string> *descriptions) const
 {
-  names->assign(history_names.begin(), history_names.end());
-  if (units) units->clear();
-  if (descriptions) descriptions->clear();
+  for (std::vector<std::string> *list : {names, units, descriptions})
+    if (list) list->clear();
   for (const std::string &name : history_names) {
     const Quantity quantity = HistoryQuantity(name, dynamic);
+    if (names) names->push_back(name);
     if (units) units->push_back(quantity.unit);
     if (descriptions) descriptions->push_back(quantity.description);
   }
@@ -804,7 +804,7 @@ void OutputFile::Impl::TableColumns(std::vector<std::string> *names, std::vector
     std::string probe_columns[kProbeColumns];
     ProbeColumnNames(probe, probe_columns);
     for (int c = 0; c < kProbeColumns; ++c) {
-      names->push_back(probe_columns[c]);
+      if (names) names->push_back(probe_columns[c]);
       const Quantity quantity = ProbeColumnQuantity(probe, c);
       if (units) units->push_back(quantity.unit);
       if (descriptions) descriptions->push_back(quantity.description);
@@ -886,9 +886,9 @@ PetscErrorCode OutputFile::Impl::WriteHistoryBlock()
     PetscCallHDF5(H5Pset_alloc_time(properties, H5D_ALLOC_TIME_EARLY)); // see FrameChunk
     PetscCallHDF5(dataset = H5Dcreate2(history, "values", H5T_IEEE_F64LE, file_space, H5P_DEFAULT, properties, H5P_DEFAULT));
     PetscCall(Annotate(history, "values", DatasetQuantity("history", "values", dynamic)));
-    std::vector<std::string> names, units, descriptions;
-    TableColumns(&names, &units, &descriptions);
-    PetscCall(WriteFixedStrings(history, "names", names, "history"));
+    std::vector<std::string> units, descriptions;
+    TableColumns(nullptr, &units, &descriptions);
+    PetscCall(WriteFixedStrings(history, "names", columns, "history"));
     PetscCall(WriteFixedStrings(history, "units", units, "history"));
     PetscCall(WriteFixedStrings(history, "descriptions", descriptions, "history"));
   } else {

@@ -278,6 +278,39 @@ PetscErrorCode SampleProbes(MPI_Comm comm, const Model &model, const DofMap &map
 // (`local_orders`) to rank 0, which puts the names in the order of the places (ties in the order
 // gathered) and records each gathered position's place in *permutation. Collective.
 static PetscErrorCode GatherNamesInOrder(MPI_Comm comm, const std::string &local_names, const std::vector<double> &local_orders,
+                                         std::vector<std::string> *names, std::vector<size_t> *permutation);
+
+// The history series the ranks hold, on rank 0 in the model's order: the names and places
+// (`local_names`, `local_orders`, only needed until cache->gathered) are gathered once, the values
+// at every row; *names and *values on rank 0, empty elsewhere. `what` names the series in a
+// message. Collective.
+static PetscErrorCode GatherSeriesInOrder(MPI_Comm comm, const char *what, const std::string &local_names, const std::vector<double> &local_orders,
+                                          const std::vector<double> &local_values, HistoryGather *cache, std::vector<std::string> *names,
+                                          std::vector<double> *values)
+{
+  PetscMPIInt       rank;
+  std::vector<char> gathered_values;
+  PetscFunctionBeginUser;
+  PetscCallMPI(MPI_Comm_rank(comm, &rank));
+  if (!cache->gathered) {
+    PetscCall(GatherNamesInOrder(comm, local_names, local_orders, &cache->names, &cache->permutation));
+    cache->gathered = true;
+  }
+  PetscCall(GatherToRoot(comm, local_values.data(), (int)local_values.size(), MPI_DOUBLE, &gathered_values, sizeof(double)));
+  names->clear();
+  values->clear();
+  if (rank == 0) {
+    *names = cache->names;
+    values->assign(names->size(), 0.0);
+    PetscCheck(gathered_values.size() == sizeof(double) * names->size(), PETSC_COMM_SELF, PETSC_ERR_PLIB, "%s: %zu values for %zu series", what,
+               gathered_values.size() / sizeof(double), names->size());
+    const double *in = reinterpret_cast<const double *>(gathered_values.data());
+    for (size_t i = 0; i < names->size(); ++i) (*values)[cache->permutation[i]] = in[i];
+  }
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+static PetscErrorCode GatherNamesInOrder(MPI_Comm comm, const std::string &local_names, const std::vector<double> &local_orders,
                                          std::vector<std::string> *names, std::vector<size_t> *permutation)
 {
   std::vector<char> gathered_names, gathered_orders;
@@ -305,10 +338,9 @@ PetscErrorCode JointHistory(MPI_Comm comm, const Model &model, const DofMap &map
 {
   static const char *const translation_names[3] = {"tx", "ty", "tz"}, *rotation_names[3] = {"rx", "ry", "rz"};
   static const char *const reaction_names[6] = {"force_x", "force_y", "force_z", "moment_x", "moment_y", "moment_z"};
-  PetscMPIInt              rank, size;
+  PetscMPIInt              rank;
   PetscFunctionBeginUser;
   PetscCallMPI(MPI_Comm_rank(comm, &rank));
-  PetscCallMPI(MPI_Comm_size(comm, &size));
   // Owned joints in slot order; the series names are only built (and gathered to rank 0) once.
   std::vector<const JointState *> owned;
   for (const JointState &J : state.joints)
@@ -353,28 +385,9 @@ PetscErrorCode JointHistory(MPI_Comm comm, const Model &model, const DofMap &map
     }
     for (int i = 0; i < 6; ++i) add(reaction_names[i], J->reaction(i));
   }
-  // Gather to rank 0, which writes the history; the ranks' parts follow in slot order.
-  auto gather = [&](const void *send, int count, MPI_Datatype type, std::vector<char> *received, size_t element_size) {
-    return GatherToRoot(comm, send, count, type, received, element_size);
-  };
-  if (need_names) {
-    // The series in the order of the joints in the model, whatever the partition: the history's
-    // columns are the same on any number of ranks (a restart may change it).
-    PetscCall(GatherNamesInOrder(comm, local_names, local_orders, &cache->names, &cache->permutation));
-    cache->gathered = true;
-  }
-  std::vector<char> gathered_values;
-  PetscCall(gather(local.data(), (int)local.size(), MPI_DOUBLE, &gathered_values, sizeof(double)));
-  names->clear();
-  values->clear();
-  if (rank == 0) {
-    *names = cache->names;
-    values->resize(names->size());
-    PetscCheck(gathered_values.size() == sizeof(double) * names->size(), PETSC_COMM_SELF, PETSC_ERR_PLIB, "joint history: %zu values for %zu series",
-               gathered_values.size() / sizeof(double), names->size());
-    const double *in = reinterpret_cast<const double *>(gathered_values.data());
-    for (size_t i = 0; i < names->size(); ++i) (*values)[cache->permutation[i]] = in[i];
-  }
+  // On rank 0 in the order of the joints in the model, whatever the partition: the history's
+  // columns are the same on any number of ranks (a restart may change it).
+  PetscCall(GatherSeriesInOrder(comm, "joint history", local_names, local_orders, local, cache, names, values));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
@@ -427,34 +440,14 @@ PetscErrorCode ProbeHistory(MPI_Comm comm, const Model &model, const DofMap &map
 PetscErrorCode GatherHistory(MPI_Comm comm, const std::vector<HistoryValue> &local, HistoryGather *cache, std::vector<std::string> *names,
                              std::vector<double> *values)
 {
-  PetscMPIInt rank, size;
+  std::string         local_names; // '\0'-terminated, only for the first gather
+  std::vector<double> local_orders, local_values;
   PetscFunctionBeginUser;
-  PetscCallMPI(MPI_Comm_rank(comm, &rank));
-  PetscCallMPI(MPI_Comm_size(comm, &size));
-  auto gather = [&](const void *send, int count, MPI_Datatype type, std::vector<char> *received, size_t element_size) {
-    return GatherToRoot(comm, send, count, type, received, element_size);
-  };
-  if (!cache->gathered) {
-    std::string         local_names; // '\0'-terminated
-    std::vector<double> local_orders;
-    for (const HistoryValue &v : local) local_names += v.name + '\0', local_orders.push_back((double)v.order);
-    PetscCall(GatherNamesInOrder(comm, local_names, local_orders, &cache->names, &cache->permutation));
-    cache->gathered = true;
+  for (const HistoryValue &v : local) {
+    if (!cache->gathered) local_names += v.name + '\0', local_orders.push_back((double)v.order);
+    local_values.push_back(v.value);
   }
-  std::vector<double> local_values;
-  for (const HistoryValue &v : local) local_values.push_back(v.value);
-  std::vector<char> gathered_values;
-  PetscCall(gather(local_values.data(), (int)local_values.size(), MPI_DOUBLE, &gathered_values, sizeof(double)));
-  names->clear();
-  values->clear();
-  if (rank == 0) {
-    *names = cache->names;
-    values->assign(names->size(), 0.0);
-    PetscCheck(gathered_values.size() == sizeof(double) * names->size(), PETSC_COMM_SELF, PETSC_ERR_PLIB, "history: %zu values for %zu series",
-               gathered_values.size() / sizeof(double), names->size());
-    const double *in = reinterpret_cast<const double *>(gathered_values.data());
-    for (size_t i = 0; i < names->size(); ++i) (*values)[cache->permutation[i]] = in[i];
-  }
+  PetscCall(GatherSeriesInOrder(comm, "history", local_names, local_orders, local_values, cache, names, values));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
