@@ -23,6 +23,16 @@ void LoadContributor::Setup(const Model &model, const DofMap &map, const BeamCon
   line_load_start_.assign(map.local_elements.size(), Vec3::Zero());
   line_load_end_.assign(map.local_elements.size(), Vec3::Zero());
   nodal_load_.assign(map.num_owned_nodes, NodalLoadValues{});
+  element_loaded_.assign(map.local_elements.size(), 0);
+  node_loaded_.assign(map.num_owned_nodes, 0);
+  for (const DistributedLoad &load : model.distributed_loads)
+    for (int e : load.elements)
+      if (map.element_to_local[e] >= 0) element_loaded_[map.element_to_local[e]] = 1;
+  for (const NodalLoad &load : model.nodal_loads)
+    for (int node : load.nodes) {
+      const int l = map.node_to_local[node];
+      if (l >= 0 && l < map.num_owned_nodes) node_loaded_[l] = 1;
+    }
 }
 
 void LoadContributor::BeginStep(const State &state)
@@ -62,6 +72,7 @@ void LoadContributor::BeginStep(const State &state)
 
 void LoadContributor::AddElement(const State &state, size_t k, ElementContribution *out)
 {
+  if (!element_loaded_[k]) return;
   const StepEquations &eq = state.equations;
   BeamLineLoad(beams_->References()[k], eq.LoadWeightStart() * line_load_start_[k] + eq.LoadWeightEnd() * line_load_end_[k], out->residual);
 }
@@ -70,6 +81,7 @@ void LoadContributor::AddElement(const State &state, size_t k, ElementContributi
 // accelerations (the configuration does not move).
 void LoadContributor::AddNode(const State &state, int l, NodeContribution *out)
 {
+  if (!node_loaded_[l]) return;
   const StepEquations &eq = state.equations;
   const NodeState     &s  = state.nodes[l];
   Vec6                 r;
@@ -90,12 +102,14 @@ void LoadContributor::AddStepWork(const State &state, double *work) const
   const DofMap        &map   = *map_;
   const StepEquations &eq    = state.equations;
   for (size_t k = 0; k < map.local_elements.size(); ++k) {
+    if (!element_loaded_[k]) continue;
     const BeamElement &element = model.elements[map.local_elements[k]];
     const Vec3         q       = 0.5 * (line_load_start_[k] + line_load_end_[k]);
     for (int a = 0; a <= element.order; ++a)
       *work += beams_->References()[k].nodal_length[a] * q.dot(state.nodes[map.node_to_local[element.nodes[a]]].displacement_increment);
   }
   for (PetscInt l = 0; l < map.num_owned_nodes; ++l) {
+    if (!node_loaded_[l]) continue;
     const NodeState &s = state.nodes[l];
     Vec6             r;
     NodalLoadForces(nodal_load_[l], 0.5, 0.5, QuaternionToMatrix(s.rotation_start), s.rotation, &r, nullptr);

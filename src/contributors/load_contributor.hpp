@@ -30,6 +30,9 @@ private:
   const BeamContributor       *beams_ = nullptr;
   std::vector<Vec3>            line_load_start_, line_load_end_; // per local element: force per length at t_n, t_{n+1}
   std::vector<NodalLoadValues> nodal_load_;                      // per owned node
+  // Which local elements carry a distributed load and which owned nodes a nodal load (whatever
+  // its function's value): the passes skip the others, which are most nodes of a large model.
+  std::vector<char> element_loaded_, node_loaded_;
 };
 
 } // namespace msflex
