@@ -1084,10 +1084,14 @@ std::string OutputFile::Impl::XdmfFramePattern(const FrameEntry &frame, const st
     attribute("velocity", "Vector", "Node", "velocity", n_nodes, 3);
     attribute("angular_velocity", "Vector", "Node", "angular_velocity", n_nodes, 3);
   }
-  attribute("force", "Vector", "Cell", "segment_force", n_segments, 3);
-  attribute("moment", "Vector", "Cell", "segment_moment", n_segments, 3);
-  if (frame.has_section_triads)
-    for (const char *axis : {"e1", "e2", "e3"}) attribute(std::string("section_") + axis, "Vector", "Cell", std::string("segment_") + axis, n_segments, 3);
+  // Cell arrays only where there are cells: a model of rigid bodies alone has none, and an empty
+  // data item per array and frame would be half of its sidecar.
+  if (n_segments > 0) {
+    attribute("force", "Vector", "Cell", "segment_force", n_segments, 3);
+    attribute("moment", "Vector", "Cell", "segment_moment", n_segments, 3);
+    if (frame.has_section_triads)
+      for (const char *axis : {"e1", "e2", "e3"}) attribute(std::string("section_") + axis, "Vector", "Cell", std::string("segment_") + axis, n_segments, 3);
+  }
   xml << "    </Grid>\n";
 
   // Rigid bodies: a point at each centre of mass with the principal axes (scaled by the semi-axes).

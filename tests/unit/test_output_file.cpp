@@ -824,6 +824,36 @@ TEST_F(OutputFileTest, WritesRigidBodiesJointsAndGround)
   EXPECT_NE(xdmf.find(">output.h5:/mesh/ground_position<"), std::string::npos);
 }
 
+// A model of rigid bodies alone (nodes, no beam elements): its beams grid has no cells, so the
+// sidecar lists no cell arrays (empty data items, which were half of such a sidecar), and the
+// points and bodies keep every array.
+TEST_F(OutputFileTest, SidecarOfRigidBodiesAloneHasNoCellArrays)
+{
+  OutputMesh mesh = MechanismMesh();
+  mesh.element_nodes.clear();
+  mesh.element_order.clear();
+  mesh.element_beam.clear();
+  OutputFile out;
+  ASSERT_EQ(
+      out.Open(PETSC_COMM_WORLD, h5_path().string(), false, "bodies.yaml", "analysis: {type: dynamic}\n", IsRoot() ? mesh : OutputMesh{}, kFingerprint, kRunId),
+      PETSC_SUCCESS);
+  for (int step = 0; step < 3; ++step) {
+    OutputFrame frame        = MechanismFrame(step);
+    frame.element_resultants = frame.element_strains = {};
+    ASSERT_EQ(out.WriteFrame(IsRoot() ? frame : OutputFrame{}), PETSC_SUCCESS);
+  }
+  ASSERT_EQ(out.Close(), PETSC_SUCCESS);
+  if (!IsRoot()) return;
+  const std::string xdmf = ReadText(xdmf_path());
+  std::string       why;
+  EXPECT_TRUE(WellFormedXml(xdmf, &why)) << why;
+  EXPECT_EQ(CountOf(xdmf, "Center=\"Cell\""), 0u);
+  EXPECT_EQ(CountOf(xdmf, "<Grid Name=\"beams\" GridType=\"Uniform\">"), 3u);
+  EXPECT_EQ(CountOf(xdmf, "<Grid Name=\"bodies\" GridType=\"Uniform\">"), 3u);
+  for (const char *name : {"\"displacement [m]\"", "\"velocity [m/s]\"", "\"angular_velocity [rad/s]\"", "\"axis_1 [m]\""})
+    EXPECT_EQ(CountOf(xdmf, std::string("Attribute Name=") + name), 3u) << name;
+}
+
 // A rank's part of a frame with every table's rows in reverse order (segments following their
 // elements), as a partition may hand them over.
 OutputFrame Reversed(const OutputFrame &part)
