@@ -361,7 +361,9 @@ struct OutputFile::Impl {
   // Whether the mesh has grids of this kind (beams always: a model without beams has an empty grid).
   bool HasGridKind(GridKind kind) const
   {
-    const bool has[kGridKinds] = {true, n_bodies > 0, n_joints > 0, n_ground > 0};
+    // The beams grid of a model without beam elements has points but no cells: the Xdmf3 readers
+    // take it (the nodes' arrays), ParaView's XDMF Reader rejects its topology, so xdmf2 leaves it out.
+    const bool has[kGridKinds] = {n_segments > 0 || xdmf_flavour == XdmfFlavour::Xdmf3, n_bodies > 0, n_joints > 0, n_ground > 0};
     return has[kind];
   }
   // Number of rows of a kind of table in the model.
@@ -1077,22 +1079,24 @@ std::string OutputFile::Impl::XdmfFramePattern(const FrameEntry &frame, const st
   };
 
   // The beams: polylines through the nodes.
-  grid(kBeams, geometry_of("position", n_nodes));
-  attribute("displacement", "Vector", "Node", "displacement", n_nodes, 3);
-  attribute("rotation", "Matrix", "Node", "rotation", n_nodes, 4);
-  if (frame.has_velocities) {
-    attribute("velocity", "Vector", "Node", "velocity", n_nodes, 3);
-    attribute("angular_velocity", "Vector", "Node", "angular_velocity", n_nodes, 3);
+  if (HasGridKind(kBeams)) {
+    grid(kBeams, geometry_of("position", n_nodes));
+    attribute("displacement", "Vector", "Node", "displacement", n_nodes, 3);
+    attribute("rotation", "Matrix", "Node", "rotation", n_nodes, 4);
+    if (frame.has_velocities) {
+      attribute("velocity", "Vector", "Node", "velocity", n_nodes, 3);
+      attribute("angular_velocity", "Vector", "Node", "angular_velocity", n_nodes, 3);
+    }
+    // Cell arrays only where there are cells: a model of rigid bodies alone has none, and an empty
+    // data item per array and frame would be half of its sidecar.
+    if (n_segments > 0) {
+      attribute("force", "Vector", "Cell", "segment_force", n_segments, 3);
+      attribute("moment", "Vector", "Cell", "segment_moment", n_segments, 3);
+      if (frame.has_section_triads)
+        for (const char *axis : {"e1", "e2", "e3"}) attribute(std::string("section_") + axis, "Vector", "Cell", std::string("segment_") + axis, n_segments, 3);
+    }
+    xml << "    </Grid>\n";
   }
-  // Cell arrays only where there are cells: a model of rigid bodies alone has none, and an empty
-  // data item per array and frame would be half of its sidecar.
-  if (n_segments > 0) {
-    attribute("force", "Vector", "Cell", "segment_force", n_segments, 3);
-    attribute("moment", "Vector", "Cell", "segment_moment", n_segments, 3);
-    if (frame.has_section_triads)
-      for (const char *axis : {"e1", "e2", "e3"}) attribute(std::string("section_") + axis, "Vector", "Cell", std::string("segment_") + axis, n_segments, 3);
-  }
-  xml << "    </Grid>\n";
 
   // Rigid bodies: a point at each centre of mass with the principal axes (scaled by the semi-axes).
   if (frame.has_bodies) {

@@ -825,17 +825,19 @@ TEST_F(OutputFileTest, WritesRigidBodiesJointsAndGround)
 }
 
 // A model of rigid bodies alone (nodes, no beam elements): its beams grid has no cells, so the
-// sidecar lists no cell arrays (empty data items, which were half of such a sidecar), and the
-// points and bodies keep every array.
-TEST_F(OutputFileTest, SidecarOfRigidBodiesAloneHasNoCellArrays)
+// sidecar lists no cell arrays (empty data items, which were a third of such a sidecar), and the
+// points and bodies keep every array; xdmf2 has no beams grid at all (ParaView's XDMF Reader
+// rejects a topology without cells).
+void WriteRigidBodiesAlone(const fs::path &h5_path, XdmfFlavour flavour)
 {
   OutputMesh mesh = MechanismMesh();
   mesh.element_nodes.clear();
   mesh.element_order.clear();
   mesh.element_beam.clear();
   OutputFile out;
+  out.SetXdmfFlavour(flavour);
   ASSERT_EQ(
-      out.Open(PETSC_COMM_WORLD, h5_path().string(), false, "bodies.yaml", "analysis: {type: dynamic}\n", IsRoot() ? mesh : OutputMesh{}, kFingerprint, kRunId),
+      out.Open(PETSC_COMM_WORLD, h5_path.string(), false, "bodies.yaml", "analysis: {type: dynamic}\n", IsRoot() ? mesh : OutputMesh{}, kFingerprint, kRunId),
       PETSC_SUCCESS);
   for (int step = 0; step < 3; ++step) {
     OutputFrame frame        = MechanismFrame(step);
@@ -843,6 +845,11 @@ TEST_F(OutputFileTest, SidecarOfRigidBodiesAloneHasNoCellArrays)
     ASSERT_EQ(out.WriteFrame(IsRoot() ? frame : OutputFrame{}), PETSC_SUCCESS);
   }
   ASSERT_EQ(out.Close(), PETSC_SUCCESS);
+}
+
+TEST_F(OutputFileTest, SidecarOfRigidBodiesAloneHasNoCellArrays)
+{
+  WriteRigidBodiesAlone(h5_path(), XdmfFlavour::Xdmf3);
   if (!IsRoot()) return;
   const std::string xdmf = ReadText(xdmf_path());
   std::string       why;
@@ -852,6 +859,19 @@ TEST_F(OutputFileTest, SidecarOfRigidBodiesAloneHasNoCellArrays)
   EXPECT_EQ(CountOf(xdmf, "<Grid Name=\"bodies\" GridType=\"Uniform\">"), 3u);
   for (const char *name : {"\"displacement [m]\"", "\"velocity [m/s]\"", "\"angular_velocity [rad/s]\"", "\"axis_1 [m]\""})
     EXPECT_EQ(CountOf(xdmf, std::string("Attribute Name=") + name), 3u) << name;
+}
+
+TEST_F(OutputFileTest, Xdmf2SidecarOfRigidBodiesAloneHasNoBeamsGrid)
+{
+  WriteRigidBodiesAlone(h5_path(), XdmfFlavour::Xdmf2);
+  if (!IsRoot()) return;
+  const std::string xdmf = ReadText(xdmf_path());
+  std::string       why;
+  EXPECT_TRUE(WellFormedXml(xdmf, &why)) << why;
+  EXPECT_EQ(CountOf(xdmf, "<Grid Name=\"beams\""), 0u);
+  EXPECT_EQ(CountOf(xdmf, "<Grid Name=\"bodies\" GridType=\"Uniform\">"), 3u);
+  EXPECT_EQ(CountOf(xdmf, "<Grid Name=\"joints\" GridType=\"Uniform\">"), 3u);
+  EXPECT_EQ(CountOf(xdmf, "Center=\"Cell\""), 0u);
 }
 
 // A rank's part of a frame with every table's rows in reverse order (segments following their
