@@ -358,7 +358,7 @@ struct OutputFile::Impl {
   // Writes the buffered frames: every frame dataset extended once and written with one collective
   // transfer; /frames/step, time and contents from rank 0. Collective.
   PetscErrorCode WriteFrameBlock();
-  // Whether the mesh has grids of this kind (beams always: a model without beams has an empty grid).
+  // Whether the sidecar has grids of this kind.
   bool HasGridKind(GridKind kind) const
   {
     // The beams grid of a model without beam elements has points but no cells: the Xdmf3 readers
@@ -1088,7 +1088,7 @@ std::string OutputFile::Impl::XdmfFramePattern(const FrameEntry &frame, const st
       attribute("angular_velocity", "Vector", "Node", "angular_velocity", n_nodes, 3);
     }
     // Cell arrays only where there are cells: a model of rigid bodies alone has none, and an empty
-    // data item per array and frame would be half of its sidecar.
+    // data item per array and frame was a third of its sidecar.
     if (n_segments > 0) {
       attribute("force", "Vector", "Cell", "segment_force", n_segments, 3);
       attribute("moment", "Vector", "Cell", "segment_moment", n_segments, 3);

@@ -278,7 +278,27 @@ PetscErrorCode SampleProbes(MPI_Comm comm, const Model &model, const DofMap &map
 // (`local_orders`) to rank 0, which puts the names in the order of the places (ties in the order
 // gathered) and records each gathered position's place in *permutation. Collective.
 static PetscErrorCode GatherNamesInOrder(MPI_Comm comm, const std::string &local_names, const std::vector<double> &local_orders,
-                                         std::vector<std::string> *names, std::vector<size_t> *permutation);
+                                         std::vector<std::string> *names, std::vector<size_t> *permutation)
+{
+  std::vector<char> gathered_names, gathered_orders;
+  PetscFunctionBeginUser;
+  PetscCall(GatherToRoot(comm, local_names.data(), (int)local_names.size(), MPI_CHAR, &gathered_names, 1));
+  PetscCall(GatherToRoot(comm, local_orders.data(), (int)local_orders.size(), MPI_DOUBLE, &gathered_orders, sizeof(double)));
+  std::vector<std::string> unordered;
+  for (size_t start = 0; start < gathered_names.size();) {
+    const size_t end = std::find(gathered_names.begin() + (std::ptrdiff_t)start, gathered_names.end(), '\0') - gathered_names.begin();
+    unordered.emplace_back(gathered_names.data() + start, end - start);
+    start = end + 1;
+  }
+  const double       *orders = reinterpret_cast<const double *>(gathered_orders.data());
+  std::vector<size_t> sorted(unordered.size());
+  for (size_t i = 0; i < sorted.size(); ++i) sorted[i] = i;
+  std::stable_sort(sorted.begin(), sorted.end(), [&](size_t a, size_t b) { return orders[a] < orders[b]; });
+  permutation->assign(sorted.size(), 0);
+  names->resize(sorted.size());
+  for (size_t place = 0; place < sorted.size(); ++place) (*permutation)[sorted[place]] = place, (*names)[place] = unordered[sorted[place]];
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
 
 // The history series the ranks hold, on rank 0 in the model's order: the names and places
 // (`local_names`, `local_orders`, only needed until cache->gathered) are gathered once, the values
@@ -307,29 +327,6 @@ static PetscErrorCode GatherSeriesInOrder(MPI_Comm comm, const char *what, const
     const double *in = reinterpret_cast<const double *>(gathered_values.data());
     for (size_t i = 0; i < names->size(); ++i) (*values)[cache->permutation[i]] = in[i];
   }
-  PetscFunctionReturn(PETSC_SUCCESS);
-}
-
-static PetscErrorCode GatherNamesInOrder(MPI_Comm comm, const std::string &local_names, const std::vector<double> &local_orders,
-                                         std::vector<std::string> *names, std::vector<size_t> *permutation)
-{
-  std::vector<char> gathered_names, gathered_orders;
-  PetscFunctionBeginUser;
-  PetscCall(GatherToRoot(comm, local_names.data(), (int)local_names.size(), MPI_CHAR, &gathered_names, 1));
-  PetscCall(GatherToRoot(comm, local_orders.data(), (int)local_orders.size(), MPI_DOUBLE, &gathered_orders, sizeof(double)));
-  std::vector<std::string> unordered;
-  for (size_t start = 0; start < gathered_names.size();) {
-    const size_t end = std::find(gathered_names.begin() + (std::ptrdiff_t)start, gathered_names.end(), '\0') - gathered_names.begin();
-    unordered.emplace_back(gathered_names.data() + start, end - start);
-    start = end + 1;
-  }
-  const double       *orders = reinterpret_cast<const double *>(gathered_orders.data());
-  std::vector<size_t> sorted(unordered.size());
-  for (size_t i = 0; i < sorted.size(); ++i) sorted[i] = i;
-  std::stable_sort(sorted.begin(), sorted.end(), [&](size_t a, size_t b) { return orders[a] < orders[b]; });
-  permutation->assign(sorted.size(), 0);
-  names->resize(sorted.size());
-  for (size_t place = 0; place < sorted.size(); ++place) (*permutation)[sorted[place]] = place, (*names)[place] = unordered[sorted[place]];
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 

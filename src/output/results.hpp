@@ -36,11 +36,6 @@ PetscErrorCode GatherFrame(MPI_Comm comm, const Model &model, const DofMap &map,
 // the point's reference position, the node's rotation), valid on every rank. Collective.
 PetscErrorCode SampleProbes(MPI_Comm comm, const Model &model, const DofMap &map, const State &state, std::vector<ProbeSample> *samples);
 
-// The joints' history series, per joint "<joint>.<quantity>": the released coordinates (tx ty tz
-// along, rx ry rz about the joint axes; a free rotation as the rotation vector of the relative
-// rotation in joint axes; a dependent translation under its axis) and their rates, and the force
-// and moment the joint exerts on its slave (State::joints' reactions). The names are gathered to
-// rank 0 once (kept in *cache); values and names are filled on rank 0, empty elsewhere. Collective.
 // The series' names in the model's order, whatever the partition (gathered once, on rank 0), and
 // where each value gathered in the ranks' order goes: the joints' and the force elements' alike.
 struct HistoryGather {
@@ -48,6 +43,12 @@ struct HistoryGather {
   std::vector<std::string> names;       // in order
   std::vector<size_t>      permutation; // gathered position (the ranks' parts one after the other) -> place in names
 };
+
+// The joints' history series, per joint "<joint>.<quantity>": the released coordinates (tx ty tz
+// along, rx ry rz about the joint axes; a free rotation as the rotation vector of the relative
+// rotation in joint axes; a dependent translation under its axis) and their rates, and the force
+// and moment the joint exerts on its slave (State::joints' reactions). The names are gathered to
+// rank 0 once (kept in *cache); values and names are filled on rank 0, empty elsewhere. Collective.
 PetscErrorCode JointHistory(MPI_Comm comm, const Model &model, const DofMap &map, const State &state, HistoryGather *cache, std::vector<std::string> *names,
                             std::vector<double> *values);
 
