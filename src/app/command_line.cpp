@@ -39,6 +39,7 @@ const OptionInfo kOptions[] = {
     {"-analysis_jacobian_reuse", "F", "keep the factored tangent while each iteration cuts the residual by F, in [0, 1); 0: off"},
     {"-analysis_condensation_depth", "N",
      "dynamics, statics without stability: a relay node every N joints down a chain of joints (linear time); 0: condense whole chains"},
+    {"-analysis_linear_solver", "direct|multigrid", "Newton's linear solver: a direct factorisation, or GMRES with algebraic multigrid (large networks)"},
     {"-analysis_output_times", "T1,T2,...", "times the steps must land on (replaces the input's list)"},
     {"-analysis_control", "NAME", "path control of a static analysis: load, arc_length or displacement"},
     {"-analysis_arc_length_psi", "PSI", "weight of the load factor in the arc-length constraint (0: cylindrical)"},

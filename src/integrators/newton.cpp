@@ -332,6 +332,35 @@ PetscErrorCode   ChooseDirectSolver(Mat tangent, PC pc)
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
+// analysis.linear_solver multigrid (docs/solvers.md, "Large networks in statics"): GMRES
+// preconditioned by smoothed-aggregation algebraic multigrid, which builds its coarse spaces from
+// the six rigid-body modes of every node that the Assembler attaches as the tangent's near-null
+// space (the tangent has blocks of 6 when every unknown is in a node's block). Trilinos ML when
+// PETSc has it (on lattice networks its coarse levels stay sparse, where GAMG's fill up to 7x the
+// fine operator: 2.5 s against 17 s per static solve of 38,016 unknowns), else GAMG. A linear
+// relative tolerance of 1e-6 costs no Newton iteration there (inexact Newton; the converged
+// residual is tested as always) and saves 40 % of the Krylov iterations against 1e-10. The levels
+// smooth by Chebyshev iteration on the inverted 6x6 node blocks (point-block Jacobi), 20 % faster
+// per solve than ML's default SOR there and the same on any number of ranks. -ksp_*, -pc_* and
+// -mg_levels_* options override all of it.
+PetscErrorCode SetMultigridSolver(KSP ksp, PC pc)
+{
+  PetscErrorCode (*create_ml)(PC) = nullptr;
+  PetscBool smoother_chosen, smoother_pc_chosen;
+  PetscFunctionBeginUser;
+  PetscCall(KSPSetType(ksp, KSPGMRES));
+  PetscCall(KSPGMRESSetRestart(ksp, 50));                                     // default
+  PetscCall(KSPSetTolerances(ksp, 1e-6, PETSC_DEFAULT, PETSC_DEFAULT, 1000)); // default rtol, iteration limit
+  PetscCall(PetscFunctionListFind(PCList, PCML, &create_ml));
+  PetscCall(PCSetType(pc, create_ml ? PCML : PCGAMG));
+  // The level solvers exist only once the hierarchy is built, and read their options then.
+  PetscCall(PetscOptionsHasName(nullptr, nullptr, "-mg_levels_ksp_type", &smoother_chosen));
+  PetscCall(PetscOptionsHasName(nullptr, nullptr, "-mg_levels_pc_type", &smoother_pc_chosen));
+  if (!smoother_chosen) PetscCall(PetscOptionsSetValue(nullptr, "-mg_levels_ksp_type", KSPCHEBYSHEV)); // default
+  if (!smoother_pc_chosen) PetscCall(PetscOptionsSetValue(nullptr, "-mg_levels_pc_type", PCPBJACOBI)); // default
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
 // Whether residual evaluations assemble the tangent with them (NewtonContext::tangent_with_residual):
 // only when SNES is sure to ask for the tangent at each iterate whose residual msflex's line search
 // (or SNES at the start) evaluates, and to solve with the assembled matrix. Not with modified Newton
@@ -388,6 +417,7 @@ PetscErrorCode NewtonSolverCreate(MPI_Comm comm, const AnalysisSettings &analysi
   PetscCall(SNESLineSearchSetType(linesearch, SNESLINESEARCHSHELL));
   PetscCall(SNESLineSearchShellSetUserFunc(linesearch, SafeguardedNewtonStep, context));
   PetscCall(SNESGetKSP(*snes, &ksp));
+  const bool multigrid = analysis.linear_solver == LinearSolverKind::Multigrid;
   PetscCall(KSPSetType(ksp, KSPPREONLY));
   if (newton_operator == NewtonOperator::AssembledWithRankOne) PetscCall(KSPSetPostSolve(ksp, ShermanMorrisonCorrection, context));
   PetscCall(KSPGetPC(ksp, &pc));
@@ -399,7 +429,12 @@ PetscErrorCode NewtonSolverCreate(MPI_Comm comm, const AnalysisSettings &analysi
   PetscCall(PetscOptionsGetBool(nullptr, nullptr, "-newton_solver_by_structure", &by_structure, nullptr));
   // Relay nodes put zeros on the diagonal (their force rows): they need a pivoting LU (MUMPS, LAPACK).
   const bool relays = context->assembler->Map().num_relays > 0;
-  if (by_structure && !relays) PetscCall(ChooseDirectSolver(tangent, pc));
+  PetscCheck(!multigrid || !relays, comm, PETSC_ERR_USER_INPUT,
+             "-analysis_linear_solver multigrid with relay nodes (chains of joints deeper than -analysis_condensation_depth %d): their rows have zero "
+             "diagonals, which multigrid's smoothers divide by; give -analysis_condensation_depth 0",
+             analysis.condensation_depth);
+  if (multigrid) PetscCall(SetMultigridSolver(ksp, pc));
+  else if (by_structure && !relays) PetscCall(ChooseDirectSolver(tangent, pc));
   else PetscCall(SetDirectSolver(pc, tangent));
   MSFLEX_CALL_READING_OPTIONS(PetscObjectComm((PetscObject)*snes), SNESSetFromOptions(*snes));
   PetscCall(CheckFactorSolverAvailable(ksp, tangent));

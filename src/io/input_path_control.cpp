@@ -38,6 +38,16 @@ int PathControlDofFromName(const std::string &name)
 AnalysisProblem PathControlProblem(const Model &model)
 {
   const AnalysisSettings &a = model.analysis;
+  // Statics with multigrid: the stability account and the bordered solves of arc-length and
+  // displacement control factor the tangent, which is what multigrid is there to avoid.
+  if (a.linear_solver == LinearSolverKind::Multigrid && a.type == AnalysisType::Static) {
+    if (a.stability)
+      return {"linear_solver",
+              "'linear_solver: multigrid' in statics needs 'stability: false': the stability account factors the tangent at every equilibrium"};
+    if (a.control != PathControl::Load)
+      return {"linear_solver", std::string("'linear_solver: multigrid' in statics needs 'control: load', not ") + PathControlName(a.control) +
+                                   ": path following solves its bordered systems with the direct solver"};
+  }
   if (a.control != PathControl::Displacement) return {};
   const bool node = !a.control_node.empty(), joint = !a.control_joint.empty();
   if (node == joint)

@@ -632,6 +632,7 @@ void ReadAnalysis(const YAML::Node *mapping, const ReaderContext &context, Analy
                              "newton_atol",
                              "jacobian_reuse",
                              "condensation_depth",
+                             "linear_solver",
                              "output_times",
                              "control",
                              "arc_length_psi",
@@ -707,6 +708,11 @@ void ReadAnalysis(const YAML::Node *mapping, const ReaderContext &context, Analy
     if (choice != "projected" && choice != "given")
       FailAt(value->Mark(), "unknown choice " + Quote(choice) + " for 'initial_velocities'; expected projected or given");
     analysis.project_initial_velocities = choice == "projected";
+  }
+  if (const YAML::Node *value = entry.Find("linear_solver")) {
+    const std::string name = ReadString(*value, "linear_solver");
+    if (!LinearSolverKindFromName(name, &analysis.linear_solver))
+      FailAt(value->Mark(), "unknown linear_solver " + Quote(name) + " in 'analysis'; expected direct or multigrid");
   }
   ReadPathFollowing(entry, context, analysis);
 }

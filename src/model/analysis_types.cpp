@@ -77,4 +77,13 @@ std::string PathControlNameList()
   return list;
 }
 
+bool LinearSolverKindFromName(const std::string &name, LinearSolverKind *kind)
+{
+  if (name != "direct" && name != "multigrid") return false;
+  *kind = name == "direct" ? LinearSolverKind::Direct : LinearSolverKind::Multigrid;
+  return true;
+}
+
+const char *LinearSolverKindName(LinearSolverKind kind) { return kind == LinearSolverKind::Direct ? "direct" : "multigrid"; }
+
 } // namespace msflex

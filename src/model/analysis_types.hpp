@@ -44,4 +44,13 @@ bool                   PathControlFromName(const std::string &name, PathControl 
 const char            *PathControlName(PathControl control);
 std::string            PathControlNameList();
 
+// How Newton's linear systems are solved (analysis.linear_solver): a sparse direct factorisation,
+// or GMRES preconditioned by smoothed-aggregation algebraic multigrid built on the rigid-body modes
+// of the nodes (for large beam networks, where the fill of a direct factorisation grows faster
+// than the model; docs/solvers.md).
+enum class LinearSolverKind { Direct, Multigrid };
+
+bool        LinearSolverKindFromName(const std::string &name, LinearSolverKind *kind);
+const char *LinearSolverKindName(LinearSolverKind kind);
+
 } // namespace msflex

@@ -267,7 +267,10 @@ struct AnalysisSettings {
   // Dynamics, and statics without `stability`: a chain of joints deeper than this keeps every
   // condensation_depth-th slave that is a master as a relay node in the linear solve (DofMap), so
   // that a long chain costs linear time; 0 condenses every chain whole (docs/solvers.md).
-  int                 condensation_depth = 8;
+  int condensation_depth = 8;
+  // Newton's linear solver (docs/solvers.md, "Large networks in statics"): direct, or GMRES with
+  // algebraic multigrid on the nodes' rigid-body modes.
+  LinearSolverKind    linear_solver = LinearSolverKind::Direct;
   std::vector<double> output_times; // steps are shortened to hit these exactly
   // Dynamic analyses: a static stage first (equilibrium under the loads at t = 0, reached in
   // load steps starting at 1/static_stage_steps), then the motion from it.
