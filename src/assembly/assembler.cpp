@@ -159,8 +159,9 @@ PetscErrorCode Assembler::Setup(MPI_Comm comm, const Model &model, const DofMap 
   PetscCallMPI(MPI_Comm_size(comm, &ranks));
   // Default 128, or 0 when the options choose the preconditioner or factorisation package
   // themselves (-pc_type, -pc_factor_mat_solver_type): those are for sparse matrices.
+  char      pc_type[64] = "";
   PetscBool chosen_pc = PETSC_FALSE, chosen_package = PETSC_FALSE;
-  PetscCall(PetscOptionsHasName(nullptr, nullptr, "-pc_type", &chosen_pc));
+  PetscCall(PetscOptionsGetString(nullptr, nullptr, "-pc_type", pc_type, sizeof(pc_type), &chosen_pc));
   PetscCall(PetscOptionsHasName(nullptr, nullptr, "-pc_factor_mat_solver_type", &chosen_package));
   const bool multigrid   = model.analysis.linear_solver == LinearSolverKind::Multigrid;
   PetscInt   dense_below = chosen_pc || chosen_package || multigrid ? 0 : 128; // default
@@ -185,38 +186,32 @@ PetscErrorCode Assembler::Setup(MPI_Comm comm, const Model &model, const DofMap 
              "bad option: -jacobian_mat_type %s is not supported (%s): use aij (the default), baij or dense", type,
              is_sbaij ? "it stores one triangle of a symmetric matrix, and the tangent is not symmetric" : "msflex assembles into aij, baij and dense only");
   // Algebraic multigrid (msflex's, or PETSc's chosen by -pc_type) reads the graph of an AIJ matrix.
-  char      pc_type[64] = "";
-  PetscBool pc_type_set = PETSC_FALSE;
-  PetscCall(PetscOptionsGetString(nullptr, nullptr, "-pc_type", pc_type, sizeof(pc_type), &pc_type_set));
-  const bool algebraic_multigrid = pc_type_set ? !strcmp(pc_type, PCGAMG) || !strcmp(pc_type, PCML) || !strcmp(pc_type, PCHYPRE) : multigrid;
+  const bool algebraic_multigrid = chosen_pc ? !strcmp(pc_type, PCGAMG) || !strcmp(pc_type, PCML) || !strcmp(pc_type, PCHYPRE) : multigrid;
   PetscCheck(is_aij || !algebraic_multigrid, comm, PETSC_ERR_USER_INPUT,
              "bad option: -jacobian_mat_type %s with %s%s: algebraic multigrid needs aij (the default)", type,
-             pc_type_set ? "-pc_type " : "-analysis_linear_solver multigrid", pc_type_set ? pc_type : "");
+             chosen_pc ? "-pc_type " : "-analysis_linear_solver multigrid", chosen_pc ? pc_type : "");
   PetscCheck(!is_dense || ranks == 1, comm, PETSC_ERR_USER_INPUT,
              "bad option: -jacobian_mat_type dense runs on one rank only (no parallel dense LU): use aij or baij");
+  // Blocks of 6 where every unknown belongs to one: a node's 6 unknowns consecutive from a
+  // multiple of 6 and coupled as a whole, on every rank (no partly supported node, no joint
+  // coordinate); else blocks of 1. BAIJ stores them; an AIJ tangent takes them only for multigrid,
+  // which then aggregates whole nodes (their six rigid-body modes): MUMPS compresses by the block
+  // size (ICNTL(15)), which changes its pivot order and the direct solver's last bits.
+  constexpr PetscInt    kNodeBlock = 6;
+  std::vector<PetscInt> block_diagonal, block_off_diagonal;
+  PetscBool             blocked = PETSC_FALSE;
+  if (is_baij || (is_aij && multigrid)) {
+    blocked = BlockPattern(pattern, map.first_owned, kNodeBlock, &block_diagonal, &block_off_diagonal) ? PETSC_TRUE : PETSC_FALSE;
+    PetscCall(MPIU_Allreduce(MPI_IN_PLACE, &blocked, 1, MPIU_BOOL, MPI_LAND, comm));
+  }
   if (is_aij) {
-    // Multigrid aggregates whole nodes (their six rigid-body modes) when the matrix has blocks of
-    // 6. Only then: MUMPS compresses by the block size (ICNTL(15)), which changes its pivot order
-    // and the direct solver's last bits.
-    if (model.analysis.linear_solver == LinearSolverKind::Multigrid) {
-      std::vector<PetscInt> block_diagonal, block_off_diagonal;
-      PetscBool             blocked = BlockPattern(pattern, map.first_owned, 6, &block_diagonal, &block_off_diagonal) ? PETSC_TRUE : PETSC_FALSE;
-      PetscCall(MPIU_Allreduce(MPI_IN_PLACE, &blocked, 1, MPIU_BOOL, MPI_LAND, comm));
-      if (blocked) PetscCall(MatSetBlockSize(jacobian_, 6));
-    }
+    if (blocked) PetscCall(MatSetBlockSize(jacobian_, kNodeBlock));
     PetscCall(MatSeqAIJSetPreallocation(jacobian_, 0, pattern.diagonal_nonzeros.data()));
     PetscCall(MatMPIAIJSetPreallocation(jacobian_, 0, pattern.diagonal_nonzeros.data(), 0, pattern.off_diagonal_nonzeros.data()));
     // AIJ: the exact pattern itself, all zeros, in one pass (no element-by-element insertion).
     PetscCall(MatSeqAIJSetPreallocationCSR(jacobian_, pattern.row_start.data(), pattern.columns.data(), nullptr));
     PetscCall(MatMPIAIJSetPreallocationCSR(jacobian_, pattern.row_start.data(), pattern.columns.data(), nullptr));
   } else if (is_baij) {
-    // Blocks of 6 where every unknown belongs to one: a node's 6 unknowns consecutive from a
-    // multiple of 6 and coupled as a whole, on every rank (no partly supported node, no joint
-    // coordinate); else blocks of 1.
-    constexpr PetscInt    kNodeBlock = 6;
-    std::vector<PetscInt> block_diagonal, block_off_diagonal;
-    PetscBool             blocked = BlockPattern(pattern, map.first_owned, kNodeBlock, &block_diagonal, &block_off_diagonal) ? PETSC_TRUE : PETSC_FALSE;
-    PetscCall(MPIU_Allreduce(MPI_IN_PLACE, &blocked, 1, MPIU_BOOL, MPI_LAND, comm));
     node_blocks_ = blocked == PETSC_TRUE;
     if (blocked) {
       PetscCall(MatSetBlockSize(jacobian_, kNodeBlock));
