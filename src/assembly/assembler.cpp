@@ -369,6 +369,7 @@ PetscErrorCode Assembler::CreateCsrDestinations()
   PetscCall(MatAssemblyEnd(jacobian_, MAT_FINAL_ASSEMBLY));
   csr_destinations_.clear();
   csr_destination_offsets_.clear();
+  node_csr_destinations_.clear();
   if (!is_seq && !is_mpi) PetscFunctionReturn(PETSC_SUCCESS);
 
   const PetscInt *off_diagonal_columns     = nullptr; // global column of each off-diagonal block column, ascending
@@ -430,6 +431,23 @@ PetscErrorCode Assembler::CreateCsrDestinations()
         destination[i * nd + j] = slot;
       }
     }
+  }
+  // Owned nodes' own blocks (inertia, nodal loads): rows and columns among the node's unknowns.
+  node_csr_destinations_.assign(36 * (size_t)map.num_owned_nodes, kCsrSkip);
+  for (PetscInt l = 0; l < map.num_owned_nodes; ++l) {
+    PetscInt       *destination = node_csr_destinations_.data() + 36 * l;
+    const PetscInt *dofs        = map.node_dofs[map.local_nodes[l]].data();
+    bool            direct      = !IsCondensed((int)l);
+    for (int i = 0; i < 6 && direct; ++i) {
+      if (dofs[i] < 0) continue;
+      for (int j = 0; j < 6 && direct; ++j) {
+        if (dofs[j] < 0) continue;
+        const PetscInt slot = dofs[i] >= first && dofs[i] < last && dofs[j] >= first && dofs[j] < last ? find(ia, ja, dofs[i] - first, dofs[j] - first) : -1;
+        if (slot < 0) direct = false;
+        destination[6 * i + j] = slot;
+      }
+    }
+    if (!direct) destination[0] = kCsrOtherRank;
   }
   PetscCall(MatRestoreRowIJ(diagonal_block_, 0, PETSC_FALSE, PETSC_FALSE, &num_rows, &ia, &ja, &done));
   if (off_diagonal_block_) PetscCall(MatRestoreRowIJ(off_diagonal_block_, 0, PETSC_FALSE, PETSC_FALSE, &num_rows, &ib, &jb, &done));
@@ -968,7 +986,6 @@ PetscErrorCode Assembler::AssembleTangentPass(Mat jacobian, Vec residual, PetscB
     PetscCall(AddExpandedMatrix(jacobian, element_nodes.order + 1, local_nodes, element.tangent));
     if (separate_correction) PetscCall(AddExpandedMatrix(correction_jacobian_, element_nodes.order + 1, local_nodes, element.tangent_correction));
   }
-  PetscCall(RestoreCsrValues(diagonal, off_diagonal, &diagonal_values, &off_diagonal_values));
   if (separate_correction)
     PetscCall(RestoreCsrValues(correction_diagonal, correction_off_diagonal, &correction_diagonal_values, &correction_off_diagonal_values));
   NodeContribution node;
@@ -976,8 +993,9 @@ PetscErrorCode Assembler::AssembleTangentPass(Mat jacobian, Vec residual, PetscB
     EvaluateNode((int)l, true, &node);
     if (residual) PetscCall(AddNodeResidual(residual, (int)l, node.residual));
     else if (IsSlave((int)l)) slave_residual_[l] += Eigen::Map<const Vec6>(node.residual);
-    if (!node.tangent.isZero(0.0)) PetscCall(AddNodeBlock(jacobian, (int)l, node.tangent));
+    if (!node.tangent.isZero(0.0)) PetscCall(AddDirectNodeBlock(jacobian, (int)l, node.tangent, diagonal_values));
   }
+  PetscCall(RestoreCsrValues(diagonal, off_diagonal, &diagonal_values, &off_diagonal_values));
   PetscCall(AddContributorBlocks(residual, jacobian));
   if (residual) PetscCall(FinishResidual(residual, strain_energy, *geometry_ok));
   // em: beta at these increments (eq. 20, BetaOfWorkSums) and the rank-one term R_corr (grad beta)^T,

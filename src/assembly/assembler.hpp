@@ -242,6 +242,8 @@ private:
   PetscErrorCode AddNodeResidual(Vec residual, int local_node, const double *g);
   // Adds a node's 6x6 spin-form block through its expansion.
   PetscErrorCode AddNodeBlock(Mat jacobian, int local_node, const Mat6 &block);
+  // AddNodeBlock into the owned CSR values of the tangent (node_csr_destinations_), else through it.
+  PetscErrorCode AddDirectNodeBlock(Mat jacobian, int local_node, const Mat6 &block, PetscScalar *diagonal_values);
   // Adds a node's spin-form 6-vector to v through its expansion's rows (R[unknowns] += rows^T g)
   // or columns (the gradient of a scalar: b[unknowns] += columns^T g).
   enum class Through { Rows, Columns };
@@ -379,8 +381,12 @@ private:
   // is not AIJ: then everything goes through MatSetValues.
   static constexpr PetscInt kCsrSkip = -1, kCsrOtherRank = -2, kCsrOffDiagonal = -3;
   std::vector<PetscInt>     csr_destinations_;
-  std::vector<size_t>       csr_destination_offsets_;                                 // per local element + 1: where its entries start
-  Mat                       diagonal_block_ = nullptr, off_diagonal_block_ = nullptr; // borrowed from jacobian_
+  std::vector<size_t>       csr_destination_offsets_; // per local element + 1: where its entries start
+  // The same for the 6x6 block of each owned node that is not condensed (36 entries per node,
+  // row-major, all in the diagonal block); a node whose first entry is kCsrOtherRank goes through
+  // AddNodeBlock. Empty with csr_destinations_.
+  std::vector<PetscInt> node_csr_destinations_;
+  Mat                   diagonal_block_ = nullptr, off_diagonal_block_ = nullptr; // borrowed from jacobian_
 };
 
 } // namespace msflex

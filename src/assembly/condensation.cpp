@@ -321,6 +321,23 @@ PetscErrorCode Assembler::AddNodeBlock(Mat jacobian, int l, const Mat6 &block)
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
+PetscErrorCode Assembler::AddDirectNodeBlock(Mat jacobian, int l, const Mat6 &block, PetscScalar *diagonal_values)
+{
+  PetscFunctionBeginUser;
+  const PetscInt *destination = node_csr_destinations_.empty() || !diagonal_values ? nullptr : node_csr_destinations_.data() + 36 * (size_t)l;
+  if (!destination || destination[0] == kCsrOtherRank) {
+    PetscCall(AddNodeBlock(jacobian, l, block));
+    PetscFunctionReturn(PETSC_SUCCESS);
+  }
+  // As AddNodeBlock for a node that is not condensed: spin columns to the node's unknowns,
+  // d theta = H(omega) d omega (accelerations and relays: I).
+  Mat6 columns = block;
+  if (!state_->equations.InitialAcceleration() && !map_->IsRelay(l)) columns.rightCols<3>() = (block.rightCols<3>() * state_->nodes[l].rotation_tangent).eval();
+  for (int e = 0; e < 36; ++e)
+    if (destination[e] >= 0) diagonal_values[destination[e]] += columns.data()[e];
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
 PetscErrorCode Assembler::AddExpandedMatrix(Mat jacobian, int num_nodes, const int *local_nodes, const double *K)
 {
   const int              nd = 6 * num_nodes;
