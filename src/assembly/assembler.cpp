@@ -707,6 +707,7 @@ void Assembler::EvaluateElement(size_t k, bool want_tangent, ElementContribution
   // em with beta = 0 known (the round-off rule): no energy terms, the tangent is K_mc.
   const bool energy_terms = eq.Dynamic() && eq.scheme.kind == TimeSchemeKind::EnergyMomentum && !(combined_beta && *combined_beta == 0.0);
   out->Clear(model_->elements[map_->local_elements[k]].order + 1, want_tangent, energy_terms, combined_beta);
+  out->iterate_key = increments_version_;
   for (ForceContributor *c : element_contributors_) {
     c->AddElement(*state_, k, out);
     if (!out->evaluable) return;

@@ -64,6 +64,15 @@ void BeamContributor::BeginStep(const State &state)
     StartConfiguration(state, k, positions, triads);
     midpoint_start_ok_[k] = BeamMidpointStartState(references_[k], positions, triads, &midpoint_start_[k]) == BeamKernelStatus::Ok;
   }
+  if (!(state.equations.Dynamic() && state.equations.scheme.kind == TimeSchemeKind::EnergyMomentum)) return;
+  if (kept_.size() != references_.size()) {
+    kept_.assign(references_.size(), KeptMidpoint());
+    size_t two = 0, three = 0;
+    for (size_t k = 0; k < references_.size(); ++k) kept_[k].slot = references_[k].num_nodes == 2 ? (int)two++ : (int)three++;
+    kept_two_.resize(two);
+    kept_three_.resize(three);
+  }
+  for (KeptMidpoint &kept : kept_) kept.key = -1;
 }
 
 // Statics and the Newmark family: r and K at t_{n+1}. Mid-point family: the mid-point forces
@@ -83,24 +92,48 @@ void BeamContributor::AddElement(const State &state, size_t k, ElementContributi
   const int                   n = element.order + 1, nd = 6 * n;
   Vec3                        positions[kBeamMaxNodes];
   Mat3                        triads[kBeamMaxNodes];
-  double                      force[kBeamMaxDofs];
-  Configuration(state, k, positions, triads);
-  const bool end_tangent = out->want_tangent && !eq.InitialAcceleration();
+  double                      force_here[kBeamMaxDofs];
+  double                     *force       = force_here;
+  const bool                  end_tangent = out->want_tangent && !eq.InitialAcceleration();
   if (eq.Midpoint()) {
     Vec3   positions_start[kBeamMaxNodes];
     Mat3   triads_start[kBeamMaxNodes];
-    double correction[kBeamMaxDofs], energy_start, energy_end, K_mc[kBeamMaxDofs * kBeamMaxDofs], K_corr[kBeamMaxDofs * kBeamMaxDofs],
-        end_residual[kBeamMaxDofs];
+    double correction_here[kBeamMaxDofs], end_residual_here[kBeamMaxDofs], energy_start, energy_end, K_mc[kBeamMaxDofs * kBeamMaxDofs],
+        K_corr[kBeamMaxDofs * kBeamMaxDofs];
+    double       *correction = correction_here, *end_residual = end_residual_here;
     const bool    energy_terms = out->want_energy_terms;
     const double *beta         = end_tangent ? out->combined_beta : nullptr; // K_mc + beta K_corr at once
     const bool    K_corr_apart = energy_terms && !beta;
     // The step's start from BeginStep (without it, or where the kernel could not evaluate it there,
     // from the State, so that the kernel reports the failure).
     const BeamMidpointStart *start = k < midpoint_start_ok_.size() && midpoint_start_ok_[k] ? &midpoint_start_[k] : nullptr;
-    if (!start) StartConfiguration(state, k, positions_start, triads_start);
-    if (BeamMidpointInternalForces(ref, section, positions_start, triads_start, positions, triads, force, correction, end_tangent ? K_mc : nullptr,
-                                   K_corr_apart ? K_corr : nullptr, energy_terms ? end_residual : nullptr, &energy_start, &energy_end,
-                                   eq.scheme.energy_correction, beta, start) != BeamKernelStatus::Ok) {
+    // em: a residual evaluation keeps what the tangent at the same unknowns needs (kept_), a tangent
+    // evaluation with beta known takes it from there when it was kept at these unknowns.
+    KeptMidpoint    *kept   = k < kept_.size() && out->iterate_key >= 0 && !eq.InitialAcceleration() ? &kept_[k] : nullptr;
+    const bool       reuse  = kept && beta && kept->key == out->iterate_key;
+    const bool       keep   = kept && !out->want_tangent && start;
+    BeamKernelStatus status = BeamKernelStatus::Ok;
+    if (reuse || keep) force = kept->force, correction = kept->correction, end_residual = kept->end_residual;
+    if (reuse) {
+      energy_start = kept->energy_start, energy_end = kept->energy_end;
+      if (n == 2) BeamMidpointTangentOfIterate<2>(ref, section, kept_two_[kept->slot], eq.scheme.energy_correction, beta, K_mc, nullptr);
+      else BeamMidpointTangentOfIterate<3>(ref, section, kept_three_[kept->slot], eq.scheme.energy_correction, beta, K_mc, nullptr);
+    } else if (keep) {
+      Configuration(state, k, positions, triads);
+      kept->key = -1;
+      status    = n == 2 ? BeamMidpointResidualKeeping<2>(ref, section, *start, positions, triads, force, correction, end_residual, &energy_start, &energy_end,
+                                                       eq.scheme.energy_correction, &kept_two_[kept->slot])
+                         : BeamMidpointResidualKeeping<3>(ref, section, *start, positions, triads, force, correction, end_residual, &energy_start, &energy_end,
+                                                       eq.scheme.energy_correction, &kept_three_[kept->slot]);
+      if (status == BeamKernelStatus::Ok) kept->energy_start = energy_start, kept->energy_end = energy_end, kept->key = out->iterate_key;
+    } else {
+      Configuration(state, k, positions, triads);
+      if (!start) StartConfiguration(state, k, positions_start, triads_start);
+      status = BeamMidpointInternalForces(ref, section, positions_start, triads_start, positions, triads, force, correction, end_tangent ? K_mc : nullptr,
+                                          K_corr_apart ? K_corr : nullptr, energy_terms ? end_residual : nullptr, &energy_start, &energy_end,
+                                          eq.scheme.energy_correction, beta, start);
+    }
+    if (status != BeamKernelStatus::Ok) {
       out->evaluable = false;
       return;
     }
@@ -152,6 +185,7 @@ void BeamContributor::AddElement(const State &state, size_t k, ElementContributi
     return;
   }
   double K[kBeamMaxDofs * kBeamMaxDofs], energy = 0.0;
+  Configuration(state, k, positions, triads);
   if (BeamInternalForces(ref, section, positions, triads, force, end_tangent ? K : nullptr, &energy, nullptr) != BeamKernelStatus::Ok) {
     out->evaluable = false;
     return;

@@ -76,6 +76,17 @@ private:
   // holds (empty outside a mid-point step; false for an element the kernel cannot evaluate there).
   std::vector<BeamMidpointStart> midpoint_start_;
   std::vector<char>              midpoint_start_ok_;
+  // em: per local element, what its last residual evaluation computed that the tangent at the same
+  // unknowns needs again (the version `key`, -1: nothing kept). SNES assembles em's tangent right
+  // after the residual at the same iterate, so the tangent pass does only the tangent's own work.
+  struct KeptMidpoint {
+    long long key  = -1;
+    int       slot = 0; // into kept_two_ or kept_three_, by the element's number of nodes
+    double    force[kBeamMaxDofs], correction[kBeamMaxDofs], end_residual[kBeamMaxDofs], energy_start, energy_end;
+  };
+  std::vector<KeptMidpoint>           kept_;
+  std::vector<BeamMidpointIterate<2>> kept_two_;
+  std::vector<BeamMidpointIterate<3>> kept_three_;
 };
 
 // Reference data of element e of a model (shared by the set-up of beams and nodal masses).

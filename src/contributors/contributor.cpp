@@ -12,6 +12,7 @@ void ElementContribution::Clear(int nodes, bool tangent_wanted, bool energy_term
   want_energy_terms = tangent_wanted && energy_terms_wanted;
   combined_beta     = tangent_wanted ? beta : nullptr;
   evaluable         = true;
+  iterate_key       = -1;
   std::fill(residual, residual + nd, 0.0);
   std::fill(correction, correction + nd, 0.0);
   if (want_tangent) std::fill(tangent, tangent + nd * nd, 0.0);

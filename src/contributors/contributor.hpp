@@ -58,6 +58,9 @@ struct ElementContribution {
   // at once, tangent_correction stays unused and the gradients leave out K_corr's part
   // (mismatch_gradient - beta correction_work_gradient is still grad M - beta grad C). Null otherwise.
   const double *combined_beta = nullptr;
+  // The version of the unknowns being evaluated (the Assembler's; -1: unknown). A contributor may
+  // keep what a residual evaluation computed for a tangent evaluation at the same version.
+  long long iterate_key = -1;
 
   void Clear(int nodes, bool tangent_wanted, bool energy_terms_wanted = false, const double *beta = nullptr);
 };

@@ -412,22 +412,12 @@ struct MidpointGaussBlocks {
   Mat3   rr, rp, pr, pp, pd, dp, dd;
 };
 
-// The maps between nodal variations and local coordinates: Tbar (mid-point, maps the forces) and
-// T_{n+1} (end, maps the variations):
+// K = Tbar^T K_loc T_{n+1} + (delta Tbar^T) h for one output (mc or corr), row-major 6 NN x 6 NN,
+// with the maps of the iterate: Tbar (mid-point, maps the forces) and T_{n+1} (end, maps the variations),
 //   delta rho_a = L^T (dx_a - dx_c) + L^T hat(d_a) dtheta_c,   delta psi_a = P_a (dtheta_a - dtheta_c),  P_a = Hinv(psi_a) L^T.
-template <int NN> struct MidpointMaps {
-  Mat3          Lbar, L, LT;
-  Vec3          d[NN], dbar[NN], psi_mid[NN];
-  Mat3          P[NN];         // Hinv(psi_{a,n+1}) L^T
-  Mat3          HinvT_mid[NN]; // Hinv(psi_{a,mid})^T
-  Mat3          PbarT[NN];     // Lbar Hinv(psi_{a,mid})^T
-  RodriguesForm Finv_mid[NN];
-};
-
-// K = Tbar^T K_loc T_{n+1} + (delta Tbar^T) h for one output (mc or corr), row-major 6 NN x 6 NN.
 template <int NN>
-void MidpointTangent(const BeamElementReference &ref, const int *others, const MidpointGaussBlocks *blocks, const MidpointMaps<NN> &maps, const Vec3 *h_rho,
-                     const Vec3 *h_psi, double *tangent_out)
+void MidpointTangent(const BeamElementReference &ref, const int *others, const MidpointGaussBlocks *blocks, const BeamMidpointIterate<NN> &maps,
+                     const Vec3 *h_rho, const Vec3 *h_psi, double *tangent_out)
 {
   const int                   c = ref.reference_node;
   Eigen::Map<NodalMatrix<NN>> K(tangent_out);
@@ -486,43 +476,42 @@ void MidpointTangent(const BeamElementReference &ref, const int *others, const M
   }
 }
 
+// The residual half of the mid-point kernel (BeamMidpointInternalForces): F_mc, F_corr, the
+// energies and, with end_residual_out, r_{n+1}; what the tangent needs as well goes into *it.
+// for_tangent: the mid-point series with second derivatives and the end maps P_a, which only the
+// tangent reads.
 template <int NN>
-BeamKernelStatus MidpointForces(const BeamElementReference &ref, const BeamSectionStiffness &section, const Vec3 *positions_start, const Mat3 *triads_start,
-                                const Vec3 *positions, const Mat3 *triads, double *force_mc, double *force_correction, double *tangent_mc,
-                                double *tangent_correction, double *end_residual_out, double *energy_start_out, double *energy_end_out,
-                                EnergyCorrection correction, const double *combined_beta, const BeamMidpointStart *start)
+BeamKernelStatus MidpointResidualPhase(const BeamElementReference &ref, const BeamSectionStiffness &section, const BeamMidpointStart &start,
+                                       const Vec3 *positions, const Mat3 *triads, double *force_mc, double *force_correction, double *end_residual_out,
+                                       double *energy_start_out, double *energy_end_out, EnergyCorrection correction, bool for_tangent,
+                                       BeamMidpointIterate<NN> *it)
 {
-  if (combined_beta) tangent_correction = nullptr;
-  const int         c                  = ref.reference_node;
-  const bool        correction_moments = correction == EnergyCorrection::Resultants; // (N_d, M_d), else (N_d, 0)
-  Vec3              rho_1[NN], psi_1[NN], rho_m[NN], psi_m[NN];
-  BeamMidpointStart computed;
-  if (!start) {
-    if (BeamMidpointStartState(ref, positions_start, triads_start, &computed) != BeamKernelStatus::Ok) return BeamKernelStatus::RotationTooLarge;
-    start = &computed;
-  }
+  const int  c                  = ref.reference_node;
+  const bool correction_moments = correction == EnergyCorrection::Resultants; // (N_d, M_d), else (N_d, 0)
+  Vec3       rho_1[NN], psi_1[NN], rho_m[NN], psi_m[NN];
   if (!LocalCoordinates(NN, c, positions, triads, rho_1, psi_1)) return BeamKernelStatus::RotationTooLarge;
   int others[NN - 1];
   for (int a = 0, o = 0; a < NN; ++a)
     if (a != c) others[o++] = a;
   for (int a = 0; a < NN; ++a) {
-    rho_m[a] = 0.5 * (start->rho[a] + rho_1[a]);
-    psi_m[a] = 0.5 * (start->psi[a] + psi_1[a]);
+    rho_m[a] = 0.5 * (start.rho[a] + rho_1[a]);
+    psi_m[a] = 0.5 * (start.psi[a] + psi_1[a]);
   }
-  const bool  want_tangent = tangent_mc || tangent_correction;
-  const bool  want_end     = want_tangent || end_residual_out; // the end-point operators A_1, B_1
+  const bool  want_end = for_tangent || end_residual_out; // the end-point operators A_1, B_1
   const Vec3 &CN = section.axial_shear, &CM = section.torsion_bending;
-  Vec3        h_rho[NN], h_psi[NN], k_rho[NN], k_psi[NN], g_rho[NN], g_psi[NN];
+  Vec3       *h_rho = it->h_rho, *h_psi = it->h_psi, *k_rho = it->k_rho, *k_psi = it->k_psi;
+  Vec3        g_rho[NN], g_psi[NN];
   for (int a = 0; a < NN; ++a) h_rho[a].setZero(), h_psi[a].setZero(), k_rho[a].setZero(), k_psi[a].setZero(), g_rho[a].setZero(), g_psi[a].setZero();
-  MidpointGaussBlocks blocks_mc[kBeamMaxGauss], blocks_corr[kBeamMaxGauss];
-  double              energy_n = 0.0, energy_1 = 0.0;
+  double energy_n = 0.0, energy_1 = 0.0;
   for (int gp = 0; gp < ref.num_gauss; ++gp) {
     const double *I = ref.shape[gp], *dI = ref.shape_derivative[gp];
     const double  wJ = ref.weight_jacobian[gp];
+    auto         &pt = it->point[gp];
+    pt.wJ            = wJ;
     // Start and end of the step: strains and stresses (the operators applied in closed form, no
     // 3x3 matrix unless the tangent needs it).
-    const Vec3               eps_n   = start->strain[gp] - ref.strain0[gp];
-    const Vec3               kap_n   = start->curvature[gp] - ref.curvature0[gp];
+    const Vec3               eps_n   = start.strain[gp] - ref.strain0[gp];
+    const Vec3               kap_n   = start.curvature[gp] - ref.curvature0[gp];
     const GaussInterpolation end     = InterpolateAtGauss(ref, gp, rho_1, psi_1);
     const double             x1      = end.Psi.squaredNorm();
     const RotationSeries     series1 = ElementRotationSeries(x1, 1, false);
@@ -532,13 +521,15 @@ BeamKernelStatus MidpointForces(const BeamElementReference &ref, const BeamSecti
     const Vec3               N_n = CN.cwiseProduct(eps_n), M_n = CM.cwiseProduct(kap_n), N_1 = CN.cwiseProduct(eps_1), M_1 = CM.cwiseProduct(kap_1);
     energy_n += 0.5 * wJ * (eps_n.dot(N_n) + kap_n.dot(M_n));
     energy_1 += 0.5 * wJ * (eps_1.dot(N_1) + kap_1.dot(M_1));
-    const Vec3 N_mid = 0.5 * (N_n + N_1), M_mid = 0.5 * (M_n + M_1), N_d = N_1 - N_n, M_d = correction_moments ? Vec3(M_1 - M_n) : Vec3::Zero();
+    pt.Psi1 = end.Psi, pt.dPsi1 = end.dPsi, pt.drho1 = end.drho, pt.x1 = x1, pt.Fe1 = Fe1, pt.Fh1 = Fh1;
+    pt.N_mid = 0.5 * (N_n + N_1), pt.M_mid = 0.5 * (M_n + M_1), pt.N_d = N_1 - N_n, pt.M_d = correction_moments ? Vec3(M_1 - M_n) : Vec3::Zero();
     // D(q_mid): dGamma = A dPsi + E^T drho',  dK = B dPsi + H^T dPsi'  (A = d(E^T drho)/dPsi, B = d(H^T dPsi)/dPsi)
     const auto [Psi, dPsi, drho] = InterpolateAtGauss(ref, gp, rho_m, psi_m);
     const double         x       = Psi.squaredNorm();
-    const RotationSeries series  = ElementRotationSeries(x, 1, want_tangent);
+    const RotationSeries series  = ElementRotationSeries(x, 1, for_tangent);
     const RodriguesForm  Fe = ExpForm(series), Fh = TangentForm(series);
     const Vec3           ue = JacobianShift(Fe.alpha_x, Fe.beta, Fe.beta_x, Psi, drho), uh = JacobianShift(Fh.alpha_x, Fh.beta, Fh.beta_x, Psi, dPsi);
+    pt.Psi = Psi, pt.dPsi = dPsi, pt.drho = drho, pt.x = x, pt.Fe = Fe, pt.Fh = Fh, pt.ue = ue, pt.uh = uh;
     // D(q_mid)^T (N, M) as the local gradient's three parts: E N, A^T N + B^T M, H M.
     auto gradient = [&](const Vec3 &N, const Vec3 &M, Vec3 *EN, Vec3 *AN_BM, Vec3 *HM) {
       *EN    = FormTimes(Fe.alpha, Fe.beta, Psi, x, N);
@@ -546,8 +537,8 @@ BeamKernelStatus MidpointForces(const BeamElementReference &ref, const BeamSecti
       *HM    = FormTimes(Fh.alpha, Fh.beta, Psi, x, M);
     };
     Vec3 EN, AN_BM, HM, ENd, ANd, HMd;
-    gradient(N_mid, M_mid, &EN, &AN_BM, &HM);
-    gradient(N_d, M_d, &ENd, &ANd, &HMd);
+    gradient(pt.N_mid, pt.M_mid, &EN, &AN_BM, &HM);
+    gradient(pt.N_d, pt.M_d, &ENd, &ANd, &HMd);
     for (int a : others) {
       h_rho[a] += wJ * dI[a] * EN;
       h_psi[a] += wJ * (I[a] * AN_BM + dI[a] * HM);
@@ -555,69 +546,33 @@ BeamKernelStatus MidpointForces(const BeamElementReference &ref, const BeamSecti
       k_psi[a] += wJ * (I[a] * ANd + dI[a] * HMd);
     }
     if (!want_end) continue;
-    const Vec3 ue1 = JacobianShift(Fe1.alpha_x, Fe1.beta, Fe1.beta_x, end.Psi, end.drho);
-    const Vec3 uh1 = JacobianShift(Fh1.alpha_x, Fh1.beta, Fh1.beta_x, end.Psi, end.dPsi);
+    pt.ue1 = JacobianShift(Fe1.alpha_x, Fe1.beta, Fe1.beta_x, end.Psi, end.drho);
+    pt.uh1 = JacobianShift(Fh1.alpha_x, Fh1.beta, Fh1.beta_x, end.Psi, end.dPsi);
     if (end_residual_out) {
       const Vec3 EN1 = FormTimes(Fe1.alpha, Fe1.beta, end.Psi, x1, N_1), HM1 = FormTimes(Fh1.alpha, Fh1.beta, end.Psi, x1, M_1);
-      const Vec3 AN_BM1 =
-          JacobianTransposeTimes(Fe1.alpha, Fe1.beta, end.Psi, end.drho, ue1, N_1) + JacobianTransposeTimes(Fh1.alpha, Fh1.beta, end.Psi, end.dPsi, uh1, M_1);
+      const Vec3 AN_BM1 = JacobianTransposeTimes(Fe1.alpha, Fe1.beta, end.Psi, end.drho, pt.ue1, N_1) +
+                          JacobianTransposeTimes(Fh1.alpha, Fh1.beta, end.Psi, end.dPsi, pt.uh1, M_1);
       for (int a : others) {
         g_rho[a] += wJ * dI[a] * EN1;
         g_psi[a] += wJ * (I[a] * AN_BM1 + dI[a] * HM1);
       }
     }
-    if (!want_tangent) continue;
-    const Mat3 E = FormMatrix(Fe.alpha, Fe.beta, Psi, x), H = FormMatrix(Fh.alpha, Fh.beta, Psi, x);
-    const Mat3 A = JacobianMatrix(Fe.alpha, Fe.beta, Psi, drho, ue), B = JacobianMatrix(Fh.alpha, Fh.beta, Psi, dPsi, uh);
-    const Mat3 E1 = FormMatrix(Fe1.alpha, Fe1.beta, end.Psi, x1), H1 = FormMatrix(Fh1.alpha, Fh1.beta, end.Psi, x1);
-    const Mat3 A1 = JacobianMatrix(Fe1.alpha, Fe1.beta, end.Psi, end.drho, ue1), B1 = JacobianMatrix(Fh1.alpha, Fh1.beta, end.Psi, end.dPsi, uh1);
-    // Material part D(q_mid)^T C D(q_{n+1}), shared by both outputs.
-    const Mat3 ECN = E * CN.asDiagonal(), ACN = A.transpose() * CN.asDiagonal(), BCM = B.transpose() * CM.asDiagonal(), HCM = H * CM.asDiagonal();
-    const Mat3 rr = MulT(ECN, E1), rp = Mul(ECN, A1), pr = MulT(ACN, E1), pp_forces = Mul(ACN, A1);
-    const Mat3 pd = MulT(BCM, H1), dp = Mul(HCM, B1), dd = MulT(HCM, H1), pp_moments = Mul(BCM, B1);
-    // Blocks for the stresses (N, M) of the geometric part G(q_mid, S)/2 (P = d(E N)/dPsi,
-    // Q = d(H M)/dPsi, Sg the Hessian of N.E^T drho + M.H^T dPsi), the material part weighted
-    // s_forces (terms of the force resultants) and s_moments (of the moments): 1/2 and 1/2 for mc,
-    // 1 and m for the correction (m = 0 drops the moments' variation: the (N_d, 0) correction).
-    // The blocks are linear in (s, N, M), so those of K_mc + beta K_corr are one fill with
-    // 1/2 + beta, 1/2 + beta m and S_mid + beta S_d.
-    auto fill = [&](MidpointGaussBlocks *G, double s_forces, double s_moments, const Vec3 &N, const Vec3 &M) {
-      const Mat3 P  = JacobianMatrix(-Fe.alpha, Fe.beta, Psi, N, JacobianShift(-Fe.alpha_x, Fe.beta, Fe.beta_x, Psi, N));
-      const Mat3 Q  = JacobianMatrix(-Fh.alpha, Fh.beta, Psi, M, JacobianShift(-Fh.alpha_x, Fh.beta, Fh.beta_x, Psi, M));
-      const Mat3 Sg = StressHessian(Fe, Fh, Psi, x, drho, N, dPsi, M);
-      G->wJ         = wJ;
-      G->rr         = s_forces * rr;
-      G->rp         = s_forces * rp + 0.5 * P;
-      G->pr         = s_forces * pr + 0.5 * P.transpose();
-      G->pp         = s_forces * pp_forces + s_moments * pp_moments + 0.5 * Sg;
-      G->pd         = s_moments * pd + 0.5 * Q.transpose();
-      G->dp         = s_moments * dp + 0.5 * Q;
-      G->dd         = s_moments * dd;
-    };
-    const double m = correction_moments ? 1.0 : 0.0;
-    if (combined_beta) {
-      const double beta = *combined_beta;
-      fill(&blocks_mc[gp], 0.5 + beta, 0.5 + beta * m, N_mid + beta * N_d, M_mid + beta * M_d);
-      continue;
-    }
-    if (tangent_mc) fill(&blocks_mc[gp], 0.5, 0.5, N_mid, M_mid);
-    if (tangent_correction) fill(&blocks_corr[gp], 1.0, m, N_d, M_d);
   }
   if (energy_start_out) *energy_start_out = energy_n;
   if (energy_end_out) *energy_end_out = energy_1;
 
-  MidpointMaps<NN> maps;
-  maps.Lbar = 0.5 * (start->triad_c + triads[c]);
-  maps.L    = triads[c];
-  maps.LT   = maps.L.transpose();
+  BeamMidpointIterate<NN> &maps = *it;
+  maps.Lbar                     = 0.5 * (start.triad_c + triads[c]);
+  maps.L                        = triads[c];
+  maps.LT                       = maps.L.transpose();
   for (int i = 0; i < 6 * NN; ++i) force_mc[i] = force_correction[i] = 0.0;
   if (end_residual_out)
     for (int i = 0; i < 6 * NN; ++i) end_residual_out[i] = 0.0;
   for (int a : others) {
-    maps.dbar[a]      = 0.5 * (start->d[a] + (positions[a] - positions[c]));
+    maps.dbar[a]      = 0.5 * (start.d[a] + (positions[a] - positions[c]));
     maps.d[a]         = positions[a] - positions[c];
     maps.psi_mid[a]   = psi_m[a];
-    maps.Finv_mid[a]  = TangentInverseForm(ElementRotationSeries(psi_m[a].squaredNorm(), 2, want_tangent));
+    maps.Finv_mid[a]  = TangentInverseForm(ElementRotationSeries(psi_m[a].squaredNorm(), 2, for_tangent));
     maps.HinvT_mid[a] = RodriguesMatrix(maps.Finv_mid[a], psi_m[a]).transpose();
     maps.PbarT[a]     = Mul(maps.Lbar, maps.HinvT_mid[a]);   // (H^{-1}(psi_mid) Lbar^T)^T
     const Mat3 MT     = -SkewTimes(maps.dbar[a], maps.Lbar); // (Lbar^T hat(dbar))^T
@@ -645,12 +600,92 @@ BeamKernelStatus MidpointForces(const BeamElementReference &ref, const BeamSecti
       }
     }
   }
+  return BeamKernelStatus::Ok;
+}
+
+// The tangent half: the Gauss blocks of s D(q_mid)^T C D(q_{n+1}) + G(q_mid, S)/2 from the
+// iterate's operators, then MidpointTangent (K_mc + beta K_corr at once with combined_beta).
+template <int NN>
+void MidpointTangentPhase(const BeamElementReference &ref, const BeamSectionStiffness &section, const BeamMidpointIterate<NN> &it, EnergyCorrection correction,
+                          const double *combined_beta, double *tangent_mc, double *tangent_correction)
+{
+  if (combined_beta) tangent_correction = nullptr;
+  const int c = ref.reference_node;
+  int       others[NN - 1];
+  for (int a = 0, o = 0; a < NN; ++a)
+    if (a != c) others[o++] = a;
+  const Vec3         &CN = section.axial_shear, &CM = section.torsion_bending;
+  const double        m = correction == EnergyCorrection::Resultants ? 1.0 : 0.0;
+  MidpointGaussBlocks blocks_mc[NN - 1], blocks_corr[NN - 1];
+  for (int gp = 0; gp < ref.num_gauss; ++gp) {
+    const auto  &pt  = it.point[gp];
+    const Vec3  &Psi = pt.Psi, &dPsi = pt.dPsi, &drho = pt.drho;
+    const double x  = pt.x;
+    const auto  &Fe = pt.Fe, &Fh = pt.Fh, &Fe1 = pt.Fe1, &Fh1 = pt.Fh1;
+    const Mat3   E = FormMatrix(Fe.alpha, Fe.beta, Psi, x), H = FormMatrix(Fh.alpha, Fh.beta, Psi, x);
+    const Mat3   A = JacobianMatrix(Fe.alpha, Fe.beta, Psi, drho, pt.ue), B = JacobianMatrix(Fh.alpha, Fh.beta, Psi, dPsi, pt.uh);
+    const Mat3   E1 = FormMatrix(Fe1.alpha, Fe1.beta, pt.Psi1, pt.x1), H1 = FormMatrix(Fh1.alpha, Fh1.beta, pt.Psi1, pt.x1);
+    const Mat3   A1 = JacobianMatrix(Fe1.alpha, Fe1.beta, pt.Psi1, pt.drho1, pt.ue1), B1 = JacobianMatrix(Fh1.alpha, Fh1.beta, pt.Psi1, pt.dPsi1, pt.uh1);
+    // Material part D(q_mid)^T C D(q_{n+1}), shared by both outputs.
+    const Mat3 ECN = E * CN.asDiagonal(), ACN = A.transpose() * CN.asDiagonal(), BCM = B.transpose() * CM.asDiagonal(), HCM = H * CM.asDiagonal();
+    const Mat3 rr = MulT(ECN, E1), rp = Mul(ECN, A1), pr = MulT(ACN, E1), pp_forces = Mul(ACN, A1);
+    const Mat3 pd = MulT(BCM, H1), dp = Mul(HCM, B1), dd = MulT(HCM, H1), pp_moments = Mul(BCM, B1);
+    // Blocks for the stresses (N, M) of the geometric part G(q_mid, S)/2 (P = d(E N)/dPsi,
+    // Q = d(H M)/dPsi, Sg the Hessian of N.E^T drho + M.H^T dPsi), the material part weighted
+    // s_forces (terms of the force resultants) and s_moments (of the moments): 1/2 and 1/2 for mc,
+    // 1 and m for the correction (m = 0 drops the moments' variation: the (N_d, 0) correction).
+    // The blocks are linear in (s, N, M), so those of K_mc + beta K_corr are one fill with
+    // 1/2 + beta, 1/2 + beta m and S_mid + beta S_d.
+    auto fill = [&](MidpointGaussBlocks *G, double s_forces, double s_moments, const Vec3 &N, const Vec3 &M) {
+      const Mat3 P  = JacobianMatrix(-Fe.alpha, Fe.beta, Psi, N, JacobianShift(-Fe.alpha_x, Fe.beta, Fe.beta_x, Psi, N));
+      const Mat3 Q  = JacobianMatrix(-Fh.alpha, Fh.beta, Psi, M, JacobianShift(-Fh.alpha_x, Fh.beta, Fh.beta_x, Psi, M));
+      const Mat3 Sg = StressHessian(Fe, Fh, Psi, x, drho, N, dPsi, M);
+      G->wJ         = pt.wJ;
+      G->rr         = s_forces * rr;
+      G->rp         = s_forces * rp + 0.5 * P;
+      G->pr         = s_forces * pr + 0.5 * P.transpose();
+      G->pp         = s_forces * pp_forces + s_moments * pp_moments + 0.5 * Sg;
+      G->pd         = s_moments * pd + 0.5 * Q.transpose();
+      G->dp         = s_moments * dp + 0.5 * Q;
+      G->dd         = s_moments * dd;
+    };
+    if (combined_beta) {
+      const double beta = *combined_beta;
+      fill(&blocks_mc[gp], 0.5 + beta, 0.5 + beta * m, pt.N_mid + beta * pt.N_d, pt.M_mid + beta * pt.M_d);
+      continue;
+    }
+    if (tangent_mc) fill(&blocks_mc[gp], 0.5, 0.5, pt.N_mid, pt.M_mid);
+    if (tangent_correction) fill(&blocks_corr[gp], 1.0, m, pt.N_d, pt.M_d);
+  }
   // With beta given, blocks_mc combine both tangents; so must the local gradients of the maps'
   // variation (the forces are already out).
-  if (combined_beta)
-    for (int a = 0; a < NN; ++a) h_rho[a] += *combined_beta * k_rho[a], h_psi[a] += *combined_beta * k_psi[a];
-  if (tangent_mc) MidpointTangent<NN>(ref, others, blocks_mc, maps, h_rho, h_psi, tangent_mc);
-  if (tangent_correction) MidpointTangent<NN>(ref, others, blocks_corr, maps, k_rho, k_psi, tangent_correction);
+  Vec3 h_rho[NN], h_psi[NN];
+  for (int a = 0; a < NN; ++a) {
+    h_rho[a] = it.h_rho[a], h_psi[a] = it.h_psi[a];
+    if (combined_beta) h_rho[a] += *combined_beta * it.k_rho[a], h_psi[a] += *combined_beta * it.k_psi[a];
+  }
+  if (tangent_mc) MidpointTangent<NN>(ref, others, blocks_mc, it, h_rho, h_psi, tangent_mc);
+  if (tangent_correction) MidpointTangent<NN>(ref, others, blocks_corr, it, it.k_rho, it.k_psi, tangent_correction);
+}
+
+template <int NN>
+BeamKernelStatus MidpointForces(const BeamElementReference &ref, const BeamSectionStiffness &section, const Vec3 *positions_start, const Mat3 *triads_start,
+                                const Vec3 *positions, const Mat3 *triads, double *force_mc, double *force_correction, double *tangent_mc,
+                                double *tangent_correction, double *end_residual_out, double *energy_start_out, double *energy_end_out,
+                                EnergyCorrection correction, const double *combined_beta, const BeamMidpointStart *start)
+{
+  if (combined_beta) tangent_correction = nullptr;
+  BeamMidpointStart computed;
+  if (!start) {
+    if (BeamMidpointStartState(ref, positions_start, triads_start, &computed) != BeamKernelStatus::Ok) return BeamKernelStatus::RotationTooLarge;
+    start = &computed;
+  }
+  const bool              want_tangent = tangent_mc || tangent_correction;
+  BeamMidpointIterate<NN> it;
+  const BeamKernelStatus  status = MidpointResidualPhase<NN>(ref, section, *start, positions, triads, force_mc, force_correction, end_residual_out,
+                                                            energy_start_out, energy_end_out, correction, want_tangent, &it);
+  if (status != BeamKernelStatus::Ok) return status;
+  if (want_tangent) MidpointTangentPhase<NN>(ref, section, it, correction, combined_beta, tangent_mc, tangent_correction);
   return BeamKernelStatus::Ok;
 }
 
@@ -677,6 +712,35 @@ BeamKernelStatus BeamMidpointStartState(const BeamElementReference &ref, const V
   for (int gp = 0; gp < ref.num_gauss; ++gp) GaussDeformation(ref, gp, start->rho, start->psi, &start->strain[gp], &start->curvature[gp]);
   return BeamKernelStatus::Ok;
 }
+
+template <int NN>
+BeamKernelStatus BeamMidpointResidualKeeping(const BeamElementReference &ref, const BeamSectionStiffness &section, const BeamMidpointStart &start,
+                                             const Vec3 *positions, const Mat3 *triads, double *force_mc, double *force_correction, double *end_residual,
+                                             double *strain_energy_start, double *strain_energy_end, EnergyCorrection correction,
+                                             BeamMidpointIterate<NN> *iterate)
+{
+  if (ref.num_nodes != NN) return BeamKernelStatus::DegenerateGeometry;
+  return MidpointResidualPhase<NN>(ref, section, start, positions, triads, force_mc, force_correction, end_residual, strain_energy_start, strain_energy_end,
+                                   correction, true, iterate);
+}
+
+template <int NN>
+void BeamMidpointTangentOfIterate(const BeamElementReference &ref, const BeamSectionStiffness &section, const BeamMidpointIterate<NN> &iterate,
+                                  EnergyCorrection correction, const double *combined_beta, double *tangent_mc, double *tangent_correction)
+{
+  MidpointTangentPhase<NN>(ref, section, iterate, correction, combined_beta, tangent_mc, tangent_correction);
+}
+
+template BeamKernelStatus BeamMidpointResidualKeeping<2>(const BeamElementReference &, const BeamSectionStiffness &, const BeamMidpointStart &, const Vec3 *,
+                                                         const Mat3 *, double *, double *, double *, double *, double *, EnergyCorrection,
+                                                         BeamMidpointIterate<2> *);
+template BeamKernelStatus BeamMidpointResidualKeeping<3>(const BeamElementReference &, const BeamSectionStiffness &, const BeamMidpointStart &, const Vec3 *,
+                                                         const Mat3 *, double *, double *, double *, double *, double *, EnergyCorrection,
+                                                         BeamMidpointIterate<3> *);
+template void BeamMidpointTangentOfIterate<2>(const BeamElementReference &, const BeamSectionStiffness &, const BeamMidpointIterate<2> &, EnergyCorrection,
+                                              const double *, double *, double *);
+template void BeamMidpointTangentOfIterate<3>(const BeamElementReference &, const BeamSectionStiffness &, const BeamMidpointIterate<3> &, EnergyCorrection,
+                                              const double *, double *, double *);
 
 BeamKernelStatus BeamMidpointInternalForces(const BeamElementReference &ref, const BeamSectionStiffness &section, const Vec3 *positions_start,
                                             const Mat3 *triads_start, const Vec3 *positions, const Mat3 *triads, double *force_mc, double *force_correction,

@@ -122,6 +122,46 @@ struct BeamMidpointStart {
 };
 BeamKernelStatus BeamMidpointStartState(const BeamElementReference &ref, const Vec3 *positions_start, const Mat3 *triads_start, BeamMidpointStart *start);
 
+// em's Newton tangent always follows a residual at the same unknowns (SNES evaluates the residual,
+// then asks for the tangent there, and beta of that residual enters it). What the mid-point
+// kernel's residual computes and its tangent needs again can therefore be kept between the two
+// calls: BeamMidpointResidualKeeping fills a BeamMidpointIterate, BeamMidpointTangentOfIterate
+// builds the tangent from it, and together they give what one BeamMidpointInternalForces call
+// with the tangent gives, bit for bit, at about the cost of that call alone.
+//   per Gauss point: Psi, Psi', rho' interpolated at the mid-point and at the end of the step,
+//     their Rodrigues forms (exp and H; the mid-point's with second derivatives), the shift vectors
+//     u of the Jacobians A, B (JacobianShift), and the stresses S_mid = (S_n + S_{n+1})/2, S_d;
+//   per node: the maps Tbar (Lbar = (Lambda_{c,n} + Lambda_{c,n+1})/2, dbar_a, H^{-1}(psi_mid)^T,
+//     Lbar H^{-1}(psi_mid)^T) and T_{n+1} (Lambda_{c,n+1}, d_a, P_a = H^{-1}(psi_{a,n+1}) Lambda_c^T),
+//     and the local gradients h (of F_mc) and k (of F_corr).
+template <int NN> struct BeamMidpointIterate {
+  struct Point {
+    double        wJ, x, x1; // Gauss weight times ds/dxi; |Psi|^2 at the mid-point and at the end
+    Vec3          Psi, dPsi, drho, Psi1, dPsi1, drho1;
+    RodriguesForm Fe, Fh, Fe1, Fh1;
+    Vec3          ue, uh, ue1, uh1;
+    Vec3          N_mid, M_mid, N_d, M_d;
+  } point[NN - 1];
+  Mat3          Lbar, L, LT;
+  Vec3          d[NN], dbar[NN], psi_mid[NN];
+  Mat3          P[NN], HinvT_mid[NN], PbarT[NN];
+  RodriguesForm Finv_mid[NN];
+  Vec3          h_rho[NN], h_psi[NN], k_rho[NN], k_psi[NN];
+};
+// The residual outputs of BeamMidpointInternalForces (force_mc, force_correction, end_residual,
+// the two energies; all but the forces optional) and the iterate for the tangent. `start` as there
+// (required here). NN must be ref.num_nodes.
+template <int NN>
+BeamKernelStatus BeamMidpointResidualKeeping(const BeamElementReference &ref, const BeamSectionStiffness &section, const BeamMidpointStart &start,
+                                             const Vec3 *positions, const Mat3 *triads, double *force_mc, double *force_correction, double *end_residual,
+                                             double *strain_energy_start, double *strain_energy_end, EnergyCorrection correction,
+                                             BeamMidpointIterate<NN> *iterate);
+// The tangents of BeamMidpointInternalForces from a kept iterate: K_mc + beta K_corr into
+// tangent_mc with combined_beta, else K_mc and K_corr apart (either may be null).
+template <int NN>
+void BeamMidpointTangentOfIterate(const BeamElementReference &ref, const BeamSectionStiffness &section, const BeamMidpointIterate<NN> &iterate,
+                                  EnergyCorrection correction, const double *combined_beta, double *tangent_mc, double *tangent_correction);
+
 // The forces and energies alone (no tangents, no end residual): the call above with nullptr for those.
 BeamKernelStatus BeamMidpointInternalForces(const BeamElementReference &ref, const BeamSectionStiffness &section, const Vec3 *positions_start,
                                             const Mat3 *triads_start, const Vec3 *positions, const Mat3 *triads, double *force_mc, double *force_correction,

@@ -15,6 +15,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <memory>
 #include <random>
 #include <string>
 #include <utility>
@@ -571,6 +572,50 @@ TEST_P(BeamKernel, MidpointCombinedTangentIsTheSumOfBoth)
           EXPECT_EQ(r_combined[i], r[i]) << s.name;
         }
       }
+}
+
+// em's tangent pass from what the residual pass kept (BeamMidpointResidualKeeping, then
+// BeamMidpointTangentOfIterate) is the one-call kernel's, bit for bit: forces, r_{n+1}, energies,
+// K_mc + beta K_corr and the two tangents apart, for both corrections.
+template <int NN> void ExpectKeptIterateGivesTheKernelsResults(const BeamElementReference &ref, const StepCase &s, EnergyCorrection correction)
+{
+  constexpr int     nd = 6 * NN;
+  BeamMidpointStart start;
+  ASSERT_EQ(BeamMidpointStartState(ref, s.start.positions.data(), s.start.triads.data(), &start), BeamKernelStatus::Ok);
+  std::vector<double> mc(nd), corr(nd), r(nd), kept_mc(nd), kept_corr(nd), kept_r(nd);
+  double              energies[2], kept_energies[2];
+  auto                iterate = std::make_unique<BeamMidpointIterate<NN>>();
+  ASSERT_EQ(BeamMidpointResidualKeeping<NN>(ref, kSection, start, s.end.positions.data(), s.end.triads.data(), kept_mc.data(), kept_corr.data(), kept_r.data(),
+                                            &kept_energies[0], &kept_energies[1], correction, iterate.get()),
+            BeamKernelStatus::Ok);
+  for (const double beta : {0.0, 0.37, -2.5}) {
+    for (int combined = 0; combined < 2; ++combined) {
+      std::vector<double> K_mc(nd * nd), K_corr(nd * nd), kept_K_mc(nd * nd), kept_K_corr(nd * nd);
+      ASSERT_EQ(BeamMidpointInternalForces(ref, kSection, nullptr, nullptr, s.end.positions.data(), s.end.triads.data(), mc.data(), corr.data(), K_mc.data(),
+                                           combined ? nullptr : K_corr.data(), r.data(), &energies[0], &energies[1], correction, combined ? &beta : nullptr,
+                                           &start),
+                BeamKernelStatus::Ok);
+      BeamMidpointTangentOfIterate<NN>(ref, kSection, *iterate, correction, combined ? &beta : nullptr, kept_K_mc.data(),
+                                       combined ? nullptr : kept_K_corr.data());
+      bool same = kept_energies[0] == energies[0] && kept_energies[1] == energies[1];
+      for (int i = 0; i < nd; ++i) same = same && kept_mc[i] == mc[i] && kept_corr[i] == corr[i] && kept_r[i] == r[i];
+      for (int i = 0; i < nd * nd; ++i) same = same && kept_K_mc[i] == K_mc[i] && (combined || kept_K_corr[i] == K_corr[i]);
+      EXPECT_TRUE(same) << s.name << (combined ? " combined, beta " : " apart, beta ") << beta;
+    }
+  }
+}
+
+TEST_P(BeamKernel, MidpointTangentFromTheKeptIterateIsTheKernels)
+{
+  const int            nn = GetParam();
+  const ElementCase    ec = CurvedTwistedReference(nn, 0.6);
+  BeamElementReference ref;
+  ASSERT_EQ(BeamElementSetup(nn, ec.positions.data(), ec.triads.data(), &ref), BeamKernelStatus::Ok);
+  for (const EnergyCorrection correction : {EnergyCorrection::Resultants, EnergyCorrection::Forces})
+    for (const StepCase &s : MidpointStepCases(ec)) {
+      if (nn == 2) ExpectKeptIterateGivesTheKernelsResults<2>(ref, s, correction);
+      else ExpectKeptIterateGivesTheKernelsResults<3>(ref, s, correction);
+    }
 }
 
 // em's work identity and the exact linearisation of its beta (eq. 20) from K_mc, K_corr and r_{n+1}:
