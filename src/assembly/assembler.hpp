@@ -242,6 +242,9 @@ private:
   PetscErrorCode AddNodeResidual(Vec residual, int local_node, const double *g);
   // Adds a node's 6x6 spin-form block through its expansion.
   PetscErrorCode AddNodeBlock(Mat jacobian, int local_node, const Mat6 &block);
+  // A node's spin-form block with its spin columns taken to the node's own unknowns (a node that
+  // is not condensed).
+  Mat6 NodeBlockInUnknowns(int local_node, const Mat6 &block) const;
   // AddNodeBlock into the owned CSR values of the tangent (node_csr_destinations_), else through it.
   PetscErrorCode AddDirectNodeBlock(Mat jacobian, int local_node, const Mat6 &block, PetscScalar *diagonal_values);
   // Adds a node's spin-form 6-vector to v through its expansion's rows (R[unknowns] += rows^T g)

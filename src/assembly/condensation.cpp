@@ -284,18 +284,24 @@ PetscErrorCode Assembler::AddNodeVector(Vec v, int l, const double *g, Through t
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
+Mat6 Assembler::NodeBlockInUnknowns(int l, const Mat6 &block) const
+{
+  // Columns from spins to the node's unknowns: d theta = H(omega) d omega (accelerations and
+  // relays: I).
+  Mat6 columns = block;
+  if (!state_->equations.InitialAcceleration() && !map_->IsRelay(l)) columns.rightCols<3>() = (block.rightCols<3>() * state_->nodes[l].rotation_tangent).eval();
+  return columns;
+}
+
 PetscErrorCode Assembler::AddNodeBlock(Mat jacobian, int l, const Mat6 &block)
 {
   PetscFunctionBeginUser;
   const int node = map_->local_nodes[l];
   if (!IsCondensed(l)) {
-    // Columns from spins to the node's unknowns: d theta = H(omega) d omega (accelerations and
-    // relays: I).
-    Mat6 columns = block;
-    if (!state_->equations.InitialAcceleration() && !map_->IsRelay(l))
-      columns.rightCols<3>() = (block.rightCols<3>() * state_->nodes[l].rotation_tangent).eval();
-    PetscInt block;
-    if (NodeBlockIndices(1, map_->node_dofs[node].data(), &block)) PetscCall(MatSetValuesBlocked(jacobian, 1, &block, 1, &block, columns.data(), ADD_VALUES));
+    const Mat6 columns = NodeBlockInUnknowns(l, block);
+    PetscInt   block_index;
+    if (NodeBlockIndices(1, map_->node_dofs[node].data(), &block_index))
+      PetscCall(MatSetValuesBlocked(jacobian, 1, &block_index, 1, &block_index, columns.data(), ADD_VALUES));
     else PetscCall(MatSetValues(jacobian, 6, map_->node_dofs[node].data(), 6, map_->node_dofs[node].data(), columns.data(), ADD_VALUES));
     PetscFunctionReturn(PETSC_SUCCESS);
   }
@@ -329,10 +335,7 @@ PetscErrorCode Assembler::AddDirectNodeBlock(Mat jacobian, int l, const Mat6 &bl
     PetscCall(AddNodeBlock(jacobian, l, block));
     PetscFunctionReturn(PETSC_SUCCESS);
   }
-  // As AddNodeBlock for a node that is not condensed: spin columns to the node's unknowns,
-  // d theta = H(omega) d omega (accelerations and relays: I).
-  Mat6 columns = block;
-  if (!state_->equations.InitialAcceleration() && !map_->IsRelay(l)) columns.rightCols<3>() = (block.rightCols<3>() * state_->nodes[l].rotation_tangent).eval();
+  const Mat6 columns = NodeBlockInUnknowns(l, block);
   for (int e = 0; e < 36; ++e)
     if (destination[e] >= 0) diagonal_values[destination[e]] += columns.data()[e];
   PetscFunctionReturn(PETSC_SUCCESS);

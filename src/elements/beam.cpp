@@ -45,6 +45,13 @@ bool LocalCoordinates(int num_nodes, int c, const Vec3 *positions, const Mat3 *t
   return true;
 }
 
+// The element's nodes other than the reference node c, in order.
+template <int NN> void NonReferenceNodes(int c, int *others)
+{
+  for (int a = 0, o = 0; a < NN; ++a)
+    if (a != c) others[o++] = a;
+}
+
 // Interpolated local rotation Psi, its arc-length derivative Psi' and rho' at Gauss point gp.
 struct GaussInterpolation {
   Vec3 Psi, dPsi, drho;
@@ -233,8 +240,7 @@ BeamKernelStatus InternalForces(const BeamElementReference &ref, const BeamSecti
   Vec3      rho[NN], psi[NN];
   if (!LocalCoordinates(NN, c, positions, triads, rho, psi)) return BeamKernelStatus::RotationTooLarge;
   int others[NN - 1];
-  for (int a = 0, o = 0; a < NN; ++a)
-    if (a != c) others[o++] = a;
+  NonReferenceNodes<NN>(c, others);
 
   const bool  want_tangent = tangent_out != nullptr;
   const Vec3 &CN = section.axial_shear, &CM = section.torsion_bending;
@@ -491,8 +497,7 @@ BeamKernelStatus MidpointResidualPhase(const BeamElementReference &ref, const Be
   Vec3       rho_1[NN], psi_1[NN], rho_m[NN], psi_m[NN];
   if (!LocalCoordinates(NN, c, positions, triads, rho_1, psi_1)) return BeamKernelStatus::RotationTooLarge;
   int others[NN - 1];
-  for (int a = 0, o = 0; a < NN; ++a)
-    if (a != c) others[o++] = a;
+  NonReferenceNodes<NN>(c, others);
   for (int a = 0; a < NN; ++a) {
     rho_m[a] = 0.5 * (start.rho[a] + rho_1[a]);
     psi_m[a] = 0.5 * (start.psi[a] + psi_1[a]);
@@ -612,8 +617,7 @@ void MidpointTangentPhase(const BeamElementReference &ref, const BeamSectionStif
   if (combined_beta) tangent_correction = nullptr;
   const int c = ref.reference_node;
   int       others[NN - 1];
-  for (int a = 0, o = 0; a < NN; ++a)
-    if (a != c) others[o++] = a;
+  NonReferenceNodes<NN>(c, others);
   const Vec3         &CN = section.axial_shear, &CM = section.torsion_bending;
   const double        m = correction == EnergyCorrection::Resultants ? 1.0 : 0.0;
   MidpointGaussBlocks blocks_mc[NN - 1], blocks_corr[NN - 1];
