@@ -60,27 +60,6 @@ RotationSeries EvaluateRotationSeries(double x)
   return s;
 }
 
-RodriguesForm ExpForm(const RotationSeries &s) { return {s.c[1], s.dc[1], s.ddc[1], s.c[2], s.dc[2], s.ddc[2]}; }
-
-RodriguesForm TangentForm(const RotationSeries &s) { return {s.c[2], s.dc[2], s.ddc[2], s.c[3], s.dc[3], s.ddc[3]}; }
-
-RodriguesForm TangentInverseForm(const RotationSeries &s)
-{
-  // beta = (1 - (theta/2) cot(theta/2))/theta^2 = (c3 - 2 c4)/(2 c2): no cancellation at small angle.
-  const double num = s.c[3] - 2.0 * s.c[4], num_x = s.dc[3] - 2.0 * s.dc[4], num_xx = s.ddc[3] - 2.0 * s.ddc[4];
-  const double den = 2.0 * s.c[2], den_x = 2.0 * s.dc[2], den_xx = 2.0 * s.ddc[2];
-  const double beta    = num / den;
-  const double beta_x  = (num_x - beta * den_x) / den;
-  const double beta_xx = (num_xx - 2.0 * beta_x * den_x - beta * den_xx) / den;
-  return {-0.5, 0.0, 0.0, beta, beta_x, beta_xx};
-}
-
-Mat3 RodriguesMatrix(const RodriguesForm &f, const Vec3 &psi)
-{
-  const Mat3 S = Skew(psi);
-  return Mat3::Identity() + f.alpha * S + f.beta * S * S;
-}
-
 // F^T a = a - alpha psi x a + beta psi x (psi x a), and psi x (psi x a) = psi (psi.a) - a x.
 // d/dpsi = alpha hat(a) - 2 alpha_x (psi x a) psi^T + beta [(psi.a) I + psi a^T - 2 a psi^T]
 //          + 2 beta_x (psi x (psi x a)) psi^T

@@ -46,11 +46,25 @@ struct RodriguesForm {
   double alpha, alpha_x, alpha_xx;
   double beta, beta_x, beta_xx;
 };
-RodriguesForm ExpForm(const RotationSeries &s);            // alpha = c1, beta = c2
-RodriguesForm TangentForm(const RotationSeries &s);        // H: alpha = c2, beta = c3
-RodriguesForm TangentInverseForm(const RotationSeries &s); // H^{-1}: alpha = -1/2, beta = (c3 - 2 c4)/(2 c2)
+// (Inline: the beam kernels call these per Gauss point and per node.)
+inline RodriguesForm ExpForm(const RotationSeries &s) { return {s.c[1], s.dc[1], s.ddc[1], s.c[2], s.dc[2], s.ddc[2]}; }     // alpha = c1, beta = c2
+inline RodriguesForm TangentForm(const RotationSeries &s) { return {s.c[2], s.dc[2], s.ddc[2], s.c[3], s.dc[3], s.ddc[3]}; } // H: alpha = c2, beta = c3
+// H^{-1}: alpha = -1/2, beta = (1 - (theta/2) cot(theta/2))/theta^2 = (c3 - 2 c4)/(2 c2): no cancellation at small angle.
+inline RodriguesForm TangentInverseForm(const RotationSeries &s)
+{
+  const double num = s.c[3] - 2.0 * s.c[4], num_x = s.dc[3] - 2.0 * s.dc[4], num_xx = s.ddc[3] - 2.0 * s.ddc[4];
+  const double den = 2.0 * s.c[2], den_x = 2.0 * s.dc[2], den_xx = 2.0 * s.ddc[2];
+  const double beta    = num / den;
+  const double beta_x  = (num_x - beta * den_x) / den;
+  const double beta_xx = (num_xx - 2.0 * beta_x * den_x - beta * den_xx) / den;
+  return {-0.5, 0.0, 0.0, beta, beta_x, beta_xx};
+}
 
-Mat3 RodriguesMatrix(const RodriguesForm &f, const Vec3 &psi);
+inline Mat3 RodriguesMatrix(const RodriguesForm &f, const Vec3 &psi)
+{
+  const Mat3 S = Skew(psi);
+  return Mat3::Identity() + f.alpha * S + f.beta * S * S;
+}
 // d/dpsi [F(psi)^T a]   (3x3)
 Mat3 RodriguesTransposeApplyJacobian(const RodriguesForm &f, const Vec3 &psi, const Vec3 &a);
 // d/dpsi [F(psi) a]     (3x3)
