@@ -113,7 +113,7 @@ void BeamDampingContributor::AddStepDissipation(const State &state, double *diss
     const BeamElement &element = model_->elements[map_->local_elements[k]];
     for (int a = 0; a <= element.order; ++a) {
       const NodeState &s = state.nodes[map_->node_to_local[element.nodes[a]]];
-      *dissipation += s.displacement_increment.dot(Vec3(&force[6 * a])) + s.tangent_scaled_increment.dot(Vec3(&force[6 * a + 3]));
+      *dissipation += s.displacement_increment.dot(Vec3(&force[6 * a])) + NodeTangentScaledIncrement(state.equations, s).dot(Vec3(&force[6 * a + 3]));
     }
   }
 }

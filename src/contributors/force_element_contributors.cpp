@@ -319,7 +319,7 @@ void NodePairForceContributor::CommitStep(State *state)
     if (!eq.Dynamic()) continue;
     const NodeState &a = state->nodes[e.nodes[0]], &b = state->nodes[e.nodes[1]];
     Vec12            test;
-    test << a.displacement_increment, a.tangent_scaled_increment, b.displacement_increment, b.tangent_scaled_increment;
+    test << a.displacement_increment, NodeTangentScaledIncrement(eq, a), b.displacement_increment, NodeTangentScaledIncrement(eq, b);
     e.power = -r.dot(test) / eq.scheme.dt;
   }
 }

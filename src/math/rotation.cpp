@@ -136,9 +136,41 @@ Vec3 LogSO3(const Mat3 &R)
   return v * (theta / sn);
 }
 
-Mat3 TangentH(const Vec3 &psi) { return RodriguesMatrix(TangentForm(EvaluateRotationSeries(psi.squaredNorm())), psi); }
+namespace {
+// c_2, c_3, c_4 of EvaluateRotationSeries without the derivatives, which H and H^{-1} as matrices
+// do not need (per node and Newton iterate): below kSeriesLimit the same terms summed in the same
+// order with the same stopping test, so the values are those of EvaluateRotationSeries bit for bit.
+void RotationSeriesValues234(double x, double c[5])
+{
+  if (x >= kSeriesLimit) {
+    const RotationSeries s = EvaluateRotationSeries(x);
+    std::copy(s.c, s.c + 5, c);
+    return;
+  }
+  const double *inv_fact = kInverseFactorial.value;
+  c[2] = c[3] = c[4] = 0.0;
+  double power       = 1.0; // (-x)^k
+  for (int k = 0; k < kMaxSeriesTerms; ++k) {
+    for (int n = 2; n < kNumFunctions; ++n) c[n] += power * inv_fact[2 * k + n];
+    if (std::abs(power) * inv_fact[2 * k] < 1e-20 && k >= 2) break;
+    power *= -x;
+  }
+}
+} // namespace
 
-Mat3 TangentHInverse(const Vec3 &psi) { return RodriguesMatrix(TangentInverseForm(EvaluateRotationSeries(psi.squaredNorm())), psi); }
+Mat3 TangentH(const Vec3 &psi)
+{
+  double c[5];
+  RotationSeriesValues234(psi.squaredNorm(), c);
+  return RodriguesMatrix({c[2], 0.0, 0.0, c[3], 0.0, 0.0}, psi); // TangentForm's alpha, beta
+}
+
+Mat3 TangentHInverse(const Vec3 &psi)
+{
+  double c[5];
+  RotationSeriesValues234(psi.squaredNorm(), c);
+  return RodriguesMatrix({-0.5, 0.0, 0.0, (c[3] - 2.0 * c[4]) / (2.0 * c[2]), 0.0, 0.0}, psi); // TangentInverseForm's alpha, beta
+}
 
 Mat3 CayleySO3(const Vec3 &a)
 {

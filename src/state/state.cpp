@@ -77,7 +77,15 @@ void StateUpdateNode(const StepEquations &equations, NodeState *s)
   NodeUpdateConfiguration(s);
   if (!equations.Dynamic()) return;
   s->translation_update = AdvanceMotion(equations.scheme, s->translation_motion, s->displacement_increment);
-  TangentScaledIncrement(s->rotation_increment, &s->tangent_scaled_increment, &s->tangent_scaled_derivative);
+  if (equations.Midpoint()) TangentScaledIncrement(s->rotation_increment, &s->tangent_scaled_increment, &s->tangent_scaled_derivative);
+}
+
+Vec3 NodeTangentScaledIncrement(const StepEquations &equations, const NodeState &node)
+{
+  if (equations.Midpoint()) return node.tangent_scaled_increment;
+  Vec3 alpha;
+  TangentScaledIncrement(node.rotation_increment, &alpha, nullptr);
+  return alpha;
 }
 
 // Fixed DOFs keep a zero increment. A prescribed displacement reaches its absolute target

@@ -45,8 +45,10 @@ struct NodeState {
   MotionState translation_motion, rotation_motion;
   // Dynamics at the end of the step, derived from the increments by the time scheme.
   MotionUpdate translation_update;
-  Vec3         tangent_scaled_increment  = Vec3::Zero();     // alpha = 2 tan(|omega|/2) omega/|omega|
-  Mat3         tangent_scaled_derivative = Mat3::Identity(); // d alpha / d omega
+  // The mid-point schemes' tangent-scaled increment, kept current by StateUpdateNode for them only
+  // (their residuals read it at every iterate); other readers call NodeTangentScaledIncrement.
+  Vec3 tangent_scaled_increment  = Vec3::Zero();     // alpha = 2 tan(|omega|/2) omega/|omega|
+  Mat3 tangent_scaled_derivative = Mat3::Identity(); // d alpha / d omega
   // The residual this rank assembled on the node's prescribed DOFs (the reaction that drives
   // them, zero on other DOFs) at the end of the last step: the Newmark family's work of the
   // reactions is the trapezoidal rule over the step.
@@ -149,5 +151,9 @@ double StateMaxRotationIncrement(const State &state);
 bool NodeStateFinite(const NodeState &node);
 // The tracked quaternion of a node's current rotation: q(omega) * q_n.
 Quaternion NodeStateCurrentQuaternion(const NodeState &node);
+// alpha = 2 tan(|omega|/2) omega/|omega| of the node's rotation increment under any scheme: the
+// kept value for the mid-point schemes, else evaluated here (the per-step work and power sums of
+// the Newmark family).
+Vec3 NodeTangentScaledIncrement(const StepEquations &equations, const NodeState &node);
 
 } // namespace msflex
