@@ -38,7 +38,7 @@ bool LocalCoordinates(int num_nodes, int c, const Vec3 *positions, const Mat3 *t
       continue;
     }
     rho[a] = LcT * (positions[a] - positions[c]);
-    psi[a] = LogSO3(LcT * triads[a]);
+    psi[a] = LogSO3Acute(LcT * triads[a]);
     // log returns |psi| <= pi; a relative rotation this large inside one element is not resolvable.
     if (psi[a].norm() > 0.95 * kPi) return false;
   }

@@ -76,6 +76,39 @@ Mat3 RodriguesTransposeApplyHessian(const RodriguesForm &f, const Vec3 &psi, con
 Mat3 ExpSO3(const Vec3 &psi);
 // log: SO(3) -> R^3 with |psi| in [0, pi]; robust near 0 and near pi.
 Vec3 LogSO3(const Mat3 &R);
+
+// log(R) as LogSO3, several times cheaper for rotations by less than pi/2 (the relative rotations
+// of a beam element's nodes, per element and Newton iterate). With v = vee(R - R^T)/2 = sin(theta) n,
+// s = |v| and cos(theta) = (tr R - 1)/2:  psi = (theta/s) v,  theta = atan2(s, cos(theta)); for
+// s^2 <= 0.01, theta/s = asin(s)/s = sum_k a_k s^(2k), a_k = (2k)!/(4^k (k!)^2 (2k+1)), by Horner's
+// rule (nine terms: the k-th is below 0.01^k a_k, the rest below 1e-19). LogSO3 where
+// cos(theta) <= 0. Like LogSO3 (Shepperd's method with a dominant w), it reads the rotation's
+// antisymmetric part, so the rounding is alike: about eps/theta relative at small theta.
+struct ArcsineOverArgumentSeries {
+  static constexpr int kTerms    = 9;
+  double               a[kTerms] = {};
+  constexpr ArcsineOverArgumentSeries()
+  {
+    a[0] = 1.0; // a_k = a_{k-1} (2k-1)^2 / (2k (2k+1))
+    for (int k = 1; k < kTerms; ++k) a[k] = a[k - 1] * (2.0 * k - 1.0) * (2.0 * k - 1.0) / (2.0 * k * (2.0 * k + 1.0));
+  }
+};
+inline constexpr ArcsineOverArgumentSeries kArcsineOverArgument{};
+
+inline Vec3 LogSO3Acute(const Mat3 &R)
+{
+  const Vec3   v(0.5 * (R(2, 1) - R(1, 2)), 0.5 * (R(0, 2) - R(2, 0)), 0.5 * (R(1, 0) - R(0, 1)));
+  const double y = v.squaredNorm(), cosine = 0.5 * (R.trace() - 1.0);
+  if (!(cosine > 0.0)) return LogSO3(R);
+  if (y > 0.01) {
+    const double sine = std::sqrt(y);
+    return (std::atan2(sine, cosine) / sine) * v;
+  }
+  const double *a     = kArcsineOverArgument.a;
+  double        ratio = a[ArcsineOverArgumentSeries::kTerms - 1];
+  for (int k = ArcsineOverArgumentSeries::kTerms - 2; k >= 0; --k) ratio = ratio * y + a[k];
+  return ratio * v;
+}
 // H(psi) of eq. (4) and its inverse (singular at |psi| = 2 pi).
 Mat3 TangentH(const Vec3 &psi);
 Mat3 TangentHInverse(const Vec3 &psi);

@@ -74,6 +74,39 @@ TEST(SO3, ExpIsOrthogonalAndLogInvertsIt)
   EXPECT_EQ(LogSO3(Mat3::Identity()).norm(), 0.0);
 }
 
+TEST(SO3, AcuteLogAgreesWithLogEverywhere)
+{
+  // The three branches of LogSO3Acute: the arcsine series (sin^2 <= 0.01), atan2 (up to pi/2),
+  // LogSO3 itself beyond; both sides of each switch and of pi/2 (a series cut too short would
+  // show just below its switch). Small angles carry the rounding
+  // of R's antisymmetric part, eps/theta relative, in both functions alike.
+  std::mt19937 gen(7);
+  const double switch_angle = std::asin(0.1);
+  for (double angle : {0.0, 1e-12, 1e-7, 1e-3, 0.05, switch_angle - 1e-9, switch_angle + 1e-9, 0.35, 1.0, 0.5 * kPi - 1e-6, 0.5 * kPi + 1e-6, 2.5, 3.1}) {
+    for (int trial = 0; trial < 20; ++trial) {
+      const Vec3 psi  = RandomVector(gen, 1.0).normalized() * angle;
+      const Mat3 R    = ExpSO3(psi);
+      const Vec3 fast = LogSO3Acute(R), reference = LogSO3(R);
+      EXPECT_LE((fast - reference).norm(), 4e-16 + 4e-16 * angle) << "angle " << angle;
+      EXPECT_LE((fast - psi).norm(), 4e-16 + 1e-15 * angle) << "angle " << angle;
+    }
+  }
+  EXPECT_EQ(LogSO3Acute(Mat3::Identity()).norm(), 0.0);
+}
+
+TEST(SO3, TangentOperatorsMatchTheirSeriesForms)
+{
+  // TangentH and TangentHInverse sum only the functions they need: the same values, bit for bit,
+  // as the full series' forms.
+  std::mt19937 gen(8);
+  for (double angle : kTestAngles) {
+    const Vec3           psi = RandomVector(gen, 1.0).normalized() * angle;
+    const RotationSeries s   = EvaluateRotationSeries(psi.squaredNorm());
+    EXPECT_TRUE(TangentH(psi) == RodriguesMatrix(TangentForm(s), psi)) << "angle " << angle;
+    if (angle < 2.0 * kPi - 1.0) EXPECT_TRUE(TangentHInverse(psi) == RodriguesMatrix(TangentInverseForm(s), psi)) << "angle " << angle;
+  }
+}
+
 TEST(SO3, TangentOperatorIsTheDerivativeOfExp)
 {
   // exp(psi + h dpsi) exp(psi)^T ~ exp(h H(psi) dpsi): the spin of a perturbed exp.
