@@ -40,6 +40,8 @@ const OptionInfo kOptions[] = {
     {"-analysis_condensation_depth", "N",
      "dynamics, statics without stability: a relay node every N joints down a chain of joints (linear time); 0: condense whole chains"},
     {"-analysis_linear_solver", "direct|multigrid", "Newton's linear solver: a direct factorisation, or GMRES with algebraic multigrid (large networks)"},
+    {"-analysis_direct_solver", "auto|mumps",
+     "direct factorisation: by the tangent's structure (one rank, banded: PETSc's LU, MUMPS after a failed solve; else MUMPS), or MUMPS always"},
     {"-analysis_output_times", "T1,T2,...", "times the steps must land on (replaces the input's list)"},
     {"-analysis_control", "NAME", "path control of a static analysis: load, arc_length or displacement"},
     {"-analysis_arc_length_psi", "PSI", "weight of the load factor in the arc-length constraint (0: cylindrical)"},

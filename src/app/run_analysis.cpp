@@ -200,6 +200,7 @@ PetscErrorCode Setup(Analysis &a, Model whole)
     PetscCall(CheckpointReadState(a.comm, a.options.restart_file, a.model, a.map, a.integrator.MutableState()));
     a.integrator.SetExternalWork(a.restart->external_work);
     a.integrator.SetDissipatedEnergy(a.restart->dissipated_energy);
+    if (a.restart->pivoting_lu) PetscCall(a.integrator.UsePivotingLU());
     a.initial_energy = a.restart->initial_energy;
   }
   // Only now, with the checkpoint read: the result file (the decision to continue it was main's).
@@ -398,6 +399,7 @@ PetscErrorCode WriteCheckpoint(Analysis &a, int step, double t, int last_written
   run.external_work       = a.integrator.ExternalWork();
   run.dissipated_energy   = a.integrator.DissipatedEnergy();
   run.initial_energy      = a.initial_energy;
+  run.pivoting_lu         = a.integrator.PivotingLUForced();
   run.last_written        = last_written;
   run.history_rows        = a.history_rows;
   run.controller_step     = controller.CurrentStep();

@@ -21,7 +21,7 @@ PetscErrorCode SettingsFromOptions(MPI_Comm comm, Model *model, RunOptions *opti
   std::vector<PetscReal> output_times(1024);
   PetscInt               num_output_times = (PetscInt)output_times.size();
   PetscBool              output_times_set = PETSC_FALSE;
-  char                   linear_solver[32];
+  char                   linear_solver[32], direct_solver[32];
   char                   type[32], integrator[32], em_correction[32], control[32], control_node[256], control_joint[256], control_dof[8] = "";
   PetscInt               condensation_depth = a.condensation_depth; // default: the input's (AnalysisSettings)
   PetscInt               desired_iterations = a.desired_iterations, max_steps = a.max_steps, eigenvalues = a.eigenvalues;
@@ -33,7 +33,8 @@ PetscErrorCode SettingsFromOptions(MPI_Comm comm, Model *model, RunOptions *opti
   PetscCall(PetscStrncpy(control_joint, a.control_joint.c_str(), sizeof(control_joint)));
   PetscCall(PetscStrncpy(type, AnalysisTypeName(a.type), sizeof(type)));
   PetscCall(PetscStrncpy(integrator, TimeSchemeName(a.integrator), sizeof(integrator)));
-  PetscCall(PetscStrncpy(linear_solver, LinearSolverKindName(a.linear_solver), sizeof(linear_solver))); // default: the input's
+  PetscCall(PetscStrncpy(linear_solver, LinearSolverKindName(a.linear_solver), sizeof(linear_solver)));   // default: the input's
+  PetscCall(PetscStrncpy(direct_solver, DirectSolverChoiceName(a.direct_solver), sizeof(direct_solver))); // default: the input's
   PetscCall(PetscStrncpy(initial_velocities, a.project_initial_velocities ? "projected" : "given", sizeof(initial_velocities)));
   PetscCall(PetscStrncpy(em_correction, EnergyCorrectionName(a.em_correction), sizeof(em_correction))); // default: the input's
   const std::string type_list = AnalysisTypeNameList(), integrator_list = IntegratorNameList(), control_list = PathControlNameList();
@@ -59,6 +60,8 @@ PetscErrorCode SettingsFromOptions(MPI_Comm comm, Model *model, RunOptions *opti
   PetscCall(PetscOptionsInt("-condensation_depth", OptionDescription("-analysis_condensation_depth"), "", condensation_depth, &condensation_depth, nullptr));
   PetscCall(
       PetscOptionsString("-linear_solver", OptionDescription("-analysis_linear_solver"), "", linear_solver, linear_solver, sizeof(linear_solver), nullptr));
+  PetscCall(
+      PetscOptionsString("-direct_solver", OptionDescription("-analysis_direct_solver"), "", direct_solver, direct_solver, sizeof(direct_solver), nullptr));
   PetscCall(PetscOptionsRealArray("-output_times", OptionDescription("-analysis_output_times"), "", output_times.data(), &num_output_times, &output_times_set));
   PetscCall(PetscOptionsString("-control", OptionDescription("-analysis_control"), "", control, control, sizeof(control), nullptr));
   PetscCall(PetscOptionsReal("-arc_length_psi", OptionDescription("-analysis_arc_length_psi"), "", a.arc_length_psi, &a.arc_length_psi, nullptr));
@@ -93,6 +96,8 @@ PetscErrorCode SettingsFromOptions(MPI_Comm comm, Model *model, RunOptions *opti
              "option -analysis_em_correction must be resultants or forces, got '%s'", em_correction);
   PetscCheck(LinearSolverKindFromName(linear_solver, &a.linear_solver), comm, PETSC_ERR_USER_INPUT,
              "option -analysis_linear_solver must be direct or multigrid, got '%s'", linear_solver);
+  PetscCheck(DirectSolverChoiceFromName(direct_solver, &a.direct_solver), comm, PETSC_ERR_USER_INPUT,
+             "option -analysis_direct_solver must be auto or mumps, got '%s'", direct_solver);
   PetscCheck(PathControlFromName(control, &a.control), comm, PETSC_ERR_USER_INPUT, "option -analysis_control must be one of %s, got '%s'", control_list.c_str(),
              control);
   a.preload = preload == PETSC_TRUE;

@@ -83,6 +83,15 @@ PetscErrorCode Integrator::InitialiseMotion(double t)
   PetscCall(VecZeroEntries(increments_));
   PetscCall(SNESSolve(snes_, nullptr, increments_));
   PetscCall(SNESGetConvergedReason(snes_, &reason));
+  if (reason <= 0) {
+    bool switched;
+    PetscCall(SwitchToPivotingLU("the initial accelerations", SNESConvergedReasons[reason], &switched));
+    if (switched) {
+      PetscCall(VecZeroEntries(increments_));
+      PetscCall(SNESSolve(snes_, nullptr, increments_));
+      PetscCall(SNESGetConvergedReason(snes_, &reason));
+    }
+  }
   PetscCheck(reason > 0, comm_, PETSC_ERR_NOT_CONVERGED,
              "the initial accelerations could not be computed (%s): is every node with a DOF free given mass or stiffness?", SNESConvergedReasons[reason]);
   PetscCall(assembler.SetIncrements(increments_));
@@ -166,6 +175,30 @@ PetscErrorCode Integrator::TryEquations(const StepEquations &equations, double d
   }
   assembler.DiscardStep();
   ForgetKeptTangent(); // the retried step starts on a new tangent, whatever its length
+  bool switched = false;
+  if (!rotation_too_large) {
+    const std::string where = Format("the step from t = %.9g to %.9g", equations.t_start, equations.t_end);
+    PetscCall(SwitchToPivotingLU(where.c_str(), outcome->why, &switched));
+  }
+  if (switched) PetscCall(TryEquations(equations, dt, outcome)); // once: MUMPS stays
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode Integrator::SwitchToPivotingLU(const char *where, const std::string &why, bool *switched)
+{
+  PetscFunctionBeginUser;
+  PetscCall(NewtonUsePivotingLU(snes_, &newton_context_, switched));
+  if (*switched && !quiet_)
+    PetscCall(
+        PetscPrintf(comm_, "msflex: Newton failed on %s with PETSc's banded LU, which does not pivot (%s); MUMPS factors from here on\n", where, why.c_str()));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode Integrator::UsePivotingLU()
+{
+  bool switched;
+  PetscFunctionBeginUser;
+  PetscCall(NewtonUsePivotingLU(snes_, &newton_context_, &switched));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 

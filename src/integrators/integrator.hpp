@@ -83,6 +83,10 @@ public:
   // iterations that reused the last one, over the whole run.
   long long TangentsFormed() const { return newton_context_.tangents_formed; }
   long long TangentsReused() const { return newton_context_.tangents_reused; }
+  // Newton factors by MUMPS since PETSc's banded LU failed (NewtonUsePivotingLU); a restart makes
+  // the same choice (UsePivotingLU) so that it repeats the run to the last bit.
+  bool           PivotingLUForced() const { return newton_context_.pivoting_lu_forced; }
+  PetscErrorCode UsePivotingLU();
   // The next Newton iteration assembles a new tangent (after a checkpoint, as a restart would).
   void ForgetKeptTangent()
   {
@@ -119,6 +123,9 @@ private:
   bool             quiet_             = false;
   // One attempt at a step with these equations (TryStep, TryStaticStageStep).
   PetscErrorCode TryEquations(const StepEquations &equations, double dt, StepOutcome *outcome);
+  // After a failed Newton solve: whether the banded LU was in use and MUMPS now takes over
+  // (said on stdout with `why`, the failure), so that the same step is worth another try.
+  PetscErrorCode SwitchToPivotingLU(const char *where, const std::string &why, bool *switched);
   PetscLogStage  solve_stage_ = -1;
 };
 

@@ -332,6 +332,23 @@ PetscErrorCode   ChooseDirectSolver(Mat tangent, PC pc)
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
+// Whether the PC still factors by PETSc's LU as ChooseDirectSolver set it: no option named
+// another package or preconditioner (-pc_type, -pc_factor_mat_solver_type, read after it).
+PetscErrorCode BandedLUByStructure(PC pc, bool *answer)
+{
+  PetscBool     lu, package_named, pc_named;
+  MatSolverType package = nullptr;
+  const char   *prefix;
+  PetscFunctionBeginUser;
+  PetscCall(PetscObjectTypeCompare((PetscObject)pc, PCLU, &lu));
+  if (lu) PetscCall(PCFactorGetMatSolverType(pc, &package));
+  PetscCall(PCGetOptionsPrefix(pc, &prefix));
+  PetscCall(PetscOptionsHasName(nullptr, prefix, "-pc_factor_mat_solver_type", &package_named));
+  PetscCall(PetscOptionsHasName(nullptr, prefix, "-pc_type", &pc_named));
+  *answer = lu && package && !strcmp(package, MATSOLVERPETSC) && !package_named && !pc_named;
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
 // analysis.linear_solver multigrid (docs/solvers.md, "Large networks in statics"): GMRES
 // preconditioned by smoothed-aggregation algebraic multigrid, which builds its coarse spaces from
 // the six rigid-body modes of every node that the Assembler attaches as the tangent's near-null
@@ -421,12 +438,11 @@ PetscErrorCode NewtonSolverCreate(MPI_Comm comm, const AnalysisSettings &analysi
   PetscCall(KSPSetType(ksp, KSPPREONLY));
   if (newton_operator == NewtonOperator::AssembledWithRankOne) PetscCall(KSPSetPostSolve(ksp, ShermanMorrisonCorrection, context));
   PetscCall(KSPGetPC(ksp, &pc));
-  // The direct solver by structure is opt-in (-newton_solver_by_structure): MUMPS stays the
-  // default, whose account of a singular tangent (INFOG) the failure messages and tests rely on.
-  // A dense tangent always goes to LAPACK (MUMPS takes sparse matrices only), through msflex's
-  // dense LU, which reports a singular tangent instead of raising an error.
-  PetscBool by_structure = PETSC_FALSE;
-  PetscCall(PetscOptionsGetBool(nullptr, nullptr, "-newton_solver_by_structure", &by_structure, nullptr));
+  // The direct solver by structure (analysis.direct_solver auto): PETSc's LU for banded tangents,
+  // whose failure hands the run to MUMPS (NewtonUsePivotingLU), so that a singular tangent is
+  // still accounted for by MUMPS (INFOG). A dense tangent always goes to LAPACK (MUMPS takes
+  // sparse matrices only), through msflex's dense LU, which reports a singular tangent itself.
+  const bool by_structure = analysis.direct_solver == DirectSolverChoice::Auto;
   // Relay nodes put zeros on the diagonal (their force rows): they need a pivoting LU (MUMPS, LAPACK).
   const bool relays = context->assembler->Map().num_relays > 0;
   PetscCheck(!multigrid || !relays, comm, PETSC_ERR_USER_INPUT,
@@ -438,6 +454,7 @@ PetscErrorCode NewtonSolverCreate(MPI_Comm comm, const AnalysisSettings &analysi
   else PetscCall(SetDirectSolver(pc, tangent));
   MSFLEX_CALL_READING_OPTIONS(PetscObjectComm((PetscObject)*snes), SNESSetFromOptions(*snes));
   PetscCall(CheckFactorSolverAvailable(ksp, tangent));
+  if (by_structure && !relays && !multigrid) PetscCall(BandedLUByStructure(pc, &context->banded_lu_by_structure));
   PetscCall(DecideTangentWithResidual(*snes, linesearch, context));
   if (relays) {
     PetscCall(PrepareRelayDirectSolver(pc, tangent, "-pc_factor_mat_solver_type", analysis.condensation_depth));
@@ -879,6 +896,30 @@ PetscErrorCode NewtonDescribeFailure(SNES snes, NewtonContext *context, std::str
   *why += Format(" (SNES: %s)", SNESConvergedReasons[reason]);
   // Back to where SNESSolve ended.
   PetscCall(context->assembler->SetIncrements(x));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode NewtonUsePivotingLU(SNES snes, NewtonContext *context, bool *switched)
+{
+  KSP ksp;
+  PC  pc;
+  Mat tangent;
+  PetscFunctionBeginUser;
+  *switched = context->banded_lu_by_structure;
+  if (!*switched) PetscFunctionReturn(PETSC_SUCCESS);
+  PetscCall(NewtonForgetFactorization(snes, context));
+  PetscCall(SNESGetKSP(snes, &ksp));
+  PetscCall(KSPGetPC(ksp, &pc));
+  PetscCall(PCSetType(pc, PCLU));
+  PetscCall(PCFactorSetMatSolverType(pc, MATSOLVERMUMPS));
+  // MUMPS orders for itself; ND is PCLU's own default, so -ksp_view shows no stale RCM.
+  PetscCall(PCFactorSetMatOrderingType(pc, MATORDERINGND));
+  // PCReset dropped the operators; Newton sets them again at its next tangent, but a reused
+  // factorisation's first solve would find none.
+  tangent = context->assembler->Jacobian();
+  PetscCall(KSPSetOperators(ksp, tangent, tangent));
+  context->banded_lu_by_structure = false;
+  context->pivoting_lu_forced     = true;
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 

@@ -16,10 +16,12 @@
 //    magnitude R over element lengths h_e, which grows like N^1.5), so iterations per step do not
 //    grow with the element count. PETSc's step-size test (stol) stops Newton only while |R| is
 //    within 1e4 of that threshold (far above it the updates are round-off of a singular tangent).
-//  - MUMPS LU; with -newton_solver_by_structure the LU is chosen by structure: on one rank,
-//    PETSc's LU in RCM order when the tangent is banded under RCM (mean squared row envelope
-//    <= 60^2: chains, slender frames), else MUMPS. A dense -jacobian_mat_type uses LAPACK's LU.
-//    The symbolic factorisation is reused while the matrix pattern is unchanged.
+//  - The LU chosen by structure (analysis.direct_solver auto, the default): on one rank, PETSc's
+//    LU in RCM order when the tangent is banded under RCM (mean squared row envelope <= 60^2:
+//    chains, slender frames), else MUMPS; that LU does not pivot, so the first failed Newton
+//    solve hands the rest of the run to MUMPS (NewtonUsePivotingLU) and the step is tried again.
+//    direct_solver mumps: MUMPS always. A dense -jacobian_mat_type uses LAPACK's LU. The
+//    symbolic factorisation is reused while the matrix pattern is unchanged.
 //  - The tangent is exact in every scheme (assembly/assembler.hpp). In em it has a rank-one term
 //    (beta of eq. 20 couples every element): the operator is a shell applying the assembled
 //    tangent plus that term, and GMRES on the LU of the assembled tangent solves each Newton step
@@ -68,6 +70,10 @@ struct NewtonContext {
   // From FormJacobian until msflex's line search: residuals SNES evaluates in between (finite-
   // difference checks of the tangent) are assembled alone, so that the matrix stays the tangent.
   bool tangent_awaits_solve = false;
+  // The factorisation is PETSc's LU because the structure chose it (not an option): it does not
+  // pivot, so NewtonUsePivotingLU may replace it by MUMPS; pivoting_lu_forced once it has.
+  bool banded_lu_by_structure = false;
+  bool pivoting_lu_forced     = false;
 };
 
 // The Newton step's operator: the assembled tangent, or (em) the assembled tangent plus its
@@ -89,5 +95,10 @@ PetscErrorCode NewtonDescribeFailure(SNES snes, NewtonContext *context, std::str
 // (INFOG(1) < 0) and then fails in the solve phase, so a retried step needs a new analysis.
 // Modified Newton then forms a new tangent.
 PetscErrorCode NewtonForgetFactorization(SNES snes, NewtonContext *context);
+
+// When the structure chose PETSc's non-pivoting LU (NewtonContext::banded_lu_by_structure): the
+// rest of the run factors by MUMPS, which pivots and accounts for a singular tangent (INFOG);
+// *switched tells whether that happened now (false: MUMPS or a user's choice already). Collective.
+PetscErrorCode NewtonUsePivotingLU(SNES snes, NewtonContext *context, bool *switched);
 
 } // namespace msflex

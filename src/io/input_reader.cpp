@@ -633,6 +633,7 @@ void ReadAnalysis(const YAML::Node *mapping, const ReaderContext &context, Analy
                              "jacobian_reuse",
                              "condensation_depth",
                              "linear_solver",
+                             "direct_solver",
                              "output_times",
                              "control",
                              "arc_length_psi",
@@ -713,6 +714,11 @@ void ReadAnalysis(const YAML::Node *mapping, const ReaderContext &context, Analy
     const std::string name = ReadString(*value, "linear_solver");
     if (!LinearSolverKindFromName(name, &analysis.linear_solver))
       FailAt(value->Mark(), "unknown linear_solver " + Quote(name) + " in 'analysis'; expected direct or multigrid");
+  }
+  if (const YAML::Node *value = entry.Find("direct_solver")) {
+    const std::string name = ReadString(*value, "direct_solver");
+    if (!DirectSolverChoiceFromName(name, &analysis.direct_solver))
+      FailAt(value->Mark(), "unknown direct_solver " + Quote(name) + " in 'analysis'; expected auto or mumps");
   }
   ReadPathFollowing(entry, context, analysis);
 }

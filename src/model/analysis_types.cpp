@@ -86,4 +86,13 @@ bool LinearSolverKindFromName(const std::string &name, LinearSolverKind *kind)
 
 const char *LinearSolverKindName(LinearSolverKind kind) { return kind == LinearSolverKind::Direct ? "direct" : "multigrid"; }
 
+bool DirectSolverChoiceFromName(const std::string &name, DirectSolverChoice *choice)
+{
+  if (name != "auto" && name != "mumps") return false;
+  *choice = name == "auto" ? DirectSolverChoice::Auto : DirectSolverChoice::Mumps;
+  return true;
+}
+
+const char *DirectSolverChoiceName(DirectSolverChoice choice) { return choice == DirectSolverChoice::Auto ? "auto" : "mumps"; }
+
 } // namespace msflex

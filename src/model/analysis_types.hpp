@@ -53,4 +53,14 @@ enum class LinearSolverKind { Direct, Multigrid };
 bool        LinearSolverKindFromName(const std::string &name, LinearSolverKind *kind);
 const char *LinearSolverKindName(LinearSolverKind kind);
 
+// Which direct factorisation solves Newton's systems (analysis.direct_solver; docs/solvers.md):
+// `auto` chooses by the tangent's structure (on one rank a tangent banded under reverse
+// Cuthill-McKee goes to PETSc's LU in that order, which does not pivot, and the first failed
+// Newton solve hands the rest of the run to MUMPS; everything else to MUMPS); `mumps` always MUMPS.
+// A dense tangent (small models) is LAPACK's either way.
+enum class DirectSolverChoice { Auto, Mumps };
+
+bool        DirectSolverChoiceFromName(const std::string &name, DirectSolverChoice *choice);
+const char *DirectSolverChoiceName(DirectSolverChoice choice);
+
 } // namespace msflex

@@ -270,7 +270,9 @@ struct AnalysisSettings {
   int condensation_depth = 8;
   // Newton's linear solver (docs/solvers.md, "Large networks in statics"): direct, or GMRES with
   // algebraic multigrid on the nodes' rigid-body modes.
-  LinearSolverKind    linear_solver = LinearSolverKind::Direct;
+  LinearSolverKind linear_solver = LinearSolverKind::Direct;
+  // Its direct factorisation: by the tangent's structure, or MUMPS always (docs/solvers.md).
+  DirectSolverChoice  direct_solver = DirectSolverChoice::Auto;
   std::vector<double> output_times; // steps are shortened to hit these exactly
   // Dynamic analyses: a static stage first (equilibrium under the loads at t = 0, reached in
   // load steps starting at 1/static_stage_steps), then the motion from it.

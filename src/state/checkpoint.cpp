@@ -231,6 +231,13 @@ PetscErrorCode CheckpointWrite(MPI_Comm comm, const std::string &path, const Che
     PetscCallHDF5At(path, space = H5Screate_simple(1, &count, nullptr));
     PetscCallHDF5At(path, dataset = H5Dcreate2(group, "numbers", H5T_IEEE_F64LE, space, H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT));
     PetscCallHDF5At(path, H5Dwrite(dataset, H5T_NATIVE_DOUBLE, H5S_ALL, H5S_ALL, H5P_DEFAULT, numbers));
+    // Apart from the numbers, which checkpoints of this format without it also have: absent is 0.
+    const hsize_t one         = 1;
+    const double  pivoting_lu = run.pivoting_lu ? 1.0 : 0.0;
+    H5Id          flag_space, flag;
+    PetscCallHDF5At(path, flag_space = H5Screate_simple(1, &one, nullptr));
+    PetscCallHDF5At(path, flag = H5Dcreate2(group, "pivoting_lu", H5T_IEEE_F64LE, flag_space, H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT));
+    PetscCallHDF5At(path, H5Dwrite(flag, H5T_NATIVE_DOUBLE, H5S_ALL, H5S_ALL, H5P_DEFAULT, &pivoting_lu));
     PetscCall(WriteText(path, group, "input_file", run.input_file));
     PetscCall(WriteText(path, group, "input_text", run.input_text));
     PetscCall(WriteText(path, group, "options", run.options));
@@ -296,6 +303,14 @@ PetscErrorCode ReadRunRecord(const std::string &path, CheckpointRun *run)
   PetscCheck(problem.empty(), PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "'%s': %s", p, problem.c_str());
   problem = UnpackNumbers(numbers, run);
   PetscCheck(problem.empty(), PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "'%s': %s", p, problem.c_str());
+  run->pivoting_lu = false;
+  if (H5Lexists(file, "/run/pivoting_lu", H5P_DEFAULT) > 0) {
+    problem = ReadExactDoubles(file, "/run/pivoting_lu", 1, &numbers);
+    PetscCheck(problem.empty(), PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "'%s': %s", p, problem.c_str());
+    PetscCheck(numbers[0] == 0.0 || numbers[0] == 1.0, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "'%s': /run/pivoting_lu is %g, not 0 or 1", p, numbers[0]);
+    run->pivoting_lu = numbers[0] == 1.0;
+  }
+  H5Eclear2(H5E_DEFAULT);
   const struct {
     const char  *name;
     size_t       limit;
@@ -385,6 +400,9 @@ PetscErrorCode CheckpointReadRun(MPI_Comm comm, const std::string &path, Checkpo
   }
   for (std::string *text : {&run->input_file, &run->input_text, &run->options, &run->output_file, &run->run_id, &run->model_fingerprint})
     PetscCallMPI(BroadcastString(comm, text));
+  int pivoting_lu = run->pivoting_lu ? 1 : 0;
+  PetscCallMPI(MPI_Bcast(&pivoting_lu, 1, MPI_INT, 0, comm));
+  run->pivoting_lu = pivoting_lu != 0;
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 

@@ -4,7 +4,10 @@ at most 128 unknowns has a dense tangent by default, by msflex's dense LU), are 
 halved with a message naming
 the node involved, and the run then stops with exit status 1, one message naming the step's time,
 the reason and the node, and the results and a checkpoint written up to the last converged state
-(no PETSc trace-back, no hang)."""
+(no PETSc trace-back, no hang). With the default choice of the direct solver a sparse tangent on one
+rank is first factored by PETSc's banded LU, which stops at the zero pivot and hands the run to
+MUMPS (said once on stdout); with -analysis_direct_solver mumps, and on more ranks, nothing is handed
+over."""
 
 import os
 
@@ -17,15 +20,21 @@ check = mt.Checker("numerical trouble reports")
 MUMPS = "the tangent is singular (MUMPS INFOG(1) = -10"
 DENSE = "the tangent is singular (zero pivot in column "
 # (input, options, the factorisation's phrase on one rank / on more, other phrases, the failed step)
-cases = [("overflowing_load.yaml", [], None, ["the residual is NaN at node 'tip', in its load", "the residual norm overflows", "node 'tip' uy"], "t = 1"),
-         ("unresisted_rotation.yaml", [], (DENSE, MUMPS), ["nothing resists node 'loose' rx"], "t = 0.005"),
-         ("unresisted_rotation.yaml", ["-jacobian_dense_below", "0"], (MUMPS, MUMPS), ["nothing resists node 'loose' rx"], "t = 0.005")]
-for name, options, factorisation, common_phrases, failed_time in cases:
+HANDOVER = "with PETSc's banded LU, which does not pivot (the tangent is singular (zero pivot"
+# (input, options, the factorisation's phrase on one rank / on more, other phrases, the failed
+# step, whether one rank hands the banded LU over to MUMPS)
+cases = [("overflowing_load.yaml", [], None, ["the residual is NaN at node 'tip', in its load", "the residual norm overflows", "node 'tip' uy"], "t = 1",
+          False),
+         ("unresisted_rotation.yaml", [], (DENSE, MUMPS), ["nothing resists node 'loose' rx"], "t = 0.005", False),
+         ("unresisted_rotation.yaml", ["-jacobian_dense_below", "0"], (MUMPS, MUMPS), ["nothing resists node 'loose' rx"], "t = 0.005", True),
+         ("unresisted_rotation.yaml", ["-jacobian_dense_below", "0", "-analysis_direct_solver", "mumps"], (MUMPS, MUMPS),
+          ["nothing resists node 'loose' rx"], "t = 0.005", False)]
+for case, (name, options, factorisation, common_phrases, failed_time, hands_over) in enumerate(cases):
     source = f"{args.source_dir}/tests/regression/inputs/{name}"
     for ranks in sorted({1, args.np}):
         phrases = common_phrases + ([factorisation[0 if ranks == 1 else 1]] if factorisation else [])
         label = name + (" " + " ".join(options) if options else "")
-        output = f"{args.work_dir}/{name[:-5]}{'_sparse' if options else ''}_{ranks}.h5"
+        output = f"{args.work_dir}/{name[:-5]}_{case}_{ranks}.h5"
         code, stdout, stderr = mt.run_msflex(args, source, output, np_ranks=ranks, expect_success=False, extra=options)
         stop = [line for line in stderr.splitlines() if line.startswith("msflex:") and "stopped at" in line]
         text = stdout + stderr
@@ -35,6 +44,8 @@ for name, options, factorisation, common_phrases, failed_time in cases:
         check.equal(f"np {ranks} {label}: PETSc trace-back lines", stderr.count("PETSC ERROR"), 0)
         for phrase in phrases:
             check.true(f"np {ranks} {label}: the message has {phrase!r}", phrase in text)
+        handovers = [line for line in stdout.splitlines() if HANDOVER in line and line.endswith("MUMPS factors from here on")]
+        check.equal(f"np {ranks} {label}: lines handing the banded LU over to MUMPS", len(handovers), 1 if hands_over and ranks == 1 else 0)
         check.true(f"np {ranks} {label}: the stop message has 'the step to {failed_time}'",
                    bool(stop) and f"the step to {failed_time}" in stop[0])
         with h5py.File(output, "r") as f:

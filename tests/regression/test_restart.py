@@ -24,7 +24,10 @@
 6. A serial run continued on 2 ranks into the same file, for two pendulums whose joints are listed
    against the order of their slave nodes (so that 2 ranks own them in the other order): the
    history's columns are those of the serial run, and the continued file equals an uninterrupted
-   serial run to round-off."""
+   serial run to round-off.
+7. A run whose Newton handed PETSc's banded LU over to MUMPS (forced with a zero-pivot threshold
+   that no pivot passes): its checkpoint records it, and the restart factors by MUMPS from its
+   first step (no second handover) and ends bitwise equal to the uninterrupted run."""
 
 import os
 import shutil
@@ -293,4 +296,23 @@ check.true("crossed pendulums: the continued file has the serial run's series", 
 difference = max(float(np.abs(reference[name] - got[name]).max()) for name in reference if name not in ("residual_norm", "newton_iterations"))
 print(f"crossed pendulums: continued on 2 ranks, {len(got['time'])} rows, largest difference from the serial run {difference:.3e}")
 check.less("crossed pendulums: continued on 2 ranks equals the serial run (round-off)", difference, 1e-10)
+
+# 7. The handover to MUMPS survives a restart.
+HANDOVER = "with PETSc's banded LU, which does not pivot"
+source = f"{args.source_dir}/input/flying_spaghetti.yaml"
+settings = ["-jacobian_dense_below", 0, "-pc_factor_zeropivot", "1e30", "-analysis_end_time", 0.5]
+reference = f"{work}/handover_reference.h5"
+handovers = run(1, source, "-output_file", reference, "-output_overwrite", *settings).stdout.count(HANDOVER)
+check.equal("handover: lines saying the uninterrupted run handed the banded LU over to MUMPS", handovers, 1)
+continued = f"{work}/handover_continued.h5"
+run(1, source, "-output_file", continued, "-output_overwrite", "-quiet", "-checkpoint_every", 20, *settings)
+with h5py.File(continued.replace(".h5", ".ckpt.h5"), "r") as f:
+    check.equal("handover: the checkpoint records it (/run/pivoting_lu)", float(f["run/pivoting_lu"][0]), 1.0)
+    checkpoint_step = int(f["run/numbers"][0])
+restarted = run(1, "--restart", continued.replace(".h5", ".ckpt.h5"))
+check.true(f"handover: checkpoint step > 0 ({checkpoint_step})", checkpoint_step > 0)
+check.equal("handover: lines saying the restart handed the LU over again", restarted.stdout.count(HANDOVER), 0)
+difference, compared = largest_difference(read_all(reference), read_all(continued))
+print(f"handover: restart at step {checkpoint_step}: {compared} datasets, largest difference {difference:.3e}")
+check.less("handover: restarted run equals the uninterrupted one", difference, 1e-300)
 check.finish()

@@ -234,6 +234,9 @@ PetscMPIInt Size()
 
 } // namespace
 
+// MUMPS always (analysis.direct_solver mumps), for the tests of its account of a failure.
+static void UseMumps(Model &m) { m.analysis.direct_solver = DirectSolverChoice::Mumps; }
+
 // MUMPS' INFOG(1) and INFOG(2) of the last factorisation of the solver's preconditioner.
 PetscErrorCode MumpsInfog(SNES snes, PetscInt *infog1, PetscInt *infog2)
 {
@@ -334,10 +337,10 @@ TEST(NumericalTrouble, NanTangentBehindTheLineSearchIsNamedAtItsRow)
 // The same NaN factored by MUMPS: the factorisation fails, and the row is named.
 TEST(NumericalTrouble, NanTangentInTheFactorisationIsNamedAtItsRow)
 {
-  ScopedOptions   sparse{{"-jacobian_dense_below", "0"}}; // MUMPS, as for a model of more than 128 unknowns
+  ScopedOptions   sparse{{"-jacobian_dense_below", "0"}}; // sparse, as for a model of more than 128 unknowns
   Problem         p;
   PoisonedTangent poison;
-  ASSERT_EQ(Build(kArm, nullptr, &p), PETSC_SUCCESS);
+  ASSERT_EQ(Build(kArm, UseMumps, &p), PETSC_SUCCESS);
   ASSERT_EQ(PoisonTangent(&p, p.node_rows.at("arm.2")[1], &poison), PETSC_SUCCESS);
   SNESConvergedReason reason;
   std::string         why;
@@ -363,9 +366,16 @@ static void AddLooseBody(Model &m)
 // rotations, MUMPS stops with INFOG(1) = -10, and the first such unknown is named.
 TEST(NumericalTrouble, SingularTangentNamesTheUnknownNothingResists)
 {
-  ScopedOptions sparse{{"-jacobian_dense_below", "0"}}; // MUMPS, as for a model of more than 128 unknowns
+  ScopedOptions sparse{{"-jacobian_dense_below", "0"}}; // sparse, as for a model of more than 128 unknowns
   Problem       p;
-  ASSERT_EQ(Build(kArm, AddLooseBody, &p), PETSC_SUCCESS);
+  ASSERT_EQ(Build(
+                kArm,
+                [](Model &m) {
+                  AddLooseBody(m);
+                  UseMumps(m);
+                },
+                &p),
+            PETSC_SUCCESS);
   static const TimeScheme scheme = MakeTimeScheme(TimeSchemeKind::Newmark, 0.9, 0.01);
   SNESConvergedReason     reason;
   std::string             why;
@@ -379,6 +389,53 @@ TEST(NumericalTrouble, SingularTangentNamesTheUnknownNothingResists)
   EXPECT_EQ(why, Format("the tangent is singular (MUMPS INFOG(1) = %" PetscInt_FMT ", INFOG(2) = %" PetscInt_FMT
                         "): nothing resists node 'loose' rx (neither stiffness nor mass) (SNES: DIVERGED_LINEAR_SOLVE)",
                         infog1, infog2));
+}
+
+// The same model with the default choice of the direct solver: on one rank the banded tangent goes
+// to PETSc's LU, which stops at the zero pivot; NewtonUsePivotingLU then hands the solver to MUMPS
+// for good, and the step tried again ends with MUMPS' account, which names the unknown. On two
+// ranks MUMPS factors from the start and there is nothing to hand over.
+TEST(NumericalTrouble, BandedLUHandsASingularTangentToMumps)
+{
+  ScopedOptions sparse{{"-jacobian_dense_below", "0"}};
+  Problem       p;
+  ASSERT_EQ(Build(kArm, AddLooseBody, &p), PETSC_SUCCESS);
+  static const TimeScheme scheme = MakeTimeScheme(TimeSchemeKind::Newmark, 0.9, 0.01);
+  SNESConvergedReason     reason;
+  std::string             why;
+  bool                    switched = true;
+  EXPECT_EQ(p.context.banded_lu_by_structure, Size() == 1);
+  ASSERT_EQ(SolveStep(&p, 0, 0.01, &scheme, nullptr, &reason, &why), PETSC_SUCCESS);
+  EXPECT_EQ(reason, SNES_DIVERGED_LINEAR_SOLVE);
+  if (Size() == 1) EXPECT_EQ(why.rfind("the tangent is singular (zero pivot ", 0), 0u) << why;
+  ASSERT_EQ(NewtonForgetFactorization(p.snes, &p.context), PETSC_SUCCESS); // as after every failed solve
+  ASSERT_EQ(NewtonUsePivotingLU(p.snes, &p.context, &switched), PETSC_SUCCESS);
+  EXPECT_EQ(switched, Size() == 1);
+  EXPECT_EQ(p.context.pivoting_lu_forced, Size() == 1);
+  EXPECT_FALSE(p.context.banded_lu_by_structure);
+  ASSERT_EQ(SolveStep(&p, 0, 0.01, &scheme, nullptr, &reason, &why), PETSC_SUCCESS);
+  EXPECT_EQ(reason, SNES_DIVERGED_LINEAR_SOLVE);
+  PetscInt infog1, infog2;
+  ASSERT_EQ(MumpsInfog(p.snes, &infog1, &infog2), PETSC_SUCCESS);
+  EXPECT_EQ(infog1, -10);
+  EXPECT_EQ(why, Format("the tangent is singular (MUMPS INFOG(1) = %" PetscInt_FMT ", INFOG(2) = %" PetscInt_FMT
+                        "): nothing resists node 'loose' rx (neither stiffness nor mass) (SNES: DIVERGED_LINEAR_SOLVE)",
+                        infog1, infog2));
+  ASSERT_EQ(NewtonUsePivotingLU(p.snes, &p.context, &switched), PETSC_SUCCESS);
+  EXPECT_FALSE(switched); // once only
+}
+
+// A package named by an option is the user's choice: PETSc's LU is kept, and nothing falls back.
+TEST(NumericalTrouble, BandedLUNamedByAnOptionIsKept)
+{
+  if (Size() > 1) GTEST_SKIP() << "PETSc's LU is for one rank";
+  ScopedOptions options{{"-jacobian_dense_below", "0"}, {"-pc_factor_mat_solver_type", "petsc"}};
+  Problem       p;
+  ASSERT_EQ(Build(kArm, nullptr, &p), PETSC_SUCCESS);
+  EXPECT_FALSE(p.context.banded_lu_by_structure);
+  bool switched = true;
+  ASSERT_EQ(NewtonUsePivotingLU(p.snes, &p.context, &switched), PETSC_SUCCESS);
+  EXPECT_FALSE(switched);
 }
 
 // The same model with its tangent dense (on one rank a model of at most 128 unknowns has one by
@@ -409,10 +466,15 @@ TEST(NumericalTrouble, SingularDenseTangentNamesTheUnknownNothingResists)
 // absurd and Newton runs out of iterations, and the message says so from the history.
 TEST(NumericalTrouble, FreeBeamStaticsIsReportedSingular)
 {
-  ScopedOptions sparse{{"-jacobian_dense_below", "0"}}; // MUMPS, as for a model of more than 128 unknowns
+  ScopedOptions sparse{{"-jacobian_dense_below", "0"}}; // sparse, as for a model of more than 128 unknowns
   Problem       p;
   ASSERT_EQ(Build(
-                kArm, [](Model &m) { m.supports.clear(); }, &p),
+                kArm,
+                [](Model &m) {
+                  m.supports.clear();
+                  UseMumps(m);
+                },
+                &p),
             PETSC_SUCCESS);
   SNESConvergedReason reason;
   std::string         why;

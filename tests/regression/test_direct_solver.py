@@ -1,0 +1,67 @@
+"""Newton's direct factorisation through the executable, serially and on --np ranks
+(`analysis.direct_solver`, docs/solvers.md): by default (`auto`) the sparse tangent of a chain is
+banded, so one rank factors it by PETSc's LU in RCM order and more ranks by MUMPS; `mumps`, given as
+an option or in the input, factors by MUMPS on any number of ranks (-ksp_view names the package).
+Both give the flying spaghetti's probe history and energies to 1e-9 of each series' largest value
+(sparse tangent forced with -jacobian_dense_below 0; 0.3 s of em). An unknown value, as an option or
+in the input, stops the run with exit status 1 and one line naming it (the input's with file and
+line), without a PETSc trace-back."""
+
+import os
+import re
+
+import numpy as np
+
+import msflex_testing as mt
+
+args = mt.parse_arguments(__doc__)
+check = mt.Checker("direct solver")
+source = f"{args.source_dir}/input/flying_spaghetti.yaml"
+with open(source) as f:
+    text = f.read()
+assert "analysis:" in text
+line = 1 + text[:text.index("analysis:")].count("\n")
+given_mumps = os.path.join(args.work_dir, "given_mumps.yaml")
+with open(given_mumps, "w") as f:
+    f.write(text.replace("analysis:", "analysis:\n  direct_solver: mumps", 1))
+SPARSE = ["-jacobian_dense_below", "0", "-analysis_end_time", "0.3"]
+SERIES = ("A.position.x", "A.position.y", "A.position.z", "B.position.x", "B.position.y", "B.position.z", "B.rotation_angle", "total_energy", "kinetic_energy",
+          "strain_energy")
+
+
+def packages(stdout):
+    return sorted(set(re.findall(r"package used to perform factorization: (\w+)", stdout)))
+
+
+for ranks in sorted({1, args.np}):
+    results = {}
+    for label, model, extra, expected in (("default", source, [], "petsc" if ranks == 1 else "mumps"),
+                                          ("option mumps", source, ["-analysis_direct_solver", "mumps"], "mumps"),
+                                          ("input mumps", given_mumps, [], "mumps")):
+        output = f"{args.work_dir}/{label.replace(' ', '_')}_np{ranks}.h5"
+        _, stdout, _ = mt.run_msflex(args, model, output, extra=[*SPARSE, *extra, "-ksp_view"], np_ranks=ranks)
+        named = packages(stdout)
+        check.true(f"np {ranks} {label}: -ksp_view names the factorisation package {expected} only ({named})", named == [expected])
+        check.equal(f"np {ranks} {label}: lines handing the LU over to MUMPS", stdout.count("MUMPS factors from here on"), 0)
+        results[label] = mt.history(output)
+    for label in ("option mumps", "input mumps"):
+        worst = max(float(np.abs(results[label][s] - results["default"][s]).max() / np.abs(results["default"][s]).max()) for s in SERIES)
+        print(f"np {ranks}: {label} against the default, largest difference relative to each series' largest value {worst:.2e}")
+        check.less(f"np {ranks} {label}: the default's history", worst, 1e-9)
+
+
+def expect_error(label, model, extra, *messages):
+    code, _, stderr = mt.run_msflex(args, model, os.path.join(args.work_dir, "error.h5"), extra=extra, expect_success=False)
+    lines = [entry for entry in stderr.splitlines() if entry.strip()]
+    check.equal(f"{label}: exit status", code, 1)
+    for message in messages:
+        check.true(f"{label}: says '{message}'", any(message in entry for entry in lines))
+    check.true(f"{label}: no PETSc trace-back", "PETSC ERROR" not in stderr)
+
+
+expect_error("unknown option value", source, ["-analysis_direct_solver", "superlu"], "option -analysis_direct_solver must be auto or mumps, got 'superlu'")
+bad_input = os.path.join(args.work_dir, "bad.yaml")
+with open(bad_input, "w") as f:
+    f.write(text.replace("analysis:", "analysis:\n  direct_solver: superlu", 1))
+expect_error("unknown value in the input", bad_input, [], f"bad.yaml:{line + 1}:", "unknown direct_solver 'superlu' in 'analysis'; expected auto or mumps")
+check.finish()
