@@ -903,21 +903,17 @@ PetscErrorCode NewtonUsePivotingLU(SNES snes, NewtonContext *context, bool *swit
 {
   KSP ksp;
   PC  pc;
-  Mat tangent;
   PetscFunctionBeginUser;
   *switched = context->banded_lu_by_structure;
   if (!*switched) PetscFunctionReturn(PETSC_SUCCESS);
+  // The PC is PCLU (banded_lu_by_structure says so); without its factor (PCReset) it takes
+  // another package, and Newton gives it the operators again at its next iteration.
   PetscCall(NewtonForgetFactorization(snes, context));
   PetscCall(SNESGetKSP(snes, &ksp));
   PetscCall(KSPGetPC(ksp, &pc));
-  PetscCall(PCSetType(pc, PCLU));
   PetscCall(PCFactorSetMatSolverType(pc, MATSOLVERMUMPS));
   // MUMPS orders for itself; ND is PCLU's own default, so -ksp_view shows no stale RCM.
   PetscCall(PCFactorSetMatOrderingType(pc, MATORDERINGND));
-  // PCReset dropped the operators; Newton sets them again at its next tangent, but a reused
-  // factorisation's first solve would find none.
-  tangent = context->assembler->Jacobian();
-  PetscCall(KSPSetOperators(ksp, tangent, tangent));
   context->banded_lu_by_structure = false;
   context->pivoting_lu_forced     = true;
   PetscFunctionReturn(PETSC_SUCCESS);

@@ -22,7 +22,10 @@ struct InverseFactorials {
 const InverseFactorials kInverseFactorial;
 } // namespace
 
-RotationSeries EvaluateRotationSeries(double x)
+namespace {
+// The series and closed forms of EvaluateRotationSeries; without kDerivatives only the values c_n
+// (H and H^{-1} as matrices, per node and Newton iterate), summed alike, so bit for bit the same.
+template <bool kDerivatives> RotationSeries SumRotationSeries(double x)
 {
   RotationSeries s{};
   const double  *inv_fact = kInverseFactorial.value;
@@ -36,8 +39,10 @@ RotationSeries EvaluateRotationSeries(double x)
       for (int n = 0; n < kNumFunctions; ++n) {
         const double f = inv_fact[2 * k + n];
         s.c[n] += power * f;
-        s.dc[n] -= k * power_minus_one * f;
-        s.ddc[n] += k * (k - 1) * power_minus_two * f;
+        if constexpr (kDerivatives) {
+          s.dc[n] -= k * power_minus_one * f;
+          s.ddc[n] += k * (k - 1) * power_minus_two * f;
+        }
       }
       if (std::abs(power) * inv_fact[2 * k] < 1e-20 && k >= 2) break;
       power_minus_two = power_minus_one;
@@ -51,14 +56,19 @@ RotationSeries EvaluateRotationSeries(double x)
   s.c[1]             = std::sin(theta) / theta;
   // c_{n+2} = (1/n! - c_n)/x
   for (int n = 0; n + 2 < kNumFunctions; ++n) s.c[n + 2] = (inv_fact[n] - s.c[n]) / x;
-  // d c_0/dx = -sin(theta)/(2 theta) = -c1/2;  2 x c_n' = c_{n-1} - n c_n for n >= 1.
-  s.dc[0] = -0.5 * s.c[1];
-  for (int n = 1; n < kNumFunctions; ++n) s.dc[n] = (s.c[n - 1] - n * s.c[n]) / (2.0 * x);
-  // Differentiate 2 x c_n' = c_{n-1} - n c_n:  2 c_n' + 2 x c_n'' = c_{n-1}' - n c_n'.
-  s.ddc[0] = -0.5 * s.dc[1];
-  for (int n = 1; n < kNumFunctions; ++n) s.ddc[n] = (s.dc[n - 1] - (n + 2) * s.dc[n]) / (2.0 * x);
+  if constexpr (kDerivatives) {
+    // d c_0/dx = -sin(theta)/(2 theta) = -c1/2;  2 x c_n' = c_{n-1} - n c_n for n >= 1.
+    s.dc[0] = -0.5 * s.c[1];
+    for (int n = 1; n < kNumFunctions; ++n) s.dc[n] = (s.c[n - 1] - n * s.c[n]) / (2.0 * x);
+    // Differentiate 2 x c_n' = c_{n-1} - n c_n:  2 c_n' + 2 x c_n'' = c_{n-1}' - n c_n'.
+    s.ddc[0] = -0.5 * s.dc[1];
+    for (int n = 1; n < kNumFunctions; ++n) s.ddc[n] = (s.dc[n - 1] - (n + 2) * s.dc[n]) / (2.0 * x);
+  }
   return s;
 }
+} // namespace
+
+RotationSeries EvaluateRotationSeries(double x) { return SumRotationSeries<true>(x); }
 
 // F^T a = a - alpha psi x a + beta psi x (psi x a), and psi x (psi x a) = psi (psi.a) - a x.
 // d/dpsi = alpha hat(a) - 2 alpha_x (psi x a) psi^T + beta [(psi.a) I + psi a^T - 2 a psi^T]
@@ -136,41 +146,10 @@ Vec3 LogSO3(const Mat3 &R)
   return v * (theta / sn);
 }
 
-namespace {
-// c_2, c_3, c_4 of EvaluateRotationSeries without the derivatives, which H and H^{-1} as matrices
-// do not need (per node and Newton iterate): below kSeriesLimit the same terms summed in the same
-// order with the same stopping test, so the values are those of EvaluateRotationSeries bit for bit.
-void RotationSeriesValues234(double x, double c[5])
-{
-  if (x >= kSeriesLimit) {
-    const RotationSeries s = EvaluateRotationSeries(x);
-    std::copy(s.c, s.c + 5, c);
-    return;
-  }
-  const double *inv_fact = kInverseFactorial.value;
-  c[2] = c[3] = c[4] = 0.0;
-  double power       = 1.0; // (-x)^k
-  for (int k = 0; k < kMaxSeriesTerms; ++k) {
-    for (int n = 2; n < kNumFunctions; ++n) c[n] += power * inv_fact[2 * k + n];
-    if (std::abs(power) * inv_fact[2 * k] < 1e-20 && k >= 2) break;
-    power *= -x;
-  }
-}
-} // namespace
+// The derivatives of the series are not needed for the matrices themselves.
+Mat3 TangentH(const Vec3 &psi) { return RodriguesMatrix(TangentForm(SumRotationSeries<false>(psi.squaredNorm())), psi); }
 
-Mat3 TangentH(const Vec3 &psi)
-{
-  double c[5];
-  RotationSeriesValues234(psi.squaredNorm(), c);
-  return RodriguesMatrix({c[2], 0.0, 0.0, c[3], 0.0, 0.0}, psi); // TangentForm's alpha, beta
-}
-
-Mat3 TangentHInverse(const Vec3 &psi)
-{
-  double c[5];
-  RotationSeriesValues234(psi.squaredNorm(), c);
-  return RodriguesMatrix({-0.5, 0.0, 0.0, (c[3] - 2.0 * c[4]) / (2.0 * c[2]), 0.0, 0.0}, psi); // TangentInverseForm's alpha, beta
-}
+Mat3 TangentHInverse(const Vec3 &psi) { return RodriguesMatrix(TangentInverseForm(SumRotationSeries<false>(psi.squaredNorm())), psi); }
 
 Mat3 CayleySO3(const Vec3 &a)
 {

@@ -92,6 +92,17 @@ PetscErrorCode WriteText(const std::string &label, hid_t parent, const char *nam
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
+// `count` doubles as a 1-D dataset.
+PetscErrorCode WriteDoubles(const std::string &label, hid_t parent, const char *name, const double *values, hsize_t count)
+{
+  H5Id space, dataset;
+  PetscFunctionBeginUser;
+  PetscCallHDF5At(label, space = H5Screate_simple(1, &count, nullptr));
+  PetscCallHDF5At(label, dataset = H5Dcreate2(parent, name, H5T_IEEE_F64LE, space, H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT));
+  PetscCallHDF5At(label, H5Dwrite(dataset, H5T_NATIVE_DOUBLE, H5S_ALL, H5S_ALL, H5P_DEFAULT, values));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
 // The start-of-step state in records of fixed size: node: position (3), tracked rotation
 // quaternion w x y z (4), translational velocity, acceleration and pseudo-acceleration (9), the
 // same for the rotation in the body frame (9), the reaction on its prescribed DOFs (6); joint:
@@ -226,18 +237,10 @@ PetscErrorCode CheckpointWrite(MPI_Comm comm, const std::string &path, const Che
     PetscCallHDF5At(path, group = H5Gcreate2(file, "/run", H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT));
     PetscCall(WriteText(path, group, "format", kCheckpointFormat));
     PackNumbers(run, numbers);
-    const hsize_t count = kRunNumbers;
-    H5Id          space, dataset;
-    PetscCallHDF5At(path, space = H5Screate_simple(1, &count, nullptr));
-    PetscCallHDF5At(path, dataset = H5Dcreate2(group, "numbers", H5T_IEEE_F64LE, space, H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT));
-    PetscCallHDF5At(path, H5Dwrite(dataset, H5T_NATIVE_DOUBLE, H5S_ALL, H5S_ALL, H5P_DEFAULT, numbers));
+    PetscCall(WriteDoubles(path, group, "numbers", numbers, kRunNumbers));
     // Apart from the numbers, which checkpoints of this format without it also have: absent is 0.
-    const hsize_t one         = 1;
-    const double  pivoting_lu = run.pivoting_lu ? 1.0 : 0.0;
-    H5Id          flag_space, flag;
-    PetscCallHDF5At(path, flag_space = H5Screate_simple(1, &one, nullptr));
-    PetscCallHDF5At(path, flag = H5Dcreate2(group, "pivoting_lu", H5T_IEEE_F64LE, flag_space, H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT));
-    PetscCallHDF5At(path, H5Dwrite(flag, H5T_NATIVE_DOUBLE, H5S_ALL, H5S_ALL, H5P_DEFAULT, &pivoting_lu));
+    const double pivoting_lu = run.pivoting_lu ? 1.0 : 0.0;
+    PetscCall(WriteDoubles(path, group, "pivoting_lu", &pivoting_lu, 1));
     PetscCall(WriteText(path, group, "input_file", run.input_file));
     PetscCall(WriteText(path, group, "input_text", run.input_text));
     PetscCall(WriteText(path, group, "options", run.options));
@@ -304,13 +307,12 @@ PetscErrorCode ReadRunRecord(const std::string &path, CheckpointRun *run)
   problem = UnpackNumbers(numbers, run);
   PetscCheck(problem.empty(), PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "'%s': %s", p, problem.c_str());
   run->pivoting_lu = false;
-  if (H5Lexists(file, "/run/pivoting_lu", H5P_DEFAULT) > 0) {
+  if (H5Lexists(file, "/run/pivoting_lu", H5P_DEFAULT) > 0) { // /run exists: its numbers were read
     problem = ReadExactDoubles(file, "/run/pivoting_lu", 1, &numbers);
     PetscCheck(problem.empty(), PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "'%s': %s", p, problem.c_str());
     PetscCheck(numbers[0] == 0.0 || numbers[0] == 1.0, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "'%s': /run/pivoting_lu is %g, not 0 or 1", p, numbers[0]);
     run->pivoting_lu = numbers[0] == 1.0;
   }
-  H5Eclear2(H5E_DEFAULT);
   const struct {
     const char  *name;
     size_t       limit;
