@@ -77,37 +77,6 @@ Assembler::~Assembler()
   VecDestroy(&joint_output_);
 }
 
-// Whether the scalar pattern (this rank's rows from global row `first_row`, CSR with global
-// columns) is made of whole aligned blocks of `bs`: the rows come in groups of bs from a multiple
-// of bs, the rows of a group have the same columns, and those form whole groups of bs. Then the
-// block rows' nonzero blocks, inside and outside the diagonal part, are *diagonal and
-// *off_diagonal (for MatXAIJSetPreallocation with block size bs).
-static bool BlockPattern(const MatrixPattern &pattern, PetscInt first_row, PetscInt bs, std::vector<PetscInt> *diagonal, std::vector<PetscInt> *off_diagonal)
-{
-  const PetscInt rows = (PetscInt)pattern.diagonal_nonzeros.size();
-  diagonal->clear();
-  off_diagonal->clear();
-  if (first_row % bs != 0 || rows % bs != 0) return false;
-  for (PetscInt block = 0; block < rows / bs; ++block) {
-    const PetscInt first = block * bs, begin = pattern.row_start[first], length = pattern.row_start[first + 1] - begin;
-    if (length % bs != 0) return false;
-    for (PetscInt r = first + 1; r < first + bs; ++r) {
-      if (pattern.row_start[r + 1] - pattern.row_start[r] != length) return false;
-      if (!std::equal(pattern.columns.begin() + begin, pattern.columns.begin() + begin + length, pattern.columns.begin() + pattern.row_start[r])) return false;
-    }
-    // Sorted columns (the CSR's) in runs of bs from multiples of bs.
-    for (PetscInt k = 0; k < length; k += bs) {
-      const PetscInt column = pattern.columns[begin + k];
-      if (column % bs != 0) return false;
-      for (PetscInt c = 1; c < bs; ++c)
-        if (pattern.columns[begin + k + c] != column + c) return false;
-    }
-    diagonal->push_back(pattern.diagonal_nonzeros[first] / bs);
-    off_diagonal->push_back(pattern.off_diagonal_nonzeros[first] / bs);
-  }
-  return true;
-}
-
 PetscErrorCode Assembler::Setup(MPI_Comm comm, const Model &model, const DofMap &map, MatrixPattern pattern, std::vector<ForceContributor *> contributors,
                                 const BeamContributor *beams, const InertiaContributor *inertia, State *state)
 {
@@ -170,6 +139,8 @@ PetscErrorCode Assembler::Setup(MPI_Comm comm, const Model &model, const DofMap 
   PetscCall(MatSetType(jacobian_, ranks == 1 && map.num_global <= dense_below ? MATSEQDENSE : MATAIJ));
   PetscCall(MatSetOptionsPrefix(jacobian_, "jacobian_"));
   MSFLEX_CALL_READING_OPTIONS(PetscObjectComm((PetscObject)jacobian_), MatSetFromOptions(jacobian_));
+  PetscBool type_chosen;
+  PetscCall(PetscOptionsHasName(nullptr, "jacobian_", "-mat_type", &type_chosen));
   // -jacobian_mat_type: AIJ (the default), BAIJ (blocks of 6 when every unknown is in a node's
   // block, else 1: BlockPattern) and dense (small models). SBAIJ stores one
   // triangle of a symmetric matrix, and the tangent is not symmetric (follower loads, joints,
@@ -192,14 +163,37 @@ PetscErrorCode Assembler::Setup(MPI_Comm comm, const Model &model, const DofMap 
              chosen_pc ? "-pc_type " : "-analysis_linear_solver multigrid", chosen_pc ? pc_type : "");
   PetscCheck(!is_dense || ranks == 1, comm, PETSC_ERR_USER_INPUT,
              "bad option: -jacobian_mat_type dense runs on one rank only (no parallel dense LU): use aij or baij");
+  // Banded under RCM (one rank, sparse, the solver chosen by structure): PETSc's LU factors it
+  // (newton.cpp ChooseDirectSolver).
+  const AnalysisSettings &analysis = model.analysis;
+  banded_under_rcm_                = false;
+  if (ranks == 1 && !is_dense && analysis.direct_solver == DirectSolverChoice::Auto && !multigrid) {
+    double mean_square;
+    PetscCall(MeanSquaredRcmEnvelope(pattern, &mean_square));
+    banded_under_rcm_ = mean_square <= kBandedEnvelope * kBandedEnvelope;
+  }
+  // Such a tangent, when every unknown is in a node's block, is stored as BAIJ with blocks of 6
+  // unless an option chose the type: PETSc's LU of 6x6 blocks factors a 1000-element chain in 0.45
+  // ms against 0.61 (AIJ) and solves in 0.04 against 0.065 (docs/performance.md). Only where that
+  // LU factors it (no package, PC or relay row asks for MUMPS), and not where MUMPS factors the
+  // tangent for its inertia (statics with stability or path control, modes, buckling:
+  // TangentFactor takes AIJ and would convert it at every point).
+  const bool factored_for_inertia = analysis.type == AnalysisType::Modes || analysis.type == AnalysisType::Buckling ||
+                                    (analysis.type == AnalysisType::Static && (analysis.stability || analysis.control != PathControl::Load));
+  std::vector<PetscInt> block_diagonal, block_off_diagonal;
+  constexpr PetscInt    kNodeBlock = 6;
+  if (is_aij && !type_chosen && banded_under_rcm_ && !chosen_pc && !chosen_package && map.num_relays == 0 && !factored_for_inertia &&
+      BlockPattern(pattern, map.first_owned, kNodeBlock, &block_diagonal, &block_off_diagonal)) {
+    PetscCall(MatSetType(jacobian_, MATSEQBAIJ));
+    is_aij  = PETSC_FALSE;
+    is_baij = PETSC_TRUE;
+  }
   // Blocks of 6 where every unknown belongs to one: a node's 6 unknowns consecutive from a
   // multiple of 6 and coupled as a whole, on every rank (no partly supported node, no joint
   // coordinate); else blocks of 1. BAIJ stores them; an AIJ tangent takes them only for multigrid,
   // which then aggregates whole nodes (their six rigid-body modes): MUMPS compresses by the block
   // size (ICNTL(15)), which changes its pivot order and the direct solver's last bits.
-  constexpr PetscInt    kNodeBlock = 6;
-  std::vector<PetscInt> block_diagonal, block_off_diagonal;
-  PetscBool             blocked = PETSC_FALSE;
+  PetscBool blocked = PETSC_FALSE;
   if (is_baij || (is_aij && multigrid)) {
     blocked = BlockPattern(pattern, map.first_owned, kNodeBlock, &block_diagonal, &block_off_diagonal) ? PETSC_TRUE : PETSC_FALSE;
     PetscCall(MPIU_Allreduce(MPI_IN_PLACE, &blocked, 1, MPIU_BOOL, MPI_LAND, comm));
@@ -356,14 +350,15 @@ PetscErrorCode Assembler::AttachRigidBodyModes()
 }
 
 // Fixes the pattern with one assembly, then records where each element-matrix entry lands in the
-// CSR arrays of the owned rows (AIJ).
+// value arrays of the owned rows: AIJ (block size 1) or BAIJ with node blocks (block size 6, each
+// block stored column by column).
 PetscErrorCode Assembler::CreateCsrDestinations()
 {
   const DofMap &map = *map_;
   PetscBool     is_seq, is_mpi;
   PetscFunctionBeginUser;
-  PetscCall(PetscObjectTypeCompare((PetscObject)jacobian_, MATSEQAIJ, &is_seq));
-  PetscCall(PetscObjectTypeCompare((PetscObject)jacobian_, MATMPIAIJ, &is_mpi));
+  PetscCall(PetscObjectTypeCompareAny((PetscObject)jacobian_, &is_seq, MATSEQAIJ, node_blocks_ ? MATSEQBAIJ : "", ""));
+  PetscCall(PetscObjectTypeCompareAny((PetscObject)jacobian_, &is_mpi, MATMPIAIJ, node_blocks_ ? MATMPIBAIJ : "", ""));
   // AIJ matrices got the pattern from the CSR preallocation, BAIJ as zeros (Setup); dense needs none.
   PetscCall(MatAssemblyBegin(jacobian_, MAT_FINAL_ASSEMBLY));
   PetscCall(MatAssemblyEnd(jacobian_, MAT_FINAL_ASSEMBLY));
@@ -372,85 +367,102 @@ PetscErrorCode Assembler::CreateCsrDestinations()
   node_csr_destinations_.clear();
   if (!is_seq && !is_mpi) PetscFunctionReturn(PETSC_SUCCESS);
 
-  const PetscInt *off_diagonal_columns     = nullptr; // global column of each off-diagonal block column, ascending
+  const PetscInt  bs                       = node_blocks_ ? 6 : 1;
+  const PetscInt *off_diagonal_columns     = nullptr; // global (block) column of each off-diagonal block column, ascending
   PetscInt        num_off_diagonal_columns = 0;
   diagonal_block_                          = jacobian_;
   off_diagonal_block_                      = nullptr;
   if (is_mpi) {
-    PetscCall(MatMPIAIJGetSeqAIJ(jacobian_, &diagonal_block_, &off_diagonal_block_, &off_diagonal_columns));
+    if (node_blocks_) PetscCall(MatMPIBAIJGetSeqBAIJ(jacobian_, &diagonal_block_, &off_diagonal_block_, &off_diagonal_columns));
+    else PetscCall(MatMPIAIJGetSeqAIJ(jacobian_, &diagonal_block_, &off_diagonal_block_, &off_diagonal_columns));
     PetscCall(MatGetSize(off_diagonal_block_, nullptr, &num_off_diagonal_columns));
+    num_off_diagonal_columns /= bs;
   }
+  // Row and column structure of the (block) rows: MatGetRowIJ's fourth argument compresses BAIJ
+  // to its blocks, but AIJ to its inodes (rows of equal pattern), which the values do not follow.
+  const PetscBool compressed = node_blocks_ ? PETSC_TRUE : PETSC_FALSE;
   const PetscInt *ia, *ja, *ib = nullptr, *jb = nullptr;
   PetscInt        num_rows;
   PetscBool       done;
-  PetscCall(MatGetRowIJ(diagonal_block_, 0, PETSC_FALSE, PETSC_FALSE, &num_rows, &ia, &ja, &done));
-  PetscCheck(done, PETSC_COMM_SELF, PETSC_ERR_PLIB, "no CSR access to the diagonal block");
+  PetscCall(MatGetRowIJ(diagonal_block_, 0, PETSC_FALSE, compressed, &num_rows, &ia, &ja, &done));
+  PetscCheck(done && num_rows * bs == map.num_owned, PETSC_COMM_SELF, PETSC_ERR_PLIB, "no CSR access to the diagonal block");
   if (off_diagonal_block_) {
-    PetscCall(MatGetRowIJ(off_diagonal_block_, 0, PETSC_FALSE, PETSC_FALSE, &num_rows, &ib, &jb, &done));
-    PetscCheck(done, PETSC_COMM_SELF, PETSC_ERR_PLIB, "no CSR access to the off-diagonal block");
+    PetscCall(MatGetRowIJ(off_diagonal_block_, 0, PETSC_FALSE, compressed, &num_rows, &ib, &jb, &done));
+    PetscCheck(done && num_rows * bs == map.num_owned, PETSC_COMM_SELF, PETSC_ERR_PLIB, "no CSR access to the off-diagonal block");
   }
-  // Position of column `column` in CSR row `row`, or -1.
+  // Position of (block) column `column` in (block) row `row`, or -1.
   auto find = [](const PetscInt *row_start, const PetscInt *columns, PetscInt row, PetscInt column) -> PetscInt {
     const PetscInt *begin = columns + row_start[row], *end = columns + row_start[row + 1];
     const PetscInt *it = std::lower_bound(begin, end, column);
     return (it != end && *it == column) ? (PetscInt)(it - columns) : -1;
   };
   const PetscInt first = map.first_owned, last = map.first_owned + map.num_owned;
-  // One flat table for all elements (nd^2 entries each, from csr_destination_offsets_[k]).
+  // Slot of owned entry (row, column) in the values of the diagonal part (>= 0), of the
+  // off-diagonal part (kCsrOffDiagonal - index), or -1 when the pattern lacks it. Entry (r, c) of
+  // block b sits at bs^2 b + bs c + r.
+  auto slot_of = [&](PetscInt row, PetscInt column) -> PetscInt {
+    const PetscInt block_row = (row - first) / bs, within = bs * (column % bs) + (row - first) % bs;
+    if (column >= first && column < last) {
+      const PetscInt block = find(ia, ja, block_row, (column - first) / bs);
+      return block < 0 ? -1 : bs * bs * block + within;
+    }
+    const PetscInt *it = std::lower_bound(off_diagonal_columns, off_diagonal_columns + num_off_diagonal_columns, column / bs);
+    if (it == off_diagonal_columns + num_off_diagonal_columns || *it != column / bs) return -1;
+    const PetscInt block = find(ib, jb, block_row, (PetscInt)(it - off_diagonal_columns));
+    return block < 0 ? -1 : kCsrOffDiagonal - (bs * bs * block + within);
+  };
+  // One flat table for all elements, one destination per entry (AIJ) or per node block (BAIJ,
+  // where a node's unknowns are all free or all absent and a block row lies on one rank): u^2
+  // destinations per element of u = nd / bs units, from csr_destination_offsets_[k].
   csr_destination_offsets_.assign(map.local_elements.size() + 1, 0);
   for (size_t k = 0; k < map.local_elements.size(); ++k) {
-    const size_t nd                 = 6 * (size_t)(model_->elements[map.local_elements[k]].order + 1);
-    csr_destination_offsets_[k + 1] = csr_destination_offsets_[k] + nd * nd;
+    const size_t units              = 6 * (size_t)(model_->elements[map.local_elements[k]].order + 1) / bs;
+    csr_destination_offsets_[k + 1] = csr_destination_offsets_[k] + units * units;
   }
   csr_destinations_.assign(csr_destination_offsets_.back(), kCsrSkip);
   for (size_t k = 0; k < map.local_elements.size(); ++k) {
     PetscInt  indices[kBeamMaxDofs];
-    const int nd          = ElementIndices(model_->elements[map.local_elements[k]], map, indices);
+    const int units       = ElementIndices(model_->elements[map.local_elements[k]], map, indices) / (int)bs;
     PetscInt *destination = csr_destinations_.data() + csr_destination_offsets_[k];
-    for (int i = 0; i < nd; ++i) {
-      const PetscInt row = indices[i];
+    for (int i = 0; i < units; ++i) {
+      const PetscInt row = indices[bs * i];
       if (row < 0) continue;
       if (row < first || row >= last) {
-        for (int j = 0; j < nd; ++j) destination[i * nd + j] = kCsrOtherRank;
+        for (int j = 0; j < units; ++j) destination[i * units + j] = kCsrOtherRank;
         continue;
       }
-      for (int j = 0; j < nd; ++j) {
-        const PetscInt column = indices[j];
+      for (int j = 0; j < units; ++j) {
+        const PetscInt column = indices[bs * j];
         if (column < 0) continue;
-        PetscInt slot;
-        if (column >= first && column < last) {
-          slot = find(ia, ja, row - first, column - first);
-        } else {
-          const PetscInt *it           = std::lower_bound(off_diagonal_columns, off_diagonal_columns + num_off_diagonal_columns, column);
-          const PetscInt  local_column = (PetscInt)(it - off_diagonal_columns);
-          slot = (it != off_diagonal_columns + num_off_diagonal_columns && *it == column) ? find(ib, jb, row - first, local_column) : -1;
-          if (slot >= 0) slot = kCsrOffDiagonal - slot;
-        }
+        const PetscInt slot = slot_of(row, column);
         PetscCheck(slot != -1, PETSC_COMM_SELF, PETSC_ERR_PLIB, "entry (%" PetscInt_FMT ", %" PetscInt_FMT ") missing from the preallocated pattern", row,
                    column);
-        destination[i * nd + j] = slot;
+        destination[i * units + j] = slot;
       }
     }
   }
-  // Owned nodes' own blocks (inertia, nodal loads): rows and columns among the node's unknowns.
-  node_csr_destinations_.assign(36 * (size_t)map.num_owned_nodes, kCsrSkip);
+  // Owned nodes' own blocks (inertia, nodal loads): rows and columns among the node's unknowns;
+  // (6 / bs)^2 destinations per node.
+  const PetscInt node_units = 6 / bs;
+  node_csr_destinations_.assign((size_t)(node_units * node_units * map.num_owned_nodes), kCsrSkip);
   for (PetscInt l = 0; l < map.num_owned_nodes; ++l) {
-    PetscInt       *destination = node_csr_destinations_.data() + 36 * l;
+    PetscInt       *destination = node_csr_destinations_.data() + node_units * node_units * l;
     const PetscInt *dofs        = map.node_dofs[map.local_nodes[l]].data();
     bool            direct      = !IsCondensed((int)l);
-    for (int i = 0; i < 6 && direct; ++i) {
-      if (dofs[i] < 0) continue;
-      for (int j = 0; j < 6 && direct; ++j) {
-        if (dofs[j] < 0) continue;
-        const PetscInt slot = dofs[i] >= first && dofs[i] < last && dofs[j] >= first && dofs[j] < last ? find(ia, ja, dofs[i] - first, dofs[j] - first) : -1;
+    for (int i = 0; i < node_units && direct; ++i) {
+      if (dofs[bs * i] < 0) continue;
+      for (int j = 0; j < node_units && direct; ++j) {
+        const PetscInt row = dofs[bs * i], column = dofs[bs * j];
+        if (column < 0) continue;
+        const PetscInt slot = row >= first && row < last && column >= first && column < last ? slot_of(row, column) : -1;
         if (slot < 0) direct = false;
-        destination[6 * i + j] = slot;
+        destination[node_units * i + j] = slot;
       }
     }
     if (!direct) destination[0] = kCsrOtherRank;
   }
-  PetscCall(MatRestoreRowIJ(diagonal_block_, 0, PETSC_FALSE, PETSC_FALSE, &num_rows, &ia, &ja, &done));
-  if (off_diagonal_block_) PetscCall(MatRestoreRowIJ(off_diagonal_block_, 0, PETSC_FALSE, PETSC_FALSE, &num_rows, &ib, &jb, &done));
+  PetscCall(MatRestoreRowIJ(diagonal_block_, 0, PETSC_FALSE, compressed, &num_rows, &ia, &ja, &done));
+  if (off_diagonal_block_) PetscCall(MatRestoreRowIJ(off_diagonal_block_, 0, PETSC_FALSE, compressed, &num_rows, &ib, &jb, &done));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
@@ -499,6 +511,27 @@ PetscErrorCode Assembler::AddDirectElementMatrix(Mat target, size_t k, double *K
     PetscFunctionReturn(PETSC_SUCCESS);
   }
   const PetscInt *destination = csr_destinations_.data() + csr_destination_offsets_[k];
+  if (node_blocks_) {
+    // Node block (a, b) of the row-major K into its 6x6 block, stored column by column.
+    for (int a = 0; a < n; ++a) {
+      const PetscInt *row_destination = destination + a * n;
+      const double   *block_rows      = K + 6 * a * nd;
+      if (row_destination[0] == kCsrOtherRank) {
+        PetscInt block_row = indices[6 * a] / 6, block_columns[kBeamMaxNodes];
+        for (int b = 0; b < n; ++b) block_columns[b] = indices[6 * b] < 0 ? -1 : indices[6 * b] / 6;
+        PetscCall(MatSetValuesBlocked(target, 1, &block_row, n, block_columns, block_rows, ADD_VALUES));
+        continue;
+      }
+      for (int b = 0; b < n; ++b) {
+        const PetscInt slot = row_destination[b];
+        if (slot == kCsrSkip) continue;
+        double *block = slot >= 0 ? diagonal_values + slot : off_diagonal_values + (kCsrOffDiagonal - slot);
+        for (int c = 0; c < 6; ++c)
+          for (int r = 0; r < 6; ++r) block[6 * c + r] += block_rows[r * nd + 6 * b + c];
+      }
+    }
+    PetscFunctionReturn(PETSC_SUCCESS);
+  }
   for (int i = 0; i < nd; ++i) {
     const PetscInt *row_destination = destination + i * nd;
     const double   *row_values      = K + i * nd;
@@ -847,28 +880,40 @@ PetscErrorCode Assembler::SetupEnergyCorrectionTangent(bool with_matrix)
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
-// The CSR value arrays of a matrix's owned rows (diagonal and off-diagonal blocks), for the direct
-// element path; null when the matrix type has none.
+// The value arrays of a matrix's owned rows (diagonal and off-diagonal parts), AIJ or BAIJ, for
+// the direct element path; null when the matrix type has none.
 static PetscErrorCode GetCsrValues(Mat matrix, bool have_destinations, Mat *diagonal, Mat *off_diagonal, PetscScalar **diagonal_values,
                                    PetscScalar **off_diagonal_values)
 {
-  PetscBool is_mpi;
+  PetscBool is_mpi_aij, is_mpi_baij, is_baij;
   PetscFunctionBeginUser;
   *diagonal_values = *off_diagonal_values = nullptr;
   *diagonal = matrix, *off_diagonal = nullptr;
   if (!have_destinations) PetscFunctionReturn(PETSC_SUCCESS);
-  PetscCall(PetscObjectTypeCompare((PetscObject)matrix, MATMPIAIJ, &is_mpi));
-  if (is_mpi) PetscCall(MatMPIAIJGetSeqAIJ(matrix, diagonal, off_diagonal, nullptr));
-  PetscCall(MatSeqAIJGetArray(*diagonal, diagonal_values));
-  if (*off_diagonal) PetscCall(MatSeqAIJGetArray(*off_diagonal, off_diagonal_values));
+  PetscCall(PetscObjectTypeCompare((PetscObject)matrix, MATMPIAIJ, &is_mpi_aij));
+  PetscCall(PetscObjectTypeCompare((PetscObject)matrix, MATMPIBAIJ, &is_mpi_baij));
+  if (is_mpi_aij) PetscCall(MatMPIAIJGetSeqAIJ(matrix, diagonal, off_diagonal, nullptr));
+  if (is_mpi_baij) PetscCall(MatMPIBAIJGetSeqBAIJ(matrix, diagonal, off_diagonal, nullptr));
+  PetscCall(PetscObjectTypeCompare((PetscObject)*diagonal, MATSEQBAIJ, &is_baij));
+  for (auto [part, values] : {std::pair{*diagonal, diagonal_values}, std::pair{*off_diagonal, off_diagonal_values}}) {
+    if (!part) continue;
+    if (is_baij) PetscCall(MatSeqBAIJGetArray(part, values));
+    else PetscCall(MatSeqAIJGetArray(part, values));
+  }
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
 static PetscErrorCode RestoreCsrValues(Mat diagonal, Mat off_diagonal, PetscScalar **diagonal_values, PetscScalar **off_diagonal_values)
 {
+  PetscBool is_baij;
   PetscFunctionBeginUser;
-  if (*diagonal_values) PetscCall(MatSeqAIJRestoreArray(diagonal, diagonal_values));
-  if (*off_diagonal_values) PetscCall(MatSeqAIJRestoreArray(off_diagonal, off_diagonal_values));
+  if (!*diagonal_values) PetscFunctionReturn(PETSC_SUCCESS);
+  PetscCall(PetscObjectTypeCompare((PetscObject)diagonal, MATSEQBAIJ, &is_baij));
+  for (auto [part, values] : {std::pair{diagonal, diagonal_values}, std::pair{off_diagonal, off_diagonal_values}}) {
+    if (!*values) continue;
+    if (is_baij) PetscCall(MatSeqBAIJRestoreArray(part, values));
+    else PetscCall(MatSeqAIJRestoreArray(part, values));
+  }
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 

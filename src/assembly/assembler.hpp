@@ -15,6 +15,7 @@
 // node, ghosts included); the integrator owns the State.
 #pragma once
 
+#include "assembly/tangent_structure.hpp"
 #include "contributors/contributor.hpp"
 #include "dofs/dof_map.hpp"
 #include "model/model.hpp"
@@ -39,12 +40,6 @@ struct InitialVelocityReport {
   double   strain_rate_before = 0.0, strain_rate_after = 0.0; // V^T K V of the beams, before and after (W)
   double   slave_change = 0.0;                                // largest change of a slave's given velocity (m/s or rad/s)
   PetscInt iterations   = 0;                                  // of the conjugate gradients
-};
-
-// The exact nonzero pattern of the owned rows (DofMapPreallocation), computed on the whole model
-// before it is restricted to the rank's part.
-struct MatrixPattern {
-  std::vector<PetscInt> diagonal_nonzeros, off_diagonal_nonzeros, row_start, columns;
 };
 
 class Assembler : public BlockSink {
@@ -158,6 +153,9 @@ public:
   PetscErrorCode DescribeUnknown(PetscInt row, std::string *what);
 
   Mat Jacobian() const { return jacobian_; }
+  // Whether the tangent is banded under RCM (one rank, mean squared envelope up to
+  // kBandedEnvelope^2: tangent_structure.hpp), which picks PETSc's LU (newton.cpp ChooseDirectSolver).
+  bool BandedUnderRcm() const { return banded_under_rcm_; }
   // Zeroes the relay nodes' own and force entries of an owned vector (a Newton step: they are not
   // increments of the state, and its norms are those of the condensed unknowns).
   PetscErrorCode ZeroRelayEntries(Vec v) const;
@@ -317,6 +315,7 @@ private:
   std::vector<PetscInt>            relay_rows_;                  // DofMap::OwnedRelayRows, as offsets into the owned rows
   bool                             skip_relay_coupling_ = false; // FindMasslessUnknowns: the mass matrix alone
   bool                             node_blocks_         = false; // the tangent is BAIJ with blocks of 6 (Setup)
+  bool                             banded_under_rcm_    = false; // BandedUnderRcm (Setup)
   std::vector<Vec6>                slave_correction_residual_;   // per local node: em's correction vector gathered on slaves
   Vec                              joint_output_ = nullptr;      // 12 per joint slot (DofMap::joint_slot): reaction (6), rates (6)
   std::vector<double>              expansion_scratch_;           // work space for expanded blocks
@@ -378,15 +377,16 @@ private:
 
   // Direct assembly into the CSR value arrays of the owned rows (the pattern is fixed by exact
   // preallocation, so the position of every element-matrix entry is computed once). Per local
-  // element, per entry (row-major): kCsrSkip (constrained row or column), kCsrOtherRank (row
-  // owned by another rank: goes through MatSetValues), an index >= 0 into the diagonal block's
-  // values, or kCsrOffDiagonal - index for the off-diagonal block. Empty when the matrix type
-  // is not AIJ: then everything goes through MatSetValues.
+  // element, per entry (AIJ) or per node block (BAIJ with node blocks), row-major: kCsrSkip
+  // (constrained row or column), kCsrOtherRank (row owned by another rank: goes through
+  // MatSetValues), an index >= 0 into the diagonal block's values (a BAIJ block's first entry), or
+  // kCsrOffDiagonal - index for the off-diagonal block. Empty for other matrix types: then
+  // everything goes through MatSetValues.
   static constexpr PetscInt kCsrSkip = -1, kCsrOtherRank = -2, kCsrOffDiagonal = -3;
   std::vector<PetscInt>     csr_destinations_;
   std::vector<size_t>       csr_destination_offsets_; // per local element + 1: where its entries start
   // The same for the 6x6 block of each owned node that is not condensed (36 entries per node,
-  // row-major, all in the diagonal block); a node whose first entry is kCsrOtherRank goes through
+  // row-major, or 1 block, all in the diagonal block); a node whose first entry is kCsrOtherRank goes through
   // AddNodeBlock. Empty with csr_destinations_.
   std::vector<PetscInt> node_csr_destinations_;
   Mat                   diagonal_block_ = nullptr, off_diagonal_block_ = nullptr; // borrowed from jacobian_

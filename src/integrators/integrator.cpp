@@ -189,8 +189,8 @@ PetscErrorCode Integrator::SwitchToPivotingLU(const char *where, const std::stri
   PetscFunctionBeginUser;
   PetscCall(NewtonUsePivotingLU(snes_, &newton_context_, switched));
   if (*switched && !quiet_)
-    PetscCall(
-        PetscPrintf(comm_, "msflex: Newton failed on %s with PETSc's banded LU, which does not pivot (%s); MUMPS factors from here on\n", where, why.c_str()));
+    PetscCall(PetscPrintf(comm_, "msflex: Newton failed on %s with PETSc's banded LU, which does not pivot between nodes (%s); MUMPS factors from here on\n",
+                          where, why.c_str()));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 

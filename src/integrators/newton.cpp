@@ -275,54 +275,17 @@ PetscErrorCode ShermanMorrisonCorrection(KSP ksp, Vec rhs, Vec x, void *ctx)
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
-// Mean squared row envelope (the distance from the diagonal to the row's first nonzero) of a
-// sequential AIJ matrix under reverse Cuthill-McKee: about the work per unknown of a banded LU in
-// that ordering. A chain of beams gives a few tens, a 3D network thousands.
-PetscErrorCode MeanSquaredRcmEnvelope(Mat A, double *mean_square)
-{
-  IS              row_permutation, column_permutation, inverse;
-  const PetscInt *row_start, *columns, *new_index;
-  PetscInt        n;
-  PetscBool       done;
-  PetscFunctionBeginUser;
-  *mean_square = -1.0;
-  PetscCall(MatGetOrdering(A, MATORDERINGRCM, &row_permutation, &column_permutation));
-  PetscCall(ISInvertPermutation(row_permutation, PETSC_DECIDE, &inverse));
-  PetscCall(ISGetIndices(inverse, &new_index));
-  PetscCall(MatGetRowIJ(A, 0, PETSC_FALSE, PETSC_FALSE, &n, &row_start, &columns, &done));
-  if (done) {
-    double sum = 0.0;
-    for (PetscInt i = 0; i < n; ++i) {
-      PetscInt first = new_index[i];
-      for (PetscInt k = row_start[i]; k < row_start[i + 1]; ++k) first = std::min(first, new_index[columns[k]]);
-      sum += std::pow((double)(new_index[i] - first), 2);
-    }
-    *mean_square = n > 0 ? sum / n : 0.0;
-    PetscCall(MatRestoreRowIJ(A, 0, PETSC_FALSE, PETSC_FALSE, &n, &row_start, &columns, &done));
-  }
-  PetscCall(ISRestoreIndices(inverse, &new_index));
-  PetscCall(ISDestroy(&inverse));
-  PetscCall(ISDestroy(&row_permutation));
-  PetscCall(ISDestroy(&column_permutation));
-  PetscFunctionReturn(PETSC_SUCCESS);
-}
-
 // The direct solver that fits (docs/solvers.md, measured in docs/performance.md): on one rank, a
-// tangent that is banded under RCM (chains, trees, slender frames: mean squared envelope up to
-// kBandedEnvelope^2) is factored fastest by PETSc's own LU in RCM order (a banded factorisation
-// without the multifrontal set-up: 8-10x faster than MUMPS on a 1000-element chain); everything
-// else (3D networks, whose fronts BLAS-3 handles, and every parallel run) by MUMPS.
-constexpr double kBandedEnvelope = 60.0;
-PetscErrorCode   ChooseDirectSolver(Mat tangent, PC pc)
+// tangent that is banded under RCM (chains, trees, slender frames: Assembler::BandedUnderRcm) is
+// factored fastest by PETSc's own LU in RCM order (a banded factorisation without the
+// multifrontal set-up: 8-10x faster than MUMPS on a 1000-element chain); everything else (3D
+// networks, whose fronts BLAS-3 handles, and every parallel run) by MUMPS, a dense tangent by LAPACK.
+PetscErrorCode ChooseDirectSolver(bool banded, Mat tangent, PC pc)
 {
-  PetscBool   sequential_aij;
-  PetscMPIInt size;
+  PetscBool dense;
   PetscFunctionBeginUser;
-  PetscCallMPI(MPI_Comm_size(PetscObjectComm((PetscObject)tangent), &size));
-  PetscCall(PetscObjectTypeCompare((PetscObject)tangent, MATSEQAIJ, &sequential_aij));
-  double mean_square = -1.0;
-  if (size == 1 && sequential_aij) PetscCall(MeanSquaredRcmEnvelope(tangent, &mean_square));
-  if (mean_square >= 0.0 && mean_square <= kBandedEnvelope * kBandedEnvelope) {
+  PetscCall(PetscObjectTypeCompareAny((PetscObject)tangent, &dense, MATSEQDENSE, MATMPIDENSE, ""));
+  if (banded && !dense) {
     PetscCall(PCSetType(pc, PCLU));
     PetscCall(PCFactorSetMatSolverType(pc, MATSOLVERPETSC));
     PetscCall(PCFactorSetMatOrderingType(pc, MATORDERINGRCM));
@@ -450,7 +413,7 @@ PetscErrorCode NewtonSolverCreate(MPI_Comm comm, const AnalysisSettings &analysi
              "diagonals, which multigrid's smoothers divide by; give -analysis_condensation_depth 0",
              analysis.condensation_depth);
   if (multigrid) PetscCall(SetMultigridSolver(ksp, pc));
-  else if (by_structure && !relays) PetscCall(ChooseDirectSolver(tangent, pc));
+  else if (by_structure && !relays) PetscCall(ChooseDirectSolver(context->assembler->BandedUnderRcm(), tangent, pc));
   else PetscCall(SetDirectSolver(pc, tangent));
   MSFLEX_CALL_READING_OPTIONS(PetscObjectComm((PetscObject)*snes), SNESSetFromOptions(*snes));
   PetscCall(CheckFactorSolverAvailable(ksp, tangent));

@@ -55,7 +55,7 @@ const char *LinearSolverKindName(LinearSolverKind kind);
 
 // Which direct factorisation solves Newton's systems (analysis.direct_solver; docs/solvers.md):
 // `auto` chooses by the tangent's structure (on one rank a tangent banded under reverse
-// Cuthill-McKee goes to PETSc's LU in that order, which does not pivot, and the first failed
+// Cuthill-McKee goes to PETSc's LU in that order, which does not pivot between nodes, and the first failed
 // Newton solve hands the rest of the run to MUMPS; everything else to MUMPS); `mumps` always MUMPS.
 // A dense tangent (small models) is LAPACK's either way.
 enum class DirectSolverChoice { Auto, Mumps };

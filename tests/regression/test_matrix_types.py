@@ -11,7 +11,14 @@ modes (input/hinged_beam_modes.yaml) and buckling (euler_column.yaml) give aij's
 1e-9 with baij and dense; sbaij (one triangle of a symmetric matrix; the tangent is not symmetric), sell and is (types msflex
 does not assemble into) and dense on more than one rank stop the run with exit status 1 and one
 line 'msflex: bad option: -jacobian_mat_type ...' giving the reason, without a PETSc trace-back or
-a crash."""
+a crash.
+
+The default type: a banded tangent whose unknowns are all in node blocks, factored by PETSc's LU
+(one rank, analysis.direct_solver auto), is seqbaij with blocks of 6 (the flying spaghetti to
+t = 0.5 with -jacobian_dense_below 0, and the clamped bend with -analysis_stability false), with
+the history of -jacobian_mat_type aij to 1e-9; it stays aij where MUMPS factors it: on 2 ranks,
+with -analysis_direct_solver mumps, with a package named (-pc_factor_mat_solver_type mumps), and in
+statics with stability (the default: MUMPS counts the tangent's negative pivots)."""
 
 import re
 
@@ -90,4 +97,34 @@ for ranks in sorted({1, args.np}):
         reason = "not symmetric" if mat_type == "sbaij" else "runs on one rank only" if mat_type == "dense" else "assembles into aij, baij and dense only"
         check.true(f"{label}: the message gives the reason ({reason})", bool(lines) and reason in lines[0])
         check.equal(f"{label}: PETSc trace-back lines", stderr.count("PETSC ERROR"), 0)
+
+# The default type: BAIJ exactly where PETSc's banded LU factors a tangent made of node blocks.
+spaghetti = f"{args.source_dir}/input/flying_spaghetti.yaml"
+default_cases = (("flying spaghetti", spaghetti, "B", ["-jacobian_dense_below", "0", "-analysis_end_time", "0.5"]),
+                 ("bend45 without stability", bend, "tip", ["-jacobian_dense_below", "0", "-analysis_stability", "false"]))
+for ranks in sorted({1, args.np}):
+    for label, path, probe, extra in default_cases:
+        outputs = {}
+        for setting in ("default", "aij"):
+            outputs[setting] = f"{args.work_dir}/default_type_{probe}_{setting}_np{ranks}.h5"
+            chosen = ["-jacobian_mat_type", "aij"] if setting == "aij" else []
+            _, stdout, _ = mt.run_msflex(args, path, outputs[setting], extra=[*extra, *chosen, "-ksp_view"], np_ranks=ranks)
+            types = sorted(set(re.findall(r"^\s*type: ((?:seq|mpi)\w+)\s*\n\s*rows=\d+, cols=\d+(?:, bs=(\d+))?", stdout, re.MULTILINE)))
+            expected = [("seqbaij", "6")] if ranks == 1 and setting == "default" else [("seqaij" if ranks == 1 else "mpiaij", "")]
+            print(f"{label}, np {ranks}, {setting}: matrix types {types}")
+            check.true(f"{label}, np {ranks}, {setting}: the tangent is {expected} ({types})", types == expected)
+        reference = mt.probe_history(outputs["aij"], probe)["displacement"]
+        displacement = mt.probe_history(outputs["default"], probe)["displacement"]
+        same_shape = displacement.shape == reference.shape
+        difference = np.abs(displacement - reference).max() / np.abs(reference).max() if same_shape else np.inf
+        check.less(f"{label}, np {ranks}: default type's {probe} history difference from aij", difference, 1e-9)
+for label, extra in (("-analysis_direct_solver mumps", ["-analysis_direct_solver", "mumps"]),
+                     ("-pc_factor_mat_solver_type mumps", ["-pc_factor_mat_solver_type", "mumps"]),
+                     ("statics with stability", ["-analysis_stability", "true"])):
+    path = bend if "stability" in label else spaghetti
+    _, stdout, _ = mt.run_msflex(args, path, f"{args.work_dir}/default_type_mumps.h5",
+                                 extra=["-jacobian_dense_below", "0", "-analysis_end_time", "0.5", *extra, "-ksp_view"], np_ranks=1)
+    types = sorted(set(re.findall(r"^\s*type: (seq(?:b?aij|dense))\s*$", stdout, re.MULTILINE)))
+    print(f"{label}: matrix types {types}")
+    check.true(f"{label}: the tangent stays seqaij ({types})", types == ["seqaij"])
 check.finish()

@@ -20,7 +20,7 @@ check = mt.Checker("numerical trouble reports")
 MUMPS = "the tangent is singular (MUMPS INFOG(1) = -10"
 DENSE = "the tangent is singular (zero pivot in column "
 # (input, options, the factorisation's phrase on one rank / on more, other phrases, the failed step)
-HANDOVER = "with PETSc's banded LU, which does not pivot (the tangent is singular (zero pivot"
+HANDOVER = "with PETSc's banded LU, which does not pivot between nodes (the tangent is singular (zero pivot"
 # (input, options, the factorisation's phrase on one rank / on more, other phrases, the failed
 # step, whether one rank hands the banded LU over to MUMPS)
 cases = [("overflowing_load.yaml", [], None, ["the residual is NaN at node 'tip', in its load", "the residual norm overflows", "node 'tip' uy"], "t = 1",

@@ -391,8 +391,8 @@ TEST(NumericalTrouble, SingularTangentNamesTheUnknownNothingResists)
                         infog1, infog2));
 }
 
-// The same model with the default choice of the direct solver: on one rank the banded tangent goes
-// to PETSc's LU, which stops at the zero pivot; NewtonUsePivotingLU then hands the solver to MUMPS
+// The same model with the default choice of the direct solver: on one rank the banded tangent
+// (BAIJ: its unknowns are all in node blocks) goes to PETSc's LU, which stops at the zero pivot; NewtonUsePivotingLU then hands the solver to MUMPS
 // for good, and the step tried again ends with MUMPS' account, which names the unknown. On two
 // ranks MUMPS factors from the start and there is nothing to hand over.
 TEST(NumericalTrouble, BandedLUHandsASingularTangentToMumps)
@@ -405,6 +405,9 @@ TEST(NumericalTrouble, BandedLUHandsASingularTangentToMumps)
   std::string             why;
   bool                    switched = true;
   EXPECT_EQ(p.context.banded_lu_by_structure, Size() == 1);
+  PetscBool node_blocks; // one rank: every unknown in a node's block, so BAIJ's LU meets the zero pivot
+  ASSERT_EQ(PetscObjectTypeCompare((PetscObject)p.assembler.Jacobian(), MATSEQBAIJ, &node_blocks), PETSC_SUCCESS);
+  EXPECT_EQ((bool)node_blocks, Size() == 1);
   ASSERT_EQ(SolveStep(&p, 0, 0.01, &scheme, nullptr, &reason, &why), PETSC_SUCCESS);
   EXPECT_EQ(reason, SNES_DIVERGED_LINEAR_SOLVE);
   if (Size() == 1) EXPECT_EQ(why.rfind("the tangent is singular (zero pivot ", 0), 0u) << why;
