@@ -561,6 +561,12 @@ PetscErrorCode Assembler::BeginStep(const StepEquations &equations)
   ForgetIncrements();
   UpdateExpansions();
   for (ForceContributor *c : contributors_) c->BeginStep(*state_);
+  inertial_roundoff_level_ = 0.0;
+  if (equations.Dynamic()) {
+    double squares = inertia_->LocalMomentumRateSquares(*state_, equations.scheme.dt);
+    PetscCall(MPIU_Allreduce(MPI_IN_PLACE, &squares, 1, MPI_DOUBLE, MPI_SUM, comm_));
+    inertial_roundoff_level_ = 100.0 * std::numeric_limits<double>::epsilon() * std::sqrt(squares);
+  }
   massless_rows_.clear();
   num_massless_unknowns_ = 0;
   if (equations.InitialAcceleration()) PetscCall(FindMasslessUnknowns());
@@ -690,6 +696,16 @@ PetscErrorCode Assembler::PredictIncrements(Vec increments)
       if (row >= 0) PetscCall(VecSetValue(increments, row, guess(d), INSERT_VALUES));
     }
   }
+  // A released coordinate moves on at its rate too (a free screw or hinge turning at speed starts
+  // near its end-of-step position, not at the start: the turning arm's em steps took 7 Newton
+  // iterations from zero increments). Set on the rank owning the coordinate's unknown.
+  PetscInt first, last;
+  PetscCall(VecGetOwnershipRange(increments, &first, &last));
+  for (const JointState &J : state_->joints)
+    for (int c = 0; c < kJointMaxReleased; ++c) {
+      const PetscInt row = map.joint_dofs[J.joint][c];
+      if (row >= first && row < last) PetscCall(VecSetValue(increments, row, dt * J.CoordinateRate(c), INSERT_VALUES));
+    }
   PetscCall(VecAssemblyBegin(increments));
   PetscCall(VecAssemblyEnd(increments));
   PetscFunctionReturn(PETSC_SUCCESS);

@@ -24,6 +24,7 @@
 #include <petscmat.h>
 #include <petscvec.h>
 
+#include <algorithm>
 #include <string>
 #include <vector>
 
@@ -61,7 +62,7 @@ public:
   // and what the last residual kept no longer describes it (ForgetIncrements).
   void DiscardStep();
   // Initial guess of the step's unknowns: zero in statics and for initial accelerations, constant
-  // velocity in dynamics (u = dt v_n, omega = dt Lambda_n W_n).
+  // velocity in dynamics (u = dt v_n, omega = dt Lambda_n W_n, a released coordinate q = dt q_n').
   PetscErrorCode PredictIncrements(Vec increments);
   // Sets the unknowns of every local node from the global vector (scatter to ghosts); slaves follow.
   // `keep_if_current`: when the values equal those of the last call and the State has not changed
@@ -102,9 +103,12 @@ public:
 
   // Magnitude of the forces in the last residual (see newton.hpp). Collective.
   PetscErrorCode ForceScale(double *scale);
-  // Residual level at which the internal forces are lost in round-off: 100 eps times the norm of
-  // the sections' stiffness (EA, GA, GJ/L, EI/L per element). Fixed after Setup.
-  double RoundoffForceLevel() const { return roundoff_force_level_; }
+  // Residual level at which the forces are lost in round-off: 100 eps times the norm of the
+  // sections' stiffness (EA, GA, GJ/L, EI/L per element), fixed after Setup, and in dynamics 100
+  // eps times the momenta over dt at the start of the step (BeginStep): an inertial residual is a
+  // difference of momenta over dt, which a predictor that moves every node and joint coordinate at
+  // its rate can leave at round-off of them (a body spinning freely about its axis).
+  double RoundoffForceLevel() const { return std::max(roundoff_force_level_, inertial_roundoff_level_); }
   // Largest |omega| over the nodes of the whole model. Collective.
   PetscErrorCode MaxRotationIncrement(double *max_rotation);
   // Work of the external loads over the current increments, plus that of the reactions that drive
@@ -343,8 +347,9 @@ private:
   std::vector<Vec6> reaction_sums_;
   bool              collect_reactions_ = false;
 
-  double            roundoff_force_level_ = 0.0;
-  double            local_force_squares_  = 0.0;     // sum of squares of every node vector added in the last residual
+  double            roundoff_force_level_    = 0.0;
+  double            inertial_roundoff_level_ = 0.0;  // of the step (BeginStep; 0 outside dynamics)
+  double            local_force_squares_     = 0.0;  // sum of squares of every node vector added in the last residual
   std::vector<Vec6> prescribed_residual_;            // per local node: the last residual's entries on prescribed DOFs (the reactions this rank assembled)
   bool              mass_matrix_only_       = false; // AssembleMassMatrix: no equations for massless groups
   double            energy_correction_      = 0.0;   // em's beta of the last residual

@@ -3,6 +3,8 @@
 #include "elements/beam_mass.hpp"
 #include "elements/inertia.hpp"
 
+#include <cmath>
+
 namespace msflex {
 
 namespace {
@@ -112,6 +114,23 @@ void InertiaContributor::AddNode(const State &state, int l, NodeContribution *ou
     for (int i = 0; i < 3; ++i) out->residual[3 + i] += moment(i);
     if (out->want_tangent) out->tangent.block<3, 3>(3, 3) += moment_tangent;
   }
+}
+
+double InertiaContributor::LocalMomentumRateSquares(const State &state, double dt) const
+{
+  double squares = 0.0;
+  for (size_t k = 0; k < map_->local_elements.size(); ++k) {
+    const BeamElement &element  = model_->elements[map_->local_elements[k]];
+    const double       rhoA     = model_->sections[element.section].rhoA;
+    double             momentum = 0.0;
+    for (int a = 0; a <= element.order; ++a)
+      momentum += rhoA * beams_->References()[k].nodal_length[a] * state.nodes[map_->node_to_local[element.nodes[a]]].translation_motion.velocity.norm();
+    squares += std::pow(momentum / dt, 2);
+  }
+  for (PetscInt l = 0; l < map_->num_owned_nodes; ++l)
+    squares += std::pow(mass_.rotary_inertia[l].norm() * state.nodes[l].rotation_motion.velocity.norm() / dt, 2);
+  for (const RigidBodyState &body : state.bodies) squares += std::pow(body.mass * state.nodes[body.local_node].translation_motion.velocity.norm() / dt, 2);
+  return squares;
 }
 
 void InertiaContributor::DropMasslessElementRows(const State &state, size_t k, ElementContribution *out) const

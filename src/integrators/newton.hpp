@@ -14,7 +14,9 @@
 //    below the round-off floor of the internal forces, eps sqrt(sum_e (100 |C|)^2 + (|C_N| R/h_e)^2)
 //    (Assembler::RoundoffForceLevel: the stiffness, and the rounding of nodal coordinates of
 //    magnitude R over element lengths h_e, which grows like N^1.5), so iterations per step do not
-//    grow with the element count. PETSc's step-size test (stol) stops Newton only while |R| is
+//    grow with the element count; in dynamics also 100 eps times the momenta over dt at the
+//    start of the step (an inertial residual is their difference, and the predictor can leave
+//    a step's first residual at their round-off). PETSc's step-size test (stol) stops Newton only while |R| is
 //    within 1e4 of that threshold (far above it the updates are round-off of a singular tangent).
 //  - The LU chosen by structure (analysis.direct_solver auto, the default): on one rank, PETSc's
 //    LU in RCM order when the tangent is banded under RCM (mean squared row envelope <= 60^2:

@@ -740,3 +740,38 @@ TEST(AssembledSystem, NodeBlockTangentEqualsTheScalarOne)
   }
   ASSERT_EQ(PetscOptionsClearValue(nullptr, "-jacobian_dense_below"), PETSC_SUCCESS);
 }
+
+// The predictor moves every released coordinate at its rate (Delta q = dt q'), as it moves the
+// nodes (u = dt v): on the mechanism with joints of every kind, each free coordinate's unknown
+// starts at dt times the rate the step starts with, a driven one has no unknown.
+TEST(AssembledSystem, PredictorMovesJointCoordinatesAtTheirRates)
+{
+  AssembledSystem system;
+  ASSERT_EQ(Build(kJointModel, Problem::Newmark, &system), PETSC_SUCCESS);
+  Assembler &assembler = system.system.GetAssembler();
+  State     &state     = system.system.GetState();
+  // Rates of every released coordinate, distinct and nonzero (the model starts them at rest).
+  for (JointState &J : state.joints)
+    for (int c = 0; c < kJointMaxReleased; ++c) J.coordinate_motion[c / 3].velocity(c % 3) = 0.1 * (J.joint + 1) + 0.01 * c;
+  const double dt = EquationsOf(Problem::Newmark).scheme.dt;
+  Vec          x;
+  ASSERT_EQ(VecDuplicate(assembler.SolutionTemplate(), &x), PETSC_SUCCESS);
+  ASSERT_EQ(assembler.PredictIncrements(x), PETSC_SUCCESS);
+  PetscInt first, last;
+  ASSERT_EQ(VecGetOwnershipRange(x, &first, &last), PETSC_SUCCESS);
+  const PetscScalar *values;
+  ASSERT_EQ(VecGetArrayRead(x, &values), PETSC_SUCCESS);
+  int checked = 0;
+  for (const JointState &J : state.joints)
+    for (int c = 0; c < kJointMaxReleased; ++c) {
+      const PetscInt row = system.map.joint_dofs[J.joint][c];
+      if (row < first || row >= last) continue;
+      EXPECT_DOUBLE_EQ(values[row - first], dt * J.CoordinateRate(c)) << "joint " << J.joint << " coordinate " << c;
+      ++checked;
+    }
+  ASSERT_EQ(VecRestoreArrayRead(x, &values), PETSC_SUCCESS);
+  int total = checked;
+  MPI_Allreduce(MPI_IN_PLACE, &total, 1, MPI_INT, MPI_SUM, PETSC_COMM_WORLD);
+  EXPECT_GE(total, 8) << "released coordinates of the mechanism"; // revolute driven; universal 2, screw 1, prismatic 1, cam 1+, ...
+  VecDestroy(&x);
+}
