@@ -20,8 +20,10 @@
 //    within 1e4 of that threshold (far above it the updates are round-off of a singular tangent).
 //  - The LU chosen by structure (analysis.direct_solver auto, the default): on one rank, PETSc's
 //    LU in RCM order when the tangent is banded under RCM (mean squared row envelope <= 60^2:
-//    chains, slender frames), else MUMPS; that LU does not pivot, so the first failed Newton
-//    solve hands the rest of the run to MUMPS (NewtonUsePivotingLU) and the step is tried again.
+//    chains, slender frames; the Assembler stores such a tangent in 6x6 node blocks when every
+//    unknown belongs to a node), else MUMPS; that LU does not pivot between nodes, so the first
+//    failed Newton solve hands the rest of the run to MUMPS (NewtonUsePivotingLU) and the step is
+//    tried again.
 //    direct_solver mumps: MUMPS always. A dense -jacobian_mat_type uses LAPACK's LU. The
 //    symbolic factorisation is reused while the matrix pattern is unchanged.
 //  - The tangent is exact in every scheme (assembly/assembler.hpp). In em it has a rank-one term
