@@ -180,23 +180,23 @@ PetscErrorCode Assembler::Setup(MPI_Comm comm, const Model &model, const DofMap 
   // TangentFactor takes AIJ and would convert it at every point).
   const bool factored_for_inertia = analysis.type == AnalysisType::Modes || analysis.type == AnalysisType::Buckling ||
                                     (analysis.type == AnalysisType::Static && (analysis.stability || analysis.control != PathControl::Load));
-  std::vector<PetscInt> block_diagonal, block_off_diagonal;
-  constexpr PetscInt    kNodeBlock = 6;
-  if (is_aij && !type_chosen && banded_under_rcm_ && !chosen_pc && !chosen_package && map.num_relays == 0 && !factored_for_inertia &&
-      BlockPattern(pattern, map.first_owned, kNodeBlock, &block_diagonal, &block_off_diagonal)) {
-    PetscCall(MatSetType(jacobian_, MATSEQBAIJ));
-    is_aij  = PETSC_FALSE;
-    is_baij = PETSC_TRUE;
-  }
+  const bool baij_if_blocked = is_aij && !type_chosen && banded_under_rcm_ && !chosen_pc && !chosen_package && map.num_relays == 0 && !factored_for_inertia;
   // Blocks of 6 where every unknown belongs to one: a node's 6 unknowns consecutive from a
   // multiple of 6 and coupled as a whole, on every rank (no partly supported node, no joint
   // coordinate); else blocks of 1. BAIJ stores them; an AIJ tangent takes them only for multigrid,
   // which then aggregates whole nodes (their six rigid-body modes): MUMPS compresses by the block
   // size (ICNTL(15)), which changes its pivot order and the direct solver's last bits.
-  PetscBool blocked = PETSC_FALSE;
-  if (is_baij || (is_aij && multigrid)) {
+  constexpr PetscInt    kNodeBlock = 6;
+  std::vector<PetscInt> block_diagonal, block_off_diagonal;
+  PetscBool             blocked = PETSC_FALSE;
+  if (is_baij || baij_if_blocked || (is_aij && multigrid)) {
     blocked = BlockPattern(pattern, map.first_owned, kNodeBlock, &block_diagonal, &block_off_diagonal) ? PETSC_TRUE : PETSC_FALSE;
     PetscCall(MPIU_Allreduce(MPI_IN_PLACE, &blocked, 1, MPIU_BOOL, MPI_LAND, comm));
+  }
+  if (baij_if_blocked && blocked) {
+    PetscCall(MatSetType(jacobian_, MATSEQBAIJ));
+    is_aij  = PETSC_FALSE;
+    is_baij = PETSC_TRUE;
   }
   if (is_aij) {
     if (blocked) PetscCall(MatSetBlockSize(jacobian_, kNodeBlock));
@@ -444,9 +444,9 @@ PetscErrorCode Assembler::CreateCsrDestinations()
   // Owned nodes' own blocks (inertia, nodal loads): rows and columns among the node's unknowns;
   // (6 / bs)^2 destinations per node.
   const PetscInt node_units = 6 / bs;
-  node_csr_destinations_.assign((size_t)(node_units * node_units * map.num_owned_nodes), kCsrSkip);
+  node_csr_destinations_.assign(NodeDestinationCount() * (size_t)map.num_owned_nodes, kCsrSkip);
   for (PetscInt l = 0; l < map.num_owned_nodes; ++l) {
-    PetscInt       *destination = node_csr_destinations_.data() + node_units * node_units * l;
+    PetscInt       *destination = node_csr_destinations_.data() + NodeDestinationCount() * (size_t)l;
     const PetscInt *dofs        = map.node_dofs[map.local_nodes[l]].data();
     bool            direct      = !IsCondensed((int)l);
     for (int i = 0; i < node_units && direct; ++i) {
@@ -464,6 +464,12 @@ PetscErrorCode Assembler::CreateCsrDestinations()
   PetscCall(MatRestoreRowIJ(diagonal_block_, 0, PETSC_FALSE, compressed, &num_rows, &ia, &ja, &done));
   if (off_diagonal_block_) PetscCall(MatRestoreRowIJ(off_diagonal_block_, 0, PETSC_FALSE, compressed, &num_rows, &ib, &jb, &done));
   PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+void Assembler::AddToStoredBlock(const double *rows, int row_stride, double *block)
+{
+  for (int c = 0; c < 6; ++c)
+    for (int r = 0; r < 6; ++r) block[6 * c + r] += rows[r * row_stride + c];
 }
 
 bool Assembler::NodeBlockIndices(int n, const PetscInt *indices, PetscInt *block_indices) const
@@ -525,9 +531,7 @@ PetscErrorCode Assembler::AddDirectElementMatrix(Mat target, size_t k, double *K
       for (int b = 0; b < n; ++b) {
         const PetscInt slot = row_destination[b];
         if (slot == kCsrSkip) continue;
-        double *block = slot >= 0 ? diagonal_values + slot : off_diagonal_values + (kCsrOffDiagonal - slot);
-        for (int c = 0; c < 6; ++c)
-          for (int r = 0; r < 6; ++r) block[6 * c + r] += block_rows[r * nd + 6 * b + c];
+        AddToStoredBlock(block_rows + 6 * b, nd, slot >= 0 ? diagonal_values + slot : off_diagonal_values + (kCsrOffDiagonal - slot));
       }
     }
     PetscFunctionReturn(PETSC_SUCCESS);

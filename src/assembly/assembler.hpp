@@ -394,7 +394,10 @@ private:
   // row-major, or 1 block, all in the diagonal block); a node whose first entry is kCsrOtherRank goes through
   // AddNodeBlock. Empty with csr_destinations_.
   std::vector<PetscInt> node_csr_destinations_;
-  Mat                   diagonal_block_ = nullptr, off_diagonal_block_ = nullptr; // borrowed from jacobian_
+  size_t                NodeDestinationCount() const { return node_blocks_ ? 1 : 36; } // per node in node_csr_destinations_
+  // block (6x6 of BAIJ, stored column by column) += the 6x6 whose rows start row_stride apart at rows.
+  static void AddToStoredBlock(const double *rows, int row_stride, double *block);
+  Mat         diagonal_block_ = nullptr, off_diagonal_block_ = nullptr; // borrowed from jacobian_
 };
 
 } // namespace msflex

@@ -330,18 +330,15 @@ PetscErrorCode Assembler::AddNodeBlock(Mat jacobian, int l, const Mat6 &block)
 PetscErrorCode Assembler::AddDirectNodeBlock(Mat jacobian, int l, const Mat6 &block, PetscScalar *diagonal_values)
 {
   PetscFunctionBeginUser;
-  const size_t    per_node    = node_blocks_ ? 1 : 36; // one 6x6 block, or 36 entries
-  const PetscInt *destination = node_csr_destinations_.empty() || !diagonal_values ? nullptr : node_csr_destinations_.data() + per_node * (size_t)l;
+  const PetscInt *destination =
+      node_csr_destinations_.empty() || !diagonal_values ? nullptr : node_csr_destinations_.data() + NodeDestinationCount() * (size_t)l;
   if (!destination || destination[0] == kCsrOtherRank) {
     PetscCall(AddNodeBlock(jacobian, l, block));
     PetscFunctionReturn(PETSC_SUCCESS);
   }
   const Mat6 columns = NodeBlockInUnknowns(l, block);
-  if (node_blocks_) { // the node's block, stored column by column
-    if (destination[0] == kCsrSkip) PetscFunctionReturn(PETSC_SUCCESS);
-    double *values = diagonal_values + destination[0];
-    for (int c = 0; c < 6; ++c)
-      for (int r = 0; r < 6; ++r) values[6 * c + r] += columns(r, c);
+  if (node_blocks_) {
+    if (destination[0] != kCsrSkip) AddToStoredBlock(columns.data(), 6, diagonal_values + destination[0]);
     PetscFunctionReturn(PETSC_SUCCESS);
   }
   for (int e = 0; e < 36; ++e)

@@ -35,14 +35,14 @@ public:
   void AddMomenta(const State &state, Momenta *momenta) const override;
   void FindNonFiniteData(const State &state, TroubleFindings *findings) const override;
 
-  // The equations of the massless groups (initial-acceleration problem): an element's rows
-  // dropped, a node's rows replaced; called by the assembler after every contributor has added.
   // Sum over this rank's elements, owned nodes and rigid bodies of (|p| / dt)^2, |p| the size of
   // the momenta at the start of the step (rhoA sum_a l_a |v_a| per element, |J|_F |W| per node,
   // m |v| per body): the scale of the momentum differences over dt that an inertial residual is,
   // whose rounding bounds how small that residual can get (Assembler::BeginStep).
   double LocalMomentumRateSquares(const State &state, double dt) const;
 
+  // The equations of the massless groups (initial-acceleration problem): an element's rows
+  // dropped, a node's rows replaced; called by the assembler after every contributor has added.
   void DropMasslessElementRows(const State &state, size_t k, ElementContribution *out) const;
   void SetMasslessNodeEquations(const State &state, int l, NodeContribution *out) const;
 

@@ -282,10 +282,8 @@ PetscErrorCode ShermanMorrisonCorrection(KSP ksp, Vec rhs, Vec x, void *ctx)
 // networks, whose fronts BLAS-3 handles, and every parallel run) by MUMPS, a dense tangent by LAPACK.
 PetscErrorCode ChooseDirectSolver(bool banded, Mat tangent, PC pc)
 {
-  PetscBool dense;
   PetscFunctionBeginUser;
-  PetscCall(PetscObjectTypeCompareAny((PetscObject)tangent, &dense, MATSEQDENSE, MATMPIDENSE, ""));
-  if (banded && !dense) {
+  if (banded) { // never a dense tangent (Assembler::Setup)
     PetscCall(PCSetType(pc, PCLU));
     PetscCall(PCFactorSetMatSolverType(pc, MATSOLVERPETSC));
     PetscCall(PCFactorSetMatOrderingType(pc, MATORDERINGRCM));

@@ -97,7 +97,7 @@ inline constexpr ArcsineOverArgumentSeries kArcsineOverArgument{};
 
 inline Vec3 LogSO3Acute(const Mat3 &R)
 {
-  const Vec3   v(0.5 * (R(2, 1) - R(1, 2)), 0.5 * (R(0, 2) - R(2, 0)), 0.5 * (R(1, 0) - R(0, 1)));
+  const Vec3   v = Unskew(R);
   const double y = v.squaredNorm(), cosine = 0.5 * (R.trace() - 1.0);
   if (!(cosine > 0.0)) return LogSO3(R);
   if (y > 0.01) {

@@ -28,6 +28,15 @@ import msflex_testing as mt
 
 args = mt.parse_arguments(__doc__)
 check = mt.Checker("Jacobian matrix types")
+
+
+def relative_difference(got, reference):
+    """max |got - reference| / max |reference|; inf when the shapes differ."""
+    if got.shape != reference.shape:
+        return np.inf
+    return np.abs(got - reference).max() / np.abs(reference).max()
+
+
 bend = f"{args.source_dir}/input/bend45.yaml"
 models = (("bend45", bend, "tip", []),
           ("massless_pendulum", f"{args.source_dir}/input/massless_pendulum.yaml", "bob", ["-analysis_end_time", "0.5"]),
@@ -51,8 +60,7 @@ for ranks in sorted({1, args.np}):
             if reference is None:
                 reference = displacement
                 continue
-            same_shape = displacement.shape == reference.shape
-            difference = np.abs(displacement - reference).max() / np.abs(reference).max() if same_shape else np.inf
+            difference = relative_difference(displacement, reference)
             print(f"{name}, np {ranks} {mat_type}: {displacement.shape[0]} rows, largest {probe} difference from aij / max |u| = {difference:.3g}")
             check.less(f"{name}, np {ranks} {mat_type}: {probe} history difference from aij", difference, 1e-9)
     if ranks == 1:
@@ -66,8 +74,7 @@ for ranks in sorted({1, args.np}):
             check.true(f"-jacobian_dense_below {below}: the tangent is {expected} ({types})", types == [expected])
             displacement = mt.probe_history(output, "bob")["displacement"]
             reference = mt.probe_history(f"{args.work_dir}/massless_pendulum_aij_np1.h5", "bob")["displacement"]
-            same_shape = displacement.shape == reference.shape
-            difference = np.abs(displacement - reference).max() / np.abs(reference).max() if same_shape else np.inf
+            difference = relative_difference(displacement, reference)
             check.less(f"-jacobian_dense_below {below}: bob history difference from aij", difference, 1e-9)
     # Eigenanalyses: the pencil assembled in the chosen format is converted for MUMPS' Cholesky
     # (it stopped with a PETSc trace-back before); the same eigenvalues as with aij.
@@ -83,8 +90,7 @@ for ranks in sorted({1, args.np}):
         for mat_type in values:
             if mat_type == "aij":
                 continue
-            same = values[mat_type].shape == values["aij"].shape
-            difference = np.abs(values[mat_type] - values["aij"]).max() / np.abs(values["aij"]).max() if same else np.inf
+            difference = relative_difference(values[mat_type], values["aij"])
             check.less(f"{name}, np {ranks} {mat_type}: {series} difference from aij (relative)", difference, 1e-9)
     for mat_type in ("sbaij", "sell", "is") if ranks == 1 else ("sbaij", "sell", "dense"):
         code, _, stderr = mt.run_msflex(args, bend, f"{args.work_dir}/never.h5", extra=["-jacobian_mat_type", mat_type], np_ranks=ranks, expect_success=False)
@@ -115,8 +121,7 @@ for ranks in sorted({1, args.np}):
             check.true(f"{label}, np {ranks}, {setting}: the tangent is {expected} ({types})", types == expected)
         reference = mt.probe_history(outputs["aij"], probe)["displacement"]
         displacement = mt.probe_history(outputs["default"], probe)["displacement"]
-        same_shape = displacement.shape == reference.shape
-        difference = np.abs(displacement - reference).max() / np.abs(reference).max() if same_shape else np.inf
+        difference = relative_difference(displacement, reference)
         check.less(f"{label}, np {ranks}: default type's {probe} history difference from aij", difference, 1e-9)
 for label, extra in (("-analysis_direct_solver mumps", ["-analysis_direct_solver", "mumps"]),
                      ("-pc_factor_mat_solver_type mumps", ["-pc_factor_mat_solver_type", "mumps"]),
