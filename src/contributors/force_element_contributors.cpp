@@ -28,7 +28,7 @@ void EndAngularVelocity(const TimeScheme &scheme, const NodeState &s, Vec3 *w, M
   const Mat3         R_start = QuaternionToMatrix(s.rotation_start);
   const MotionUpdate spin    = AdvanceMotion(scheme, s.rotation_motion, R_start.transpose() * s.rotation_increment);
   *w                         = s.rotation * spin.velocity;
-  *jacobian                  = -Skew(*w) + scheme.VelocityCoefficient() * s.rotation * R_start.transpose() * TangentHInverse(s.rotation_increment);
+  *jacobian                  = -Skew(*w) + scheme.VelocityCoefficient() * s.rotation * R_start.transpose() * s.rotation_tangent_inverse;
 }
 
 } // namespace

@@ -105,7 +105,7 @@ void InertiaContributor::AddNode(const State &state, int l, NodeContribution *ou
                       &update);
     for (int i = 0; i < 3; ++i) out->residual[3 + i] += moment(i);
     // The kernel differentiates with respect to omega; spins: d omega = H(omega)^{-1} d theta.
-    if (out->want_tangent) out->tangent.block<3, 3>(3, 3) += moment_tangent * TangentHInverse(s.rotation_increment);
+    if (out->want_tangent) out->tangent.block<3, 3>(3, 3) += moment_tangent * s.rotation_tangent_inverse;
   } else if (eq.InitialAcceleration()) {
     Vec3 moment;
     Mat3 moment_tangent;

@@ -47,7 +47,7 @@ void RigidBodyContributor::BodyForces(const State &state, size_t b, Vec6 *residu
                              s.rotation_motion, residual, tangent);
     }
     // The kernel differentiates with respect to omega; spins: d omega = H(omega)^{-1} d theta.
-    if (tangent) tangent->rightCols<3>() = (tangent->rightCols<3>() * TangentHInverse(s.rotation_increment)).eval();
+    if (tangent) tangent->rightCols<3>() = (tangent->rightCols<3>() * s.rotation_tangent_inverse).eval();
   } else if (eq.InitialAcceleration()) {
     InitialOffsetPointMassInertia(body.mass, r_start, R_start * s.rotation_motion.velocity, s.displacement_increment, s.rotation_increment, residual, tangent);
   }

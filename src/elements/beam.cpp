@@ -131,16 +131,6 @@ inline Vec3 FormTransposeTimes(double alpha, double beta, const Vec3 &p, double 
 // F v = v + alpha p x v + beta (p (p.v) - x v)
 inline Vec3 FormTimes(double alpha, double beta, const Vec3 &p, double x, const Vec3 &v) { return v + alpha * p.cross(v) + beta * (p.dot(v) * p - x * v); }
 
-inline Mat3 FormMatrix(double alpha, double beta, const Vec3 &p, double x)
-{
-  const double ap0 = alpha * p(0), ap1 = alpha * p(1), ap2 = alpha * p(2);
-  const double b01 = beta * p(0) * p(1), b02 = beta * p(0) * p(2), b12 = beta * p(1) * p(2);
-  Mat3         F;
-  F << 1.0 + beta * (p(0) * p(0) - x), -ap2 + b01, ap1 + b02, ap2 + b01, 1.0 + beta * (p(1) * p(1) - x), -ap0 + b12, -ap1 + b02, ap0 + b12,
-      1.0 + beta * (p(2) * p(2) - x);
-  return F;
-}
-
 // J = d(F^T a)/dp = alpha hat(a) + beta (p.a) I + beta p a^T + u p^T with
 // u = -2 alpha_x (p x a) - 2 beta a + 2 beta_x p x (p x a)  (RodriguesTransposeApplyJacobian regrouped).
 // d(F a)/dp is the same with alpha, alpha_x negated.
@@ -284,7 +274,7 @@ template <int NN>
       g_psi[a] += G.wJ * (I[a] * AN_BM + dI[a] * HM);
     }
     if (!want_tangent) continue;
-    const Mat3 E = FormMatrix(Fe.alpha, Fe.beta, Psi, x), H = FormMatrix(Fh.alpha, Fh.beta, Psi, x);
+    const Mat3 E = RodriguesMatrix(Fe.alpha, Fe.beta, Psi, x), H = RodriguesMatrix(Fh.alpha, Fh.beta, Psi, x);
     const Mat3 A = JacobianMatrix(Fe.alpha, Fe.beta, Psi, drho, ua), B = JacobianMatrix(Fh.alpha, Fh.beta, Psi, dPsi, ub);
     // P = d(E N)/dPsi, Q = d(H M)/dPsi: the Jacobians of F a with alpha negated.
     const Mat3 P   = JacobianMatrix(-Fe.alpha, Fe.beta, Psi, N, JacobianShift(-Fe.alpha_x, Fe.beta, Fe.beta_x, Psi, N));
@@ -319,7 +309,7 @@ template <int NN>
     residual.template segment<3>(6 * a + 3) += m;
     residual.template segment<3>(6 * c) -= f;
     residual.template segment<3>(6 * c + 3) -= d[a].cross(f) + m;
-    if (want_tangent) Pm[a] = MulT(FormMatrix(Finv[a].alpha, Finv[a].beta, psi[a], x), L);
+    if (want_tangent) Pm[a] = MulT(RodriguesMatrix(Finv[a].alpha, Finv[a].beta, psi[a], x), L);
   }
   if (!want_tangent) return BeamKernelStatus::Ok;
 
@@ -629,9 +619,9 @@ void MidpointTangentPhase(const BeamElementReference &ref, const BeamSectionStif
     const Vec3  &Psi = pt.Psi, &dPsi = pt.dPsi, &drho = pt.drho;
     const double x  = pt.x;
     const auto  &Fe = pt.Fe, &Fh = pt.Fh, &Fe1 = pt.Fe1, &Fh1 = pt.Fh1;
-    const Mat3   E = FormMatrix(Fe.alpha, Fe.beta, Psi, x), H = FormMatrix(Fh.alpha, Fh.beta, Psi, x);
+    const Mat3   E = RodriguesMatrix(Fe.alpha, Fe.beta, Psi, x), H = RodriguesMatrix(Fh.alpha, Fh.beta, Psi, x);
     const Mat3   A = JacobianMatrix(Fe.alpha, Fe.beta, Psi, drho, pt.ue), B = JacobianMatrix(Fh.alpha, Fh.beta, Psi, dPsi, pt.uh);
-    const Mat3   E1 = FormMatrix(Fe1.alpha, Fe1.beta, pt.Psi1, pt.x1), H1 = FormMatrix(Fh1.alpha, Fh1.beta, pt.Psi1, pt.x1);
+    const Mat3   E1 = RodriguesMatrix(Fe1.alpha, Fe1.beta, pt.Psi1, pt.x1), H1 = RodriguesMatrix(Fh1.alpha, Fh1.beta, pt.Psi1, pt.x1);
     const Mat3   A1 = JacobianMatrix(Fe1.alpha, Fe1.beta, pt.Psi1, pt.drho1, pt.ue1), B1 = JacobianMatrix(Fh1.alpha, Fh1.beta, pt.Psi1, pt.dPsi1, pt.uh1);
     // Material part D(q_mid)^T C D(q_{n+1}), shared by both outputs.
     const Mat3 ECN = E * CN.asDiagonal(), ACN = A.transpose() * CN.asDiagonal(), BCM = B.transpose() * CM.asDiagonal(), HCM = H * CM.asDiagonal();

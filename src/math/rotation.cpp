@@ -70,6 +70,8 @@ template <bool kDerivatives> RotationSeries SumRotationSeries(double x)
 
 RotationSeries EvaluateRotationSeries(double x) { return SumRotationSeries<true>(x); }
 
+RotationSeries RotationSeriesValues(double x) { return SumRotationSeries<false>(x); }
+
 // F^T a = a - alpha psi x a + beta psi x (psi x a), and psi x (psi x a) = psi (psi.a) - a x.
 // d/dpsi = alpha hat(a) - 2 alpha_x (psi x a) psi^T + beta [(psi.a) I + psi a^T - 2 a psi^T]
 //          + 2 beta_x (psi x (psi x a)) psi^T
@@ -147,9 +149,9 @@ Vec3 LogSO3(const Mat3 &R)
 }
 
 // The derivatives of the series are not needed for the matrices themselves.
-Mat3 TangentH(const Vec3 &psi) { return RodriguesMatrix(TangentForm(SumRotationSeries<false>(psi.squaredNorm())), psi); }
+Mat3 TangentH(const Vec3 &psi) { return RodriguesMatrix(TangentForm(RotationSeriesValues(psi.squaredNorm())), psi); }
 
-Mat3 TangentHInverse(const Vec3 &psi) { return RodriguesMatrix(TangentInverseForm(SumRotationSeries<false>(psi.squaredNorm())), psi); }
+Mat3 TangentHInverse(const Vec3 &psi) { return RodriguesMatrix(TangentInverseForm(RotationSeriesValues(psi.squaredNorm())), psi); }
 
 Mat3 CayleySO3(const Vec3 &a)
 {

@@ -39,6 +39,9 @@ struct RotationSeries {
   double ddc[5]; // d^2 c_n / dx^2
 };
 RotationSeries EvaluateRotationSeries(double x);
+// The values c_0 .. c_4 alone (derivatives left zero), summed as EvaluateRotationSeries sums them:
+// bit for bit its values, for the operators of a node's rotation increment (NodeUpdateConfiguration).
+RotationSeries RotationSeriesValues(double x);
 
 // A Rodrigues-type operator F(psi) = I + alpha(x) hat(psi) + beta(x) hat(psi)^2, x = |psi|^2,
 // with the derivatives of alpha and beta with respect to x. exp, H and H^{-1} are of this form.
@@ -60,11 +63,18 @@ inline RodriguesForm TangentInverseForm(const RotationSeries &s)
   return {-0.5, 0.0, 0.0, beta, beta_x, beta_xx};
 }
 
-inline Mat3 RodriguesMatrix(const RodriguesForm &f, const Vec3 &psi)
+// F = I + alpha hat(p) + beta hat(p)^2 written out with hat(p)^2 = p p^T - x I (x = |p|^2): no 3x3
+// product, for the beam kernels (per Gauss point) and the node updates (per node and iterate).
+inline Mat3 RodriguesMatrix(double alpha, double beta, const Vec3 &p, double x)
 {
-  const Mat3 S = Skew(psi);
-  return Mat3::Identity() + f.alpha * S + f.beta * S * S;
+  const double ap0 = alpha * p(0), ap1 = alpha * p(1), ap2 = alpha * p(2);
+  const double b01 = beta * p(0) * p(1), b02 = beta * p(0) * p(2), b12 = beta * p(1) * p(2);
+  Mat3         F;
+  F << 1.0 + beta * (p(0) * p(0) - x), -ap2 + b01, ap1 + b02, ap2 + b01, 1.0 + beta * (p(1) * p(1) - x), -ap0 + b12, -ap1 + b02, ap0 + b12,
+      1.0 + beta * (p(2) * p(2) - x);
+  return F;
 }
+inline Mat3 RodriguesMatrix(const RodriguesForm &f, const Vec3 &psi) { return RodriguesMatrix(f.alpha, f.beta, psi, psi.squaredNorm()); }
 // d/dpsi [F(psi)^T a]   (3x3)
 Mat3 RodriguesTransposeApplyJacobian(const RodriguesForm &f, const Vec3 &psi, const Vec3 &a);
 // d/dpsi [F(psi) a]     (3x3)

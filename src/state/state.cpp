@@ -10,9 +10,14 @@ namespace {
 
 void NodeUpdateConfiguration(NodeState *node)
 {
-  node->position         = node->position_start + node->displacement_increment;
-  node->rotation         = ExpSO3(node->rotation_increment) * QuaternionToMatrix(node->rotation_start);
-  node->rotation_tangent = TangentH(node->rotation_increment);
+  // exp(omega) R_n, H(omega) and H(omega)^{-1} from one evaluation of the series c_n(|omega|^2):
+  // per node and Newton iterate, this was three (exp, then H here and H^{-1} in the inertia).
+  const Vec3          &omega     = node->rotation_increment;
+  const RotationSeries series    = RotationSeriesValues(omega.squaredNorm());
+  node->position                 = node->position_start + node->displacement_increment;
+  node->rotation                 = RodriguesMatrix(ExpForm(series), omega) * QuaternionToMatrix(node->rotation_start);
+  node->rotation_tangent         = RodriguesMatrix(TangentForm(series), omega);
+  node->rotation_tangent_inverse = RodriguesMatrix(TangentInverseForm(series), omega);
 }
 
 void NodeCommit(NodeState *node)

@@ -36,9 +36,10 @@ struct NodeState {
   Vec3 displacement_increment = Vec3::Zero();
   Vec3 rotation_increment     = Vec3::Zero();
   // Current configuration, derived from the two above by StateUpdateNode.
-  Vec3 position         = Vec3::Zero();
-  Mat3 rotation         = Mat3::Identity();
-  Mat3 rotation_tangent = Mat3::Identity(); // H(omega): d theta = H(omega) d omega
+  Vec3 position                 = Vec3::Zero();
+  Mat3 rotation                 = Mat3::Identity();
+  Mat3 rotation_tangent         = Mat3::Identity(); // H(omega): d theta = H(omega) d omega
+  Mat3 rotation_tangent_inverse = Mat3::Identity(); // H(omega)^{-1} (not finite at |omega| = 2 pi)
 
   // Dynamics at the start of the step: translation in global axes, rotation in the node's body
   // frame (W, Wdot and the Newmark family's pseudo-acceleration).

@@ -107,6 +107,26 @@ TEST(SO3, TangentOperatorsMatchTheirSeriesForms)
   }
 }
 
+TEST(SO3, RodriguesMatrixIsTheOperatorWrittenOut)
+{
+  // I + alpha S + beta S^2 with S^2 = psi psi^T - x I written out: the operator itself to round-off,
+  // and from RotationSeriesValues the exp, H and H^{-1} that the node updates build (bit for bit
+  // the series' values, so ExpSO3, TangentH and TangentHInverse to round-off).
+  std::mt19937 gen(9);
+  for (double angle : kTestAngles) {
+    const Vec3           psi = RandomVector(gen, 1.0).normalized() * angle;
+    const Mat3           S   = Skew(psi);
+    const RotationSeries s = RotationSeriesValues(psi.squaredNorm()), full = EvaluateRotationSeries(psi.squaredNorm());
+    for (int n = 0; n < 5; ++n) EXPECT_EQ(s.c[n], full.c[n]) << "c" << n << " angle " << angle;
+    for (const RodriguesForm &f : {ExpForm(s), TangentForm(s)}) {
+      EXPECT_LT(MaxAbs(RodriguesMatrix(f, psi) - (Mat3::Identity() + f.alpha * S + f.beta * S * S)), 4e-16 * (1 + angle * angle)) << "angle " << angle;
+    }
+    EXPECT_LT(MaxAbs(RodriguesMatrix(ExpForm(s), psi) - ExpSO3(psi)), 1e-15 * (1 + angle)) << "angle " << angle;
+    EXPECT_TRUE(RodriguesMatrix(TangentForm(s), psi) == TangentH(psi)) << "angle " << angle;
+    if (angle < 2.0 * kPi - 1.0) EXPECT_TRUE(RodriguesMatrix(TangentInverseForm(s), psi) == TangentHInverse(psi)) << "angle " << angle;
+  }
+}
+
 TEST(SO3, TangentOperatorIsTheDerivativeOfExp)
 {
   // exp(psi + h dpsi) exp(psi)^T ~ exp(h H(psi) dpsi): the spin of a perturbed exp.
