@@ -92,13 +92,13 @@ void BeamContributor::AddElement(const State &state, size_t k, ElementContributi
   const int                   n = element.order + 1, nd = 6 * n;
   Vec3                        positions[kBeamMaxNodes];
   Mat3                        triads[kBeamMaxNodes];
-  double                      force_here[kBeamMaxDofs];
-  double                     *force       = force_here;
   const bool                  end_tangent = out->want_tangent && !eq.InitialAcceleration();
   if (eq.Midpoint()) {
-    Vec3   positions_start[kBeamMaxNodes];
-    Mat3   triads_start[kBeamMaxNodes];
-    double correction_here[kBeamMaxDofs], end_residual_here[kBeamMaxDofs], energy_start, energy_end, K_mc[kBeamMaxDofs * kBeamMaxDofs],
+    double  force_here[kBeamMaxDofs];
+    double *force = force_here;
+    Vec3    positions_start[kBeamMaxNodes];
+    Mat3    triads_start[kBeamMaxNodes];
+    double  correction_here[kBeamMaxDofs], end_residual_here[kBeamMaxDofs], energy_start, energy_end, K_mc[kBeamMaxDofs * kBeamMaxDofs],
         K_corr[kBeamMaxDofs * kBeamMaxDofs];
     double       *correction = correction_here, *end_residual = end_residual_here;
     const bool    energy_terms = out->want_energy_terms;
@@ -184,16 +184,13 @@ void BeamContributor::AddElement(const State &state, size_t k, ElementContributi
     }
     return;
   }
-  double K[kBeamMaxDofs * kBeamMaxDofs], energy = 0.0;
+  double energy = 0.0;
   Configuration(state, k, positions, triads);
-  if (BeamInternalForces(ref, section, positions, triads, force, end_tangent ? K : nullptr, &energy, nullptr) != BeamKernelStatus::Ok) {
+  if (BeamAddInternalForces(ref, section, positions, triads, out->residual, end_tangent ? out->tangent : nullptr, &energy) != BeamKernelStatus::Ok) {
     out->evaluable = false;
     return;
   }
   out->strain_energy += energy;
-  for (int i = 0; i < nd; ++i) out->residual[i] += force[i];
-  if (end_tangent)
-    for (int i = 0; i < nd * nd; ++i) out->tangent[i] += K[i];
 }
 
 void BeamContributor::AddStoredEnergy(const State &state, double *energy) const

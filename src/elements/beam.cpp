@@ -225,7 +225,8 @@ inline Mat3 StressHessian(const RodriguesForm &Fe, const RodriguesForm &Fh, cons
 // flatten: in a function this large GCC's inliner leaves the small closed forms above (FormTimes,
 // JacobianShift, the 3x3 products, the block adders) as calls; inlining every one of them takes a
 // 2-node call with tangent from 0.83 to 0.60 us (scripts/bench-kernel), with the same results.
-template <int NN>
+// kAdd: add r and K into the caller's arrays instead of overwriting them (BeamAddInternalForces).
+template <int NN, bool kAdd = false>
 [[gnu::flatten]] BeamKernelStatus InternalForces(const BeamElementReference &ref, const BeamSectionStiffness &section, const Vec3 *positions,
                                                  const Mat3 *triads, double *residual_out, double *tangent_out, double *energy_out, BeamGaussResults *results)
 {
@@ -297,7 +298,7 @@ template <int NN>
   RodriguesForm                                Finv[NN];
   Vec3                                         fa[NN], ma[NN], d[NN]; // nodal force L g_rho_a and moment P_a^T g_psi_a
   Eigen::Map<Eigen::Matrix<double, 6 * NN, 1>> residual(residual_out);
-  residual.setZero();
+  if constexpr (!kAdd) residual.setZero();
   for (int a : others) {
     d[a]           = positions[a] - positions[c];
     const double x = psi[a].squaredNorm();
@@ -336,7 +337,7 @@ template <int NN>
     }
   }
   Eigen::Map<NodalMatrix<NN>> K(tangent_out);
-  K.setZero();
+  if constexpr (!kAdd) K.setZero();
   auto add = [&K](int row, int column, const Mat3 &block) { K.template block<3, 3>(row, column) += block; };
   auto sub = [&K](int row, int column, const Mat3 &block) { K.template block<3, 3>(row, column) -= block; }; // no negated temporary
   for (int a : others) {
@@ -809,6 +810,13 @@ BeamKernelStatus BeamInternalForces(const BeamElementReference &ref, const BeamS
 {
   if (ref.num_nodes == 2) return InternalForces<2>(ref, section, positions, triads, residual, tangent, strain_energy, results);
   return InternalForces<3>(ref, section, positions, triads, residual, tangent, strain_energy, results);
+}
+
+BeamKernelStatus BeamAddInternalForces(const BeamElementReference &ref, const BeamSectionStiffness &section, const Vec3 *positions, const Mat3 *triads,
+                                       double *residual, double *tangent, double *strain_energy)
+{
+  if (ref.num_nodes == 2) return InternalForces<2, true>(ref, section, positions, triads, residual, tangent, strain_energy, nullptr);
+  return InternalForces<3, true>(ref, section, positions, triads, residual, tangent, strain_energy, nullptr);
 }
 
 } // namespace msflex

@@ -66,6 +66,10 @@ BeamKernelStatus BeamElementSetup(int num_nodes, const Vec3 *reference_positions
 // rotation inside the element reaches pi.
 BeamKernelStatus BeamInternalForces(const BeamElementReference &ref, const BeamSectionStiffness &section, const Vec3 *positions, const Mat3 *triads,
                                     double *residual, double *tangent, double *strain_energy, BeamGaussResults *results);
+// The same r and K added into `residual` and `tangent` (an element's sum over its contributors,
+// which the assembler fills in place: no copy of the 6n x 6n matrix); nothing is added on failure.
+BeamKernelStatus BeamAddInternalForces(const BeamElementReference &ref, const BeamSectionStiffness &section, const Vec3 *positions, const Mat3 *triads,
+                                       double *residual, double *tangent, double *strain_energy);
 
 // Mid-point internal forces of the momentum- and energy-conserving schemes (Muñoz, Jelenić &
 // Crisfield 2003, eq. 17-19, for this element): with local coordinates q = (rho_a, psi_a) at the

@@ -145,6 +145,31 @@ TEST_P(BeamKernel, TangentMatchesFiniteDifferences)
   }
 }
 
+TEST_P(BeamKernel, AddingKernelAddsWhatTheKernelWrites)
+{
+  // BeamAddInternalForces adds r and K into arrays that already hold something: the sums are the
+  // prefilled values plus BeamInternalForces' outputs, bit for bit on a zero start.
+  const int            nn = GetParam(), n = 6 * nn;
+  const ElementCase    ec = CurvedTwistedReference(nn, 0.6), c = Deform(ec, 3, 0.25);
+  BeamElementReference ref;
+  ASSERT_EQ(BeamElementSetup(nn, ec.positions.data(), ec.triads.data(), &ref), BeamKernelStatus::Ok);
+  std::vector<double> r(n), K(n * n), r_sum(n, 0.0), K_sum(n * n, 0.0);
+  double              energy = 0.0, energy_added = 0.0;
+  ASSERT_EQ(BeamInternalForces(ref, kSection, c.positions.data(), c.triads.data(), r.data(), K.data(), &energy, nullptr), BeamKernelStatus::Ok);
+  ASSERT_EQ(BeamAddInternalForces(ref, kSection, c.positions.data(), c.triads.data(), r_sum.data(), K_sum.data(), &energy_added), BeamKernelStatus::Ok);
+  EXPECT_TRUE(r_sum == r);
+  EXPECT_TRUE(K_sum == K);
+  EXPECT_EQ(energy_added, energy);
+  // On arrays already holding values: those values plus the kernel's, to round-off.
+  for (int i = 0; i < n; ++i) r_sum[i] = 1.0 + i;
+  for (int i = 0; i < n * n; ++i) K_sum[i] = 0.5 * i;
+  ASSERT_EQ(BeamAddInternalForces(ref, kSection, c.positions.data(), c.triads.data(), r_sum.data(), K_sum.data(), &energy_added), BeamKernelStatus::Ok);
+  double scale = 0.0;
+  for (double v : K) scale = std::max(scale, std::abs(v));
+  for (int i = 0; i < n; ++i) EXPECT_NEAR(r_sum[i], 1.0 + i + r[i], 1e-12 * (1.0 + std::abs(r[i]))) << i;
+  for (int i = 0; i < n * n; ++i) EXPECT_NEAR(K_sum[i], 0.5 * i + K[i], 1e-14 * scale) << i;
+}
+
 TEST_P(BeamKernel, StrainsAreInvariantUnderSuperposedRigidMotion)
 {
   const int            nn = GetParam();
