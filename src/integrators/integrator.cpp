@@ -80,17 +80,14 @@ PetscErrorCode Integrator::InitialiseMotion(double t)
   }
   SNESConvergedReason reason;
   PetscCall(assembler.BeginStep(InitialAccelerationProblem(t)));
-  PetscCall(VecZeroEntries(increments_));
-  PetscCall(SNESSolve(snes_, nullptr, increments_));
-  PetscCall(SNESGetConvergedReason(snes_, &reason));
-  if (reason <= 0) {
-    bool switched;
-    PetscCall(SwitchToPivotingLU("the initial accelerations", SNESConvergedReasons[reason], &switched));
-    if (switched) {
-      PetscCall(VecZeroEntries(increments_));
-      PetscCall(SNESSolve(snes_, nullptr, increments_));
-      PetscCall(SNESGetConvergedReason(snes_, &reason));
-    }
+  // A failure with PETSc's banded LU hands the factorisation to MUMPS, which gets a second attempt.
+  for (int attempt = 0; attempt < 2; ++attempt) {
+    PetscCall(VecZeroEntries(increments_));
+    PetscCall(SNESSolve(snes_, nullptr, increments_));
+    PetscCall(SNESGetConvergedReason(snes_, &reason));
+    bool switched = false;
+    if (reason <= 0 && attempt == 0) PetscCall(SwitchToPivotingLU("the initial accelerations", SNESConvergedReasons[reason], &switched));
+    if (!switched) break;
   }
   PetscCheck(reason > 0, comm_, PETSC_ERR_NOT_CONVERGED,
              "the initial accelerations could not be computed (%s): is every node with a DOF free given mass or stiffness?", SNESConvergedReasons[reason]);

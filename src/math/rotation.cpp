@@ -148,7 +148,6 @@ Vec3 LogSO3(const Mat3 &R)
   return v * (theta / sn);
 }
 
-// The derivatives of the series are not needed for the matrices themselves.
 Mat3 TangentH(const Vec3 &psi) { return RodriguesMatrix(TangentForm(RotationSeriesValues(psi.squaredNorm())), psi); }
 
 Mat3 TangentHInverse(const Vec3 &psi) { return RodriguesMatrix(TangentInverseForm(RotationSeriesValues(psi.squaredNorm())), psi); }

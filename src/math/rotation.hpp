@@ -40,7 +40,7 @@ struct RotationSeries {
 };
 RotationSeries EvaluateRotationSeries(double x);
 // The values c_0 .. c_4 alone (derivatives left zero), summed as EvaluateRotationSeries sums them:
-// bit for bit its values, for the operators of a node's rotation increment (NodeUpdateConfiguration).
+// bit for bit its values, for the matrices exp, H and H^{-1} themselves (TangentH, the node updates).
 RotationSeries RotationSeriesValues(double x);
 
 // A Rodrigues-type operator F(psi) = I + alpha(x) hat(psi) + beta(x) hat(psi)^2, x = |psi|^2,

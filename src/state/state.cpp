@@ -10,8 +10,8 @@ namespace {
 
 void NodeUpdateConfiguration(NodeState *node)
 {
-  // exp(omega) R_n, H(omega) and H(omega)^{-1} from one evaluation of the series c_n(|omega|^2):
-  // per node and Newton iterate, this was three (exp, then H here and H^{-1} in the inertia).
+  // exp(omega) R_n, H(omega) and H(omega)^{-1} (which the inertia's tangents read) from one
+  // evaluation of the series c_n(|omega|^2): this runs per node and Newton iterate.
   const Vec3          &omega     = node->rotation_increment;
   const RotationSeries series    = RotationSeriesValues(omega.squaredNorm());
   node->position                 = node->position_start + node->displacement_increment;
