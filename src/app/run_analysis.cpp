@@ -95,8 +95,10 @@ struct Analysis {
   // Wall clock (rank 0's, broadcast) and simulated time when this process started stepping, and
   // of the last checkpoint.
   double     wall_start = 0.0, time_start = 0.0, last_checkpoint_wall = 0.0;
-  double     initial_energy = 0.0; // total energy of the first row (dynamics)
-  RunSummary summary;              // what the run printed at its end (-quiet: nothing)
+  double     last_progress_wall       = -1.0; // when the last progress line was printed (< 0: none yet)
+  size_t     progress_critical_points = 0;    // the path's critical points named by the lines so far
+  double     initial_energy           = 0.0;  // total energy of the first row (dynamics)
+  RunSummary summary;                         // what the run printed at its end (-quiet: nothing)
   double     run_wall_start = MPI_Wtime();
   // -log_view stages: Setup, Partition, Output (the integrator adds LinearSolve and Assembly).
   PetscLogStage stage_setup, stage_partition, stage_output, stage_assembly;
@@ -348,6 +350,18 @@ PetscErrorCode CloseOutput(Analysis &a)
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
+// Whether a step's progress line is printed (the step being one of every progress_every-th):
+// at most one line per progress_interval seconds of wall time, since a line per step of a small
+// model costs more than its output (a formatted write to standard output, flushed, per step);
+// the first line, the last and a line naming a new critical point of the path always. Rank 0
+// alone prints, so the ranks need not agree on it.
+bool ProgressLineDue(const Analysis &a, bool last)
+{
+  if (last || a.last_progress_wall < 0.0 || a.options.progress_interval <= 0.0) return true;
+  if (a.path.CriticalPoints().size() != a.progress_critical_points) return true;
+  return MPI_Wtime() - a.last_progress_wall >= a.options.progress_interval;
+}
+
 // The state after a converged step: frame (when due), history row, progress line.
 PetscErrorCode RecordStep(Analysis &a, const StepRecord &record, bool write_frame)
 {
@@ -366,11 +380,14 @@ PetscErrorCode RecordStep(Analysis &a, const StepRecord &record, bool write_fram
   PetscCall(WriteHistory(a, record, strain_energy, results, &kinetic_energy, &total_energy));
   PetscCall(PetscLogStagePop());
   const bool last = a.Finished(record.time);
-  if (!a.options.quiet && record.step > 0 && (record.step % a.options.progress_every == 0 || last)) {
+  if (!a.options.quiet && record.step > 0 && (record.step % a.options.progress_every == 0 || last) && ProgressLineDue(a, last)) {
     // Wall time of this process so far and the time left at the average rate since it started.
-    const double      elapsed = MPI_Wtime() - a.wall_start;
-    const double      left    = record.time > a.time_start ? elapsed * (a.model.analysis.end_time - record.time) / (record.time - a.time_start) : NAN;
-    const std::string timing  = "wall " + FormatDuration(elapsed) + (last ? "" : ", left ~" + FormatDuration(left));
+    const double now           = MPI_Wtime();
+    const double elapsed       = now - a.wall_start;
+    a.last_progress_wall       = now;
+    a.progress_critical_points = a.path.CriticalPoints().size();
+    const double      left     = record.time > a.time_start ? elapsed * (a.model.analysis.end_time - record.time) / (record.time - a.time_start) : NAN;
+    const std::string timing   = "wall " + FormatDuration(elapsed) + (last ? "" : ", left ~" + FormatDuration(left));
     if (a.Dynamic()) {
       PetscCall(PetscPrintf(a.comm, "step %6d  t = %-11.6g dt = %-10.4g newton %2d  |R| = %.3e  energy = %.10e  %s\n", record.step, record.time,
                             record.step_size, record.newton_iterations, record.residual_norm, total_energy, timing.c_str()));

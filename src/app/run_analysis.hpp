@@ -20,6 +20,7 @@ struct RunOptions {
   PetscReal   output_flush_interval = 10.0;    // wall-time seconds between flushes of the result file (0: every step); set from output.flush_interval
   PetscBool   quiet                 = PETSC_FALSE;
   PetscInt    progress_every        = 1;
+  PetscReal   progress_interval     = 1.0; // wall-time seconds between progress lines (0: no limit); set from output.progress_interval
   // Checkpoints (docs/options.md): every n converged steps, every so many seconds of wall time
   // (0: never), and always on SIGTERM or SIGUSR1, into checkpoint_file.
   PetscInt    checkpoint_every     = 0;

@@ -190,14 +190,19 @@ PetscErrorCode SettingsFromOptions(MPI_Comm comm, Model *model, RunOptions *opti
   PetscCheck(every >= 1, comm, PETSC_ERR_USER_INPUT, "option -output_every must be >= 1, got %" PetscInt_FMT, every);
   PetscCheck(std::isfinite(options->output_flush_interval) && options->output_flush_interval >= 0, comm, PETSC_ERR_USER_INPUT,
              "option -output_flush_interval must be >= 0 seconds, got %g", (double)options->output_flush_interval);
-  options->output_file    = file;
-  options->output_every   = every;
-  options->progress_every = model->output.progress_every; // default: the input's output.progress_every
+  options->output_file       = file;
+  options->output_every      = every;
+  options->progress_every    = model->output.progress_every;    // default: the input's output.progress_every
+  options->progress_interval = model->output.progress_interval; // default: the input's output.progress_interval
   PetscOptionsBegin(comm, nullptr, "Progress", "msflex");
   PetscCall(PetscOptionsBool("-quiet", OptionDescription("-quiet"), "", options->quiet, &options->quiet, nullptr));
   PetscCall(PetscOptionsInt("-progress_every", OptionDescription("-progress_every"), "", options->progress_every, &options->progress_every, nullptr));
+  PetscCall(
+      PetscOptionsReal("-progress_interval", OptionDescription("-progress_interval"), "", options->progress_interval, &options->progress_interval, nullptr));
   PetscOptionsEnd();
   PetscCheck(options->progress_every >= 1, comm, PETSC_ERR_USER_INPUT, "option -progress_every must be >= 1, got %" PetscInt_FMT, options->progress_every);
+  PetscCheck(std::isfinite(options->progress_interval) && options->progress_interval >= 0, comm, PETSC_ERR_USER_INPUT,
+             "option -progress_interval must be >= 0 seconds, got %g", (double)options->progress_interval);
 
   // Checkpoints; defaults: the input's output.checkpoint, the file next to the output file.
   std::string default_checkpoint = model->output.checkpoint_file;

@@ -735,12 +735,13 @@ void ReadOutput(const YAML::Node *mapping, const ReaderContext &context, OutputS
 {
   output.file = DefaultOutputFile(context.model.input_file);
   if (mapping == nullptr || mapping->IsNull()) return;
-  const MappingReader entry(*mapping, "'output'", {"file", "every", "progress_every", "flush_interval", "xdmf", "checkpoint"});
-  output.mark           = context.MarkOf(entry.Mark());
-  output.file           = entry.String("file", output.file);
-  output.every          = entry.Integer("every", 1, output.every);
-  output.progress_every = entry.Integer("progress_every", 1, output.progress_every);
-  output.flush_interval = entry.NonNegativeNumber("flush_interval", output.flush_interval);
+  const MappingReader entry(*mapping, "'output'", {"file", "every", "progress_every", "progress_interval", "flush_interval", "xdmf", "checkpoint"});
+  output.mark              = context.MarkOf(entry.Mark());
+  output.file              = entry.String("file", output.file);
+  output.every             = entry.Integer("every", 1, output.every);
+  output.progress_every    = entry.Integer("progress_every", 1, output.progress_every);
+  output.progress_interval = entry.NonNegativeNumber("progress_interval", output.progress_interval);
+  output.flush_interval    = entry.NonNegativeNumber("flush_interval", output.flush_interval);
   if (const YAML::Node *value = entry.Find("xdmf")) {
     const std::string choice = ReadString(*value, "xdmf");
     if (choice != "xdmf3" && choice != "xdmf2") FailAt(value->Mark(), "unknown choice " + Quote(choice) + " for 'xdmf'; expected xdmf3 or xdmf2");

@@ -310,6 +310,9 @@ struct OutputSettings {
   std::string file;               // HDF5 output; default: input file name with .h5, in the working directory
   int         every          = 1; // write every n-th converged step (the last step is always written)
   int         progress_every = 1; // a progress line every n-th converged step
+  // ... and at most one per so many seconds of wall time (0: no limit); the first and the last
+  // step's lines, and those naming a new critical point, are always printed.
+  double progress_interval = 1.0;
   // Wall-time seconds between flushes of buffered history rows to the file (0: every step); a
   // killed run loses at most this much (docs/output.md).
   double flush_interval = 10.0;

@@ -202,7 +202,7 @@ def interrupt(ranks, send, label, source, settings, expected):
     for path in (output, checkpoint):
         if os.path.exists(path):
             os.remove(path)
-    process = subprocess.Popen(command(ranks, source, "-output_file", output, "-progress_every", 1, *settings), stdout=subprocess.PIPE,
+    process = subprocess.Popen(command(ranks, source, "-output_file", output, "-progress_every", 1, "-progress_interval", 0, *settings), stdout=subprocess.PIPE,
                                stderr=subprocess.PIPE, text=True, env=env)
     for line in process.stdout:
         if line.startswith("step") and int(line.split()[1]) >= 50:
@@ -232,7 +232,7 @@ interrupt(2, lambda p: p.send_signal(signal.SIGUSR1), "SIGUSR1 to mpirun, 2 rank
 # 4. SIGKILL: no chance to clean up, the file must still be readable up to the last whole step.
 output = f"{work}/killed.h5"
 # -output_flush_interval 0: the file is flushed after every step (by default every 10 s of wall time).
-process = subprocess.Popen(command(1, source, "-output_file", output, "-output_overwrite", "-progress_every", 1, "-output_flush_interval", 0, *settings),
+process = subprocess.Popen(command(1, source, "-output_file", output, "-output_overwrite", "-progress_every", 1, "-progress_interval", 0, "-output_flush_interval", 0, *settings),
                            stdout=subprocess.PIPE,
                            stderr=subprocess.DEVNULL, text=True, env=env)
 for line in process.stdout:
