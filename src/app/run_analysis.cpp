@@ -350,6 +350,22 @@ PetscErrorCode CloseOutput(Analysis &a)
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
+// PETSc's viewer lookups turned off for a scope (PetscOptionsPushGetViewerOff), and on again at
+// its end whichever way it is left.
+class ViewerLookupsOff {
+public:
+  explicit ViewerLookupsOff(bool off) : pushed_(off && PetscOptionsPushGetViewerOff(PETSC_TRUE) == PETSC_SUCCESS) {}
+  ~ViewerLookupsOff()
+  {
+    if (pushed_) (void)PetscOptionsPopGetViewerOff(); // fails only when nothing was pushed
+  }
+  ViewerLookupsOff(const ViewerLookupsOff &)            = delete;
+  ViewerLookupsOff &operator=(const ViewerLookupsOff &) = delete;
+
+private:
+  bool pushed_;
+};
+
 // Whether a step's progress line is printed (the step being one of every progress_every-th):
 // at most one line per progress_interval seconds of wall time, since a line per step of a small
 // model costs more than its output (a formatted write to standard output, flushed, per step);
@@ -565,6 +581,10 @@ PetscErrorCode RunAnalysis(MPI_Comm comm, Model model, const RunOptions &options
   }
   a.wall_start = a.last_checkpoint_wall = WallClock(comm);
   a.time_start                          = t;
+  // KSPSolve, SNESSolve and the assemblies look up a dozen viewer options in the database at
+  // every call (-ksp_view, -snes_converged_reason, ...): 4 % of a small model's step. Where no
+  // option asks for a viewer, the steps run with those lookups off.
+  const ViewerLookupsOff viewer_lookups_off(!options.petsc_viewers_requested);
   while (!a.Finished(t)) {
     // Arc length has no target in t: it ends on the load factor.
     const double target = arc_length ? INFINITY : NextTarget(analysis, t);

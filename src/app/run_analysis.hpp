@@ -27,7 +27,10 @@ struct RunOptions {
   PetscReal   checkpoint_wall_time = 0.0;
   std::string checkpoint_file;
   std::string options_database; // the run's options, stored in checkpoints
-  std::string restart_file;     // the checkpoint a restarted run continues from
+  // Whether an option may ask PETSc for a viewer during the steps (-ksp_view,
+  // -snes_converged_reason, ...); without one, the step loop turns PETSc's viewer lookups off.
+  bool        petsc_viewers_requested = true;
+  std::string restart_file; // the checkpoint a restarted run continues from
   // File safety (docs/options.md, "Files msflex writes"), decided once by main after the run-file
   // policy passed: whether a restart continues its existing result file, the run's identity
   // (msflex_run of its result file and checkpoints) and the model fingerprint (msflex_model).

@@ -4,11 +4,31 @@
 #include "io/input_reader.hpp"
 
 #include <algorithm>
+#include <cctype>
 #include <cmath>
 #include <cstring>
+#include <sstream>
+#include <string>
 #include <vector>
 
 namespace msflex {
+
+// Whether an option of the database (PetscOptionsGetAll's "-name value -name ...") may be one
+// that PETSc reads through PetscOptionsGetViewer while a solve runs: every viewer, converged-reason,
+// monitor, draw and test option has one of these words in its name.
+namespace {
+bool MayRequestViewers(const std::string &database)
+{
+  std::istringstream words(database);
+  std::string        word;
+  while (words >> word) {
+    if (word.size() < 2 || word[0] != '-' || !std::isalpha((unsigned char)word[1])) continue; // a value
+    for (const char *part : {"view", "reason", "monitor", "draw", "test"})
+      if (word.find(part) != std::string::npos) return true;
+  }
+  return false;
+}
+} // namespace
 
 PetscErrorCode SettingsFromOptions(MPI_Comm comm, Model *model, RunOptions *options)
 {
@@ -229,7 +249,8 @@ PetscErrorCode SettingsFromOptions(MPI_Comm comm, Model *model, RunOptions *opti
   // and `..`: the run-file policy in main (CheckRunFiles).
   char *database;
   PetscCall(PetscOptionsGetAll(nullptr, &database));
-  options->options_database = database;
+  options->options_database        = database;
+  options->petsc_viewers_requested = MayRequestViewers(database);
   PetscCall(PetscFree(database));
   PetscFunctionReturn(PETSC_SUCCESS);
 }

@@ -283,7 +283,13 @@ PetscErrorCode Assembler::Setup(MPI_Comm comm, const Model &model, const DofMap 
   expansion_scratch_.assign(std::max(max_unknowns * max_unknowns, 6 * max_unknowns), 0.0);
   expansion_product_scratch_.assign(6 * std::max<size_t>(max_unknowns, 6), 0.0);
   joint_geometric_scratch_.assign(3 * (6 + kJointMaxReleased) * max_unknowns + max_unknowns * max_unknowns, 0.0);
-  PetscCall(VecCreateMPI(comm, 12 * (PetscInt)map.num_owned_joints, 12 * map.global_count.joints, &joint_output_));
+  // Standard type: a sequential vector on one rank, whose assembly is a no-op (an MPI vector's
+  // does a two-sided handshake every step even then). The slots each rank adds into are the same
+  // at every step, so the off-process pattern of the first assembly is kept.
+  PetscCall(VecCreate(comm, &joint_output_));
+  PetscCall(VecSetSizes(joint_output_, 12 * (PetscInt)map.num_owned_joints, 12 * map.global_count.joints));
+  PetscCall(VecSetType(joint_output_, VECSTANDARD));
+  PetscCall(VecSetOption(joint_output_, VEC_SUBSET_OFF_PROC_ENTRIES, PETSC_TRUE));
   IS from_is;
   PetscCall(ISCreateGeneral(PETSC_COMM_SELF, (PetscInt)from.size(), from.data(), PETSC_COPY_VALUES, &from_is));
   PetscCall(VecCreateSeq(PETSC_COMM_SELF, (PetscInt)from.size(), &ghosted_increments_));
