@@ -103,6 +103,14 @@ struct Analysis {
   // -log_view stages: Setup, Partition, Output (the integrator adds LinearSolve and Assembly).
   PetscLogStage stage_setup, stage_partition, stage_output, stage_assembly;
   OutputFrame   frame; // the frame being written, kept so that its arrays are allocated once
+  // Scratch of the history row and the step's element results, kept from step to step so that a
+  // step's output allocates nothing once the first has sized them.
+  struct HistoryRowScratch {
+    std::vector<double>       values, joint_values, element_values, probe_values;
+    std::vector<ProbeSample>  probes;
+    std::vector<HistoryValue> force_elements;
+  } history_scratch;
+  std::vector<ElementResults> step_results;
 
   Analysis(MPI_Comm c, const RunOptions &o, const CheckpointRun *r) : comm(c), options(o), restart(r) {}
   bool Dynamic() const { return model.analysis.type == AnalysisType::Dynamic; }
@@ -226,11 +234,13 @@ PetscErrorCode Setup(Analysis &a, Model whole)
 PetscErrorCode WriteHistory(Analysis &a, const StepRecord &record, double strain_energy, const std::vector<ElementResults> &results, double *kinetic_energy,
                             double *total_energy)
 {
-  std::vector<ProbeSample> probes;
-  std::vector<std::string> names;
-  std::vector<double>      values;
+  Analysis::HistoryRowScratch &scratch = a.history_scratch;
+  std::vector<ProbeSample>    &probes  = scratch.probes;
+  std::vector<std::string>     names;
+  std::vector<double>         &values = scratch.values;
   PetscFunctionBeginUser;
   PetscCall(PetscLogEventBegin(output_events.history_row, 0, 0, 0, 0));
+  values.clear();
   // The series' names go with the first row only (the result file keeps them): building them for
   // every row was a third of a row's cost on a model of a few dozen series.
   const bool with_names = !a.output.HistoryNamesKnown();
@@ -280,23 +290,20 @@ PetscErrorCode WriteHistory(Analysis &a, const StepRecord &record, double strain
   }
   if (a.map.global_count.joints > 0) {
     std::vector<std::string> joint_names;
-    std::vector<double>      joint_values;
-    PetscCall(JointHistory(a.comm, a.model, a.map, state, &a.joint_history, &joint_names, &joint_values));
-    append(joint_names, joint_values);
+    PetscCall(JointHistory(a.comm, a.model, a.map, state, &a.joint_history, with_names ? &joint_names : nullptr, &scratch.joint_values));
+    append(joint_names, scratch.joint_values);
   }
   if (force_elements) {
-    std::vector<HistoryValue> local;
-    std::vector<std::string>  element_names;
-    std::vector<double>       element_values;
-    a.integrator.ForceElementHistory(&local);
-    PetscCall(GatherHistory(a.comm, local, &a.force_element_history, &element_names, &element_values));
-    append(element_names, element_values);
+    std::vector<std::string> element_names;
+    scratch.force_elements.clear();
+    a.integrator.ForceElementHistory(&scratch.force_elements);
+    PetscCall(GatherHistory(a.comm, scratch.force_elements, &a.force_element_history, with_names ? &element_names : nullptr, &scratch.element_values));
+    append(element_names, scratch.element_values);
   }
   {
     std::vector<std::string> probe_names;
-    std::vector<double>      probe_values;
-    PetscCall(ProbeHistory(a.comm, a.model, a.map, state, results, with_names ? &probe_names : nullptr, &probe_values));
-    append(probe_names, probe_values);
+    PetscCall(ProbeHistory(a.comm, a.model, a.map, state, results, with_names ? &probe_names : nullptr, &scratch.probe_values));
+    append(probe_names, scratch.probe_values);
   }
   PetscCall(PetscLogEventEnd(output_events.history_row, 0, 0, 0, 0));
   PetscCall(PetscLogEventBegin(output_events.file_write, 0, 0, 0, 0));
@@ -381,9 +388,10 @@ bool ProgressLineDue(const Analysis &a, bool last)
 // The state after a converged step: frame (when due), history row, progress line.
 PetscErrorCode RecordStep(Analysis &a, const StepRecord &record, bool write_frame)
 {
-  double                      strain_energy = 0.0, kinetic_energy = 0.0, total_energy = 0.0;
-  std::vector<ElementResults> results;
+  double                       strain_energy = 0.0, kinetic_energy = 0.0, total_energy = 0.0;
+  std::vector<ElementResults> &results = a.step_results;
   PetscFunctionBeginUser;
+  results.clear();
   PetscCall(PetscLogStagePush(a.stage_output));
   PetscCall(PetscLogEventBegin(output_events.results, 0, 0, 0, 0));
   // The element results only for a frame or an element probe; the history's strain energy alone

@@ -63,10 +63,11 @@ private:
 template <class RootWork> PetscErrorCode RunOnRoot(MPI_Comm comm, RootWork &&root_work)
 {
   PetscMPIInt    rank;
-  PetscErrorCode status        = PETSC_SUCCESS;
-  char           message[1024] = "";
+  PetscErrorCode status = PETSC_SUCCESS;
+  char           message[1024]; // set only when a rank fails (filling 1 kB per call costs a small frame)
 
   PetscFunctionBeginUser;
+  message[0] = '\0';
   PetscCallMPI(MPI_Comm_rank(comm, &rank));
   if (rank == 0) {
     PetscCall(PetscPushErrorHandler(PetscReturnErrorHandler, nullptr));
@@ -78,8 +79,14 @@ template <class RootWork> PetscErrorCode RunOnRoot(MPI_Comm comm, RootWork &&roo
       PetscCall(PetscStrncpy(message, specific, sizeof message));
     }
   }
-  PetscCallMPI(MPI_Bcast(&status, 1, MPI_INT, 0, comm));
-  if (status != PETSC_SUCCESS) PetscCallMPI(MPI_Bcast(message, sizeof message, MPI_CHAR, 0, comm));
+  PetscMPIInt size;
+  PetscCallMPI(MPI_Comm_size(comm, &size));
+  // One rank: nothing to agree on (a frame or history row of a small model calls this several
+  // times, and each broadcast costs as much as the work).
+  if (size > 1) {
+    PetscCallMPI(MPI_Bcast(&status, 1, MPI_INT, 0, comm));
+    if (status != PETSC_SUCCESS) PetscCallMPI(MPI_Bcast(message, sizeof message, MPI_CHAR, 0, comm));
+  }
   PetscCheck(status == PETSC_SUCCESS, comm, status, "%s", message);
   PetscFunctionReturn(PETSC_SUCCESS);
 }
@@ -89,10 +96,11 @@ template <class RootWork> PetscErrorCode RunOnRoot(MPI_Comm comm, RootWork &&roo
 template <class Work> PetscErrorCode RunCollective(MPI_Comm comm, Work &&work)
 {
   PetscMPIInt    rank, size, first;
-  PetscErrorCode status        = PETSC_SUCCESS;
-  char           message[1024] = "";
+  PetscErrorCode status = PETSC_SUCCESS;
+  char           message[1024]; // set only when a rank fails (filling 1 kB per call costs a small frame)
 
   PetscFunctionBeginUser;
+  message[0] = '\0';
   PetscCallMPI(MPI_Comm_rank(comm, &rank));
   PetscCallMPI(MPI_Comm_size(comm, &size));
   PetscCall(PetscPushErrorHandler(PetscReturnErrorHandler, nullptr));
@@ -104,7 +112,8 @@ template <class Work> PetscErrorCode RunCollective(MPI_Comm comm, Work &&work)
     PetscCall(PetscStrncpy(message, specific, sizeof message));
   }
   const PetscMPIInt mine = status != PETSC_SUCCESS ? rank : size;
-  PetscCallMPI(MPI_Allreduce(&mine, &first, 1, MPI_INT, MPI_MIN, comm));
+  if (size == 1) first = mine; // one rank: nothing to agree on
+  else PetscCallMPI(MPI_Allreduce(&mine, &first, 1, MPI_INT, MPI_MIN, comm));
   if (first < size) {
     PetscCallMPI(MPI_Bcast(&status, 1, MPI_INT, first, comm));
     PetscCallMPI(MPI_Bcast(message, sizeof message, MPI_CHAR, first, comm));

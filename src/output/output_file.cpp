@@ -21,6 +21,7 @@
 #include <cstring>
 #include <ctime>
 #include <filesystem>
+#include <memory>
 #include <sstream>
 
 // Checks the result of an HDF5 call (negative means failure) inside an OutputFile::Impl member,
@@ -264,6 +265,27 @@ std::string OptionsText()
   return text;
 }
 
+// One frame field's buffered values: storage that grows without being filled (a vector's resize
+// zero-fills what the copy then overwrites: a tenth of a small model's frame), `size` in use.
+struct FieldBuffer {
+  std::unique_ptr<double[]> data;
+  size_t                    capacity = 0, size = 0;
+  // Room for `count` more values at the end, growing to at least `reserve`; returns where they go.
+  double *Extend(size_t count, size_t reserve)
+  {
+    if (size + count > capacity) {
+      const size_t              grown = std::max({size + count, reserve, 2 * capacity});
+      std::unique_ptr<double[]> more(new double[grown]); // not value-initialised: untouched until written
+      std::copy_n(data.get(), size, more.get());
+      data.swap(more);
+      capacity = grown;
+    }
+    double *at = data.get() + size;
+    size += count;
+    return at;
+  }
+};
+
 } // namespace
 
 // One rank's side of the output file: the open HDF5 file, the buffered history rows and what the
@@ -415,10 +437,10 @@ struct OutputFile::Impl {
   // last frames_buffered of `frames`), their rows (the same for each), and per field the values,
   // frame after frame. frames_written: frames in the file. field_exists: the frame datasets the
   // file has (the same on every rank).
-  hsize_t             frames_written = 0, frames_buffered = 0;
-  FrameRows           buffered_rows;
-  std::vector<double> buffered_fields[kFrameFieldCount];
-  bool                field_exists[kFrameFieldCount]{};
+  hsize_t     frames_written = 0, frames_buffered = 0;
+  FrameRows   buffered_rows;
+  FieldBuffer buffered_fields[kFrameFieldCount];
+  bool        field_exists[kFrameFieldCount]{};
   // WriteFrame's scratch, kept so that a frame costs no allocation: the caller's rows (for a frame
   // that is not distributed, 0, 1, ... of each table), the frame's rows in file order, the
   // permutation per kind of row, the element row of each segment of the frame (in its order), and
@@ -1301,22 +1323,23 @@ PetscErrorCode OutputFile::Impl::BufferFrame(const OutputFrame &frame, const Fra
       {&frame.joint_axes, 9, 0, false},         {&frame.joint_axes, 9, 3, false},      {&frame.joint_axes, 9, 6, false}};
   PetscFunctionBeginUser;
   if (frames_buffered == 0) buffered_rows = frame_sorted;
-  const int contents = entry.Contents();
+  const int    contents     = entry.Contents();
+  const size_t block_frames = FramesPerBlock();
   for (int f = 0; f < kFrameFieldCount; ++f) {
     const FrameField          &field  = kFrameFields[f];
     const Source              &source = sources[f];
     const std::vector<size_t> &order  = frame_order[field.rows];
     const size_t               n_rows = frame_sorted.Of(field.rows).size(), columns = (size_t)field.columns;
-    std::vector<double>       &buffer = buffered_fields[f];
-    const size_t               at     = buffer.size();
-    // Room for a whole block at once (address space only until written): no copying as it grows.
-    if (at == 0 && buffer.capacity() == 0) buffer.reserve(FramesPerBlock() * std::max<size_t>(1, n_rows) * columns);
+    const size_t               count = n_rows * columns;
+    // Room for a whole block at the first frame (address space only until written).
+    double    *out     = buffered_fields[f].Extend(count, block_frames * std::max<size_t>(1, n_rows) * columns);
     const bool present = !field.content || (contents & field.content);
-    buffer.resize(at + n_rows * columns, 0.0);
-    if (!present) continue; // a field the frame does not have holds zeros in it
+    if (!present) { // a field the frame does not have holds zeros in it
+      std::fill_n(out, count, 0.0);
+      continue;
+    }
     // (The arrays' sizes were checked against the rows by CheckFrame, the triads' by SortFrameRows.)
-    double       *out = buffer.data() + at;
-    const double *in  = source.data->data() + source.offset;
+    const double *in = source.data->data() + source.offset;
     for (size_t k = 0; k < n_rows; ++k) {
       size_t u = order.empty() ? k : order[k];
       if (source.by_element) u = segment_source[u];
@@ -1426,16 +1449,16 @@ PetscErrorCode OutputFile::Impl::WriteFrameBlock()
     const hsize_t memory_dims[3] = {count, std::max<hsize_t>(1, mine.size()), columns};
     const double  nothing        = 0.0;
     PetscCallHDF5(memory_space = H5Screate_simple(3, memory_dims, nullptr));
-    if (buffered_fields[f].empty()) PetscCallHDF5(H5Sselect_none(memory_space));
-    PetscCheck(buffered_fields[f].size() == count * mine.size() * columns, PETSC_COMM_SELF, PETSC_ERR_PLIB,
-               "output file '%s': %zu buffered values of %s for %llu frames of %zu rows", path.c_str(), buffered_fields[f].size(), field.name,
-               (unsigned long long)count, mine.size());
-    PetscCallHDF5(
-        H5Dwrite(dataset, H5T_NATIVE_DOUBLE, memory_space, file_space, frame_transfer, buffered_fields[f].empty() ? &nothing : buffered_fields[f].data()));
+    const FieldBuffer &buffer = buffered_fields[f];
+    if (buffer.size == 0) PetscCallHDF5(H5Sselect_none(memory_space));
+    PetscCheck(buffer.size == count * mine.size() * columns, PETSC_COMM_SELF, PETSC_ERR_PLIB,
+               "output file '%s': %zu buffered values of %s for %llu frames of %zu rows", path.c_str(), buffer.size, field.name, (unsigned long long)count,
+               mine.size());
+    PetscCallHDF5(H5Dwrite(dataset, H5T_NATIVE_DOUBLE, memory_space, file_space, frame_transfer, buffer.size == 0 ? &nothing : buffer.data.get()));
   }
   frames_written  = total;
   frames_buffered = 0;
-  for (std::vector<double> &values : buffered_fields) values.clear();
+  for (FieldBuffer &buffer : buffered_fields) buffer.size = 0;
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 

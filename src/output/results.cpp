@@ -308,8 +308,8 @@ static PetscErrorCode GatherSeriesInOrder(MPI_Comm comm, const char *what, const
                                           const std::vector<double> &local_values, HistoryGather *cache, std::vector<std::string> *names,
                                           std::vector<double> *values)
 {
-  PetscMPIInt       rank;
-  std::vector<char> gathered_values;
+  PetscMPIInt        rank;
+  std::vector<char> &gathered_values = cache->gathered_values;
   PetscFunctionBeginUser;
   PetscCallMPI(MPI_Comm_rank(comm, &rank));
   if (!cache->gathered) {
@@ -317,15 +317,16 @@ static PetscErrorCode GatherSeriesInOrder(MPI_Comm comm, const char *what, const
     cache->gathered = true;
   }
   PetscCall(GatherToRoot(comm, local_values.data(), (int)local_values.size(), MPI_DOUBLE, &gathered_values, sizeof(double)));
-  names->clear();
+  if (names) names->clear();
   values->clear();
   if (rank == 0) {
-    *names = cache->names;
-    values->assign(names->size(), 0.0);
-    PetscCheck(gathered_values.size() == sizeof(double) * names->size(), PETSC_COMM_SELF, PETSC_ERR_PLIB, "%s: %zu values for %zu series", what,
-               gathered_values.size() / sizeof(double), names->size());
+    const size_t count = cache->names.size();
+    if (names) *names = cache->names;
+    values->assign(count, 0.0);
+    PetscCheck(gathered_values.size() == sizeof(double) * count, PETSC_COMM_SELF, PETSC_ERR_PLIB, "%s: %zu values for %zu series", what,
+               gathered_values.size() / sizeof(double), count);
     const double *in = reinterpret_cast<const double *>(gathered_values.data());
-    for (size_t i = 0; i < names->size(); ++i) (*values)[cache->permutation[i]] = in[i];
+    for (size_t i = 0; i < count; ++i) (*values)[cache->permutation[i]] = in[i];
   }
   PetscFunctionReturn(PETSC_SUCCESS);
 }
@@ -343,9 +344,10 @@ PetscErrorCode JointHistory(MPI_Comm comm, const Model &model, const DofMap &map
   for (const JointState &J : state.joints)
     if (map.joint_rank[J.joint] == rank) owned.push_back(&J);
   std::sort(owned.begin(), owned.end(), [&](const JointState *a, const JointState *b) { return map.joint_slot[a->joint] < map.joint_slot[b->joint]; });
-  const bool          need_names = !cache->gathered;
-  std::vector<double> local, local_orders;
-  std::string         local_names; // '\0'-terminated series names
+  const bool           need_names = !cache->gathered;
+  std::vector<double> &local      = cache->local_values, local_orders;
+  std::string          local_names; // '\0'-terminated series names
+  local.clear();
   for (const JointState *J : owned) {
     const Joint            &joint = model.joints[J->joint];
     const JointCoordinates &q     = J->start;
@@ -437,9 +439,11 @@ PetscErrorCode ProbeHistory(MPI_Comm comm, const Model &model, const DofMap &map
 PetscErrorCode GatherHistory(MPI_Comm comm, const std::vector<HistoryValue> &local, HistoryGather *cache, std::vector<std::string> *names,
                              std::vector<double> *values)
 {
-  std::string         local_names; // '\0'-terminated, only for the first gather
-  std::vector<double> local_orders, local_values;
+  std::string          local_names; // '\0'-terminated, only for the first gather
+  std::vector<double>  local_orders;
+  std::vector<double> &local_values = cache->local_values;
   PetscFunctionBeginUser;
+  local_values.clear();
   for (const HistoryValue &v : local) {
     if (!cache->gathered) local_names += v.name + '\0', local_orders.push_back((double)v.order);
     local_values.push_back(v.value);

@@ -42,13 +42,17 @@ struct HistoryGather {
   bool                     gathered = false;
   std::vector<std::string> names;       // in order
   std::vector<size_t>      permutation; // gathered position (the ranks' parts one after the other) -> place in names
+  // Scratch kept from row to row (a row allocates nothing once the first has sized them).
+  std::vector<double> local_values;
+  std::vector<char>   gathered_values;
 };
 
 // The joints' history series, per joint "<joint>.<quantity>": the released coordinates (tx ty tz
 // along, rx ry rz about the joint axes; a free rotation as the rotation vector of the relative
 // rotation in joint axes; a dependent translation under its axis) and their rates, and the force
 // and moment the joint exerts on its slave (State::joints' reactions). The names are gathered to
-// rank 0 once (kept in *cache); values and names are filled on rank 0, empty elsewhere. Collective.
+// rank 0 once (kept in *cache); values and names are filled on rank 0, empty elsewhere; `names`
+// may be null (the rows after the first). Collective.
 PetscErrorCode JointHistory(MPI_Comm comm, const Model &model, const DofMap &map, const State &state, HistoryGather *cache, std::vector<std::string> *names,
                             std::vector<double> *values);
 
@@ -62,7 +66,7 @@ PetscErrorCode ProbeHistory(MPI_Comm comm, const Model &model, const DofMap &map
 
 // History values the ranks hold (HistoryValue: force elements), gathered to rank 0 in the order
 // of their keys; names and order are gathered once (kept in *cache). Values and names on rank 0,
-// empty elsewhere. Collective.
+// empty elsewhere; `names` may be null. Collective.
 PetscErrorCode GatherHistory(MPI_Comm comm, const std::vector<HistoryValue> &local, HistoryGather *cache, std::vector<std::string> *names,
                              std::vector<double> *values);
 
