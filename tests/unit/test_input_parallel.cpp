@@ -7,6 +7,7 @@
 #include <gtest/gtest.h>
 #include <hdf5.h>
 #include <mpi.h>
+#include <unistd.h>
 
 #include <filesystem>
 #include <fstream>
@@ -86,10 +87,15 @@ probes:
 analysis: {type: dynamic}
 )";
 
-// Writes the YAML file and the mesh (rank 0) into a directory every rank sees.
+// Writes the YAML file and the mesh (rank 0) into a directory every rank sees, named after rank
+// 0's process: ctest runs this test on 1, 2 and 3 ranks at once, and HDF5 refuses to open a mesh
+// another run is writing.
 std::filesystem::path WriteCase(bool valid_mesh)
 {
-  const std::filesystem::path directory = std::filesystem::temp_directory_path() / ("msflex_input_parallel_" + std::to_string(valid_mesh));
+  long process = (long)getpid();
+  MPI_Bcast(&process, 1, MPI_LONG, 0, MPI_COMM_WORLD);
+  const std::filesystem::path directory =
+      std::filesystem::temp_directory_path() / ("msflex_input_parallel_" + std::to_string(process) + "_" + std::to_string(valid_mesh));
   if (Rank() == 0) {
     std::filesystem::create_directories(directory);
     WriteChainMesh(directory / "chain.h5", valid_mesh);
@@ -99,9 +105,22 @@ std::filesystem::path WriteCase(bool valid_mesh)
   return directory / "model.yaml";
 }
 
+// A case's directory, removed when the test ends (after every rank is done with it).
+struct CaseFiles {
+  std::filesystem::path input;
+  explicit CaseFiles(bool valid_mesh) : input(WriteCase(valid_mesh)) {}
+  ~CaseFiles()
+  {
+    MPI_Barrier(MPI_COMM_WORLD);
+    std::error_code ignored;
+    if (Rank() == 0) std::filesystem::remove_all(input.parent_path(), ignored);
+  }
+};
+
 TEST(InputParallel, SlicedReadGivesTheSingleReaderModel)
 {
-  const std::filesystem::path input = WriteCase(true);
+  const CaseFiles             files(true);
+  const std::filesystem::path input = files.input;
   Model                       alone, together;
   InputError                  error;
   ASSERT_TRUE(ReadModelFile(input.string(), &alone, &error, MPI_COMM_SELF)) << error.Format();
@@ -141,7 +160,8 @@ TEST(InputParallel, SlicedReadGivesTheSingleReaderModel)
 
 TEST(InputParallel, BrokenMeshFailsTheSameEverywhere)
 {
-  const std::filesystem::path input = WriteCase(false);
+  const CaseFiles             files(false);
+  const std::filesystem::path input = files.input;
   Model                       model;
   InputError                  error;
   ASSERT_FALSE(ReadModelFile(input.string(), &model, &error, MPI_COMM_WORLD));
