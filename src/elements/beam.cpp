@@ -56,7 +56,7 @@ template <int NN> void NonReferenceNodes(int c, int *others)
 struct GaussInterpolation {
   Vec3 Psi, dPsi, drho;
 };
-GaussInterpolation InterpolateAtGauss(const BeamElementReference &ref, int gp, const Vec3 *rho, const Vec3 *psi)
+[[gnu::always_inline]] inline GaussInterpolation InterpolateAtGauss(const BeamElementReference &ref, int gp, const Vec3 *rho, const Vec3 *psi)
 {
   GaussInterpolation g{Vec3::Zero(), Vec3::Zero(), Vec3::Zero()};
   for (int a = 0; a < ref.num_nodes; ++a) {
@@ -103,7 +103,7 @@ inline double Horner(const double *coefficient, double x)
   return value;
 }
 
-RotationSeries ElementRotationSeries(double x, int first, bool second_derivatives)
+[[gnu::always_inline]] inline RotationSeries ElementRotationSeries(double x, int first, bool second_derivatives)
 {
   if (x > kShortSeriesLimit) return EvaluateRotationSeries(x);
   RotationSeries s{};
@@ -117,30 +117,36 @@ RotationSeries ElementRotationSeries(double x, int first, bool second_derivative
 
 template <int NN> using NodalMatrix = Eigen::Matrix<double, 6 * NN, 6 * NN, Eigen::RowMajor>;
 
+// always_inline on these small closed forms: the mid-point kernels are too large for GCC's inliner
+// to inline them (it called the 3x3 products out of line), and flattening those kernels whole made
+// them slower (scripts/bench-kernel).
 // Closed forms of the Rodrigues-type operators F = I + alpha hat(p) + beta hat(p)^2 (math/rotation.hpp)
 // written out for the end-point kernel, which calls them on every element of every Newton
 // iteration: hat(p)^2 = p p^T - x I (x = |p|^2), so F and its products need no 3x3 matrix product,
 // and one vector u per operand carries every derivative term of the Jacobian (below).
 
 // F^T v = v - alpha p x v + beta (p (p.v) - x v)
-inline Vec3 FormTransposeTimes(double alpha, double beta, const Vec3 &p, double x, const Vec3 &v)
+[[gnu::always_inline]] inline Vec3 FormTransposeTimes(double alpha, double beta, const Vec3 &p, double x, const Vec3 &v)
 {
   return v - alpha * p.cross(v) + beta * (p.dot(v) * p - x * v);
 }
 
 // F v = v + alpha p x v + beta (p (p.v) - x v)
-inline Vec3 FormTimes(double alpha, double beta, const Vec3 &p, double x, const Vec3 &v) { return v + alpha * p.cross(v) + beta * (p.dot(v) * p - x * v); }
+[[gnu::always_inline]] inline Vec3 FormTimes(double alpha, double beta, const Vec3 &p, double x, const Vec3 &v)
+{
+  return v + alpha * p.cross(v) + beta * (p.dot(v) * p - x * v);
+}
 
 // J = d(F^T a)/dp = alpha hat(a) + beta (p.a) I + beta p a^T + u p^T with
 // u = -2 alpha_x (p x a) - 2 beta a + 2 beta_x p x (p x a)  (RodriguesTransposeApplyJacobian regrouped).
 // d(F a)/dp is the same with alpha, alpha_x negated.
-inline Vec3 JacobianShift(double alpha_x, double beta, double beta_x, const Vec3 &p, const Vec3 &a)
+[[gnu::always_inline]] inline Vec3 JacobianShift(double alpha_x, double beta, double beta_x, const Vec3 &p, const Vec3 &a)
 {
   const Vec3 pxa = p.cross(a);
   return -2.0 * alpha_x * pxa - 2.0 * beta * a + 2.0 * beta_x * p.cross(pxa);
 }
 
-inline Mat3 JacobianMatrix(double alpha, double beta, const Vec3 &p, const Vec3 &a, const Vec3 &u)
+[[gnu::always_inline]] inline Mat3 JacobianMatrix(double alpha, double beta, const Vec3 &p, const Vec3 &a, const Vec3 &u)
 {
   const double pa = beta * p.dot(a);
   Mat3         J;
@@ -154,28 +160,28 @@ inline Mat3 JacobianMatrix(double alpha, double beta, const Vec3 &p, const Vec3 
 }
 
 // J^T n without forming J: alpha (n x a) + beta (p.a) n + beta (p.n) a + (u.n) p
-inline Vec3 JacobianTransposeTimes(double alpha, double beta, const Vec3 &p, const Vec3 &a, const Vec3 &u, const Vec3 &n)
+[[gnu::always_inline]] inline Vec3 JacobianTransposeTimes(double alpha, double beta, const Vec3 &p, const Vec3 &a, const Vec3 &u, const Vec3 &n)
 {
   return alpha * n.cross(a) + beta * (p.dot(a) * n + p.dot(n) * a) + u.dot(n) * p;
 }
 
 // rows of M times hat(d) (row_i x d), and hat(d) times the columns of M (d x column_j)
-inline Mat3 TimesSkew(const Mat3 &M, const Vec3 &d)
+[[gnu::always_inline]] inline Mat3 TimesSkew(const Mat3 &M, const Vec3 &d)
 {
   Mat3 R;
   for (int i = 0; i < 3; ++i) R.row(i) = M.row(i).transpose().cross(d).transpose();
   return R;
 }
-inline Mat3 SkewTimes(const Vec3 &d, const Mat3 &M)
+[[gnu::always_inline]] inline Mat3 SkewTimes(const Vec3 &d, const Mat3 &M)
 {
   Mat3 R;
   for (int j = 0; j < 3; ++j) R.col(j) = d.cross(M.col(j));
   return R;
 }
 
-inline Mat3 Mul(const Mat3 &a, const Mat3 &b) { return a.lazyProduct(b); }
-inline Mat3 MulT(const Mat3 &a, const Mat3 &b) { return a.lazyProduct(b.transpose()); } // a b^T
-inline Mat3 TMul(const Mat3 &a, const Mat3 &b) { return a.transpose().lazyProduct(b); } // a^T b
+[[gnu::always_inline]] inline Mat3 Mul(const Mat3 &a, const Mat3 &b) { return a.lazyProduct(b); }
+[[gnu::always_inline]] inline Mat3 MulT(const Mat3 &a, const Mat3 &b) { return a.lazyProduct(b.transpose()); } // a b^T
+[[gnu::always_inline]] inline Mat3 TMul(const Mat3 &a, const Mat3 &b) { return a.transpose().lazyProduct(b); } // a^T b
 
 // Per Gauss point, the 3x3 products from which every block of the local stiffness is a scalar
 // combination (I_a, I'_a are the shape functions and derivatives at the point):
