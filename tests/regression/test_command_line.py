@@ -6,7 +6,10 @@
 - an unused PETSc option is warned about at the end, one line, and the run completes;
 - -h and --help (also after the input file) print msflex's help, with the registries' analysis
   types, integrators and joint kinds, and exit 0 without running; --version prints the version;
-- the end-of-run summary: its step and Newton counts equal the result file's history."""
+- the end-of-run summary: its step and Newton counts equal the result file's history;
+- PETSc's viewer options still act during the steps (the loop turns PETSc's viewer lookups off
+  only when no option asks for one): -snes_converged_reason prints one line per Newton solve,
+  -ksp_converged_reason one per linear solve."""
 
 import os
 
@@ -124,4 +127,16 @@ for ranks in sorted({1, args.np}):
                1e-3 * abs(balance[-1] - balance[0]) + 1e-12)
     code, stdout, _ = run(top, short_top + ["-quiet"], ranks, expect_success=True)
     check.equal(f"np {ranks} -quiet: summary lines", stdout.count("summary"), 0)
+
+    # Viewer options during the steps: a line per solve (the initial accelerations' solve too).
+    code, stdout, _ = run(top, short_top + ["-analysis_initial_step", "0.01", "-snes_converged_reason", "-ksp_converged_reason"], ranks,
+                          expect_success=True)
+    h = mt.history(output)
+    steps, newton = len(h["time"]) - 1, int(np.sum(h["newton_iterations"]))
+    nonlinear = stdout.count("Nonlinear solve converged")
+    linear = stdout.count("Linear solve converged")
+    print(f"np {ranks} -snes_converged_reason -ksp_converged_reason: {nonlinear} nonlinear and {linear} linear lines, {steps} steps, "
+          f"{newton} Newton iterations")
+    check.true(f"np {ranks} -snes_converged_reason: a line per step at least ({nonlinear} >= {steps})", nonlinear >= steps)
+    check.true(f"np {ranks} -ksp_converged_reason: a line per Newton iteration at least ({linear} >= {newton})", linear >= newton)
 check.finish()
