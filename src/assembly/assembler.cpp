@@ -118,7 +118,7 @@ PetscErrorCode Assembler::Setup(MPI_Comm comm, const Model &model, const DofMap 
   PetscCall(MatCreate(comm, &jacobian_));
   PetscCall(MatSetSizes(jacobian_, map.num_owned, map.num_owned, map.num_global, map.num_global));
   // -jacobian_dense_below N: a model of at most N unknowns on one rank gets a dense tangent,
-  // factored by LAPACK, for which a sparse factorisation's set-up costs far more than the
+  // factored by msflex's dense LU, for which a sparse factorisation's set-up costs far more than the
   // arithmetic (a heavy top, 3 unknowns: 0.62 ms of MUMPS against 0.03 ms per step; the turning
   // arm, 49 unknowns: 2.5 against 0.3 ms; docs/solvers.md); an exactly singular tangent is a
   // failed step, as with MUMPS (src/core/dense_lu.cpp). Up to 128 unknowns by default: the

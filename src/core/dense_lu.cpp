@@ -1,6 +1,9 @@
-// P = L U with row interchanges (LAPACK getrf); x = U^{-1} L^{-1} P^T b (getrs). A pivot that is
-// exactly zero (getrf's info = k > 0: U(k,k) = 0) makes P singular: reported, not raised.
+// P = L U with row interchanges: msflex's own elimination up to kSmallLUMaxSize unknowns
+// (core/small_lu.hpp: LAPACK's blocked machinery costs more than the arithmetic there), LAPACK
+// getrf above; x = U^{-1} L^{-1} P^T b (SolveSmallLU or getrs). A pivot that is exactly zero
+// (U(k,k) = 0, getrf's info = k > 0) makes P singular: reported, not raised.
 #include "core/dense_lu.hpp"
+#include "core/small_lu.hpp"
 
 #include <petscblaslapack.h>
 
@@ -11,13 +14,15 @@ namespace msflex {
 
 namespace {
 
-constexpr const char *kDenseLUName = "dense LU (LAPACK)";
+constexpr const char *kDenseLUName = "dense LU";
 
 struct DenseLU {
   PetscBLASInt              n = 0;
-  std::vector<PetscScalar>  factors; // n x n, column-major: L below the diagonal, U on and above
-  std::vector<PetscBLASInt> pivots;
-  PetscBLASInt              zero_pivot = 0; // getrf's info of the last factorisation (0: none)
+  std::vector<PetscScalar>  factors;        // n x n, column-major: L below the diagonal, U on and above
+  std::vector<PetscBLASInt> pivots;         // LAPACK's (1-based), above kSmallLUMaxSize
+  std::vector<int>          small_pivots;   // FactorSmallLU's (0-based), up to kSmallLUMaxSize
+  PetscBLASInt              zero_pivot = 0; // the first column with a zero pivot, 1-based (0: none)
+  bool                      Small() const { return n <= kSmallLUMaxSize; }
 };
 
 PetscErrorCode DenseLUSetUp(PC pc)
@@ -35,12 +40,15 @@ PetscErrorCode DenseLUSetUp(PC pc)
   PetscCall(PetscBLASIntCast(rows, &lu->n));
   PetscCall(MatDenseGetLDA(P, &lda));
   lu->factors.resize((size_t)rows * (size_t)rows);
-  lu->pivots.resize((size_t)rows);
   PetscCall(MatDenseGetArrayRead(P, &values));
   for (PetscInt j = 0; j < rows; ++j) std::memcpy(&lu->factors[(size_t)j * rows], values + (size_t)j * lda, sizeof(PetscScalar) * (size_t)rows);
   PetscCall(MatDenseRestoreArrayRead(P, &values));
   PetscBLASInt info = 0;
-  if (lu->n > 0) {
+  if (lu->Small()) {
+    lu->small_pivots.resize((size_t)rows);
+    info = FactorSmallLU(lu->n, lu->factors.data(), lu->small_pivots.data());
+  } else {
+    lu->pivots.resize((size_t)rows);
     PetscCall(PetscFPTrapPush(PETSC_FP_TRAP_OFF));
     PetscCallBLAS("LAPACKgetrf", LAPACKgetrf_(&lu->n, &lu->n, lu->factors.data(), &lu->n, lu->pivots.data(), &info));
     PetscCall(PetscFPTrapPop());
@@ -64,6 +72,12 @@ PetscErrorCode DenseLUApply(PC pc, Vec b, Vec x)
   }
   PetscCall(VecCopy(b, x));
   if (lu->n == 0) PetscFunctionReturn(PETSC_SUCCESS);
+  if (lu->Small()) {
+    PetscCall(VecGetArray(x, &values));
+    SolveSmallLU(lu->n, lu->factors.data(), lu->small_pivots.data(), values);
+    PetscCall(VecRestoreArray(x, &values));
+    PetscFunctionReturn(PETSC_SUCCESS);
+  }
   PetscBLASInt one = 1, info = 0;
   PetscCall(VecGetArray(x, &values));
   PetscCall(PetscFPTrapPush(PETSC_FP_TRAP_OFF));
@@ -111,7 +125,7 @@ PetscErrorCode DenseLUDescribeFailure(PC pc, bool *is_dense_lu, std::string *det
   DenseLU *lu;
   PetscCall(PCShellGetContext(pc, &lu));
   *is_dense_lu = true;
-  if (lu->zero_pivot > 0) *detail = "zero pivot in column " + std::to_string(lu->zero_pivot) + " of the dense LU (LAPACK getrf)";
+  if (lu->zero_pivot > 0) *detail = "zero pivot in column " + std::to_string(lu->zero_pivot) + " of the dense LU";
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 

@@ -1,6 +1,7 @@
 // A direct solver for a dense operator (MATSEQDENSE: a small model's tangent, -jacobian_dense_below)
-// that fails softly: LU with partial pivoting by LAPACK (getrf, then getrs per solve), its
-// exactly singular factorisation reported as the preconditioner's failure
+// that fails softly: LU with partial pivoting (msflex's own elimination up to kSmallLUMaxSize
+// unknowns, core/small_lu.hpp; LAPACK getrf and getrs above), its exactly singular factorisation
+// reported as the preconditioner's failure
 // (PC_FACTOR_NUMERIC_ZEROPIVOT), so that the linear solve fails, the step is halved and the
 // message names what nothing resists. PETSc's own dense LU raises an error there instead
 // (PETSC_ERR_MAT_LU_ZRPVT), which ends the run with a trace-back.
@@ -12,7 +13,7 @@
 
 namespace msflex {
 
-// Makes `pc` the dense LU above (a PCSHELL named "dense LU (LAPACK)"). `-pc_type lu` in the options
+// Makes `pc` the dense LU above (a PCSHELL named "dense LU"). `-pc_type lu` in the options
 // replaces it by PETSc's LU again.
 PetscErrorCode PCSetDenseLU(PC pc);
 

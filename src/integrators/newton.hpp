@@ -24,7 +24,7 @@
 //    unknown belongs to a node), else MUMPS; that LU does not pivot between nodes, so the first
 //    failed Newton solve hands the rest of the run to MUMPS (NewtonUsePivotingLU) and the step is
 //    tried again.
-//    direct_solver mumps: MUMPS always. A dense -jacobian_mat_type uses LAPACK's LU. The
+//    direct_solver mumps: MUMPS always. A dense -jacobian_mat_type uses msflex's dense LU. The
 //    symbolic factorisation is reused while the matrix pattern is unchanged.
 //  - The tangent is exact in every scheme (assembly/assembler.hpp). In em it has a rank-one term
 //    (beta of eq. 20 couples every element): the operator is a shell applying the assembled

@@ -64,7 +64,7 @@ PetscErrorCode PathFollower::Setup(MPI_Comm comm, Integrator *integrator)
   double length;
   PetscCall(ModelLength(comm, *model_, *map_, &length));
   PetscCall(UnknownWeights(comm, *model_, *map_, integrator->GetState(), length, weights_));
-  // The corrector's linear solver: as Newton's, MUMPS LU, or LAPACK's for a dense tangent
+  // The corrector's linear solver: as Newton's, MUMPS LU, or msflex's dense LU for a dense tangent
   // (options -path_ksp_*, -path_pc_*).
   PetscCall(KSPCreate(comm, &ksp_));
   PetscCall(KSPSetOptionsPrefix(ksp_, "path_"));

@@ -57,7 +57,7 @@ const char *LinearSolverKindName(LinearSolverKind kind);
 // `auto` chooses by the tangent's structure (on one rank a tangent banded under reverse
 // Cuthill-McKee goes to PETSc's LU in that order, which does not pivot between nodes, and the first failed
 // Newton solve hands the rest of the run to MUMPS; everything else to MUMPS); `mumps` always MUMPS.
-// A dense tangent (small models) is LAPACK's either way.
+// A dense tangent (small models) goes to msflex's dense LU either way.
 enum class DirectSolverChoice { Auto, Mumps };
 
 bool        DirectSolverChoiceFromName(const std::string &name, DirectSolverChoice *choice);
