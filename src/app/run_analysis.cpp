@@ -378,11 +378,11 @@ private:
 // model costs more than its output (a formatted write to standard output, flushed, per step);
 // the first line, the last and a line naming a new critical point of the path always. Rank 0
 // alone prints, so the ranks need not agree on it.
-bool ProgressLineDue(const Analysis &a, bool last)
+bool ProgressLineDue(const Analysis &a, bool last, double now)
 {
   if (last || a.last_progress_wall < 0.0 || a.options.progress_interval <= 0.0) return true;
   if (a.path.CriticalPoints().size() != a.progress_critical_points) return true;
-  return MPI_Wtime() - a.last_progress_wall >= a.options.progress_interval;
+  return now - a.last_progress_wall >= a.options.progress_interval;
 }
 
 // The state after a converged step: frame (when due), history row, progress line.
@@ -403,10 +403,11 @@ PetscErrorCode RecordStep(Analysis &a, const StepRecord &record, bool write_fram
   if (write_frame) PetscCall(WriteFrame(a, record.step, record.time, &strain_energy, &results));
   PetscCall(WriteHistory(a, record, strain_energy, results, &kinetic_energy, &total_energy));
   PetscCall(PetscLogStagePop());
-  const bool last = a.Finished(record.time);
-  if (!a.options.quiet && record.step > 0 && (record.step % a.options.progress_every == 0 || last) && ProgressLineDue(a, last)) {
+  const bool   last      = a.Finished(record.time);
+  const bool   candidate = !a.options.quiet && record.step > 0 && (record.step % a.options.progress_every == 0 || last);
+  const double now       = candidate ? MPI_Wtime() : 0.0;
+  if (candidate && ProgressLineDue(a, last, now)) {
     // Wall time of this process so far and the time left at the average rate since it started.
-    const double now           = MPI_Wtime();
     const double elapsed       = now - a.wall_start;
     a.last_progress_wall       = now;
     a.progress_critical_points = a.path.CriticalPoints().size();

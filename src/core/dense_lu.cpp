@@ -72,17 +72,14 @@ PetscErrorCode DenseLUApply(PC pc, Vec b, Vec x)
   }
   PetscCall(VecCopy(b, x));
   if (lu->n == 0) PetscFunctionReturn(PETSC_SUCCESS);
-  if (lu->Small()) {
-    PetscCall(VecGetArray(x, &values));
-    SolveSmallLU(lu->n, lu->factors.data(), lu->small_pivots.data(), values);
-    PetscCall(VecRestoreArray(x, &values));
-    PetscFunctionReturn(PETSC_SUCCESS);
-  }
   PetscBLASInt one = 1, info = 0;
   PetscCall(VecGetArray(x, &values));
-  PetscCall(PetscFPTrapPush(PETSC_FP_TRAP_OFF));
-  PetscCallBLAS("LAPACKgetrs", LAPACKgetrs_("N", &lu->n, &one, lu->factors.data(), &lu->n, lu->pivots.data(), values, &lu->n, &info));
-  PetscCall(PetscFPTrapPop());
+  if (lu->Small()) SolveSmallLU(lu->n, lu->factors.data(), lu->small_pivots.data(), values);
+  else {
+    PetscCall(PetscFPTrapPush(PETSC_FP_TRAP_OFF));
+    PetscCallBLAS("LAPACKgetrs", LAPACKgetrs_("N", &lu->n, &one, lu->factors.data(), &lu->n, lu->pivots.data(), values, &lu->n, &info));
+    PetscCall(PetscFPTrapPop());
+  }
   PetscCall(VecRestoreArray(x, &values));
   PetscCheck(info == 0, PETSC_COMM_SELF, PETSC_ERR_LIB, "LAPACK getrs: argument %d is wrong", (int)-info);
   PetscFunctionReturn(PETSC_SUCCESS);
