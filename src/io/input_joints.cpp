@@ -162,7 +162,7 @@ std::vector<std::string> DrivableCoordinates(const Joint &joint)
 
 void ReadDrive(const YAML::Node &value, const MappingReader &joint_entry, const ReaderContext &context, Joint &joint)
 {
-  const MappingReader            entry(value, "the 'drive' of " + joint_entry.Description(), {"coordinate", "value", "function"});
+  const MappingReader            entry(value, "the 'drive' of " + joint_entry.Description(), {"coordinate", "value", "rate", "function"});
   const YAML::Node              &coordinate_node = entry.Required("coordinate");
   const std::string              coordinate      = ReadString(coordinate_node, "coordinate");
   const std::vector<std::string> names           = DrivableCoordinates(joint);
@@ -197,8 +197,14 @@ void ReadDrive(const YAML::Node &value, const MappingReader &joint_entry, const 
     }
   }
   joint.driven_coordinate = index;
-  joint.drive_value       = entry.Number("value") * scale;
-  joint.drive_function    = context.OptionalFunctionIndex(entry, "function");
+  // `value`: q(t) = value f(t); `rate`: q'(t) = rate f(t) from q(0) = 0.
+  const bool has_value = entry.Has("value"), has_rate = entry.Has("rate");
+  if (has_value == has_rate)
+    FailAt(entry.Mark(), entry.Description() + " needs exactly one of 'value' (the coordinate is value f(t)) and 'rate' (its rate is rate f(t))" +
+                             (has_value ? ", not both" : ""));
+  joint.drive_by_rate  = has_rate;
+  joint.drive_value    = entry.Number(has_rate ? "rate" : "value") * scale;
+  joint.drive_function = context.OptionalFunctionIndex(entry, "function");
 }
 
 // The node named by `key` (`master` may also be the ground: -1).

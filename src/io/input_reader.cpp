@@ -225,18 +225,31 @@ TimeFunction ReadFunction(const YAML::Node &item, const ReaderContext &context)
     function.phase     = entry.Number("phase", 0.0);
     function.offset    = entry.Number("offset", 0.0);
   } else if (type == "cosine_ramp") {
-    entry.RequireOnlyKeys({"name", "type", "duration", "amplitude"});
+    entry.RequireOnlyKeys({"name", "type", "duration", "amplitude", "start"});
     function.kind      = TimeFunction::Kind::CosineRamp;
     function.duration  = entry.PositiveNumber("duration");
     function.amplitude = entry.Number("amplitude", 1.0);
+    function.start     = entry.Number("start", 0.0);
+  } else if (type == "sum") {
+    entry.RequireOnlyKeys({"name", "type", "terms"});
+    function.kind = TimeFunction::Kind::Sum;
+    // Only functions defined before: a sum can then never contain itself.
+    for (const YAML::Node &term : ReadNonEmptyList(entry.Required("terms"), "terms")) {
+      const std::string name  = ReadString(term, "terms");
+      const int         index = IndexByName(context.model.functions, name);
+      if (index < 0)
+        FailAt(term.Mark(), "unknown function " + Quote(name) + " in 'terms' of function " + Quote(function.name) +
+                                "; a sum adds functions defined before it in 'functions'");
+      function.terms.push_back(index);
+    }
   } else if (type == "polynomial") {
     entry.RequireOnlyKeys({"name", "type", "coefficients"});
     function.kind = TimeFunction::Kind::Polynomial;
     for (const YAML::Node &coefficient : ReadNonEmptyList(entry.Required("coefficients"), "coefficients"))
       function.values.push_back(ReadNumber(coefficient, "coefficients"));
   } else {
-    FailAt(entry.Required("type").Mark(),
-           "unknown function type " + Quote(type) + " in " + entry.Description() + "; expected constant, linear, table, harmonic, cosine_ramp or polynomial");
+    FailAt(entry.Required("type").Mark(), "unknown function type " + Quote(type) + " in " + entry.Description() +
+                                              "; expected constant, linear, table, harmonic, cosine_ramp, polynomial or sum");
   }
   return function;
 }

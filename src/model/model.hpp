@@ -26,19 +26,24 @@ struct SourceMark {
 
 // A scalar function of (pseudo-)time that multiplies a load or a prescribed motion.
 struct TimeFunction {
-  enum class Kind { Constant, Linear, Table, Harmonic, CosineRamp, Polynomial };
+  enum class Kind { Constant, Linear, Table, Harmonic, CosineRamp, Polynomial, Sum };
   std::string name;
   Kind        kind = Kind::Linear;
   // Constant: value = offset. Linear: value = offset + slope * t.
   // Harmonic: value = offset + amplitude * sin(2 pi frequency t + phase).
   // Table: piecewise linear through (times[i], values[i]), constant beyond the ends.
-  // CosineRamp: amplitude (1 - cos(pi t / duration)) / 2 for 0 <= t < duration, amplitude after,
-  //   0 before: a ramp with zero rate at both ends.
+  // CosineRamp: amplitude (1 - cos(pi (t - start) / duration)) / 2 for start <= t < start +
+  //   duration, amplitude after, 0 before: a ramp with zero rate at both ends.
   // Polynomial: sum_k values[k] t^k.
-  double              offset = 0.0, slope = 1.0, amplitude = 0.0, frequency = 0.0, phase = 0.0, duration = 1.0;
+  // Sum: the sum of the functions numbered `terms`, each defined before this one.
+  double              offset = 0.0, slope = 1.0, amplitude = 0.0, frequency = 0.0, phase = 0.0, duration = 1.0, start = 0.0;
   std::vector<double> times, values;
+  std::vector<int>    terms;
   SourceMark          mark;
-  double              Evaluate(double t) const;
+  // f(t) (order 0), f'(t), f''(t) (order 1, 2; at a kink the derivative from the right, the side
+  // of the coming motion) or its integral from 0 to t (order -1), in closed form. A Sum needs the
+  // other functions: FunctionValue and the like below.
+  double Evaluate(double t, int order = 0) const;
 };
 
 // Cross-section constants in the section frame (t1 = beam axis, t2, t3 principal axes).
@@ -184,7 +189,8 @@ struct Joint {
   // A driven released coordinate: q_k(t) = drive_value * function(t) (k indexes translations, then rotations).
   int        driven_coordinate = -1;
   double     drive_value       = 0.0;
-  int        drive_function    = -1; // -1: ramp f(t) = t
+  int        drive_function    = -1;    // -1: ramp f(t) = t
+  bool       drive_by_rate     = false; // q'(t) = drive_value * function(t), q(0) = 0
   SourceMark mark;
 };
 
@@ -353,8 +359,13 @@ struct Model {
 
 // Value at t of the model's function number `function`; -1 is the ramp f(t) = t.
 double FunctionValue(const Model &model, int function, double t);
-// Its first or second derivative (order 1 or 2) at t, by second-order one-sided differences
-// forward in time: tables are only piecewise smooth, so stay on the side of the coming motion.
+// Its first or second derivative (order 1 or 2) at t, in closed form; where a table or a ramp has a
+// kink, the derivative from the right (forward in time, the side of the coming motion).
 double FunctionDerivative(const Model &model, int function, double t, int order);
+// Its integral from 0 to t, in closed form.
+double FunctionIntegral(const Model &model, int function, double t);
+// A driven joint coordinate q(t) (order 0), its rate (1) or acceleration (2): drive_value f(t), or
+// with drive_by_rate drive_value times the integral of f from 0 to t.
+double DriveCoordinate(const Model &model, const Joint &joint, double t, int order);
 
 } // namespace msflex

@@ -96,7 +96,7 @@ Vec3 NodeTangentScaledIncrement(const StepEquations &equations, const NodeState 
 // Fixed DOFs keep a zero increment. A prescribed displacement reaches its absolute target
 // X + value f(t_end); a prescribed rotation component turns by value (f(t_end) - f(t_start)) about
 // its global axis. In the initial-acceleration problem the unknowns are accelerations, so a
-// prescribed DOF gets value f''(t). A driven released coordinate reaches value f(t_end).
+// prescribed DOF gets value f''(t). A driven released coordinate reaches q(t_end) (DriveCoordinate).
 void StateBeginStep(const Model &model, const DofMap &map, const StepEquations &equations, State *state)
 {
   state->equations     = equations;
@@ -123,9 +123,9 @@ void StateBeginStep(const Model &model, const DofMap &map, const StepEquations &
     const Joint &joint = model.joints[J.joint];
     for (int c = 0; c < kJointMaxReleased; ++c) J.increment[c] = 0.0;
     if (joint.driven_coordinate < 0) continue;
-    const int c    = joint.driven_coordinate;
-    J.increment[c] = accelerations || velocities ? joint.drive_value * FunctionDerivative(model, joint.drive_function, t_end, accelerations ? 2 : 1)
-                                                 : joint.drive_value * FunctionValue(model, joint.drive_function, t_end) - J.start.q[c];
+    const int c = joint.driven_coordinate;
+    J.increment[c] =
+        accelerations || velocities ? DriveCoordinate(model, joint, t_end, accelerations ? 2 : 1) : DriveCoordinate(model, joint, t_end, 0) - J.start.q[c];
   }
   StateUpdateSlaves(model, state);
 }
@@ -373,8 +373,7 @@ void StateSetCoordinateRates(const Model &model, double t, State *state)
     }
     for (int c = 0; c < kJointMaxReleased; ++c) J.coordinate_motion[c / 3].velocity(c % 3) = c < k ? rates(c) : 0.0;
     if (joint.driven_coordinate >= 0)
-      J.coordinate_motion[joint.driven_coordinate / 3].velocity(joint.driven_coordinate % 3) =
-          joint.drive_value * FunctionDerivative(model, joint.drive_function, t, 1);
+      J.coordinate_motion[joint.driven_coordinate / 3].velocity(joint.driven_coordinate % 3) = DriveCoordinate(model, joint, t, 1);
   }
 }
 
