@@ -17,7 +17,7 @@ import msflex_testing as mt
 # Quick runs: an end time the steps land on in the full run as well (an output time or a
 # multiple of a constant step), so the rows up to it are the full run's.
 SHORTENED = {"flying_spaghetti": 2.5, "spin_up": 5.0, "torque_free_top": 1.0, "cam_follower": 0.25, "rack_pinion": 0.5, "driven_screw": 0.3,
-             "turning_arm_screw": 0.3}
+             "turning_arm_screw": 0.3, "rotating_shaft": 0.5}
 
 full = "--full" in sys.argv
 if full:
