@@ -1,6 +1,10 @@
 #include "integrators/tangent_factor.hpp"
 #include "core/dense_lu.hpp"
 
+#include <petscblaslapack.h>
+
+#include <algorithm>
+
 #include <cmath>
 
 namespace msflex {
@@ -33,48 +37,77 @@ PetscErrorCode Asymmetry(Mat K, double *asymmetry)
 
 PetscErrorCode TangentFactor::Factor(Mat tangent, double symmetry_tolerance, TangentInertia *inertia)
 {
-  PetscBool is_aij;
-  Mat       K = tangent, converted = nullptr;
+  PetscBool is_aij, is_dense;
+  Mat       converted = nullptr;
   PetscFunctionBeginUser;
-  // MUMPS counts pivots of AIJ matrices only (a BAIJ or dense -jacobian_mat_type is converted).
-  PetscCall(PetscObjectTypeCompareAny((PetscObject)tangent, &is_aij, MATSEQAIJ, MATMPIAIJ, ""));
-  if (!is_aij) {
-    PetscCall(MatConvert(tangent, MATAIJ, MAT_INITIAL_MATRIX, &converted));
-    K = converted;
+  *inertia = TangentInertia{};
+  if (!work_[0]) PetscCall(MatCreateVecs(tangent, &work_[0], &work_[1]));
+  PetscCall(PetscObjectTypeCompare((PetscObject)tangent, MATSEQDENSE, &is_dense));
+  if (is_dense) {
+    // A small model's tangent: LAPACK, not a MUMPS instance per equilibrium (whose creation alone
+    // cost 3.4 ms per load step of a 4-element cantilever).
+    PetscCall(MatDestroy(&factor_));
+    analysed_matrix_ = nullptr;
+    PetscCall(FactorDense(tangent, symmetry_tolerance, inertia));
+    PetscFunctionReturn(PETSC_SUCCESS);
   }
-  const PetscErrorCode code = FactorAij(K, symmetry_tolerance, inertia);
+  dense_ = false;
+  // MUMPS counts pivots of AIJ matrices only (a BAIJ -jacobian_mat_type is converted, a new
+  // matrix every time, so its analysis is not kept).
+  PetscCall(PetscObjectTypeCompareAny((PetscObject)tangent, &is_aij, MATSEQAIJ, MATMPIAIJ, ""));
+  if (!is_aij) PetscCall(MatConvert(tangent, MATAIJ, MAT_INITIAL_MATRIX, &converted));
+  const PetscErrorCode code = FactorAij(is_aij ? tangent : converted, symmetry_tolerance, is_aij, inertia);
+  if (converted) analysed_matrix_ = nullptr;
   PetscCall(MatDestroy(&converted));
   PetscCall(code);
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
-PetscErrorCode TangentFactor::FactorAij(Mat K, double symmetry_tolerance, TangentInertia *inertia)
+PetscErrorCode TangentFactor::FactorAij(Mat K, double symmetry_tolerance, bool may_reuse, TangentInertia *inertia)
 {
-  MatFactorInfo info;
-  IS            row_order, column_order;
+  PetscObjectState pattern;
   PetscFunctionBeginUser;
-  *inertia = TangentInertia{};
-  PetscCall(MatDestroy(&factor_));
-  if (!work_[0]) {
-    PetscCall(MatCreateVecs(K, &work_[0], &work_[1]));
-  }
   PetscCall(Asymmetry(K, &inertia->asymmetry));
   inertia->symmetric = inertia->asymmetry <= symmetry_tolerance;
-  PetscCall(MatGetFactor(K, MATSOLVERMUMPS, inertia->symmetric ? MAT_FACTOR_CHOLESKY : MAT_FACTOR_LU, &factor_));
-  if (inertia->symmetric) {
-    // No ScaLAPACK on the root front: MUMPS counts the negative pivots of every front only then.
-    PetscCall(MatMumpsSetIcntl(factor_, 13, 1));
-  } else {
-    PetscCall(MatMumpsSetIcntl(factor_, 33, 1)); // the determinant
-  }
-  if (num_relays_ > 0) PetscCall(MatMumpsSetIcntl(factor_, 14, kRelayMumpsWorkspace));
+  PetscCall(MatGetNonzeroState(K, &pattern));
+  // MUMPS' analysis (ordering, symbolic factorisation) depends on the pattern and the kind only:
+  // the next equilibrium's tangent of the same matrix and kind needs the numerical factorisation
+  // alone. Where that fails, a fresh analysis decides before K is called singular.
+  const bool reuse = may_reuse && factor_ && analysed_matrix_ == K && analysed_pattern_ == pattern && analysed_symmetric_ == inertia->symmetric;
+  PetscCall(FactorMumps(K, reuse, inertia));
+  if (!inertia->factored && reuse) PetscCall(FactorMumps(K, false, inertia));
+  analysed_matrix_    = inertia->factored ? K : nullptr;
+  analysed_pattern_   = pattern;
+  analysed_symmetric_ = inertia->symmetric;
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode TangentFactor::FactorMumps(Mat K, bool reuse_analysis, TangentInertia *inertia)
+{
+  MatFactorInfo  info;
+  IS             row_order = nullptr, column_order = nullptr;
+  const bool     symmetric = inertia->symmetric;
+  PetscErrorCode code      = PETSC_SUCCESS;
+  PetscFunctionBeginUser;
+  inertia->factored = false;
   PetscCall(MatFactorInfoInitialize(&info));
-  PetscCall(MatGetOrdering(K, MATORDERINGNATURAL, &row_order, &column_order));
+  if (!reuse_analysis) {
+    PetscCall(MatDestroy(&factor_));
+    PetscCall(MatGetFactor(K, MATSOLVERMUMPS, symmetric ? MAT_FACTOR_CHOLESKY : MAT_FACTOR_LU, &factor_));
+    if (symmetric) {
+      // No ScaLAPACK on the root front: MUMPS counts the negative pivots of every front only then.
+      PetscCall(MatMumpsSetIcntl(factor_, 13, 1));
+    } else {
+      PetscCall(MatMumpsSetIcntl(factor_, 33, 1)); // the determinant
+    }
+    if (num_relays_ > 0) PetscCall(MatMumpsSetIcntl(factor_, 14, kRelayMumpsWorkspace));
+    PetscCall(MatGetOrdering(K, MATORDERINGNATURAL, &row_order, &column_order));
+  }
   // A singular tangent makes MUMPS fail (INFOG(1) < 0): that is an answer here, not an error.
   PetscCall(PetscPushErrorHandler(PetscReturnErrorHandler, nullptr));
-  PetscErrorCode code =
-      inertia->symmetric ? MatCholeskyFactorSymbolic(factor_, K, row_order, &info) : MatLUFactorSymbolic(factor_, K, row_order, column_order, &info);
-  if (code == PETSC_SUCCESS) code = inertia->symmetric ? MatCholeskyFactorNumeric(factor_, K, &info) : MatLUFactorNumeric(factor_, K, &info);
+  if (!reuse_analysis)
+    code = symmetric ? MatCholeskyFactorSymbolic(factor_, K, row_order, &info) : MatLUFactorSymbolic(factor_, K, row_order, column_order, &info);
+  if (code == PETSC_SUCCESS) code = symmetric ? MatCholeskyFactorNumeric(factor_, K, &info) : MatLUFactorNumeric(factor_, K, &info);
   PetscCall(PetscPopErrorHandler());
   PetscCall(ISDestroy(&row_order));
   PetscCall(ISDestroy(&column_order));
@@ -87,7 +120,7 @@ PetscErrorCode TangentFactor::FactorAij(Mat K, double symmetry_tolerance, Tangen
     PetscFunctionReturn(PETSC_SUCCESS);
   }
   inertia->factored = true;
-  if (inertia->symmetric) {
+  if (symmetric) {
     PetscCall(MatMumpsGetInfog(factor_, 12, &inertia->negative_pivots));
     inertia->negative_pivots -= 6 * num_relays_;
     inertia->determinant_sign = inertia->negative_pivots % 2 == 0 ? 1 : -1;
@@ -99,11 +132,99 @@ PetscErrorCode TangentFactor::FactorAij(Mat K, double symmetry_tolerance, Tangen
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
+// A dense K (one rank): symmetric to the tolerance, LAPACK's Bunch-Kaufman LDL^T (sytrf), whose
+// block-diagonal D has K's inertia (Sylvester): a 1x1 block d counts one negative pivot if d < 0, a
+// 2x2 block [a b; b c] one if its determinant ac - b^2 < 0 (one eigenvalue of each sign), two if
+// it is positive and a < 0; otherwise LU (getrf), det K = (-1)^(row swaps) prod U_ii. An exactly
+// zero pivot (info > 0) is a singular K, not factored, as MUMPS' failure is.
+PetscErrorCode TangentFactor::FactorDense(Mat K, double symmetry_tolerance, TangentInertia *inertia)
+{
+  const PetscScalar *a;
+  PetscInt           n, lda;
+  PetscBLASInt       info = 0;
+  PetscFunctionBeginUser;
+  dense_ = false;
+  PetscCall(MatGetSize(K, &n, nullptr));
+  PetscCall(MatDenseGetLDA(K, &lda));
+  PetscCall(PetscBLASIntCast(n, &dense_n_));
+  dense_factors_.resize((size_t)n * (size_t)n);
+  dense_pivots_.resize((size_t)n);
+  double norm2 = 0.0, difference2 = 0.0;
+  PetscCall(MatDenseGetArrayRead(K, &a));
+  for (PetscInt j = 0; j < n; ++j)
+    for (PetscInt i = 0; i < n; ++i) {
+      const double value = PetscRealPart(a[i + j * lda]), difference = value - PetscRealPart(a[j + i * lda]);
+      norm2 += value * value;
+      difference2 += difference * difference;
+      dense_factors_[(size_t)(i + j * n)] = a[i + j * lda];
+    }
+  PetscCall(MatDenseRestoreArrayRead(K, &a));
+  inertia->asymmetry = norm2 > 0 ? std::sqrt(difference2 / norm2) : 0.0;
+  inertia->symmetric = inertia->asymmetry <= symmetry_tolerance;
+  dense_symmetric_   = inertia->symmetric;
+  if (n == 0) PetscFunctionReturn(PETSC_SUCCESS);
+  if (dense_symmetric_) {
+    if (dense_work_.empty()) { // sytrf's optimal work space, asked once
+      PetscScalar              optimal = 0.0;
+      PetscBLASInt             query   = -1;
+      std::vector<PetscScalar> probe(1);
+      PetscCallBLAS("LAPACKsytrf", LAPACKsytrf_("L", &dense_n_, probe.data(), &dense_n_, dense_pivots_.data(), &optimal, &query, &info));
+      dense_work_.resize(std::max<size_t>((size_t)n, (size_t)PetscRealPart(optimal)));
+    }
+    PetscBLASInt lwork;
+    PetscCall(PetscBLASIntCast((PetscInt)dense_work_.size(), &lwork));
+    PetscCallBLAS("LAPACKsytrf", LAPACKsytrf_("L", &dense_n_, dense_factors_.data(), &dense_n_, dense_pivots_.data(), dense_work_.data(), &lwork, &info));
+  } else {
+    PetscCallBLAS("LAPACKgetrf", LAPACKgetrf_(&dense_n_, &dense_n_, dense_factors_.data(), &dense_n_, dense_pivots_.data(), &info));
+  }
+  PetscCheck(info >= 0, PETSC_COMM_SELF, PETSC_ERR_LIB, "LAPACK's dense factorisation of the tangent: illegal argument %d", (int)info);
+  if (info > 0) PetscFunctionReturn(PETSC_SUCCESS); // an exactly zero pivot: singular
+  const auto at = [&](PetscInt i, PetscInt j) { return PetscRealPart(dense_factors_[(size_t)(i + j * n)]); };
+  if (dense_symmetric_) {
+    PetscInt negative = 0;
+    for (PetscInt i = 0; i < n;) {
+      if (dense_pivots_[(size_t)i] > 0) { // a 1x1 block
+        negative += at(i, i) < 0.0;
+        i += 1;
+        continue;
+      }
+      const double determinant = at(i, i) * at(i + 1, i + 1) - at(i + 1, i) * at(i + 1, i);
+      if (determinant == 0.0) PetscFunctionReturn(PETSC_SUCCESS); // not a pivot sytrf chooses: singular
+      negative += determinant < 0.0 ? 1 : at(i, i) < 0.0 ? 2 : 0;
+      i += 2;
+    }
+    inertia->negative_pivots  = negative - 6 * num_relays_;
+    inertia->determinant_sign = inertia->negative_pivots % 2 == 0 ? 1 : -1;
+  } else {
+    int sign = 1;
+    for (PetscInt i = 0; i < n; ++i) {
+      if (dense_pivots_[(size_t)i] != (PetscBLASInt)(i + 1)) sign = -sign;
+      if (at(i, i) < 0.0) sign = -sign;
+    }
+    inertia->determinant_sign = sign;
+  }
+  inertia->factored = true;
+  dense_            = true;
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
 PetscErrorCode TangentFactor::Solve(Vec b, Vec x)
 {
   PetscFunctionBeginUser;
-  PetscCheck(factor_, PetscObjectComm((PetscObject)b), PETSC_ERR_ARG_WRONGSTATE, "the tangent has not been factored");
-  PetscCall(MatSolve(factor_, b, x));
+  PetscCheck(factor_ || dense_, PetscObjectComm((PetscObject)b), PETSC_ERR_ARG_WRONGSTATE, "the tangent has not been factored");
+  if (!dense_) {
+    PetscCall(MatSolve(factor_, b, x));
+    PetscFunctionReturn(PETSC_SUCCESS);
+  }
+  PetscScalar *values;
+  PetscBLASInt one = 1, info = 0;
+  PetscCall(VecCopy(b, x));
+  PetscCall(VecGetArray(x, &values));
+  if (dense_symmetric_)
+    PetscCallBLAS("LAPACKsytrs", LAPACKsytrs_("L", &dense_n_, &one, dense_factors_.data(), &dense_n_, dense_pivots_.data(), values, &dense_n_, &info));
+  else PetscCallBLAS("LAPACKgetrs", LAPACKgetrs_("N", &dense_n_, &one, dense_factors_.data(), &dense_n_, dense_pivots_.data(), values, &dense_n_, &info));
+  PetscCall(VecRestoreArray(x, &values));
+  PetscCheck(info == 0, PETSC_COMM_SELF, PETSC_ERR_LIB, "LAPACK's dense solve with the tangent: illegal argument %d", (int)info);
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
@@ -121,7 +242,7 @@ PetscErrorCode TangentFactor::LowestEigenvalue(Vec D, Vec mode, double *mu)
   // Converges at the rate |mu_1 / mu_2|, fast near a critical point where mu_1 -> 0.
   for (int iteration = 0; iteration < 100; ++iteration) {
     PetscCall(VecPointwiseMult(Dv, D, mode));
-    PetscCall(MatSolve(factor_, Dv, x));
+    PetscCall(Solve(Dv, x));
     PetscCall(VecDot(x, Dv, &theta));
     if (PetscRealPart(theta) == 0.0) break;
     *mu = 1.0 / PetscRealPart(theta);

@@ -17,6 +17,8 @@
 
 #include <petscmat.h>
 
+#include <vector>
+
 namespace msflex {
 
 struct TangentInertia {
@@ -36,7 +38,9 @@ public:
 
   // Factors K (Cholesky with the inertia if K is symmetric to `symmetry_tolerance`, else LU with
   // the determinant sign), keeping the factors for Solve and LowestEigenvalue. K must stay
-  // unchanged while they are used. Collective.
+  // unchanged while they are used. A dense K (a small model on one rank) is factored by LAPACK's
+  // symmetric-indefinite LDL^T (sytrf) or LU (getrf); a sparse one by MUMPS, whose analysis is
+  // kept for the next K of the same pattern and kind. Collective.
   PetscErrorCode Factor(Mat K, double symmetry_tolerance, TangentInertia *inertia);
   // x = K^{-1} b with the last factors. Collective.
   PetscErrorCode Solve(Vec b, Vec x);
@@ -51,10 +55,22 @@ public:
   void SetRelays(PetscInt num_relays) { num_relays_ = num_relays; }
 
 private:
-  PetscErrorCode FactorAij(Mat K, double symmetry_tolerance, TangentInertia *inertia);
+  PetscErrorCode FactorAij(Mat K, double symmetry_tolerance, bool may_reuse, TangentInertia *inertia);
+  PetscErrorCode FactorMumps(Mat K, bool reuse_analysis, TangentInertia *inertia);
+  PetscErrorCode FactorDense(Mat K, double symmetry_tolerance, TangentInertia *inertia);
   Mat            factor_     = nullptr;
   PetscInt       num_relays_ = 0;
   Vec            work_[2]    = {nullptr, nullptr};
+  // What MUMPS' analysis in factor_ was made for: the matrix, its nonzero pattern and the kind.
+  Mat              analysed_matrix_    = nullptr;
+  PetscObjectState analysed_pattern_   = 0;
+  bool             analysed_symmetric_ = false;
+  // The dense factors (column major), LAPACK's pivots and sytrf's work space.
+  bool                      dense_           = false;
+  bool                      dense_symmetric_ = false;
+  PetscBLASInt              dense_n_         = 0;
+  std::vector<PetscScalar>  dense_factors_, dense_work_;
+  std::vector<PetscBLASInt> dense_pivots_;
 };
 
 } // namespace msflex

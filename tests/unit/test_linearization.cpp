@@ -1,8 +1,11 @@
 // The linearised system (integrators/linearization.hpp) and the factorisation of the tangent
 // (integrators/tangent_factor.hpp), on any number of ranks:
-//  - the inertia of MUMPS' LDL^T factorisation: the negative pivots of A - sigma I for a matrix with
-//    known eigenvalues are the eigenvalues below sigma; an LU factorisation of a nonsymmetric
-//    matrix gives the sign of the determinant; inverse iteration finds the eigenvalue nearest zero;
+//  - the inertia of MUMPS' LDL^T factorisation (sparse) and of LAPACK's (dense, one rank): the
+//    negative pivots of A - sigma I for a matrix with known eigenvalues are the eigenvalues below
+//    sigma; an LU factorisation of a nonsymmetric matrix gives the sign of the determinant;
+//    inverse iteration finds the eigenvalue nearest zero; a refactorisation of new values of the
+//    same pattern (MUMPS' analysis kept) is that of the new values; an exactly singular matrix is
+//    not factored;
 //  - the mass matrix: symmetric, a uniform unit velocity has the model's total mass (beams, a
 //    rigid body, through a joint), massless DOFs have zero rows, and it is the initial-acceleration
 //    tangent without that problem's identity rows;
@@ -43,40 +46,59 @@ Mat Laplacian(PetscInt n, double sigma, double skew)
   return A;
 }
 
+// The formats TangentFactor factors: AIJ (MUMPS) on any number of ranks, dense (LAPACK) on one.
+std::vector<bool> Formats()
+{
+  PetscMPIInt size;
+  MPI_Comm_size(PETSC_COMM_WORLD, &size);
+  return size == 1 ? std::vector<bool>{false, true} : std::vector<bool>{false};
+}
+
+// A as a dense matrix (one rank) when `dense`, else A itself.
+Mat InFormat(Mat A, bool dense)
+{
+  if (!dense) return A;
+  Mat D;
+  MatConvert(A, MATSEQDENSE, MAT_INITIAL_MATRIX, &D);
+  MatDestroy(&A);
+  return D;
+}
+
 TEST(TangentFactor, NegativePivotsAreTheEigenvaluesBelowTheShift)
 {
   const PetscInt n = 60;
-  for (int below : {0, 1, 7, 30, 59}) {
-    // sigma between eigenvalues number below and below + 1 (1-based), nearer the first, so that
-    // one eigenvalue of A is the nearest zero (inverse iteration converges at the ratio 3/7).
-    auto           eigenvalue = [n](int k) { return 2.0 - 2.0 * std::cos(k * M_PI / (n + 1)); };
-    const double   sigma      = below == 0 ? 0.5 * eigenvalue(1) : eigenvalue(below) + 0.3 * (eigenvalue(below + 1) - eigenvalue(below));
-    Mat            A          = Laplacian(n, sigma, 0.0);
-    TangentFactor  factor;
-    TangentInertia inertia;
-    ASSERT_EQ(factor.Factor(A, 1e-8, &inertia), PETSC_SUCCESS);
-    EXPECT_TRUE(inertia.factored);
-    EXPECT_TRUE(inertia.symmetric);
-    EXPECT_EQ(inertia.negative_pivots, below) << "sigma " << sigma;
-    EXPECT_EQ(inertia.determinant_sign, below % 2 == 0 ? 1 : -1);
-    // The eigenvalue of A nearest zero, by inverse iteration (D = I).
-    Vec D, mode;
-    MatCreateVecs(A, &D, &mode);
-    VecSet(D, 1.0);
-    VecSet(mode, 1.0);
-    VecSetValue(mode, 0, 2.0, INSERT_VALUES); // not orthogonal to any mode
-    VecAssemblyBegin(mode);
-    VecAssemblyEnd(mode);
-    double mu;
-    ASSERT_EQ(factor.LowestEigenvalue(D, mode, &mu), PETSC_SUCCESS);
-    double nearest = INFINITY;
-    for (int k = 1; k <= n; ++k)
-      if (std::abs(eigenvalue(k) - sigma) < std::abs(nearest)) nearest = eigenvalue(k) - sigma;
-    EXPECT_NEAR(mu, nearest, 1e-8 * std::abs(nearest));
-    VecDestroy(&D);
-    VecDestroy(&mode);
-    MatDestroy(&A);
-  }
+  for (const bool dense : Formats())
+    for (int below : {0, 1, 7, 30, 59}) {
+      // sigma between eigenvalues number below and below + 1 (1-based), nearer the first, so that
+      // one eigenvalue of A is the nearest zero (inverse iteration converges at the ratio 3/7).
+      auto           eigenvalue = [n](int k) { return 2.0 - 2.0 * std::cos(k * M_PI / (n + 1)); };
+      const double   sigma      = below == 0 ? 0.5 * eigenvalue(1) : eigenvalue(below) + 0.3 * (eigenvalue(below + 1) - eigenvalue(below));
+      Mat            A          = InFormat(Laplacian(n, sigma, 0.0), dense);
+      TangentFactor  factor;
+      TangentInertia inertia;
+      ASSERT_EQ(factor.Factor(A, 1e-8, &inertia), PETSC_SUCCESS);
+      EXPECT_TRUE(inertia.factored);
+      EXPECT_TRUE(inertia.symmetric);
+      EXPECT_EQ(inertia.negative_pivots, below) << "sigma " << sigma << (dense ? ", dense" : ", aij");
+      EXPECT_EQ(inertia.determinant_sign, below % 2 == 0 ? 1 : -1);
+      // The eigenvalue of A nearest zero, by inverse iteration (D = I).
+      Vec D, mode;
+      MatCreateVecs(A, &D, &mode);
+      VecSet(D, 1.0);
+      VecSet(mode, 1.0);
+      VecSetValue(mode, 0, 2.0, INSERT_VALUES); // not orthogonal to any mode
+      VecAssemblyBegin(mode);
+      VecAssemblyEnd(mode);
+      double mu;
+      ASSERT_EQ(factor.LowestEigenvalue(D, mode, &mu), PETSC_SUCCESS);
+      double nearest = INFINITY;
+      for (int k = 1; k <= n; ++k)
+        if (std::abs(eigenvalue(k) - sigma) < std::abs(nearest)) nearest = eigenvalue(k) - sigma;
+      EXPECT_NEAR(mu, nearest, 1e-8 * std::abs(nearest)) << (dense ? "dense" : "aij");
+      VecDestroy(&D);
+      VecDestroy(&mode);
+      MatDestroy(&A);
+    }
 }
 
 TEST(TangentFactor, NonsymmetricTangentGivesTheDeterminantSign)
@@ -85,18 +107,81 @@ TEST(TangentFactor, NonsymmetricTangentGivesTheDeterminantSign)
   // determinant is (-1)^below.
   const PetscInt n          = 40;
   auto           eigenvalue = [n](int k) { return 2.0 - 2.0 * std::cos(k * M_PI / (n + 1)); };
-  for (int below : {2, 3}) {
-    Mat            A = Laplacian(n, 0.5 * (eigenvalue(below) + eigenvalue(below + 1)), 1e-4);
-    TangentFactor  factor;
-    TangentInertia inertia;
-    ASSERT_EQ(factor.Factor(A, 1e-8, &inertia), PETSC_SUCCESS);
-    EXPECT_TRUE(inertia.factored);
-    EXPECT_FALSE(inertia.symmetric);
-    EXPECT_GT(inertia.asymmetry, 1e-6);
-    EXPECT_EQ(inertia.negative_pivots, -1);
-    EXPECT_EQ(inertia.determinant_sign, below % 2 == 0 ? 1 : -1);
+  for (const bool dense : Formats())
+    for (int below : {2, 3}) {
+      Mat            A = InFormat(Laplacian(n, 0.5 * (eigenvalue(below) + eigenvalue(below + 1)), 1e-4), dense);
+      TangentFactor  factor;
+      TangentInertia inertia;
+      ASSERT_EQ(factor.Factor(A, 1e-8, &inertia), PETSC_SUCCESS);
+      EXPECT_TRUE(inertia.factored);
+      EXPECT_FALSE(inertia.symmetric);
+      EXPECT_GT(inertia.asymmetry, 1e-6);
+      EXPECT_EQ(inertia.negative_pivots, -1);
+      EXPECT_EQ(inertia.determinant_sign, below % 2 == 0 ? 1 : -1) << (dense ? "dense" : "aij");
+      MatDestroy(&A);
+    }
+}
+
+// One TangentFactor along a path: new values of the same matrix (MUMPS' analysis kept), then a
+// nonsymmetric one (a new analysis), then symmetric again; each factorisation is that of its
+// values, and its solve solves with them.
+TEST(TangentFactor, RefactoringNewValuesOfTheSamePattern)
+{
+  const PetscInt n          = 50;
+  auto           eigenvalue = [n](int k) { return 2.0 - 2.0 * std::cos(k * M_PI / (n + 1)); };
+  for (const bool dense : Formats()) {
+    TangentFactor factor;
+    Mat           A = nullptr;
+    for (const auto &[below, skew] : std::vector<std::pair<int, double>>{{0, 0.0}, {4, 0.0}, {9, 0.0}, {3, 1e-4}, {6, 0.0}}) {
+      const double sigma = below == 0 ? 0.5 * eigenvalue(1) : 0.5 * (eigenvalue(below) + eigenvalue(below + 1));
+      Mat          next  = InFormat(Laplacian(n, sigma, skew), dense);
+      if (!A) A = next;
+      else { // the same matrix object refilled: its pattern is unchanged
+        MatCopy(next, A, SAME_NONZERO_PATTERN);
+        MatDestroy(&next);
+      }
+      TangentInertia inertia;
+      ASSERT_EQ(factor.Factor(A, 1e-8, &inertia), PETSC_SUCCESS);
+      EXPECT_TRUE(inertia.factored);
+      EXPECT_EQ(inertia.symmetric, skew == 0.0);
+      if (skew == 0.0) EXPECT_EQ(inertia.negative_pivots, below) << (dense ? "dense" : "aij") << ", sigma " << sigma;
+      EXPECT_EQ(inertia.determinant_sign, below % 2 == 0 ? 1 : -1);
+      Vec x, b, r;
+      MatCreateVecs(A, &x, &b);
+      VecDuplicate(b, &r);
+      VecSetRandom(b, nullptr);
+      ASSERT_EQ(factor.Solve(b, x), PETSC_SUCCESS);
+      MatMult(A, x, r);
+      VecAXPY(r, -1.0, b);
+      PetscReal residual, size;
+      VecNorm(r, NORM_2, &residual);
+      VecNorm(b, NORM_2, &size);
+      EXPECT_LT(residual, 1e-9 * size) << (dense ? "dense" : "aij") << ", sigma " << sigma;
+      VecDestroy(&x);
+      VecDestroy(&b);
+      VecDestroy(&r);
+    }
     MatDestroy(&A);
   }
+}
+
+// An exactly singular matrix (a zero row and column) is reported as not factored, in either
+// format, symmetric or not.
+TEST(TangentFactor, ExactlySingularIsNotFactored)
+{
+  const PetscInt n = 20;
+  for (const bool dense : Formats())
+    for (const double skew : {0.0, 1e-3}) {
+      Mat      A    = Laplacian(n, 0.3, skew);
+      PetscInt zero = n / 2;
+      MatZeroRowsColumns(A, 1, &zero, 0.0, nullptr, nullptr);
+      A = InFormat(A, dense);
+      TangentFactor  factor;
+      TangentInertia inertia;
+      ASSERT_EQ(factor.Factor(A, 1e-8, &inertia), PETSC_SUCCESS);
+      EXPECT_FALSE(inertia.factored) << (dense ? "dense" : "aij") << ", skew " << skew;
+      MatDestroy(&A);
+    }
 }
 
 // A free beam with a rigid body, and a second beam hinged to it: no supports (an eigenanalysis
