@@ -118,22 +118,30 @@ PetscErrorCode Assembler::Setup(MPI_Comm comm, const Model &model, const DofMap 
   PetscCall(MatCreate(comm, &jacobian_));
   PetscCall(MatSetSizes(jacobian_, map.num_owned, map.num_owned, map.num_global, map.num_global));
   // -jacobian_dense_below N: a model of at most N unknowns on one rank gets a dense tangent,
-  // factored by msflex's dense LU, for which a sparse factorisation's set-up costs far more than the
-  // arithmetic (a heavy top, 3 unknowns: 0.62 ms of MUMPS against 0.03 ms per step; the turning
-  // arm, 49 unknowns: 2.5 against 0.3 ms; docs/solvers.md); an exactly singular tangent is a
-  // failed step, as with MUMPS (src/core/dense_lu.cpp). Up to 128 unknowns by default: the
-  // examples of 6-167 unknowns run 1.2-3.5x faster dense, the deep arch's 475 slower (1.8 s
-  // against 1.2 s); statics near 100 unknowns take as long either way. -jacobian_mat_type wins.
+  // factored by msflex's dense LU; an exactly singular tangent is a failed step, as with MUMPS
+  // (src/core/dense_lu.cpp). -jacobian_mat_type wins. The default depends on what factors the
+  // tangent (docs/solvers.md):
+  //  - where it is factored for its inertia at every equilibrium (statics with the stability
+  //    account or path control, modes, buckling), 128: LAPACK's LDL^T then counts the pivots
+  //    instead of MUMPS (bend45, 96 unknowns: 0.012 s dense against 0.021 s sparse; the deep
+  //    arch's 475 take 0.61 s dense against 0.19 s);
+  //  - elsewhere 16: PETSc's banded LU of a sparse tangent costs less than the dense LU from about
+  //    18 unknowns on (a chain of 4 elements, 24 unknowns: 36 against 40 us per step; 12 elements:
+  //    76 against 156; the flying spaghetti's 66: 0.113 against 0.180 s), while a dense tangent
+  //    stays faster for a few unknowns (the massless pendulum's 13: 0.033 against 0.034 s).
   PetscMPIInt ranks;
   PetscCallMPI(MPI_Comm_size(comm, &ranks));
-  // Default 128, or 0 when the options choose the preconditioner or factorisation package
-  // themselves (-pc_type, -pc_factor_mat_solver_type): those are for sparse matrices.
+  // 0 when the options choose the preconditioner or factorisation package themselves (-pc_type,
+  // -pc_factor_mat_solver_type): those are for sparse matrices.
   char      pc_type[64] = "";
   PetscBool chosen_pc = PETSC_FALSE, chosen_package = PETSC_FALSE;
   PetscCall(PetscOptionsGetString(nullptr, nullptr, "-pc_type", pc_type, sizeof(pc_type), &chosen_pc));
   PetscCall(PetscOptionsHasName(nullptr, nullptr, "-pc_factor_mat_solver_type", &chosen_package));
-  const bool multigrid   = model.analysis.linear_solver == LinearSolverKind::Multigrid;
-  PetscInt   dense_below = chosen_pc || chosen_package || multigrid ? 0 : 128; // default
+  const AnalysisSettings &analysis             = model.analysis;
+  const bool              multigrid            = analysis.linear_solver == LinearSolverKind::Multigrid;
+  const bool              factored_for_inertia = analysis.type == AnalysisType::Modes || analysis.type == AnalysisType::Buckling ||
+                                    (analysis.type == AnalysisType::Static && (analysis.stability || analysis.control != PathControl::Load));
+  PetscInt dense_below = chosen_pc || chosen_package || multigrid ? 0 : factored_for_inertia ? 128 : 16; // default
   MSFLEX_CALL_READING_OPTIONS(comm, PetscOptionsGetInt(nullptr, "jacobian_", "-dense_below", &dense_below, nullptr));
   PetscCheck(dense_below >= 0, comm, PETSC_ERR_USER_INPUT, "bad option: -jacobian_dense_below %" PetscInt_FMT ": must be >= 0 (0: never)", dense_below);
   PetscCall(MatSetType(jacobian_, ranks == 1 && map.num_global <= dense_below ? MATSEQDENSE : MATAIJ));
@@ -165,8 +173,7 @@ PetscErrorCode Assembler::Setup(MPI_Comm comm, const Model &model, const DofMap 
              "bad option: -jacobian_mat_type dense runs on one rank only (no parallel dense LU): use aij or baij");
   // Banded under RCM (one rank, sparse, the solver chosen by structure): PETSc's LU factors it
   // (newton.cpp ChooseDirectSolver).
-  const AnalysisSettings &analysis = model.analysis;
-  banded_under_rcm_                = false;
+  banded_under_rcm_ = false;
   if (ranks == 1 && !is_dense && analysis.direct_solver == DirectSolverChoice::Auto && !multigrid) {
     double mean_square;
     PetscCall(MeanSquaredRcmEnvelope(pattern, &mean_square));
@@ -178,8 +185,6 @@ PetscErrorCode Assembler::Setup(MPI_Comm comm, const Model &model, const DofMap 
   // LU factors it (no package, PC or relay row asks for MUMPS), and not where MUMPS factors the
   // tangent for its inertia (statics with stability or path control, modes, buckling:
   // TangentFactor takes AIJ and would convert it at every point).
-  const bool factored_for_inertia = analysis.type == AnalysisType::Modes || analysis.type == AnalysisType::Buckling ||
-                                    (analysis.type == AnalysisType::Static && (analysis.stability || analysis.control != PathControl::Load));
   const bool baij_if_blocked = is_aij && !type_chosen && banded_under_rcm_ && !chosen_pc && !chosen_package && map.num_relays == 0 && !factored_for_inertia;
   // Blocks of 6 where every unknown belongs to one: a node's 6 unknowns consecutive from a
   // multiple of 6 and coupled as a whole, on every rank (no partly supported node, no joint

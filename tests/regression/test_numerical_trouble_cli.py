@@ -1,6 +1,6 @@
 """Numerical trouble through the executable, serially and on --np ranks: a step whose residual is
-NaN/Inf or overflows, and a singular tangent (factored by MUMPS, and on one rank, where a model of
-at most 128 unknowns has a dense tangent by default, by msflex's dense LU), are rejected and
+NaN/Inf or overflows, and a singular tangent (factored by MUMPS, and on one rank with a dense
+tangent, -jacobian_dense_below 128, by msflex's dense LU), are rejected and
 halved with a message naming
 the node involved, and the run then stops with exit status 1, one message naming the step's time,
 the reason and the node, and the results and a checkpoint written up to the last converged state
@@ -25,8 +25,8 @@ HANDOVER = "with PETSc's banded LU, which does not pivot between nodes (the tang
 # step, whether one rank hands the banded LU over to MUMPS)
 cases = [("overflowing_load.yaml", [], None, ["the residual is NaN at node 'tip', in its load", "the residual norm overflows", "node 'tip' uy"], "t = 1",
           False),
-         ("unresisted_rotation.yaml", [], (DENSE, MUMPS), ["nothing resists node 'loose' rx"], "t = 0.005", False),
-         ("unresisted_rotation.yaml", ["-jacobian_dense_below", "0"], (MUMPS, MUMPS), ["nothing resists node 'loose' rx"], "t = 0.005", True),
+         ("unresisted_rotation.yaml", ["-jacobian_dense_below", "128"], (DENSE, MUMPS), ["nothing resists node 'loose' rx"], "t = 0.005", False),
+         ("unresisted_rotation.yaml", [], (MUMPS, MUMPS), ["nothing resists node 'loose' rx"], "t = 0.005", True),
          ("unresisted_rotation.yaml", ["-jacobian_dense_below", "0", "-analysis_direct_solver", "mumps"], (MUMPS, MUMPS),
           ["nothing resists node 'loose' rx"], "t = 0.005", False)]
 for case, (name, options, factorisation, common_phrases, failed_time, hands_over) in enumerate(cases):
