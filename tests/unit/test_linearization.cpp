@@ -115,7 +115,11 @@ TEST(TangentFactor, NonsymmetricTangentGivesTheDeterminantSign)
       ASSERT_EQ(factor.Factor(A, 1e-8, &inertia), PETSC_SUCCESS);
       EXPECT_TRUE(inertia.factored);
       EXPECT_FALSE(inertia.symmetric);
-      EXPECT_GT(inertia.asymmetry, 1e-6);
+      // ||K - K^T||_F^2 = 2 (n - 1) (2 skew)^2, ||K||_F^2 = n (2 - sigma)^2 + (n - 1) ((1 + skew)^2 + (1 - skew)^2)
+      const double sigma = 0.5 * (eigenvalue(below) + eigenvalue(below + 1)), skew = 1e-4;
+      const double expected =
+          std::sqrt(2.0 * (n - 1) * 4.0 * skew * skew / (n * (2.0 - sigma) * (2.0 - sigma) + (n - 1) * ((1 + skew) * (1 + skew) + (1 - skew) * (1 - skew))));
+      EXPECT_NEAR(inertia.asymmetry, expected, 1e-12 * expected) << (dense ? "dense" : "aij");
       EXPECT_EQ(inertia.negative_pivots, -1);
       EXPECT_EQ(inertia.determinant_sign, below % 2 == 0 ? 1 : -1) << (dense ? "dense" : "aij");
       MatDestroy(&A);
@@ -162,6 +166,33 @@ TEST(TangentFactor, RefactoringNewValuesOfTheSamePattern)
       VecDestroy(&r);
     }
     MatDestroy(&A);
+  }
+}
+
+// An entry whose transpose is not stored: K - K^T has it twice, ||K - K^T||_F^2 = 2 v^2.
+TEST(TangentFactor, AsymmetryCountsEntriesWithoutTheirTranspose)
+{
+  const PetscInt n = 12;
+  const double   v = 0.5;
+  for (const bool dense : Formats()) {
+    Mat A = Laplacian(n, 0.2, 0.0), B;
+    // A copy with room for the corner entry (0, n - 1), whose transpose (n - 1, 0) stays unstored.
+    MatDuplicate(A, MAT_COPY_VALUES, &B);
+    MatSetOption(B, MAT_NEW_NONZERO_ALLOCATION_ERR, PETSC_FALSE);
+    PetscInt first, last;
+    MatGetOwnershipRange(B, &first, &last);
+    if (first == 0) MatSetValue(B, 0, n - 1, v, INSERT_VALUES);
+    MatAssemblyBegin(B, MAT_FINAL_ASSEMBLY);
+    MatAssemblyEnd(B, MAT_FINAL_ASSEMBLY);
+    MatDestroy(&A);
+    B                    = InFormat(B, dense);
+    const double   norm2 = n * (2.0 - 0.2) * (2.0 - 0.2) + 2.0 * (n - 1) + v * v;
+    TangentFactor  factor;
+    TangentInertia inertia;
+    ASSERT_EQ(factor.Factor(B, 1e-8, &inertia), PETSC_SUCCESS);
+    EXPECT_NEAR(inertia.asymmetry, std::sqrt(2.0 * v * v / norm2), 1e-14) << (dense ? "dense" : "aij");
+    EXPECT_FALSE(inertia.symmetric);
+    MatDestroy(&B);
   }
 }
 
