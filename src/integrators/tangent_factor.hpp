@@ -44,8 +44,9 @@ public:
   PetscErrorCode Factor(Mat K, double symmetry_tolerance, TangentInertia *inertia);
   // x = K^{-1} b with the last factors. Collective.
   PetscErrorCode Solve(Vec b, Vec x);
-  // The eigenvalue mu of smallest magnitude of K phi = mu D phi, by inverse iteration from *mode
-  // (in: the start vector, e.g. the last mode; out: the mode, v^T D v = 1). Collective.
+  // The eigenvalue mu of smallest magnitude of K phi = mu D phi from *mode (in: the start vector,
+  // e.g. the last mode; out: the mode, v^T D v = 1): for a symmetric K by Lanczos on K^{-1} D in
+  // the D inner product, for a nonsymmetric one by inverse iteration. Collective.
   PetscErrorCode LowestEigenvalue(Vec D, Vec mode, double *mu);
   // A tangent with relay nodes (DofMap): MUMPS gets the work space their pivoting needs
   // (kRelayMumpsWorkspace), and the inertia is the condensed tangent's. Each relay's saddle-point
@@ -58,9 +59,14 @@ private:
   PetscErrorCode FactorAij(Mat K, double symmetry_tolerance, bool may_reuse, TangentInertia *inertia);
   PetscErrorCode FactorMumps(Mat K, bool reuse_analysis, TangentInertia *inertia);
   PetscErrorCode FactorDense(Mat K, double symmetry_tolerance, TangentInertia *inertia);
+  PetscErrorCode LanczosLowestEigenvalue(Vec D, Vec mode, double *mu);
+  PetscErrorCode InverseIteration(Vec D, Vec mode, double *mu);
   Mat            factor_     = nullptr;
   PetscInt       num_relays_ = 0;
   Vec            work_[2]    = {nullptr, nullptr};
+  bool           symmetric_  = false; // the last factorisation was LDL^T
+  // Lanczos: the basis V and D V (kLanczosSteps + 1 vectors each), made at the first use.
+  Vec *basis_ = nullptr, *scaled_basis_ = nullptr;
   // What MUMPS' analysis in factor_ was made for: the matrix, its nonzero pattern and the kind.
   Mat              analysed_matrix_    = nullptr;
   PetscObjectState analysed_pattern_   = 0;
