@@ -86,7 +86,7 @@ PetscErrorCode TangentFactor::Factor(Mat tangent, double symmetry_tolerance, Tan
     // A small model's tangent: LAPACK, not a MUMPS instance per equilibrium (whose creation alone
     // cost 3.4 ms per load step of a 4-element cantilever).
     PetscCall(MatDestroy(&factor_));
-    analysed_matrix_ = nullptr;
+    analysed_matrix_ = -1;
     PetscCall(FactorDense(tangent, symmetry_tolerance, inertia));
     PetscFunctionReturn(PETSC_SUCCESS);
   }
@@ -96,7 +96,7 @@ PetscErrorCode TangentFactor::Factor(Mat tangent, double symmetry_tolerance, Tan
   PetscCall(PetscObjectTypeCompareAny((PetscObject)tangent, &is_aij, MATSEQAIJ, MATMPIAIJ, ""));
   if (!is_aij) PetscCall(MatConvert(tangent, MATAIJ, MAT_INITIAL_MATRIX, &converted));
   const PetscErrorCode code = FactorAij(is_aij ? tangent : converted, symmetry_tolerance, is_aij, inertia);
-  if (converted) analysed_matrix_ = nullptr;
+  if (converted) analysed_matrix_ = -1;
   PetscCall(MatDestroy(&converted));
   PetscCall(code);
   PetscFunctionReturn(PETSC_SUCCESS);
@@ -105,17 +105,19 @@ PetscErrorCode TangentFactor::Factor(Mat tangent, double symmetry_tolerance, Tan
 PetscErrorCode TangentFactor::FactorAij(Mat K, double symmetry_tolerance, bool may_reuse, TangentInertia *inertia)
 {
   PetscObjectState pattern;
+  PetscInt64       id;
   PetscFunctionBeginUser;
   PetscCall(Asymmetry(K, &inertia->asymmetry));
   inertia->symmetric = inertia->asymmetry <= symmetry_tolerance;
   PetscCall(MatGetNonzeroState(K, &pattern));
+  PetscCall(PetscObjectGetId((PetscObject)K, &id));
   // MUMPS' analysis (ordering, symbolic factorisation) depends on the pattern and the kind only:
   // the next equilibrium's tangent of the same matrix and kind needs the numerical factorisation
   // alone. Where that fails, a fresh analysis decides before K is called singular.
-  const bool reuse = may_reuse && factor_ && analysed_matrix_ == K && analysed_pattern_ == pattern && analysed_symmetric_ == inertia->symmetric;
+  const bool reuse = may_reuse && factor_ && analysed_matrix_ == id && analysed_pattern_ == pattern && analysed_symmetric_ == inertia->symmetric;
   PetscCall(FactorMumps(K, reuse, inertia));
   if (!inertia->factored && reuse) PetscCall(FactorMumps(K, false, inertia));
-  analysed_matrix_    = inertia->factored ? K : nullptr;
+  analysed_matrix_    = inertia->factored ? id : -1;
   analysed_pattern_   = pattern;
   analysed_symmetric_ = inertia->symmetric;
   PetscFunctionReturn(PETSC_SUCCESS);
@@ -202,14 +204,22 @@ PetscErrorCode TangentFactor::FactorDense(Mat K, double symmetry_tolerance, Tang
   inertia->asymmetry = norm2 > 0 ? std::sqrt(difference2 / norm2) : 0.0;
   inertia->symmetric = inertia->asymmetry <= symmetry_tolerance;
   dense_symmetric_   = inertia->symmetric;
-  if (n == 0) PetscFunctionReturn(PETSC_SUCCESS);
+  if (n == 0) { // nothing to factor: no pivots, a determinant of 1
+    inertia->factored         = true;
+    inertia->negative_pivots  = dense_symmetric_ ? -6 * num_relays_ : -1;
+    inertia->determinant_sign = 1;
+    dense_                    = true;
+    symmetric_                = dense_symmetric_;
+    PetscFunctionReturn(PETSC_SUCCESS);
+  }
   if (dense_symmetric_) {
-    if (dense_work_.empty()) { // sytrf's optimal work space, asked once
+    if (dense_work_n_ != dense_n_) { // sytrf's optimal work space, asked once per size
       PetscScalar              optimal = 0.0;
       PetscBLASInt             query   = -1;
       std::vector<PetscScalar> probe(1);
       PetscCallBLAS("LAPACKsytrf", LAPACKsytrf_("L", &dense_n_, probe.data(), &dense_n_, dense_pivots_.data(), &optimal, &query, &info));
       dense_work_.resize(std::max<size_t>((size_t)n, (size_t)PetscRealPart(optimal)));
+      dense_work_n_ = dense_n_;
     }
     PetscBLASInt lwork;
     PetscCall(PetscBLASIntCast((PetscInt)dense_work_.size(), &lwork));

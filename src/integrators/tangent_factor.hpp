@@ -67,15 +67,17 @@ private:
   bool           symmetric_  = false; // the last factorisation was LDL^T
   // Lanczos: the basis V and D V (kLanczosSteps + 1 vectors each), made at the first use.
   Vec *basis_ = nullptr, *scaled_basis_ = nullptr;
-  // What MUMPS' analysis in factor_ was made for: the matrix, its nonzero pattern and the kind.
-  Mat              analysed_matrix_    = nullptr;
+  // What MUMPS' analysis in factor_ was made for: the matrix (by its id, which no later matrix
+  // takes, unlike its address), its nonzero pattern and the kind; -1: none.
+  PetscInt64       analysed_matrix_    = -1;
   PetscObjectState analysed_pattern_   = 0;
   bool             analysed_symmetric_ = false;
   // The dense factors (column major), LAPACK's pivots and sytrf's work space.
   bool                      dense_           = false;
   bool                      dense_symmetric_ = false;
   PetscBLASInt              dense_n_         = 0;
-  std::vector<PetscScalar>  dense_factors_, dense_work_;
+  std::vector<PetscScalar>  dense_factors_, dense_work_; // dense_work_ sized for dense_work_n_
+  PetscBLASInt              dense_work_n_ = -1;
   std::vector<PetscBLASInt> dense_pivots_;
 };
 

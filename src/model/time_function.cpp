@@ -2,8 +2,9 @@
 //   constant   f = c                          F = c t
 //   linear     f = o + s t                    F = o t + s t^2 / 2
 //   harmonic   f = o + A sin(w t + p)         F = o t + A (cos p - cos(w t + p)) / w,  w = 2 pi nu
-//   ramp       f = A (1 - cos(pi u / d)) / 2  F = A (u - d sin(pi u / d) / pi) / 2 for u = t - start
-//                                               in [0, d); A (u - d / 2) after, 0 before
+//   ramp       f = A (1 - cos(pi u / d)) / 2  G(u) = A (u - d sin(pi u / d) / pi) / 2 for u = t - start
+//                                               in [0, d); A (u - d / 2) after, 0 before;
+//                                               F = G(t - start) - G(-start)
 //   polynomial f = sum c_k t^k                F = sum c_k t^(k+1) / (k + 1)
 //   table      f piecewise linear             F piecewise quadratic (the trapezoidal rule per segment)
 // F(t) = integral of f from 0 to t; derivatives at a kink are taken from the right.
@@ -46,14 +47,23 @@ double Table(const TimeFunction &f, double t, int order)
   return order == 1 ? slope : V[i - 1] + slope * (t - T[i - 1]);
 }
 
+// The ramp's integral from its start to start + u.
+double CosineRampIntegralFromStart(const TimeFunction &f, double u)
+{
+  const double d = f.duration, A = f.amplitude, k = M_PI / d;
+  if (u <= 0.0) return 0.0;
+  if (u >= d) return A * (u - 0.5 * d);
+  return 0.5 * A * (u - std::sin(k * u) / k);
+}
+
 double CosineRamp(const TimeFunction &f, double t, int order)
 {
   const double u = t - f.start, d = f.duration, A = f.amplitude, k = M_PI / d;
+  // From 0, not from the start, which may lie before 0.
+  if (order == -1) return CosineRampIntegralFromStart(f, u) - CosineRampIntegralFromStart(f, -f.start);
   if (u < 0.0) return 0.0;
-  if (u >= d) return order == -1 ? A * (u - 0.5 * d) : order == 0 ? A : 0.0;
+  if (u >= d) return order == 0 ? A : 0.0;
   switch (order) {
-  case -1:
-    return 0.5 * A * (u - std::sin(k * u) / k);
   case 0:
     return 0.5 * A * (1.0 - std::cos(k * u));
   case 1:

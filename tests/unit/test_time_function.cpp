@@ -20,6 +20,7 @@ functions:
   - {name: ramp, type: cosine_ramp, duration: 2, amplitude: 4}
   - {name: p, type: polynomial, coefficients: [1, -2, 0.5]}
   - {name: late_ramp, type: cosine_ramp, duration: 2, amplitude: -3, start: 0.5}
+  - {name: early_ramp, type: cosine_ramp, duration: 0.45, amplitude: 2, start: -0.2}
   - {name: still, type: harmonic, amplitude: 2, frequency: 0, phase: 0.25, offset: 1}
   - {name: all, type: sum, terms: [l, tab, h, late_ramp, p]}
 nodes:
@@ -164,6 +165,19 @@ TEST(TimeFunction, HarmonicOfZeroFrequencyIntegrates)
   const double constant = 1.0 + 2.0 * std::sin(0.25);
   EXPECT_NEAR(FunctionIntegral(model, still, 3.0), 3.0 * constant, 1e-14);
   EXPECT_DOUBLE_EQ(FunctionDerivative(model, still, 3.0, 1), 0.0);
+}
+
+// A ramp that started before 0: its integral is still taken from 0 (a drive by rate starts at q = 0).
+TEST(TimeFunction, RampStartedBeforeZeroIntegratesFromZero)
+{
+  Model      model;
+  InputError error;
+  ASSERT_TRUE(ReadModelString(kModel, "functions.yaml", &model, &error)) << error.Format();
+  const int ramp = Index(model, "early_ramp");
+  EXPECT_DOUBLE_EQ(FunctionIntegral(model, ramp, 0.0), 0.0);
+  // Done at t = 0.25: the integral from 0 is 2 (t - 0.25) plus the ramp's part over [0, 0.25].
+  const double part = Simpson([&](double tau) { return FunctionValue(model, ramp, tau); }, 0.25);
+  EXPECT_NEAR(FunctionIntegral(model, ramp, 1.0), 2.0 * 0.75 + part, 1e-12);
 }
 
 // A drive by rate: q' = rate f, so q = rate F and q'' = rate f'; a drive by value: q = value f.
