@@ -157,6 +157,40 @@ void JointSlaveConfiguration(const JointGeometry &joint, const JointCoordinates 
   *slave_rotation        = master_rotation * terms.C;
 }
 
+Mat3 JointReleasedRotation(const JointGeometry &joint, const JointCoordinates &q)
+{
+  Mat3                                        C;
+  Eigen::Matrix<double, 3, kJointMaxReleased> Omega;
+  Rotation(joint, q, &C, &Omega);
+  return C;
+}
+
+// One axis a: exp(dq a). Two axes (C = exp(q_1 a_i) exp(q_2 a_j)):
+//   C' C^T = exp(q_1' a_i) exp(dq_2 a_j) exp(-q_1' a_i) exp(dq_1 a_i) = exp(dq_2 Omega_2') exp(dq_1 a_i),
+//   Omega_2' = exp(q_1' a_i) a_j = exp(dq_1 a_i) (exp(q_1 a_i) a_j).
+// Free (C = exp(w) C_n, w = 0 at the start): exp(w + dw) exp(w)^T.
+Mat3 JointRotationStep(const JointGeometry &joint, const JointCoordinates &start, const double *increment)
+{
+  const int nt = joint.num_translations;
+  switch (joint.rotation) {
+  case JointRotation::None:
+    return Mat3::Identity();
+  case JointRotation::OneAxis:
+    return ExpSO3(increment[nt] * joint.axes.col(joint.rotation_axis[0]));
+  case JointRotation::TwoAxes: {
+    const Vec3 ai = joint.axes.col(joint.rotation_axis[0]), aj = joint.axes.col(joint.rotation_axis[1]);
+    const Mat3 first_step = ExpSO3(increment[nt] * ai);
+    const Vec3 Omega2     = first_step * (ExpSO3(start.q[nt] * ai) * aj);
+    return ExpSO3(increment[nt + 1] * Omega2) * first_step;
+  }
+  case JointRotation::Free: {
+    const Vec3 w(start.q[nt], start.q[nt + 1], start.q[nt + 2]), dw(increment[nt], increment[nt + 1], increment[nt + 2]);
+    return w.isZero() ? ExpSO3(dw) : Mat3(ExpSO3(w + dw) * ExpSO3(w).transpose());
+  }
+  }
+  return Mat3::Identity();
+}
+
 void JointMap(const JointGeometry &joint, const JointCoordinates &q, const Mat3 &R, JointMatrix *N)
 {
   const int        k     = JointNumCoordinates(joint);

@@ -83,6 +83,14 @@ using JointSquare = Eigen::Matrix<double, 6 + kJointMaxReleased, 6 + kJointMaxRe
 void JointSlaveConfiguration(const JointGeometry &joint, const JointCoordinates &q, const Vec3 &master_position, const Mat3 &master_rotation,
                              Vec3 *slave_position, Mat3 *slave_rotation);
 
+// The released rotation's step, C(q_start + dq) C(q_start)^T, from the increments dq without
+// forming q_start + dq: that sum rounds to eps |q|, and a coordinate that has turned far (a shaft
+// at 130 rad: 3e-14 rad) would make the slave's spin a staircase in dq, whose steps the inertia
+// turns into a residual floor (1e-7 N m at dt = 1e-3) that Newton cannot pass.
+Mat3 JointRotationStep(const JointGeometry &joint, const JointCoordinates &start, const double *increment);
+// C(q): the slave's rotation relative to the master.
+Mat3 JointReleasedRotation(const JointGeometry &joint, const JointCoordinates &q);
+
 // N (first 6 + k columns used): slave spin variations from (delta x_m, delta theta_m, delta q).
 void JointMap(const JointGeometry &joint, const JointCoordinates &q, const Mat3 &master_rotation, JointMatrix *N);
 

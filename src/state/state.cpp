@@ -166,7 +166,11 @@ void StateUpdateSlaves(const Model &model, State *state)
       Mat3 R_s;
       JointSlaveConfiguration(J.geometry, q, x_m, R_m, &x_s, &R_s);
       slave.displacement_increment = x_s - slave.position_start;
-      slave.rotation_increment     = LogSO3(R_s * QuaternionToMatrix(slave.rotation_start).transpose());
+      // R_s = R_m C(q_n + dq) = R_m [C(q_n + dq) C(q_n)^T] C(q_n): the bracket from dq alone
+      // (JointRotationStep), so that the slave's spin is smooth in the unknowns however far the
+      // coordinate has turned; C(q_n) at the stored start is constant during the step.
+      const Mat3 R_s_smooth    = R_m * JointRotationStep(J.geometry, J.start, J.increment) * JointReleasedRotation(J.geometry, J.start);
+      slave.rotation_increment = LogSO3(R_s_smooth * QuaternionToMatrix(slave.rotation_start).transpose());
       StateUpdateNode(equations, &slave);
     }
     if (equations.Dynamic())

@@ -440,3 +440,44 @@ TEST(JointKinematics, ConservingMapTendsToTheJointMap)
     EXPECT_LT(error[2], 0.2 * error[1]) << c.name; // first order in the step
   }
 }
+
+// The released rotation's step C(q + dq) C(q)^T from the increments alone equals the difference
+// of the two rotations for every joint kind (to round-off at moderate angles), and stays smooth in
+// dq after the coordinate has turned far: at q = 1000 rad, q + dq rounds to 1.1e-13 rad, while the
+// step from dq alone follows a change of dq by 3e-14 rad.
+TEST(JointKinematics, RotationStepFromTheIncrementsAlone)
+{
+  for (const Case &c : Cases()) {
+    const JointGeometry &joint = c.joint;
+    const int            nt = joint.num_translations, k = JointNumCoordinates(joint);
+    JointCoordinates     start;
+    double               increment[kJointMaxReleased] = {};
+    for (int i = 0; i < k; ++i) start.q[i] = 0.3 + 0.2 * i, increment[i] = 0.05 - 0.02 * i;
+    if (joint.rotation == JointRotation::Free) {
+      start.free_rotation_start = ExpSO3(Vec3(0.2, -0.4, 0.1));
+      for (int i = nt; i < k; ++i) start.q[i] = 0.0; // a free rotation starts every step at w = 0
+    }
+    JointCoordinates end = start;
+    for (int i = 0; i < k; ++i) end.q[i] += increment[i];
+    const Mat3 expected = JointReleasedRotation(joint, end) * JointReleasedRotation(joint, start).transpose();
+    EXPECT_LT((JointRotationStep(joint, start, increment) - expected).cwiseAbs().maxCoeff(), 1e-15) << c.name;
+    if (joint.rotation != JointRotation::OneAxis && joint.rotation != JointRotation::TwoAxes) continue;
+    // Far along: q = 1000 rad on the rotation coordinates.
+    for (int i = nt; i < k; ++i) start.q[i] = 1000.0 + i;
+    const Mat3   step  = JointRotationStep(joint, start, increment);
+    const double delta = 3e-14; // below the spacing of doubles near 1000 (1.1e-13)
+    double       moved[kJointMaxReleased];
+    std::copy(increment, increment + kJointMaxReleased, moved);
+    moved[nt] += delta;
+    const Mat3 nearby = JointRotationStep(joint, start, moved);
+    // The first released angle turns the step by delta (to the few per cent by which the second
+    // axis of a universal joint tilts that direction), where a rounded q + dq would turn it by 0
+    // or by 1.1e-13.
+    EXPECT_NEAR(LogSO3(nearby * step.transpose()).norm(), delta, 0.2 * delta) << c.name;
+    // And it is still the rotation step: against the difference at the far angles, to their rounding.
+    end = start;
+    for (int i = 0; i < k; ++i) end.q[i] += increment[i];
+    const Mat3 far_expected = JointReleasedRotation(joint, end) * JointReleasedRotation(joint, start).transpose();
+    EXPECT_LT((step - far_expected).cwiseAbs().maxCoeff(), 1e-12) << c.name;
+  }
+}
