@@ -157,6 +157,44 @@ void JointSlaveConfiguration(const JointGeometry &joint, const JointCoordinates 
   *slave_rotation        = master_rotation * terms.C;
 }
 
+Vec3 JointOffset(const JointGeometry &joint, const JointCoordinates &q)
+{
+  Vec3                                        b;
+  Eigen::Matrix<double, 3, kJointMaxReleased> B;
+  double                                      ddf;
+  Offset(joint, q, &b, &B, &ddf);
+  return b;
+}
+
+Vec3 JointOffsetStep(const JointGeometry &joint, const JointCoordinates &start, const double *increment)
+{
+  const int nt = joint.num_translations;
+  Vec3      dt = Vec3::Zero();
+  for (int k = 0; k < nt; ++k) dt(joint.translation_axis[k]) += increment[k];
+  const double phi = start.q[nt], dphi = increment[nt];
+  switch (joint.dependence) {
+  case JointDependence::None:
+    break;
+  case JointDependence::Linear:
+    dt(joint.dependent_axis) += joint.coefficient * dphi;
+    break;
+  case JointDependence::EccentricCam:
+    dt(joint.dependent_axis) += -2.0 * joint.coefficient * std::sin(phi + 0.5 * dphi) * std::sin(0.5 * dphi);
+    break;
+  case JointDependence::Table: {
+    // The start's angle reduced to one period exactly (fmod is exact), so that adding dphi rounds
+    // to eps times the period, not eps |phi|.
+    const double reduced = std::fmod(phi, joint.profile.period);
+    double       f_end, f_start, df, ddf;
+    PeriodicSplineEvaluate(joint.profile, reduced + dphi, &f_end, &df, &ddf);
+    PeriodicSplineEvaluate(joint.profile, reduced, &f_start, &df, &ddf);
+    dt(joint.dependent_axis) += f_end - f_start;
+    break;
+  }
+  }
+  return joint.axes * dt;
+}
+
 Mat3 JointReleasedRotation(const JointGeometry &joint, const JointCoordinates &q)
 {
   Mat3                                        C;

@@ -90,6 +90,13 @@ void JointSlaveConfiguration(const JointGeometry &joint, const JointCoordinates 
 Mat3 JointRotationStep(const JointGeometry &joint, const JointCoordinates &start, const double *increment);
 // C(q): the slave's rotation relative to the master.
 Mat3 JointReleasedRotation(const JointGeometry &joint, const JointCoordinates &q);
+// b(q_start + dq) - b(q_start), the slave's offset in the master frame over the step, from dq
+// alone for the same reason (a slider 2 km along: q + dq rounds to 4.5e-13 m): translations
+// A dq, a linear dependent translation c dphi, a cam R (cos(phi + dphi) - cos phi) =
+// -2 R sin(phi + dphi/2) sin(dphi/2), a periodic profile from its argument reduced first.
+Vec3 JointOffsetStep(const JointGeometry &joint, const JointCoordinates &start, const double *increment);
+// b(q): the slave's offset in the master frame.
+Vec3 JointOffset(const JointGeometry &joint, const JointCoordinates &q);
 
 // N (first 6 + k columns used): slave spin variations from (delta x_m, delta theta_m, delta q).
 void JointMap(const JointGeometry &joint, const JointCoordinates &q, const Mat3 &master_rotation, JointMatrix *N);

@@ -162,15 +162,28 @@ void StateUpdateSlaves(const Model &model, State *state)
       slave.displacement_increment                          = slave_accelerations.head<3>();
       slave.rotation_increment                              = slave_accelerations.tail<3>();
     } else {
-      Vec3 x_s;
-      Mat3 R_s;
-      JointSlaveConfiguration(J.geometry, q, x_m, R_m, &x_s, &R_s);
-      slave.displacement_increment = x_s - slave.position_start;
-      // R_s = R_m C(q_n + dq) = R_m [C(q_n + dq) C(q_n)^T] C(q_n): the bracket from dq alone
-      // (JointRotationStep), so that the slave's spin is smooth in the unknowns however far the
-      // coordinate has turned; C(q_n) at the stored start is constant during the step.
-      const Mat3 R_s_smooth    = R_m * JointRotationStep(J.geometry, J.start, J.increment) * JointReleasedRotation(J.geometry, J.start);
-      slave.rotation_increment = LogSO3(R_s_smooth * QuaternionToMatrix(slave.rotation_start).transpose());
+      // The slave's step from the steps of its master and coordinates, never from differences of
+      // positions or rotations formed from the coordinates themselves: q_n + dq rounds to eps |q|,
+      // and a coordinate that has gone far (a shaft at 130 rad, a slider 2 km along) would make
+      // the slave's increments a staircase in the unknowns, whose steps the inertia turns into a
+      // residual floor that Newton cannot pass (docs/joints.md). With b_n = b(q_n),
+      //   x_s - x_s,n = dx_m + R_m (b(q_n + dq) - b_n) + (R_m - R_m,n) b_n + (x_m,n + R_m,n b_n - x_s,n),
+      //   R_s = R_m [C(q_n + dq) C(q_n)^T] C(q_n),
+      // the brackets from dq alone (JointOffsetStep, JointRotationStep); the last term of the first
+      // line is constant during the step.
+      Vec3 dx_m = Vec3::Zero(), x_m_start = x_m;
+      Mat3 R_m_start = Mat3::Identity();
+      if (J.local_master >= 0) {
+        const NodeState &master = state->nodes[J.local_master];
+        dx_m                    = master.displacement_increment;
+        x_m_start               = master.position_start;
+        R_m_start               = QuaternionToMatrix(master.rotation_start);
+      }
+      const Vec3 b_start           = JointOffset(J.geometry, J.start);
+      slave.displacement_increment = dx_m + R_m * JointOffsetStep(J.geometry, J.start, J.increment) + (R_m - R_m_start) * b_start +
+                                     (x_m_start + R_m_start * b_start - slave.position_start);
+      const Mat3 R_s           = R_m * JointRotationStep(J.geometry, J.start, J.increment) * JointReleasedRotation(J.geometry, J.start);
+      slave.rotation_increment = LogSO3(R_s * QuaternionToMatrix(slave.rotation_start).transpose());
       StateUpdateNode(equations, &slave);
     }
     if (equations.Dynamic())

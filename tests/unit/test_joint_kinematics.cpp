@@ -481,3 +481,41 @@ TEST(JointKinematics, RotationStepFromTheIncrementsAlone)
     EXPECT_LT((step - far_expected).cwiseAbs().maxCoeff(), 1e-12) << c.name;
   }
 }
+
+// The slave offset's step b(q + dq) - b(q) from the increments alone: equal to the difference at
+// moderate coordinates for every joint kind, and smooth in dq far along (translations at 5000 m,
+// angles at 1000 rad, where q + dq rounds to 9e-13 and 1.1e-13).
+TEST(JointKinematics, OffsetStepFromTheIncrementsAlone)
+{
+  for (const Case &c : Cases()) {
+    const JointGeometry &joint = c.joint;
+    const int            k     = JointNumCoordinates(joint);
+    if (k == 0) continue;
+    JointCoordinates start;
+    double           increment[kJointMaxReleased] = {};
+    for (int i = 0; i < k; ++i) start.q[i] = 0.3 + 0.2 * i, increment[i] = 0.05 - 0.02 * i;
+    if (joint.rotation == JointRotation::Free)
+      for (int i = joint.num_translations; i < k; ++i) start.q[i] = 0.0;
+    JointCoordinates end = start;
+    for (int i = 0; i < k; ++i) end.q[i] += increment[i];
+    EXPECT_LT((JointOffsetStep(joint, start, increment) - (JointOffset(joint, end) - JointOffset(joint, start))).cwiseAbs().maxCoeff(), 1e-15) << c.name;
+    // Far along: every coordinate moved by delta = 3e-14 changes the step linearly (by B delta, B =
+    // db/dq), where a rounded q + dq would change it by 0 or by a whole spacing of doubles.
+    if (joint.rotation == JointRotation::Free) continue; // its angles restart from 0 every step
+    for (int i = 0; i < k; ++i) start.q[i] = i < joint.num_translations ? 5000.0 + i : 1000.0 + i;
+    for (int i = 0; i < k; ++i) {
+      const double delta = 3e-14;
+      double       moved[kJointMaxReleased];
+      std::copy(increment, increment + kJointMaxReleased, moved);
+      moved[i] += delta;
+      const Vec3 change = JointOffsetStep(joint, start, moved) - JointOffsetStep(joint, start, increment);
+      // db/dq_i at the step's end, by a central difference of the step itself over 1e-6.
+      double up[kJointMaxReleased], down[kJointMaxReleased];
+      std::copy(increment, increment + kJointMaxReleased, up);
+      std::copy(increment, increment + kJointMaxReleased, down);
+      up[i] += 1e-6, down[i] -= 1e-6;
+      const Vec3 slope = (JointOffsetStep(joint, start, up) - JointOffsetStep(joint, start, down)) / 2e-6;
+      EXPECT_LT((change - delta * slope).norm(), 0.2 * delta * slope.norm() + 1e-16) << c.name << ", coordinate " << i;
+    }
+  }
+}
