@@ -24,7 +24,7 @@ static PetscErrorCode CollectConstraints(const Model &model, DofMap *map)
           MSFLEX_INPUT_CHECK(false, support.mark, "DOF '%s' of node '%s' is already constrained by the support at line %d", kDofNames[d],
                              model.nodes[node].name.c_str(), first.mark.line);
         }
-        slot = {support.kind[d], support.values[d], support.function, (int)s};
+        slot = {support.kind[d], support.values[d], support.function, (int)s, support.by_rate[d]};
       }
     }
   }

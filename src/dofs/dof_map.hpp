@@ -28,8 +28,9 @@ namespace msflex {
 struct DofConstraint {
   Support::Kind kind     = Support::Kind::Free;
   double        value    = 0.0;
-  int           function = -1; // -1: ramp f(t) = t
-  int           support  = -1; // the support entry that set it (for messages)
+  int           function = -1;    // -1: ramp f(t) = t
+  int           support  = -1;    // the support entry that set it (for messages)
+  bool          by_rate  = false; // the DOF's rate is value * f(t) (prescribe_rate)
 };
 
 struct DofMap {

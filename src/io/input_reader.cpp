@@ -381,15 +381,20 @@ void ReadFixedDofs(const YAML::Node &fix, Support &support)
   for (const YAML::Node &dof : fix) support.kind[ReadDofName(dof, "fix")] = Support::Kind::Fixed;
 }
 
-void ReadPrescribedDofs(const YAML::Node &prescribe, Support &support)
+// `prescribe` (the DOF is value f(t)) or `prescribe_rate` (its rate is value f(t), from the
+// reference at t = 0).
+void ReadPrescribedDofs(const YAML::Node &prescribe, const char *key, bool by_rate, Support &support)
 {
-  const MappingReader entries(prescribe, "'prescribe'");
+  const MappingReader entries(prescribe, std::string("'") + key + "'");
   for (const MappingReader::Entry &entry : entries.Entries()) {
-    const int dof = ReadDofName(entry.key_node, "prescribe");
+    const int dof = ReadDofName(entry.key_node, key);
     if (support.kind[dof] == Support::Kind::Fixed)
       FailAt(entry.key_node.Mark(), "DOF " + Quote(entry.key) + " is both fixed and prescribed in the same support");
-    support.kind[dof]   = Support::Kind::Prescribed;
-    support.values[dof] = ReadNumber(entry.value, entry.key);
+    if (support.kind[dof] == Support::Kind::Prescribed)
+      FailAt(entry.key_node.Mark(), "DOF " + Quote(entry.key) + " is in both 'prescribe' and 'prescribe_rate' of the same support");
+    support.kind[dof]    = Support::Kind::Prescribed;
+    support.values[dof]  = ReadNumber(entry.value, entry.key);
+    support.by_rate[dof] = by_rate;
   }
 }
 
@@ -417,17 +422,18 @@ void CheckNoJointSlaves(const YAML::Node &nodes_value, const std::vector<int> &n
 
 Support ReadSupport(const YAML::Node &item, const ReaderContext &context)
 {
-  const MappingReader entry(item, "support", {"nodes", "fix", "prescribe", "function"});
+  const MappingReader entry(item, "support", {"nodes", "fix", "prescribe", "prescribe_rate", "function"});
   Support             support;
   support.mark  = context.MarkOf(entry.Mark());
   support.nodes = context.ResolveNodes(entry.Required("nodes"), "nodes");
   CheckNoJointSlaves(entry.Required("nodes"), support.nodes, context);
   if (const YAML::Node *fix = entry.Find("fix")) ReadFixedDofs(*fix, support);
-  if (const YAML::Node *prescribe = entry.Find("prescribe")) ReadPrescribedDofs(*prescribe, support);
+  if (const YAML::Node *prescribe = entry.Find("prescribe")) ReadPrescribedDofs(*prescribe, "prescribe", false, support);
+  if (const YAML::Node *prescribe = entry.Find("prescribe_rate")) ReadPrescribedDofs(*prescribe, "prescribe_rate", true, support);
   support.function          = context.OptionalFunctionIndex(entry, "function");
   bool constrains_something = false;
   for (Support::Kind kind : support.kind) constrains_something = constrains_something || kind != Support::Kind::Free;
-  if (!constrains_something) FailAt(entry.Mark(), "a support must fix or prescribe at least one DOF (use 'fix' or 'prescribe')");
+  if (!constrains_something) FailAt(entry.Mark(), "a support must fix or prescribe at least one DOF (use 'fix', 'prescribe' or 'prescribe_rate')");
   return support;
 }
 

@@ -104,7 +104,8 @@ struct Support {
   std::vector<int>      nodes;
   std::array<Kind, 6>   kind{{Kind::Free, Kind::Free, Kind::Free, Kind::Free, Kind::Free, Kind::Free}};
   std::array<double, 6> values{{0, 0, 0, 0, 0, 0}};
-  int                   function = -1; // index into Model::functions; -1: linear ramp value * t
+  std::array<bool, 6>   by_rate{{false, false, false, false, false, false}}; // prescribe_rate: the DOF's rate is value * function
+  int                   function = -1;                                       // index into Model::functions; -1: linear ramp value * t
   SourceMark            mark;
 };
 
@@ -367,5 +368,8 @@ double FunctionIntegral(const Model &model, int function, double t);
 // A driven joint coordinate q(t) (order 0), its rate (1) or acceleration (2): drive_value f(t), or
 // with drive_by_rate drive_value times the integral of f from 0 to t.
 double DriveCoordinate(const Model &model, const Joint &joint, double t, int order);
+// The same for a prescribed DOF's motion per unit value: f(t) and its derivatives, or with
+// by_rate the integral of f from 0 and f, f'.
+double PrescribedMotion(const Model &model, int function, bool by_rate, double t, int order);
 
 } // namespace msflex

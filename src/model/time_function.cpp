@@ -146,6 +146,11 @@ double FunctionDerivative(const Model &model, int function, double t, int order)
 
 double FunctionIntegral(const Model &model, int function, double t) { return FunctionAt(model.functions, function, t, -1); }
 
+double PrescribedMotion(const Model &model, int function, bool by_rate, double t, int order)
+{
+  return FunctionAt(model.functions, function, t, by_rate ? order - 1 : order);
+}
+
 double DriveCoordinate(const Model &model, const Joint &joint, double t, int order)
 {
   return joint.drive_value * FunctionAt(model.functions, joint.drive_function, t, joint.drive_by_rate ? order - 1 : order);

@@ -110,9 +110,10 @@ void StateBeginStep(const Model &model, const DofMap &map, const StepEquations &
       if (c.kind == Support::Kind::Free) continue;
       double value = 0.0;
       if (c.kind == Support::Kind::Prescribed) {
-        if (accelerations || velocities) value = c.value * FunctionDerivative(model, c.function, t_end, accelerations ? 2 : 1);
-        else if (d < 3) value = model.nodes[node].position(d) + c.value * FunctionValue(model, c.function, t_end) - s.position_start(d);
-        else value = c.value * (FunctionValue(model, c.function, t_end) - FunctionValue(model, c.function, t_start));
+        const auto motion = [&](double t, int order) { return c.value * PrescribedMotion(model, c.function, c.by_rate, t, order); };
+        if (accelerations || velocities) value = motion(t_end, accelerations ? 2 : 1);
+        else if (d < 3) value = model.nodes[node].position(d) + motion(t_end, 0) - s.position_start(d);
+        else value = motion(t_end, 0) - motion(t_start, 0);
       }
       if (d < 3) s.displacement_increment(d) = value;
       else s.rotation_increment(d - 3) = value;
@@ -308,7 +309,7 @@ void StateSetInitialVelocities(const Model &model, const DofMap &map, double t, 
     for (int d = 0; d < 6; ++d) {
       const DofConstraint &c = map.constraints[node][d];
       if (c.kind == Support::Kind::Free) continue;
-      const double rate = c.kind == Support::Kind::Prescribed ? c.value * FunctionDerivative(model, c.function, t, 1) : 0.0;
+      const double rate = c.kind == Support::Kind::Prescribed ? c.value * PrescribedMotion(model, c.function, c.by_rate, t, 1) : 0.0;
       if (d < 3) v(d) = rate;
       else w(d - 3) = rate;
     }
