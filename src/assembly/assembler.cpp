@@ -104,7 +104,10 @@ PetscErrorCode Assembler::Setup(MPI_Comm comm, const Model &model, const DofMap 
   PetscCall(MPIU_Allreduce(&stiffness_squares, &global_stiffness_squares, 1, MPI_DOUBLE, MPI_SUM, comm));
   double global_position_squares, position_squares = LocalPositionRoundoffSquares(model, map);
   PetscCall(MPIU_Allreduce(&position_squares, &global_position_squares, 1, MPI_DOUBLE, MPI_SUM, comm));
-  roundoff_force_level_ = std::numeric_limits<double>::epsilon() * std::sqrt(1e4 * global_stiffness_squares + global_position_squares);
+  roundoff_force_level_  = std::numeric_limits<double>::epsilon() * std::sqrt(1e4 * global_stiffness_squares + global_position_squares);
+  double damping_squares = 0.0;
+  for (ForceContributor *c : contributors_) damping_squares += c->LocalDampingRoundoffSquares();
+  PetscCall(MPIU_Allreduce(&damping_squares, &global_damping_squares_, 1, MPI_DOUBLE, MPI_SUM, comm));
 
   element_force_scratch_.assign(kBeamMaxDofs * map.local_elements.size(), 0.0);
   element_correction_scratch_.assign(kBeamMaxDofs * map.local_elements.size(), 0.0);
@@ -577,6 +580,13 @@ PetscErrorCode Assembler::BeginStep(const StepEquations &equations)
   UpdateExpansions();
   for (ForceContributor *c : contributors_) c->BeginStep(*state_);
   inertial_roundoff_level_ = 0.0;
+  // Damping forces C_d (strain rate), the rate d/dt = (velocity coefficient) x (the strain's
+  // increment), which rounds like the strain: eps times 100 C_d times that coefficient, as the
+  // stiffness's floor is eps times 100 K (structural damping of tau = 0.01 s at dt = 1 ms raised
+  // the floor 20-fold, and Newton, asked for less, stalled in the first step).
+  damping_roundoff_level_ = equations.Dynamic() ? 100.0 * std::numeric_limits<double>::epsilon() * std::sqrt(global_damping_squares_) *
+                                                      std::abs(equations.scheme.VelocityCoefficient())
+                                                : 0.0;
   if (equations.Dynamic()) {
     double squares = inertia_->LocalMomentumRateSquares(*state_, equations.scheme.dt);
     PetscCall(MPIU_Allreduce(MPI_IN_PLACE, &squares, 1, MPI_DOUBLE, MPI_SUM, comm_));

@@ -108,7 +108,7 @@ public:
   // eps times the momenta over dt at the start of the step (BeginStep): an inertial residual is a
   // difference of momenta over dt, which a predictor that moves every node and joint coordinate at
   // its rate can leave at round-off of them (a body spinning freely about its axis).
-  double RoundoffForceLevel() const { return std::max(roundoff_force_level_, inertial_roundoff_level_); }
+  double RoundoffForceLevel() const { return std::max({roundoff_force_level_, inertial_roundoff_level_, damping_roundoff_level_}); }
   // Largest |omega| over the nodes of the whole model. Collective.
   PetscErrorCode MaxRotationIncrement(double *max_rotation);
   // Work of the external loads over the current increments, plus that of the reactions that drive
@@ -349,6 +349,8 @@ private:
 
   double            roundoff_force_level_    = 0.0;
   double            inertial_roundoff_level_ = 0.0;  // of the step (BeginStep; 0 outside dynamics)
+  double            damping_roundoff_level_  = 0.0;  // of the step: viscous forces on rounded strain rates (BeginStep)
+  double            global_damping_squares_  = 0.0;  // sum of LocalDampingRoundoffSquares over the ranks
   double            local_force_squares_     = 0.0;  // sum of squares of every node vector added in the last residual
   std::vector<Vec6> prescribed_residual_;            // per local node: the last residual's entries on prescribed DOFs (the reactions this rank assembled)
   bool              mass_matrix_only_       = false; // AssembleMassMatrix: no equations for massless groups

@@ -21,6 +21,18 @@ void BeamDampingContributor::Setup(const Model &model, const DofMap &map, const 
   start_curvature_.assign(map.local_elements.size(), {Vec3::Zero(), Vec3::Zero()});
 }
 
+double BeamDampingContributor::LocalDampingRoundoffSquares() const
+{
+  double squares = 0.0;
+  for (size_t k = 0; k < damped_.size(); ++k) {
+    if (!damped_[k]) continue;
+    const BeamSectionStiffness &c = damping_[model_->elements[map_->local_elements[k]].section];
+    const double                L = beams_->References()[k].length;
+    squares += c.axial_shear.squaredNorm() + c.torsion_bending.squaredNorm() / (L * L);
+  }
+  return squares;
+}
+
 bool BeamDampingContributor::Strains(const State &state, size_t k, bool start, Vec3 *strain, Vec3 *curvature) const
 {
   Vec3 positions[kBeamMaxNodes], zero[kBeamMaxNodes], rate[kBeamMaxGauss], curvature_rate[kBeamMaxGauss];

@@ -36,8 +36,10 @@ public:
   bool ActsOnElements() const override { return any_damped_; }
   void AddElement(const State &state, size_t k, ElementContribution *out) override;
   void AddStepDissipation(const State &state, double *dissipation) const override;
-  void StartMotion(State *state) override;
-  void CommitStep(State *state) override;
+  // C_d's strain terms and its curvature terms over the element length (as the stiffness's).
+  double LocalDampingRoundoffSquares() const override;
+  void   StartMotion(State *state) override;
+  void   CommitStep(State *state) override;
 
 private:
   // The damping forces of local element k (6 per node) and, on request, their tangent; false when
