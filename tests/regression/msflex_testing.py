@@ -109,6 +109,14 @@ def run_msflex(args, input_file, output_file, extra=(), np_ranks=None, expect_su
     return result.returncode, result.stdout, result.stderr
 
 
+def run_input(args, name, extra=("-quiet",)):
+    """Runs tests/regression/inputs/<name>.yaml into <work_dir>/<name>.h5 and returns that path
+    and its history (history())."""
+    output = f"{args.work_dir}/{name}.h5"
+    run_msflex(args, f"{args.source_dir}/tests/regression/inputs/{name}.yaml", output, extra=list(extra))
+    return output, history(output)
+
+
 def probe_history(path, probe):
     """time column and the probe's quantities as numpy arrays: position, displacement (rows x 3),
     rotation (rows x 4, w x y z), rotation_angle (rows)."""

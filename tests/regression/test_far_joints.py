@@ -12,9 +12,7 @@ import msflex_testing as mt
 
 args = mt.parse_arguments(__doc__)
 check = mt.Checker("far joints")
-output = f"{args.work_dir}/far_joints.h5"
-mt.run_msflex(args, f"{args.source_dir}/tests/regression/inputs/far_joints.yaml", output, extra=["-quiet"])
-h = mt.history(output)
+_, h = mt.run_input(args, "far_joints")
 t = h["time"]
 check.true(f"the run reaches t = 40 ({t[-1]:.6g})", abs(t[-1] - 40.0) < 1e-9)
 check.true(f"every step taken at 1 ms: {len(t) - 1} steps", len(t) - 1 == 40000)

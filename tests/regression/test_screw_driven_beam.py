@@ -15,9 +15,7 @@ import msflex_testing as mt
 
 args = mt.parse_arguments(__doc__)
 check = mt.Checker("screw-driven beam")
-output = f"{args.work_dir}/screw_driven_beam.h5"
-mt.run_msflex(args, f"{args.source_dir}/tests/regression/inputs/screw_driven_beam.yaml", output, extra=["-quiet"])
-h = mt.history(output)
+output, h = mt.run_input(args, "screw_driven_beam")
 t = h["time"]
 check.true(f"the run reaches t = 3 in 3000 steps ({t[-1]:.6g}, {len(t) - 1})", abs(t[-1] - 3.0) < 1e-9 and len(t) - 1 == 3000)
 L, rhoA, rhoJ1, pitch, alpha = 2.0, 1.0, 0.02, 0.1, 4.0
