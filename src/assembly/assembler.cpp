@@ -584,9 +584,10 @@ PetscErrorCode Assembler::BeginStep(const StepEquations &equations)
   // increment), which rounds like the strain: eps times 100 C_d times that coefficient, as the
   // stiffness's floor is eps times 100 K (structural damping of tau = 0.01 s at dt = 1 ms raised
   // the floor 20-fold, and Newton, asked for less, stalled in the first step).
-  damping_roundoff_level_ = equations.Dynamic() ? 100.0 * std::numeric_limits<double>::epsilon() * std::sqrt(global_damping_squares_) *
-                                                      std::abs(equations.scheme.VelocityCoefficient())
-                                                : 0.0;
+  // The mid-point schemes' damping takes (e_{n+1} - e_n) / dt, the Newmark family's the
+  // velocity of the update.
+  const double rate_coefficient = equations.scheme.Midpoint() ? 1.0 / equations.scheme.dt : std::abs(equations.scheme.VelocityCoefficient());
+  damping_roundoff_level_ = equations.Dynamic() ? 100.0 * std::numeric_limits<double>::epsilon() * std::sqrt(global_damping_squares_) * rate_coefficient : 0.0;
   if (equations.Dynamic()) {
     double squares = inertia_->LocalMomentumRateSquares(*state_, equations.scheme.dt);
     PetscCall(MPIU_Allreduce(MPI_IN_PLACE, &squares, 1, MPI_DOUBLE, MPI_SUM, comm_));

@@ -223,7 +223,7 @@ Mat3 JointRotationStep(const JointGeometry &joint, const JointCoordinates &start
   }
   case JointRotation::Free: {
     const Vec3 w(start.q[nt], start.q[nt + 1], start.q[nt + 2]), dw(increment[nt], increment[nt + 1], increment[nt + 2]);
-    return w.isZero() ? ExpSO3(dw) : Mat3(ExpSO3(w + dw) * ExpSO3(w).transpose());
+    return w == Vec3::Zero() ? ExpSO3(dw) : Mat3(ExpSO3(w + dw) * ExpSO3(w).transpose());
   }
   }
   return Mat3::Identity();
