@@ -580,18 +580,18 @@ PetscErrorCode Assembler::BeginStep(const StepEquations &equations)
   UpdateExpansions();
   for (ForceContributor *c : contributors_) c->BeginStep(*state_);
   inertial_roundoff_level_ = 0.0;
-  // Damping forces C_d (strain rate), the rate d/dt = (velocity coefficient) x (the strain's
-  // increment), which rounds like the strain: eps times 100 C_d times that coefficient, as the
-  // stiffness's floor is eps times 100 K (structural damping of tau = 0.01 s at dt = 1 ms raised
-  // the floor 20-fold, and Newton, asked for less, stalled in the first step).
-  // The mid-point schemes' damping takes (e_{n+1} - e_n) / dt, the Newmark family's the
-  // velocity of the update.
-  const double rate_coefficient = equations.scheme.Midpoint() ? 1.0 / equations.scheme.dt : std::abs(equations.scheme.VelocityCoefficient());
-  damping_roundoff_level_ = equations.Dynamic() ? 100.0 * std::numeric_limits<double>::epsilon() * std::sqrt(global_damping_squares_) * rate_coefficient : 0.0;
+  damping_roundoff_level_  = 0.0;
   if (equations.Dynamic()) {
     double squares = inertia_->LocalMomentumRateSquares(*state_, equations.scheme.dt);
     PetscCall(MPIU_Allreduce(MPI_IN_PLACE, &squares, 1, MPI_DOUBLE, MPI_SUM, comm_));
     inertial_roundoff_level_ = 100.0 * std::numeric_limits<double>::epsilon() * std::sqrt(squares);
+    // Damping forces C_d times strain rates, which are the strains' increments (rounded as the
+    // strains are) times a rate coefficient: eps times 100 C_d times it, as the stiffness's floor
+    // is eps times 100 K (structural damping of tau = 0.01 s at dt = 1 ms raised the floor
+    // 20-fold, and Newton, asked for less, stalled in the first step). The mid-point schemes'
+    // damping takes (e_{n+1} - e_n) / dt, the Newmark family's the velocity of the update.
+    const double rate_coefficient = equations.scheme.Midpoint() ? 1.0 / equations.scheme.dt : std::abs(equations.scheme.VelocityCoefficient());
+    damping_roundoff_level_       = 100.0 * std::numeric_limits<double>::epsilon() * std::sqrt(global_damping_squares_) * rate_coefficient;
   }
   massless_rows_.clear();
   num_massless_unknowns_ = 0;

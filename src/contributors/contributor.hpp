@@ -160,7 +160,7 @@ public:
   virtual void AddStepDissipation(const State &state, double *dissipation) const {}
   // Viscous coefficients times the size of what rounds in the rates they multiply, summed in
   // squares over this rank's elements: the residual's round-off floor from damping is eps times its
-  // square root times the scheme's velocity coefficient (Assembler::BeginStep).
+  // square root times the coefficient that turns an increment into a rate (Assembler::BeginStep).
   virtual double LocalDampingRoundoffSquares() const { return 0.0; }
   // Whether the stored energy is a spring's (history `spring_energy`) rather than the beams'.
   virtual bool StoresSpringEnergy() const { return false; }

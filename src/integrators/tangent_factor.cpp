@@ -203,21 +203,19 @@ PetscErrorCode TangentFactor::FactorDense(Mat K, double symmetry_tolerance, Tang
   PetscCall(MatDenseRestoreArrayRead(K, &a));
   inertia->asymmetry = norm2 > 0 ? std::sqrt(difference2 / norm2) : 0.0;
   inertia->symmetric = inertia->asymmetry <= symmetry_tolerance;
-  dense_symmetric_   = inertia->symmetric;
+  symmetric_         = inertia->symmetric;
   if (n == 0) { // nothing to factor: no pivots, a determinant of 1
     inertia->factored         = true;
-    inertia->negative_pivots  = dense_symmetric_ ? -6 * num_relays_ : -1;
+    inertia->negative_pivots  = symmetric_ ? -6 * num_relays_ : -1;
     inertia->determinant_sign = 1;
     dense_                    = true;
-    symmetric_                = dense_symmetric_;
     PetscFunctionReturn(PETSC_SUCCESS);
   }
-  if (dense_symmetric_) {
+  if (symmetric_) {
     if (dense_work_n_ != dense_n_) { // sytrf's optimal work space, asked once per size
-      PetscScalar              optimal = 0.0;
-      PetscBLASInt             query   = -1;
-      std::vector<PetscScalar> probe(1);
-      PetscCallBLAS("LAPACKsytrf", LAPACKsytrf_("L", &dense_n_, probe.data(), &dense_n_, dense_pivots_.data(), &optimal, &query, &info));
+      PetscScalar  optimal = 0.0, probe = 0.0;
+      PetscBLASInt query = -1;
+      PetscCallBLAS("LAPACKsytrf", LAPACKsytrf_("L", &dense_n_, &probe, &dense_n_, dense_pivots_.data(), &optimal, &query, &info));
       dense_work_.resize(std::max<size_t>((size_t)n, (size_t)PetscRealPart(optimal)));
       dense_work_n_ = dense_n_;
     }
@@ -230,7 +228,7 @@ PetscErrorCode TangentFactor::FactorDense(Mat K, double symmetry_tolerance, Tang
   PetscCheck(info >= 0, PETSC_COMM_SELF, PETSC_ERR_LIB, "LAPACK's dense factorisation of the tangent: illegal argument %d", (int)info);
   if (info > 0) PetscFunctionReturn(PETSC_SUCCESS); // an exactly zero pivot: singular
   const auto at = [&](PetscInt i, PetscInt j) { return PetscRealPart(dense_factors_[(size_t)(i + j * n)]); };
-  if (dense_symmetric_) {
+  if (symmetric_) {
     PetscInt negative = 0;
     for (PetscInt i = 0; i < n;) {
       if (dense_pivots_[(size_t)i] > 0) { // a 1x1 block
@@ -255,7 +253,6 @@ PetscErrorCode TangentFactor::FactorDense(Mat K, double symmetry_tolerance, Tang
   }
   inertia->factored = true;
   dense_            = true;
-  symmetric_        = dense_symmetric_;
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
@@ -271,7 +268,7 @@ PetscErrorCode TangentFactor::Solve(Vec b, Vec x)
   PetscBLASInt one = 1, info = 0;
   PetscCall(VecCopy(b, x));
   PetscCall(VecGetArray(x, &values));
-  if (dense_symmetric_)
+  if (symmetric_)
     PetscCallBLAS("LAPACKsytrs", LAPACKsytrs_("L", &dense_n_, &one, dense_factors_.data(), &dense_n_, dense_pivots_.data(), values, &dense_n_, &info));
   else PetscCallBLAS("LAPACKgetrs", LAPACKgetrs_("N", &dense_n_, &one, dense_factors_.data(), &dense_n_, dense_pivots_.data(), values, &dense_n_, &info));
   PetscCall(VecRestoreArray(x, &values));

@@ -64,7 +64,7 @@ private:
   Mat            factor_     = nullptr;
   PetscInt       num_relays_ = 0;
   Vec            work_[2]    = {nullptr, nullptr};
-  bool           symmetric_  = false; // the last factorisation was LDL^T
+  bool           symmetric_  = false; // the last factorisation was (or, dense, is being) LDL^T
   // Lanczos: the basis V and D V (kLanczosSteps + 1 vectors each), made at the first use.
   Vec *basis_ = nullptr, *scaled_basis_ = nullptr;
   // What MUMPS' analysis in factor_ was made for: the matrix (by its id, which no later matrix
@@ -73,9 +73,8 @@ private:
   PetscObjectState analysed_pattern_   = 0;
   bool             analysed_symmetric_ = false;
   // The dense factors (column major), LAPACK's pivots and sytrf's work space.
-  bool                      dense_           = false;
-  bool                      dense_symmetric_ = false;
-  PetscBLASInt              dense_n_         = 0;
+  bool                      dense_   = false;
+  PetscBLASInt              dense_n_ = 0;
   std::vector<PetscScalar>  dense_factors_, dense_work_; // dense_work_ sized for dense_work_n_
   PetscBLASInt              dense_work_n_ = -1;
   std::vector<PetscBLASInt> dense_pivots_;

@@ -153,7 +153,7 @@ double PrescribedMotion(const Model &model, int function, bool by_rate, double t
 
 double DriveCoordinate(const Model &model, const Joint &joint, double t, int order)
 {
-  return joint.drive_value * FunctionAt(model.functions, joint.drive_function, t, joint.drive_by_rate ? order - 1 : order);
+  return joint.drive_value * PrescribedMotion(model, joint.drive_function, joint.drive_by_rate, t, order);
 }
 
 } // namespace msflex
