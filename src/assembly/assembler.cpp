@@ -128,7 +128,7 @@ PetscErrorCode Assembler::Setup(MPI_Comm comm, const Model &model, const DofMap 
   //    account or path control, modes, buckling), 128: LAPACK's LDL^T then counts the pivots
   //    instead of MUMPS (bend45, 96 unknowns: 0.012 s dense against 0.021 s sparse; the deep
   //    arch's 475 take 0.61 s dense against 0.19 s);
-  //  - elsewhere 16: PETSc's banded LU of a sparse tangent costs less than the dense LU from about
+  //  - elsewhere 16: PETSc's banded LU of a sparse tangent cost less than the dense LU from about
   //    18 unknowns on (a chain of 4 elements, 24 unknowns: 36 against 40 us per step; 12 elements:
   //    76 against 156; the flying spaghetti's 66: 0.113 against 0.180 s), while a dense tangent
   //    stays faster for a few unknowns (the massless pendulum's 13: 0.033 against 0.034 s).
@@ -174,7 +174,7 @@ PetscErrorCode Assembler::Setup(MPI_Comm comm, const Model &model, const DofMap 
              chosen_pc ? "-pc_type " : "-analysis_linear_solver multigrid", chosen_pc ? pc_type : "");
   PetscCheck(!is_dense || ranks == 1, comm, PETSC_ERR_USER_INPUT,
              "bad option: -jacobian_mat_type dense runs on one rank only (no parallel dense LU): use aij or baij");
-  // Banded under RCM (one rank, sparse, the solver chosen by structure): PETSc's LU factors it
+  // Banded under RCM (one rank, sparse, the solver chosen by structure): a banded LU factors it
   // (newton.cpp ChooseDirectSolver).
   banded_under_rcm_ = false;
   if (ranks == 1 && !is_dense && analysis.direct_solver == DirectSolverChoice::Auto && !multigrid) {
@@ -184,7 +184,8 @@ PetscErrorCode Assembler::Setup(MPI_Comm comm, const Model &model, const DofMap 
   }
   // Such a tangent, when every unknown is in a node's block, is stored as BAIJ with blocks of 6
   // unless an option chose the type: PETSc's LU of 6x6 blocks factors a 1000-element chain in 0.45
-  // ms against 0.61 (AIJ) and solves in 0.04 against 0.065 (docs/performance.md). Only where that
+  // ms against 0.61 (AIJ) and solves in 0.04 against 0.065, msflex's block LU (the default for it)
+  // in 0.19 (docs/performance.md). Only where a banded
   // LU factors it (no package, PC or relay row asks for MUMPS), and not where MUMPS factors the
   // tangent for its inertia (statics with stability or path control, modes, buckling:
   // TangentFactor takes AIJ and would convert it at every point).

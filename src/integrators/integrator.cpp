@@ -80,7 +80,7 @@ PetscErrorCode Integrator::InitialiseMotion(double t)
   }
   SNESConvergedReason reason;
   PetscCall(assembler.BeginStep(InitialAccelerationProblem(t)));
-  // A failure with PETSc's banded LU hands the factorisation to MUMPS, which gets a second attempt.
+  // A failure with the banded LU (msflex's block LU or PETSc's) hands the factorisation to MUMPS, which gets a second attempt.
   for (int attempt = 0; attempt < 2; ++attempt) {
     PetscCall(VecZeroEntries(increments_));
     PetscCall(SNESSolve(snes_, nullptr, increments_));
@@ -186,8 +186,8 @@ PetscErrorCode Integrator::SwitchToPivotingLU(const char *where, const std::stri
   PetscFunctionBeginUser;
   PetscCall(NewtonUsePivotingLU(snes_, &newton_context_, switched));
   if (*switched && !quiet_)
-    PetscCall(PetscPrintf(comm_, "msflex: Newton failed on %s with PETSc's banded LU, which does not pivot between nodes (%s); MUMPS factors from here on\n",
-                          where, why.c_str()));
+    PetscCall(PetscPrintf(comm_, "msflex: Newton failed on %s with the banded LU, which does not pivot between nodes (%s); MUMPS factors from here on\n", where,
+                          why.c_str()));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 

@@ -83,7 +83,7 @@ public:
   // iterations that reused the last one, over the whole run.
   long long TangentsFormed() const { return newton_context_.tangents_formed; }
   long long TangentsReused() const { return newton_context_.tangents_reused; }
-  // Newton factors by MUMPS since PETSc's banded LU failed (NewtonUsePivotingLU); a restart makes
+  // Newton factors by MUMPS since the banded LU failed (NewtonUsePivotingLU); a restart makes
   // the same choice (UsePivotingLU) so that it repeats the run to the last bit.
   bool           PivotingLUForced() const { return newton_context_.pivoting_lu_forced; }
   PetscErrorCode UsePivotingLU();

@@ -1,4 +1,5 @@
 #include "integrators/newton.hpp"
+#include "core/block_envelope_pc.hpp"
 #include "core/dense_lu.hpp"
 #include "core/errors.hpp"
 
@@ -277,13 +278,29 @@ PetscErrorCode ShermanMorrisonCorrection(KSP ksp, Vec rhs, Vec x, void *ctx)
 
 // The direct solver that fits (docs/solvers.md, measured in docs/performance.md): on one rank, a
 // tangent that is banded under RCM (chains, trees, slender frames: Assembler::BandedUnderRcm) is
-// factored fastest by PETSc's own LU in RCM order (a banded factorisation without the
-// multifrontal set-up: 8-10x faster than MUMPS on a 1000-element chain); everything else (3D
-// networks, whose fronts BLAS-3 handles, and every parallel run) by MUMPS, a dense tangent by LAPACK.
+// factored fastest by a banded LU in RCM order without the multifrontal set-up (8-10x faster than
+// MUMPS on a 1000-element chain): msflex's block LU when it is stored by node blocks
+// (core/block_envelope_pc.hpp, about half the time of PETSc's BAIJ LU), else PETSc's own LU;
+// everything else (3D networks, whose fronts BLAS-3 handles, and every parallel run) by MUMPS, a
+// dense tangent by LAPACK.
 PetscErrorCode ChooseDirectSolver(bool banded, Mat tangent, PC pc)
 {
   PetscFunctionBeginUser;
-  if (banded) { // never a dense tangent (Assembler::Setup)
+  bool by_node_blocks = false;
+  if (banded) PetscCall(BlockLUFits(tangent, &by_node_blocks));
+  if (by_node_blocks) {
+    // Stored by node blocks (SEQBAIJ, 6): msflex's block LU, unless an option asks for PETSc's
+    // LU by name (a package, an ordering or a PC).
+    const char *prefix;
+    PetscBool   named[3];
+    PetscCall(PCGetOptionsPrefix(pc, &prefix));
+    PetscCall(PetscOptionsHasName(nullptr, prefix, "-pc_type", &named[0]));
+    PetscCall(PetscOptionsHasName(nullptr, prefix, "-pc_factor_mat_solver_type", &named[1]));
+    PetscCall(PetscOptionsHasName(nullptr, prefix, "-pc_factor_mat_ordering_type", &named[2]));
+    by_node_blocks = !named[0] && !named[1] && !named[2];
+  }
+  if (by_node_blocks) PetscCall(PCSetBlockLU(pc));
+  else if (banded) { // never a dense tangent (Assembler::Setup)
     PetscCall(PCSetType(pc, PCLU));
     PetscCall(PCFactorSetMatSolverType(pc, MATSOLVERPETSC));
     PetscCall(PCFactorSetMatOrderingType(pc, MATORDERINGRCM));
@@ -306,7 +323,10 @@ PetscErrorCode BandedLUByStructure(PC pc, bool *answer)
   PetscCall(PCGetOptionsPrefix(pc, &prefix));
   PetscCall(PetscOptionsHasName(nullptr, prefix, "-pc_factor_mat_solver_type", &package_named));
   PetscCall(PetscOptionsHasName(nullptr, prefix, "-pc_type", &pc_named));
-  *answer = lu && package && !strcmp(package, MATSOLVERPETSC) && !package_named && !pc_named;
+  bool        block_lu;
+  std::string unused;
+  PetscCall(BlockLUDescribeFailure(pc, &block_lu, &unused));
+  *answer = block_lu || (lu && package && !strcmp(package, MATSOLVERPETSC) && !package_named && !pc_named);
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
@@ -560,9 +580,10 @@ PetscErrorCode DescribeFactorFailure(PC pc, std::string *detail, MatFactorError 
   PetscFunctionBeginUser;
   *error = MAT_FACTOR_NOERROR;
   detail->clear();
-  bool dense_lu;
+  bool dense_lu, block_lu;
   PetscCall(DenseLUDescribeFailure(pc, &dense_lu, detail));
-  if (dense_lu) {
+  if (!dense_lu) PetscCall(BlockLUDescribeFailure(pc, &block_lu, detail));
+  if (dense_lu || block_lu) {
     if (!detail->empty()) *error = MAT_FACTOR_NUMERIC_ZEROPIVOT;
     PetscFunctionReturn(PETSC_SUCCESS);
   }
@@ -872,6 +893,7 @@ PetscErrorCode NewtonUsePivotingLU(SNES snes, NewtonContext *context, bool *swit
   PetscCall(NewtonForgetFactorization(snes, context));
   PetscCall(SNESGetKSP(snes, &ksp));
   PetscCall(KSPGetPC(ksp, &pc));
+  PetscCall(PCSetType(pc, PCLU)); // from msflex's block LU, or already
   PetscCall(PCFactorSetMatSolverType(pc, MATSOLVERMUMPS));
   // MUMPS orders for itself; ND is PCLU's own default, so -ksp_view shows no stale RCM.
   PetscCall(PCFactorSetMatOrderingType(pc, MATORDERINGND));

@@ -18,10 +18,11 @@
 //    start of the step (an inertial residual is their difference, and the predictor can leave
 //    a step's first residual at their round-off). PETSc's step-size test (stol) stops Newton only while |R| is
 //    within 1e4 of that threshold (far above it the updates are round-off of a singular tangent).
-//  - The LU chosen by structure (analysis.direct_solver auto, the default): on one rank, PETSc's
+//  - The LU chosen by structure (analysis.direct_solver auto, the default): on one rank, a banded
 //    LU in RCM order when the tangent is banded under RCM (mean squared row envelope <= 60^2:
-//    chains, slender frames; the Assembler stores such a tangent in 6x6 node blocks when every
-//    unknown belongs to a node), else MUMPS; that LU does not pivot between nodes, so the first
+//    chains, slender frames): msflex's block LU when the Assembler stores the tangent in 6x6 node
+//    blocks (every unknown belongs to a node; core/block_envelope_pc.hpp), else PETSc's LU;
+//    else MUMPS; a banded LU does not pivot between nodes, so the first
 //    failed Newton solve hands the rest of the run to MUMPS (NewtonUsePivotingLU) and the step is
 //    tried again.
 //    direct_solver mumps: MUMPS always. A dense -jacobian_mat_type uses msflex's dense LU. The
@@ -74,7 +75,8 @@ struct NewtonContext {
   // From FormJacobian until msflex's line search: residuals SNES evaluates in between (finite-
   // difference checks of the tangent) are assembled alone, so that the matrix stays the tangent.
   bool tangent_awaits_solve = false;
-  // The factorisation is PETSc's LU because the structure chose it (not an option): it does not
+  // The factorisation is a banded LU (msflex's block LU or PETSc's) because the structure chose
+  // it (not an option): it does not
   // pivot, so NewtonUsePivotingLU may replace it by MUMPS; pivoting_lu_forced once it has.
   bool banded_lu_by_structure = false;
   bool pivoting_lu_forced     = false;
@@ -100,7 +102,7 @@ PetscErrorCode NewtonDescribeFailure(SNES snes, NewtonContext *context, std::str
 // Modified Newton then forms a new tangent.
 PetscErrorCode NewtonForgetFactorization(SNES snes, NewtonContext *context);
 
-// When the structure chose PETSc's non-pivoting LU (NewtonContext::banded_lu_by_structure): the
+// When the structure chose a non-pivoting banded LU (NewtonContext::banded_lu_by_structure): the
 // rest of the run factors by MUMPS, which pivots and accounts for a singular tangent (INFOG);
 // *switched tells whether that happened now (false: MUMPS or a user's choice already). Collective.
 PetscErrorCode NewtonUsePivotingLU(SNES snes, NewtonContext *context, bool *switched);

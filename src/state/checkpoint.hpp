@@ -29,7 +29,7 @@ struct CheckpointRun {
   int         controller_easy_run = 0;
   long long   num_nodes = 0, num_joints = 0, num_rigid_bodies = 0; // sizes of the whole model
   double      initial_energy = 0.0;                                // total energy at the start of the run (dynamics: the energy balance)
-  bool        pivoting_lu    = false;                              // Newton factors by MUMPS since PETSc's banded LU failed (Integrator::PivotingLUForced)
+  bool        pivoting_lu    = false;                              // Newton factors by MUMPS since the banded LU failed (Integrator::PivotingLUForced)
   std::string input_file;                                          // absolute path of the input file
   std::string input_text;                                          // the input as read
   std::string options;                                             // the PETSc options database of the run (msflex's and the solvers')

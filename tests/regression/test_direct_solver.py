@@ -1,7 +1,9 @@
 """Newton's direct factorisation through the executable, serially and on --np ranks
 (`analysis.direct_solver`, docs/solvers.md): by default (`auto`) the sparse tangent of a chain is
-banded, so one rank factors it by PETSc's LU in RCM order and more ranks by MUMPS; `mumps`, given as
-an option or in the input, factors by MUMPS on any number of ranks (-ksp_view names the package).
+banded and stored by node blocks, so one rank factors it by msflex's block LU in RCM order (-ksp_view
+names it, and no package) and more ranks by MUMPS; `-pc_type lu` gives PETSc's LU instead on one
+rank; `mumps`, given as an option or in the input, factors by MUMPS on any number of ranks
+(-ksp_view names the package).
 Both give the flying spaghetti's probe history and energies to 1e-9 of each series' largest value
 (sparse tangent forced with -jacobian_dense_below 0; 0.3 s of em). An unknown value, as an option or
 in the input, stops the run with exit status 1 and one line naming it (the input's with file and
@@ -35,16 +37,20 @@ def packages(stdout):
 
 for ranks in sorted({1, args.np}):
     results = {}
-    for label, model, extra, expected in (("default", source, [], "petsc" if ranks == 1 else "mumps"),
-                                          ("option mumps", source, ["-analysis_direct_solver", "mumps"], "mumps"),
-                                          ("input mumps", given_mumps, [], "mumps")):
-        output = f"{args.work_dir}/{label.replace(' ', '_')}_np{ranks}.h5"
+    cases = [("default", source, [], None if ranks == 1 else "mumps"), ("option mumps", source, ["-analysis_direct_solver", "mumps"], "mumps"),
+             ("input mumps", given_mumps, [], "mumps")]
+    if ranks == 1:
+        cases.append(("PETSc's LU by option", source, ["-pc_type", "lu"], "petsc"))
+    for label, model, extra, expected in cases:
+        output = f"{args.work_dir}/{label.replace(' ', '_').replace(chr(39), '')}_np{ranks}.h5"
         _, stdout, _ = mt.run_msflex(args, model, output, extra=[*SPARSE, *extra, "-ksp_view"], np_ranks=ranks)
         named = packages(stdout)
-        check.true(f"np {ranks} {label}: -ksp_view names the factorisation package {expected} only ({named})", named == [expected])
+        block_lu = "msflex's block LU of 6x6 node blocks" in stdout
+        check.true(f"np {ranks} {label}: -ksp_view {'names' if expected is None else 'does not name'} msflex's block LU", block_lu == (expected is None))
+        check.true(f"np {ranks} {label}: -ksp_view names the factorisation package {expected} only ({named})", named == ([expected] if expected else []))
         check.equal(f"np {ranks} {label}: lines handing the LU over to MUMPS", stdout.count("MUMPS factors from here on"), 0)
         results[label] = mt.history(output)
-    for label in ("option mumps", "input mumps"):
+    for label in [case[0] for case in cases[1:]]:
         worst = max(float(np.abs(results[label][s] - results["default"][s]).max() / np.abs(results["default"][s]).max()) for s in SERIES)
         print(f"np {ranks}: {label} against the default, largest difference relative to each series' largest value {worst:.2e}")
         check.less(f"np {ranks} {label}: the default's history", worst, 1e-9)

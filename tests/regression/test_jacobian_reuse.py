@@ -8,7 +8,7 @@ the residual by 0.1 or more:
 - the frames agree to 1e-6 of the largest displacement (both converge to the Newton tolerance);
 - em's energy balance (energy - external work) stays constant to 1e-9 of the energy either way;
 - the full run factors one tangent per Newton iteration, the modified run at most half as many
-  (counted by -log_view's MatLUFactorNum in the LinearSolve stage) and its summary line counts
+  (counted by -log_view's MatLUFactorNum or BlockLUFactor in the LinearSolve stage) and its summary line counts
   the tangents assembled and reused alike;
 - a run that writes checkpoints starts on a new tangent after each, as its restart does: continued
   from its last checkpoint with `msflex --restart`, the result file is bitwise the uninterrupted
@@ -32,8 +32,8 @@ def factorisations(stdout):
     stage = stdout.split("--- Event Stage")
     for part in stage:
         if part.lstrip().split(":")[0].strip().isdigit() and "LinearSolve" in part.split("\n")[0]:
-            match = re.search(r"^MatLUFactorNum\s+(\d+)", part, re.MULTILINE)
-            return int(match.group(1)) if match else 0
+            # PETSc's or MUMPS' LU, or msflex's block LU (a banded tangent by node blocks, one rank)
+            return sum(int(count) for count in re.findall(r"^(?:MatLUFactorNum|BlockLUFactor)\s+(\d+)", part, re.MULTILINE))
     raise SystemExit("no LinearSolve stage in -log_view")
 
 

@@ -13,8 +13,8 @@ does not assemble into) and dense on more than one rank stop the run with exit s
 line 'msflex: bad option: -jacobian_mat_type ...' giving the reason, without a PETSc trace-back or
 a crash.
 
-The default type: a banded tangent whose unknowns are all in node blocks, factored by PETSc's LU
-(one rank, analysis.direct_solver auto), is seqbaij with blocks of 6 (the flying spaghetti to
+The default type: a banded tangent whose unknowns are all in node blocks, factored by msflex's
+block LU (one rank, analysis.direct_solver auto), is seqbaij with blocks of 6 (the flying spaghetti to
 t = 0.5 with -jacobian_dense_below 0, and the clamped bend with -analysis_stability false), with
 the history of -jacobian_mat_type aij to 1e-9; it stays aij where MUMPS factors it: on 2 ranks,
 with -analysis_direct_solver mumps, with a package named (-pc_factor_mat_solver_type mumps), and in
@@ -104,7 +104,7 @@ for ranks in sorted({1, args.np}):
         check.true(f"{label}: the message gives the reason ({reason})", bool(lines) and reason in lines[0])
         check.equal(f"{label}: PETSc trace-back lines", stderr.count("PETSC ERROR"), 0)
 
-# The default type: BAIJ exactly where PETSc's banded LU factors a tangent made of node blocks.
+# The default type: BAIJ exactly where the banded LU factors a tangent made of node blocks.
 spaghetti = f"{args.source_dir}/input/flying_spaghetti.yaml"
 default_cases = (("flying spaghetti", spaghetti, "B", ["-jacobian_dense_below", "0", "-analysis_end_time", "0.5"]),
                  ("bend45 without stability", bend, "tip", ["-jacobian_dense_below", "0", "-analysis_stability", "false"]))

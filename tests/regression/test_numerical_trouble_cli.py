@@ -5,8 +5,8 @@ halved with a message naming
 the node involved, and the run then stops with exit status 1, one message naming the step's time,
 the reason and the node, and the results and a checkpoint written up to the last converged state
 (no PETSc trace-back, no hang). With the default choice of the direct solver a sparse tangent on one
-rank is first factored by PETSc's banded LU, which stops at the zero pivot and hands the run to
-MUMPS (said once on stdout); with -analysis_direct_solver mumps, and on more ranks, nothing is handed
+rank is first factored by msflex's block LU (banded, by node blocks), which stops at the zero pivot
+and hands the run to MUMPS (said once on stdout); with -analysis_direct_solver mumps, and on more ranks, nothing is handed
 over."""
 
 import os
@@ -20,7 +20,7 @@ check = mt.Checker("numerical trouble reports")
 MUMPS = "the tangent is singular (MUMPS INFOG(1) = -10"
 DENSE = "the tangent is singular (zero pivot in column "
 # (input, options, the factorisation's phrase on one rank / on more, other phrases, the failed step)
-HANDOVER = "with PETSc's banded LU, which does not pivot between nodes (the tangent is singular (zero pivot"
+HANDOVER = "with the banded LU, which does not pivot between nodes (the tangent is singular (zero pivot in the diagonal block of unknowns"
 # (input, options, the factorisation's phrase on one rank / on more, other phrases, the failed
 # step, whether one rank hands the banded LU over to MUMPS)
 cases = [("overflowing_load.yaml", [], None, ["the residual is NaN at node 'tip', in its load", "the residual norm overflows", "node 'tip' uy"], "t = 1",

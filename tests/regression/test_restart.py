@@ -25,7 +25,7 @@
    against the order of their slave nodes (so that 2 ranks own them in the other order): the
    history's columns are those of the serial run, and the continued file equals an uninterrupted
    serial run to round-off.
-7. A run whose Newton handed PETSc's banded LU over to MUMPS (forced with a zero-pivot threshold
+7. A run whose Newton handed the banded LU (PETSc's, here) over to MUMPS (forced with a zero-pivot threshold
    that no pivot passes, on an AIJ tangent, whose LU applies it): its checkpoint records it, and the restart factors by MUMPS from its
    first step (no second handover) and ends bitwise equal to the uninterrupted run."""
 
@@ -303,7 +303,7 @@ check.less("crossed pendulums: continued on 2 ranks equals the serial run (round
 # 7. The handover to MUMPS survives a restart.
 # The zero-pivot tolerance makes PETSc's LU of an AIJ tangent fail at the first pivot; the LU of a
 # BAIJ tangent (the default here) inverts 6x6 blocks with pivoting and stops at exact zeros only.
-HANDOVER = "with PETSc's banded LU, which does not pivot between nodes"
+HANDOVER = "with the banded LU, which does not pivot between nodes"
 source = f"{args.source_dir}/input/flying_spaghetti.yaml"
 settings = ["-jacobian_dense_below", 0, "-jacobian_mat_type", "aij", "-pc_factor_zeropivot", "1e30", "-analysis_end_time", 0.5]
 reference = f"{work}/handover_reference.h5"

@@ -1,0 +1,189 @@
+// A = L U by node blocks in RCM order (BlockEnvelopeLU), x = U^{-1} L^{-1} b; the RCM order and the
+// envelope follow the matrix's nonzero pattern (recomputed when PETSc's object id or nonzero state
+// changes), the values are refactored at every set-up.
+#include "core/block_envelope_pc.hpp"
+#include "core/block_envelope_lu.hpp"
+
+#include <cstring>
+#include <vector>
+
+namespace msflex {
+
+namespace {
+
+constexpr const char *kBlockLUName = "block LU";
+
+struct BlockLU {
+  BlockEnvelopeLU  lu;
+  PetscInt64       matrix_id     = -1; // the pattern analysed: PETSc's object id and nonzero state
+  PetscObjectState pattern_state = -1;
+  int              zero_pivot    = 0; // the first singular diagonal block + 1 (0: none)
+  PetscLogEvent    factor_event = 0, solve_event = 0;
+};
+
+// RCM order of the block graph (order[i]: the block row factored i-th), from PETSc's ordering of
+// the pattern wrapped in a sequential AIJ matrix of zeros.
+PetscErrorCode RcmOrder(PetscInt n, const std::vector<PetscInt> &row_start, const std::vector<PetscInt> &columns, std::vector<int> *order)
+{
+  Mat                   wrapper;
+  IS                    row_permutation, column_permutation;
+  const PetscInt       *indices;
+  std::vector<PetscInt> starts(row_start), cols(columns); // MatCreateSeqAIJWithArrays takes non-const arrays
+  std::vector<double>   zeros(cols.size(), 0.0);
+  PetscFunctionBeginUser;
+  PetscCall(MatCreateSeqAIJWithArrays(PETSC_COMM_SELF, n, n, starts.data(), cols.data(), zeros.data(), &wrapper));
+  PetscCall(MatGetOrdering(wrapper, MATORDERINGRCM, &row_permutation, &column_permutation));
+  PetscCall(MatDestroy(&wrapper));
+  PetscCall(ISGetIndices(row_permutation, &indices));
+  order->assign(indices, indices + n);
+  PetscCall(ISRestoreIndices(row_permutation, &indices));
+  PetscCall(ISDestroy(&row_permutation));
+  PetscCall(ISDestroy(&column_permutation));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode Analyse(Mat P, BlockLU *context)
+{
+  const PetscInt *ia, *ja;
+  PetscInt        n;
+  PetscBool       done;
+  PetscFunctionBeginUser;
+  PetscCall(MatGetRowIJ(P, 0, PETSC_FALSE, PETSC_TRUE, &n, &ia, &ja, &done));
+  PetscCheck(done, PETSC_COMM_SELF, PETSC_ERR_SUP, "block LU: the matrix does not give its block pattern");
+  std::vector<PetscInt> row_start(ia, ia + n + 1), columns(ja, ja + ia[n]);
+  PetscInt              restored; // MatRestoreRowIJ zeroes the count it is given
+  PetscCall(MatRestoreRowIJ(P, 0, PETSC_FALSE, PETSC_TRUE, &restored, &ia, &ja, &done));
+  std::vector<int> order;
+  PetscCall(RcmOrder(n, row_start, columns, &order));
+  const std::vector<int> starts(row_start.begin(), row_start.end()), cols(columns.begin(), columns.end());
+  context->lu.Analyse((int)n, starts.data(), cols.data(), order);
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode BlockLUSetUp(PC pc)
+{
+  BlockLU         *context;
+  Mat              P;
+  PetscScalar     *values;
+  PetscInt64       id;
+  PetscObjectState pattern_state;
+  bool             fits;
+  PetscFunctionBeginUser;
+  PetscCall(PCShellGetContext(pc, &context));
+  PetscCall(PCSetFailedReason(pc, PC_NOERROR));
+  PetscCall(PCGetOperators(pc, nullptr, &P));
+  PetscCall(BlockLUFits(P, &fits));
+  PetscCheck(fits, PetscObjectComm((PetscObject)pc), PETSC_ERR_SUP, "block LU: the matrix is not SEQBAIJ with blocks of %d", kEnvelopeBlock);
+  PetscCall(PetscLogEventBegin(context->factor_event, pc, P, 0, 0));
+  PetscCall(PetscObjectGetId((PetscObject)P, &id));
+  PetscCall(MatGetNonzeroState(P, &pattern_state));
+  if (id != context->matrix_id || pattern_state != context->pattern_state) {
+    PetscCall(Analyse(P, context));
+    context->matrix_id     = id;
+    context->pattern_state = pattern_state;
+  }
+  PetscCall(MatSeqBAIJGetArray(P, &values));
+  context->zero_pivot = context->lu.Factor(values);
+  PetscCall(MatSeqBAIJRestoreArray(P, &values));
+  PetscCall(PetscLogEventEnd(context->factor_event, pc, P, 0, 0));
+  if (context->zero_pivot > 0) PetscCall(PCSetFailedReason(pc, PC_FACTOR_NUMERIC_ZEROPIVOT));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode BlockLUApply(PC pc, Vec b, Vec x)
+{
+  BlockLU           *context;
+  const PetscScalar *b_values;
+  PetscScalar       *x_values;
+  PetscFunctionBeginUser;
+  PetscCall(PCShellGetContext(pc, &context));
+  if (context->zero_pivot > 0) {
+    // No solution: the caller sees the failed set-up (KSP_DIVERGED_PC_FAILED) and infinities.
+    PetscCall(VecSetInf(x));
+    PetscFunctionReturn(PETSC_SUCCESS);
+  }
+  PetscCall(PetscLogEventBegin(context->solve_event, pc, b, x, 0));
+  PetscCall(VecGetArrayRead(b, &b_values));
+  PetscCall(VecGetArray(x, &x_values));
+  context->lu.Solve(b_values, x_values);
+  PetscCall(VecRestoreArray(x, &x_values));
+  PetscCall(VecRestoreArrayRead(b, &b_values));
+  PetscCall(PetscLogEventEnd(context->solve_event, pc, b, x, 0));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+// -ksp_view: what factors, in which order, and the envelope's size.
+PetscErrorCode BlockLUView(PC pc, PetscViewer viewer)
+{
+  BlockLU  *context;
+  PetscBool ascii;
+  PetscFunctionBeginUser;
+  PetscCall(PCShellGetContext(pc, &context));
+  PetscCall(PetscObjectTypeCompare((PetscObject)viewer, PETSCVIEWERASCII, &ascii));
+  if (!ascii) PetscFunctionReturn(PETSC_SUCCESS);
+  PetscCall(PetscViewerASCIIPrintf(viewer, "msflex's block LU of %dx%d node blocks in RCM order (pivoting inside the diagonal blocks)\n", kEnvelopeBlock,
+                                   kEnvelopeBlock));
+  PetscCall(PetscViewerASCIIPrintf(viewer, "%d block rows, %zu blocks stored in the envelope\n", context->lu.NumBlockRows(), context->lu.NumStoredBlocks()));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode BlockLUDestroy(PC pc)
+{
+  BlockLU *context;
+  PetscFunctionBeginUser;
+  PetscCall(PCShellGetContext(pc, &context));
+  delete context;
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+} // namespace
+
+PetscErrorCode BlockLUFits(Mat matrix, bool *fits)
+{
+  PetscBool seq_baij;
+  PetscInt  block_size;
+  PetscFunctionBeginUser;
+  PetscCall(PetscObjectTypeCompare((PetscObject)matrix, MATSEQBAIJ, &seq_baij));
+  PetscCall(MatGetBlockSize(matrix, &block_size));
+  *fits = seq_baij && block_size == kEnvelopeBlock;
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode PCSetBlockLU(PC pc)
+{
+  auto *context = new BlockLU;
+  PetscFunctionBeginUser;
+  // -log_view: the factorisation and the solves, beside PETSc's MatLUFactorNumeric and MatSolve.
+  PetscCall(PetscLogEventRegister("BlockLUFactor", PC_CLASSID, &context->factor_event));
+  PetscCall(PetscLogEventRegister("BlockLUSolve", PC_CLASSID, &context->solve_event));
+  PetscCall(PCSetType(pc, PCSHELL));
+  PetscCall(PCShellSetContext(pc, context));
+  PetscCall(PCShellSetSetUp(pc, BlockLUSetUp));
+  PetscCall(PCShellSetApply(pc, BlockLUApply));
+  PetscCall(PCShellSetDestroy(pc, BlockLUDestroy));
+  PetscCall(PCShellSetView(pc, BlockLUView));
+  PetscCall(PCShellSetName(pc, kBlockLUName));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode BlockLUDescribeFailure(PC pc, bool *is_block_lu, std::string *detail)
+{
+  PetscBool   shell;
+  const char *name = nullptr;
+  PetscFunctionBeginUser;
+  *is_block_lu = false;
+  detail->clear();
+  PetscCall(PetscObjectTypeCompare((PetscObject)pc, PCSHELL, &shell));
+  if (!shell) PetscFunctionReturn(PETSC_SUCCESS);
+  PetscCall(PCShellGetName(pc, &name));
+  if (!name || std::strcmp(name, kBlockLUName) != 0) PetscFunctionReturn(PETSC_SUCCESS);
+  BlockLU *context;
+  PetscCall(PCShellGetContext(pc, &context));
+  *is_block_lu = true;
+  if (context->zero_pivot > 0)
+    *detail = "zero pivot in the diagonal block of unknowns " + std::to_string(kEnvelopeBlock * (context->zero_pivot - 1)) + ".." +
+              std::to_string(kEnvelopeBlock * context->zero_pivot - 1) + " of the block LU";
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+} // namespace msflex
