@@ -285,10 +285,11 @@ PetscErrorCode Assembler::ProjectInitialVelocities(double t, InitialVelocityRepo
   if (map.num_relays == 0) {
     PetscCall(MatShift(P, 1e-8 * largest_diagonal));
     PetscCall(KSPSetOperators(ksp, jacobian_, P));
-    // A banded tangent in node blocks: msflex's block LU, as Newton's (a 1000-element chain: 0.3
-    // against MUMPS' 13 ms); else MUMPS, or the dense LU.
+    // A banded tangent in node blocks: msflex's block LU where it suits, as Newton's (the Main
+    // stage of a 1000-element chain, mostly this projection: 25-34 ms with MUMPS, 10-13 with it);
+    // else MUMPS, or the dense LU.
     bool block_lu = false;
-    if (banded_under_rcm_) PetscCall(BlockLUFits(P, &block_lu));
+    if (banded_under_rcm_) PetscCall(BlockLUSuits(P, "velocity_projection_", &block_lu));
     if (block_lu) PetscCall(PCSetBlockLU(pc));
     else PetscCall(SetDirectSolver(pc, P));
   } else {

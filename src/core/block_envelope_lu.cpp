@@ -112,6 +112,55 @@ bool InvertEnvelopeBlock(double *a)
   return true;
 }
 
+BlockEnvelopeCount CountBlockEnvelope(int num_block_rows, const int *row_start, const int *columns, const std::vector<int> &order)
+{
+  const int        n = num_block_rows;
+  std::vector<int> position(n);
+  for (int i = 0; i < n; ++i) position[order[i]] = i;
+  // The symmetrised pattern's lower part in factorisation order: lower[i] holds the j < i coupled to i.
+  std::vector<int> lower_start(n + 1, 0), lower;
+  for (int row = 0; row < n; ++row)
+    for (int k = row_start[row]; k < row_start[row + 1]; ++k) {
+      const int i = position[row], j = position[columns[k]];
+      if (i != j) ++lower_start[std::max(i, j) + 1];
+    }
+  for (int i = 0; i < n; ++i) lower_start[i + 1] += lower_start[i];
+  lower.resize(lower_start[n]);
+  std::vector<int> next(lower_start.begin(), lower_start.end() - 1);
+  for (int row = 0; row < n; ++row)
+    for (int k = row_start[row]; k < row_start[row + 1]; ++k) {
+      const int i = position[row], j = position[columns[k]];
+      if (i != j) lower[next[std::max(i, j)]++] = std::min(i, j);
+    }
+  BlockEnvelopeCount count;
+  // Elimination tree (Liu: the root of j's subtree so far, with path compression), then row i of L
+  // is the union of the tree paths from its pattern's columns up to i (each node marked once).
+  std::vector<int> parent(n, -1), ancestor(n, -1), mark(n, -1);
+  for (int i = 0; i < n; ++i) {
+    int first = i;
+    for (int k = lower_start[i]; k < lower_start[i + 1]; ++k) {
+      first = std::min(first, lower[k]);
+      for (int r = lower[k]; r != i;) {
+        const int up = ancestor[r];
+        ancestor[r]  = i;
+        if (up == -1) {
+          parent[r] = i;
+          break;
+        }
+        r = up;
+      }
+    }
+    count.envelope += (size_t)(i - first);
+    mark[i] = i;
+    for (int k = lower_start[i]; k < lower_start[i + 1]; ++k)
+      for (int r = lower[k]; mark[r] != i; r = parent[r]) {
+        mark[r] = i;
+        ++count.fill;
+      }
+  }
+  return count;
+}
+
 void BlockEnvelopeLU::Analyse(int num_block_rows, const int *row_start, const int *columns, const std::vector<int> &order)
 {
   const int n     = num_block_rows;

@@ -7,7 +7,7 @@
 // the factorisation exists when every leading block minor is regular; a diagonal block that is
 // exactly singular is reported as a failure, never raised. The diagonal blocks are kept inverted:
 // L_ij = T_ij D_j^{-1} and x_i = D_i^{-1} y_i are then 6x6 products, the fastest form at this size
-// (a 1000-block chain factors in a third of PETSc's BAIJ time: docs/performance.md).
+// (a 1000-block chain factors in 0.55 of PETSc's BAIJ time: docs/performance.md).
 // Blocks are column-major (entry (r, c) at r + 6 c), as PETSc's BAIJ stores them. Pure: no PETSc,
 // no MPI.
 #pragma once
@@ -28,8 +28,9 @@ public:
   void Analyse(int num_block_rows, const int *row_start, const int *columns, const std::vector<int> &order);
 
   // Factors the values of the pattern given to Analyse (block k of the CSR at values + 36 k).
-  // Returns 0, or i + 1 for the first block row i (in the original numbering) whose diagonal
-  // block, updated by the rows before it, is exactly singular (nothing can be solved then).
+  // Returns 0, or i + 1 for the block row i (numbered as in the CSR) of the first diagonal block,
+  // in factorisation order, that is exactly singular once updated by the rows before it (nothing
+  // can be solved then).
   int Factor(const double *values);
 
   // x = A^{-1} b with the factors of a successful Factor (x and b may be the same array).
@@ -50,6 +51,17 @@ private:
   std::vector<double>         factors_;
   mutable std::vector<double> work_; // the permuted right-hand side of Solve
 };
+
+// Blocks below the diagonal, for a pattern and an order as Analyse takes them: those the envelope
+// holds (sum of i - first(i)) and those an LU with fill only where elimination creates it holds
+// (the symbolic factorisation of the symmetrised pattern in that order, row by row along its
+// elimination tree). Their ratio tells whether the envelope wastes work: 1 for a chain, about
+// 1-1.5 for slender frames and strips, far more for trees and combs, whose branches RCM
+// interleaves.
+struct BlockEnvelopeCount {
+  size_t envelope = 0, fill = 0;
+};
+BlockEnvelopeCount CountBlockEnvelope(int num_block_rows, const int *row_start, const int *columns, const std::vector<int> &order);
 
 // Inverts a 6x6 column-major block in place by Gauss-Jordan elimination with row pivoting (the
 // largest entry of the column at or below the diagonal). Returns false, leaving `a` undefined, when

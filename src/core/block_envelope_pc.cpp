@@ -5,6 +5,7 @@
 #include "core/block_envelope_lu.hpp"
 
 #include <cstring>
+#include <string>
 #include <vector>
 
 namespace msflex {
@@ -42,7 +43,8 @@ PetscErrorCode RcmOrder(PetscInt n, const std::vector<PetscInt> &row_start, cons
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
-PetscErrorCode Analyse(Mat P, BlockLU *context)
+// The block pattern of P (block CSR) and its RCM order.
+PetscErrorCode BlockPatternInRcmOrder(Mat P, std::vector<int> *row_start, std::vector<int> *columns, std::vector<int> *order)
 {
   const PetscInt *ia, *ja;
   PetscInt        n;
@@ -50,13 +52,35 @@ PetscErrorCode Analyse(Mat P, BlockLU *context)
   PetscFunctionBeginUser;
   PetscCall(MatGetRowIJ(P, 0, PETSC_FALSE, PETSC_TRUE, &n, &ia, &ja, &done));
   PetscCheck(done, PETSC_COMM_SELF, PETSC_ERR_SUP, "block LU: the matrix does not give its block pattern");
-  std::vector<PetscInt> row_start(ia, ia + n + 1), columns(ja, ja + ia[n]);
+  std::vector<PetscInt> petsc_row_start(ia, ia + n + 1), petsc_columns(ja, ja + ia[n]);
   PetscInt              restored; // MatRestoreRowIJ zeroes the count it is given
   PetscCall(MatRestoreRowIJ(P, 0, PETSC_FALSE, PETSC_TRUE, &restored, &ia, &ja, &done));
-  std::vector<int> order;
-  PetscCall(RcmOrder(n, row_start, columns, &order));
-  const std::vector<int> starts(row_start.begin(), row_start.end()), cols(columns.begin(), columns.end());
-  context->lu.Analyse((int)n, starts.data(), cols.data(), order);
+  PetscCall(RcmOrder(n, petsc_row_start, petsc_columns, order));
+  row_start->assign(petsc_row_start.begin(), petsc_row_start.end());
+  columns->assign(petsc_columns.begin(), petsc_columns.end());
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode Analyse(Mat P, BlockLU *context)
+{
+  std::vector<int> row_start, columns, order;
+  PetscFunctionBeginUser;
+  PetscCall(BlockPatternInRcmOrder(P, &row_start, &columns, &order));
+  context->lu.Analyse((int)order.size(), row_start.data(), columns.data(), order);
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+// Whether an option of the database names a PC or a factorisation setting for `prefix`
+// (-<prefix>pc_type, -<prefix>pc_factor_*): they are PETSc's PC's, which the block LU would ignore.
+PetscErrorCode OptionsNamePetscFactor(const char *prefix, bool *named)
+{
+  char *all;
+  PetscFunctionBeginUser;
+  *named = false;
+  PetscCall(PetscOptionsGetAll(nullptr, &all));
+  const std::string options = std::string(" ") + all, head = std::string(" -") + (prefix ? prefix : "");
+  PetscCall(PetscFree(all));
+  *named = options.find(head + "pc_type") != std::string::npos || options.find(head + "pc_factor_") != std::string::npos;
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
@@ -149,10 +173,37 @@ PetscErrorCode BlockLUFits(Mat matrix, bool *fits)
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
+PetscErrorCode BlockLUEnvelopeOverFill(Mat matrix, double *ratio)
+{
+  std::vector<int> row_start, columns, order;
+  PetscFunctionBeginUser;
+  PetscCall(BlockPatternInRcmOrder(matrix, &row_start, &columns, &order));
+  const BlockEnvelopeCount count = CountBlockEnvelope((int)order.size(), row_start.data(), columns.data(), order);
+  *ratio                         = count.envelope == 0 ? 1.0 : (double)count.envelope / (double)count.fill;
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode BlockLUSuits(Mat matrix, const char *prefix, bool *suits)
+{
+  bool fits, named;
+  PetscFunctionBeginUser;
+  *suits = false;
+  PetscCall(BlockLUFits(matrix, &fits));
+  if (!fits) PetscFunctionReturn(PETSC_SUCCESS);
+  PetscCall(OptionsNamePetscFactor(prefix, &named));
+  if (named) PetscFunctionReturn(PETSC_SUCCESS);
+  double ratio;
+  PetscCall(BlockLUEnvelopeOverFill(matrix, &ratio));
+  *suits = ratio <= kBlockLUEnvelopeOverFill;
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
 PetscErrorCode PCSetBlockLU(PC pc)
 {
   auto *context = new BlockLU;
   PetscFunctionBeginUser;
+  // A PC that is a shell already keeps its type (and its context, which would leak): none first.
+  PetscCall(PCSetType(pc, PCNONE));
   // -log_view: the factorisation and the solves, beside PETSc's MatLUFactorNumeric and MatSolve.
   PetscCall(PetscLogEventRegister("BlockLUFactor", PC_CLASSID, &context->factor_event));
   PetscCall(PetscLogEventRegister("BlockLUSolve", PC_CLASSID, &context->solve_event));

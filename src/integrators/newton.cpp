@@ -279,27 +279,23 @@ PetscErrorCode ShermanMorrisonCorrection(KSP ksp, Vec rhs, Vec x, void *ctx)
 // The direct solver that fits (docs/solvers.md, measured in docs/performance.md): on one rank, a
 // tangent that is banded under RCM (chains, trees, slender frames: Assembler::BandedUnderRcm) is
 // factored fastest by a banded LU in RCM order without the multifrontal set-up (8-10x faster than
-// MUMPS on a 1000-element chain): msflex's block LU when it is stored by node blocks
-// (core/block_envelope_pc.hpp, about half the time of PETSc's BAIJ LU), else PETSc's own LU;
+// MUMPS on a 1000-element chain): msflex's block LU when it is stored by node blocks and its
+// envelope holds little more than the LU's fill (core/block_envelope_pc.hpp: about half the time of
+// PETSc's BAIJ LU on chains, frames and strips), else PETSc's own LU;
 // everything else (3D networks, whose fronts BLAS-3 handles, and every parallel run) by MUMPS, a
 // dense tangent by LAPACK.
 PetscErrorCode ChooseDirectSolver(bool banded, Mat tangent, PC pc)
 {
   PetscFunctionBeginUser;
-  bool by_node_blocks = false;
-  if (banded) PetscCall(BlockLUFits(tangent, &by_node_blocks));
-  if (by_node_blocks) {
-    // Stored by node blocks (SEQBAIJ, 6): msflex's block LU, unless an option asks for PETSc's
-    // LU by name (a package, an ordering or a PC).
+  // Stored by node blocks (SEQBAIJ, 6) with an envelope close to the LU's fill: msflex's block
+  // LU, unless an option names PETSc's PC or its factorisation settings.
+  bool block_lu = false;
+  if (banded) {
     const char *prefix;
-    PetscBool   named[3];
     PetscCall(PCGetOptionsPrefix(pc, &prefix));
-    PetscCall(PetscOptionsHasName(nullptr, prefix, "-pc_type", &named[0]));
-    PetscCall(PetscOptionsHasName(nullptr, prefix, "-pc_factor_mat_solver_type", &named[1]));
-    PetscCall(PetscOptionsHasName(nullptr, prefix, "-pc_factor_mat_ordering_type", &named[2]));
-    by_node_blocks = !named[0] && !named[1] && !named[2];
+    PetscCall(BlockLUSuits(tangent, prefix, &block_lu));
   }
-  if (by_node_blocks) PetscCall(PCSetBlockLU(pc));
+  if (block_lu) PetscCall(PCSetBlockLU(pc));
   else if (banded) { // never a dense tangent (Assembler::Setup)
     PetscCall(PCSetType(pc, PCLU));
     PetscCall(PCFactorSetMatSolverType(pc, MATSOLVERPETSC));

@@ -229,6 +229,47 @@ TEST(BlockEnvelopeLU, ReportsTheFirstSingularDiagonalBlock)
   EXPECT_EQ(lu.Factor(regular.values.data()), 0);
 }
 
+// The envelope and the fill of CountBlockEnvelope against an elimination of the symmetrised
+// pattern written out (a boolean matrix, row i's fill from the rows before it that it couples to).
+TEST(BlockEnvelopeLU, CountsEnvelopeAndFillAsAnEliminationDoes)
+{
+  std::mt19937 generator(31);
+  for (int trial = 0; trial < 40; ++trial) {
+    const int         n      = 1 + trial % 23;
+    auto              blocks = trial % 3 == 0 ? Chain(n) : RandomPattern(n, trial % 4 * n / 3, trial % 2 == 1, &generator);
+    const BlockMatrix m      = MakeMatrix(n, blocks, 1.0, &generator);
+    std::vector<int>  order  = Identity(n);
+    if (trial % 5 != 0) std::shuffle(order.begin(), order.end(), generator);
+    std::vector<int> position(n);
+    for (int i = 0; i < n; ++i) position[order[i]] = i;
+    std::vector<std::vector<char>> coupled(n, std::vector<char>(n, 0));
+    for (int row = 0; row < n; ++row)
+      for (int k = m.row_start[row]; k < m.row_start[row + 1]; ++k) {
+        const int i = position[row], j = position[m.columns[k]];
+        coupled[i][j] = coupled[j][i] = 1;
+      }
+    size_t envelope = 0, fill = 0;
+    for (int i = 0; i < n; ++i) {
+      int first = i;
+      for (int j = 0; j < i; ++j)
+        if (coupled[i][j]) first = std::min(first, j);
+      envelope += (size_t)(i - first);
+    }
+    // Eliminating k couples every pair of its later neighbours.
+    for (int k = 0; k < n; ++k)
+      for (int i = k + 1; i < n; ++i)
+        if (coupled[i][k])
+          for (int j = k + 1; j < n; ++j)
+            if (coupled[j][k]) coupled[i][j] = 1;
+    for (int i = 0; i < n; ++i)
+      for (int j = 0; j < i; ++j) fill += coupled[i][j];
+    const BlockEnvelopeCount count = CountBlockEnvelope(n, m.row_start.data(), m.columns.data(), order);
+    EXPECT_EQ(count.envelope, envelope) << "trial " << trial;
+    EXPECT_EQ(count.fill, fill) << "trial " << trial;
+    EXPECT_LE(count.fill, count.envelope) << "trial " << trial; // fill stays inside the envelope
+  }
+}
+
 // ---- The preconditioner (core/block_envelope_pc.hpp) on PETSc matrices -------------------------
 
 namespace {
@@ -391,5 +432,67 @@ TEST(BlockLUPreconditioner, ReportsASingularDiagonalBlockAsAFailedSetUp)
   VecDestroy(&b);
   VecDestroy(&x);
   KSPDestroy(&ksp);
+  MatDestroy(&A);
+}
+
+// The block LU suits a chain, not a comb whose long branches RCM interleaves (its envelope holds
+// several times the LU's fill), nor a matrix for which an option names PETSc's PC or one of its
+// factorisation settings under the same prefix.
+TEST(BlockLUPreconditioner, SuitsChainsNotCombsNorMatricesWhosePCAnOptionNames)
+{
+  std::mt19937 generator(37);
+  Mat          chain = ToBaij(MakeMatrix(60, Chain(60), 2.0, &generator));
+  // A comb: a spine of 12 nodes with a branch of 9 at each.
+  std::vector<std::pair<int, int>> comb;
+  const int                        spine = 12, branch = 9, n = spine * (1 + branch);
+  for (int i = 0; i < n; ++i) comb.push_back({i, i});
+  for (int s = 0; s < spine; ++s) {
+    if (s > 0) comb.push_back({(s - 1) * (1 + branch), s * (1 + branch)}), comb.push_back({s * (1 + branch), (s - 1) * (1 + branch)});
+    for (int k = 1; k <= branch; ++k) {
+      const int a = s * (1 + branch) + k - 1, b = a + 1;
+      comb.push_back({a, b}), comb.push_back({b, a});
+    }
+  }
+  Mat    comb_matrix = ToBaij(MakeMatrix(n, comb, 4.0, &generator));
+  double chain_ratio, comb_ratio;
+  ASSERT_EQ(BlockLUEnvelopeOverFill(chain, &chain_ratio), PETSC_SUCCESS);
+  ASSERT_EQ(BlockLUEnvelopeOverFill(comb_matrix, &comb_ratio), PETSC_SUCCESS);
+  EXPECT_DOUBLE_EQ(chain_ratio, 1.0);
+  EXPECT_GT(comb_ratio, kBlockLUEnvelopeOverFill);
+  bool suits;
+  ASSERT_EQ(BlockLUSuits(chain, "probe_", &suits), PETSC_SUCCESS);
+  EXPECT_TRUE(suits);
+  ASSERT_EQ(BlockLUSuits(comb_matrix, "probe_", &suits), PETSC_SUCCESS);
+  EXPECT_FALSE(suits);
+  for (const char *option : {"-probe_pc_type", "-probe_pc_factor_shift_type", "-probe_pc_factor_zeropivot"}) {
+    ASSERT_EQ(PetscOptionsSetValue(nullptr, option, "1"), PETSC_SUCCESS);
+    ASSERT_EQ(BlockLUSuits(chain, "probe_", &suits), PETSC_SUCCESS);
+    EXPECT_FALSE(suits) << option;
+    ASSERT_EQ(BlockLUSuits(chain, "other_", &suits), PETSC_SUCCESS); // another prefix's option
+    EXPECT_TRUE(suits) << option;
+    ASSERT_EQ(PetscOptionsClearValue(nullptr, option), PETSC_SUCCESS);
+  }
+  Mat aij;
+  ASSERT_EQ(MatConvert(chain, MATSEQAIJ, MAT_INITIAL_MATRIX, &aij), PETSC_SUCCESS);
+  ASSERT_EQ(BlockLUSuits(aij, "probe_", &suits), PETSC_SUCCESS);
+  EXPECT_FALSE(suits);
+  MatDestroy(&aij);
+  MatDestroy(&chain);
+  MatDestroy(&comb_matrix);
+}
+
+// PCSetBlockLU on a PC that is a block LU already starts afresh (no context left behind).
+TEST(BlockLUPreconditioner, SetTwiceSolvesAsOnce)
+{
+  std::mt19937 generator(41);
+  const int    n     = 10;
+  Mat          A     = ToBaij(MakeMatrix(n, Chain(n), 2.0, &generator));
+  KSP          block = MakeSolver(A, true), petsc = MakeSolver(A, false);
+  PC           pc;
+  ASSERT_EQ(KSPGetPC(block, &pc), PETSC_SUCCESS);
+  ASSERT_EQ(PCSetBlockLU(pc), PETSC_SUCCESS);
+  EXPECT_LT(SolutionDifference(block, petsc, B * n), 1e-12);
+  KSPDestroy(&block);
+  KSPDestroy(&petsc);
   MatDestroy(&A);
 }

@@ -14,6 +14,7 @@
 // take their numbers from the run itself (SNES history, residual, MUMPS INFOG). Every rank checks
 // the same message, on any number of ranks.
 #include "assembly/mechanical_system.hpp"
+#include "core/block_envelope_pc.hpp"
 #include "core/format.hpp"
 #include "integrators/newton.hpp"
 #include "io/input_reader.hpp"
@@ -392,7 +393,7 @@ TEST(NumericalTrouble, SingularTangentNamesTheUnknownNothingResists)
 }
 
 // The same model with the default choice of the direct solver: on one rank the banded tangent
-// (BAIJ: its unknowns are all in node blocks) goes to PETSc's LU, which stops at the zero pivot; NewtonUsePivotingLU then hands the solver to MUMPS
+// (BAIJ: its unknowns are all in node blocks) goes to msflex's block LU, which stops at the zero pivot; NewtonUsePivotingLU then hands the solver to MUMPS
 // for good, and the step tried again ends with MUMPS' account, which names the unknown. On two
 // ranks MUMPS factors from the start and there is nothing to hand over.
 TEST(NumericalTrouble, BandedLUHandsASingularTangentToMumps)
@@ -408,9 +409,18 @@ TEST(NumericalTrouble, BandedLUHandsASingularTangentToMumps)
   PetscBool node_blocks; // one rank: every unknown in a node's block, so BAIJ's LU meets the zero pivot
   ASSERT_EQ(PetscObjectTypeCompare((PetscObject)p.assembler.Jacobian(), MATSEQBAIJ, &node_blocks), PETSC_SUCCESS);
   EXPECT_EQ((bool)node_blocks, Size() == 1);
+  // One rank: the node blocks of this chain go to msflex's block LU, which meets the zero pivot.
+  KSP         ksp;
+  PC          pc;
+  bool        block_lu;
+  std::string detail;
+  ASSERT_EQ(SNESGetKSP(p.snes, &ksp), PETSC_SUCCESS);
+  ASSERT_EQ(KSPGetPC(ksp, &pc), PETSC_SUCCESS);
+  ASSERT_EQ(BlockLUDescribeFailure(pc, &block_lu, &detail), PETSC_SUCCESS);
+  EXPECT_EQ(block_lu, Size() == 1);
   ASSERT_EQ(SolveStep(&p, 0, 0.01, &scheme, nullptr, &reason, &why), PETSC_SUCCESS);
   EXPECT_EQ(reason, SNES_DIVERGED_LINEAR_SOLVE);
-  if (Size() == 1) EXPECT_EQ(why.rfind("the tangent is singular (zero pivot ", 0), 0u) << why;
+  if (Size() == 1) EXPECT_EQ(why.rfind("the tangent is singular (zero pivot in the diagonal block of unknowns ", 0), 0u) << why;
   ASSERT_EQ(NewtonForgetFactorization(p.snes, &p.context), PETSC_SUCCESS); // as after every failed solve
   ASSERT_EQ(NewtonUsePivotingLU(p.snes, &p.context, &switched), PETSC_SUCCESS);
   EXPECT_EQ(switched, Size() == 1);
