@@ -3,8 +3,8 @@
 // changes), the values are refactored at every set-up.
 #include "core/block_envelope_pc.hpp"
 #include "core/block_envelope_lu.hpp"
+#include "core/shell_pc.hpp"
 
-#include <cstring>
 #include <string>
 #include <vector>
 
@@ -219,18 +219,13 @@ PetscErrorCode PCSetBlockLU(PC pc)
 
 PetscErrorCode BlockLUDescribeFailure(PC pc, bool *is_block_lu, std::string *detail)
 {
-  PetscBool   shell;
-  const char *name = nullptr;
+  void *found;
   PetscFunctionBeginUser;
-  *is_block_lu = false;
   detail->clear();
-  PetscCall(PetscObjectTypeCompare((PetscObject)pc, PCSHELL, &shell));
-  if (!shell) PetscFunctionReturn(PETSC_SUCCESS);
-  PetscCall(PCShellGetName(pc, &name));
-  if (!name || std::strcmp(name, kBlockLUName) != 0) PetscFunctionReturn(PETSC_SUCCESS);
-  BlockLU *context;
-  PetscCall(PCShellGetContext(pc, &context));
-  *is_block_lu = true;
+  PetscCall(ShellContextIfNamed(pc, kBlockLUName, &found));
+  *is_block_lu = found != nullptr;
+  if (!found) PetscFunctionReturn(PETSC_SUCCESS);
+  const BlockLU *context = static_cast<const BlockLU *>(found);
   if (context->zero_pivot > 0)
     *detail = "zero pivot in the diagonal block of unknowns " + std::to_string(kEnvelopeBlock * (context->zero_pivot - 1)) + ".." +
               std::to_string(kEnvelopeBlock * context->zero_pivot - 1) + " of the block LU";

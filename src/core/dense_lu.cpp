@@ -3,6 +3,7 @@
 // getrf above; x = U^{-1} L^{-1} P^T b (SolveSmallLU or getrs). A pivot that is exactly zero
 // (U(k,k) = 0, getrf's info = k > 0) makes P singular: reported, not raised.
 #include "core/dense_lu.hpp"
+#include "core/shell_pc.hpp"
 #include "core/small_lu.hpp"
 
 #include <petscblaslapack.h>
@@ -110,18 +111,13 @@ PetscErrorCode PCSetDenseLU(PC pc)
 
 PetscErrorCode DenseLUDescribeFailure(PC pc, bool *is_dense_lu, std::string *detail)
 {
-  PetscBool   shell;
-  const char *name = nullptr;
+  void *found;
   PetscFunctionBeginUser;
-  *is_dense_lu = false;
   detail->clear();
-  PetscCall(PetscObjectTypeCompare((PetscObject)pc, PCSHELL, &shell));
-  if (!shell) PetscFunctionReturn(PETSC_SUCCESS);
-  PetscCall(PCShellGetName(pc, &name));
-  if (!name || std::strcmp(name, kDenseLUName) != 0) PetscFunctionReturn(PETSC_SUCCESS);
-  DenseLU *lu;
-  PetscCall(PCShellGetContext(pc, &lu));
-  *is_dense_lu = true;
+  PetscCall(ShellContextIfNamed(pc, kDenseLUName, &found));
+  *is_dense_lu = found != nullptr;
+  if (!found) PetscFunctionReturn(PETSC_SUCCESS);
+  const DenseLU *lu = static_cast<const DenseLU *>(found);
   if (lu->zero_pivot > 0) *detail = "zero pivot in column " + std::to_string(lu->zero_pivot) + " of the dense LU";
   PetscFunctionReturn(PETSC_SUCCESS);
 }
