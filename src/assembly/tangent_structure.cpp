@@ -1,4 +1,5 @@
 #include "assembly/tangent_structure.hpp"
+#include "core/rcm_order.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -31,35 +32,23 @@ bool BlockPattern(const MatrixPattern &pattern, PetscInt first_row, PetscInt bs,
   return true;
 }
 
-// envelope^2 = (1/n) sum_i (p(i) - min_{j in row i} p(j))^2, p the RCM position. PETSc orders
-// matrices, not patterns: the pattern is wrapped (no copy) in a sequential AIJ matrix of zeros.
+// envelope^2 = (1/n) sum_i (p(i) - min_{j in row i} p(j))^2, p the RCM position.
 PetscErrorCode MeanSquaredRcmEnvelope(const MatrixPattern &pattern, double *mean_square)
 {
   const PetscInt        n = (PetscInt)pattern.diagonal_nonzeros.size();
-  Mat                   wrapper;
-  IS                    row_permutation, column_permutation, inverse;
-  const PetscInt       *new_index;
-  std::vector<PetscInt> row_start(pattern.row_start), columns(pattern.columns); // MatCreateSeqAIJWithArrays takes non-const arrays
-  std::vector<double>   zeros(columns.size(), 0.0);
+  std::vector<PetscInt> order, new_index(n);
   PetscFunctionBeginUser;
   *mean_square = 0.0;
   if (n == 0) PetscFunctionReturn(PETSC_SUCCESS);
-  PetscCall(MatCreateSeqAIJWithArrays(PETSC_COMM_SELF, n, n, row_start.data(), columns.data(), zeros.data(), &wrapper));
-  PetscCall(MatGetOrdering(wrapper, MATORDERINGRCM, &row_permutation, &column_permutation));
-  PetscCall(MatDestroy(&wrapper));
-  PetscCall(ISInvertPermutation(row_permutation, PETSC_DECIDE, &inverse));
-  PetscCall(ISGetIndices(inverse, &new_index));
+  PetscCall(RcmOrder(n, pattern.row_start.data(), pattern.columns.data(), &order));
+  for (PetscInt i = 0; i < n; ++i) new_index[order[i]] = i;
   double sum = 0.0;
   for (PetscInt i = 0; i < n; ++i) {
     PetscInt first = new_index[i];
-    for (PetscInt k = row_start[i]; k < row_start[i + 1]; ++k) first = std::min(first, new_index[columns[k]]);
+    for (PetscInt k = pattern.row_start[i]; k < pattern.row_start[i + 1]; ++k) first = std::min(first, new_index[pattern.columns[k]]);
     sum += std::pow((double)(new_index[i] - first), 2);
   }
   *mean_square = sum / n;
-  PetscCall(ISRestoreIndices(inverse, &new_index));
-  PetscCall(ISDestroy(&inverse));
-  PetscCall(ISDestroy(&row_permutation));
-  PetscCall(ISDestroy(&column_permutation));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 

@@ -62,10 +62,6 @@ inline void ProductVector(const double *__restrict a, const double *__restrict x
   for (int r = 0; r < B; ++r) y[r] = sum[r];
 }
 
-} // namespace
-
-namespace {
-
 // Gauss-Jordan step K (unrolled by the template: constant strides, the factors in registers).
 template <int K> inline bool GaussJordanSteps(double *__restrict a, int *swapped_with)
 {
@@ -98,6 +94,20 @@ template <int K> inline bool GaussJordanSteps(double *__restrict a, int *swapped
   }
 }
 
+// Position of each block row in `order`, and the first position of each position's envelope in
+// the pattern made symmetric: first[i] = min(i, j : (i, j) or (j, i) stored).
+void SymmetricEnvelope(int n, const int *row_start, const int *columns, const std::vector<int> &order, std::vector<int> *position, std::vector<int> *first)
+{
+  position->resize(n);
+  first->resize(n);
+  for (int i = 0; i < n; ++i) (*position)[order[i]] = i, (*first)[i] = i;
+  for (int row = 0; row < n; ++row)
+    for (int k = row_start[row]; k < row_start[row + 1]; ++k) {
+      const int i = (*position)[row], j = (*position)[columns[k]], later = std::max(i, j);
+      (*first)[later] = std::min((*first)[later], std::min(i, j));
+    }
+}
+
 } // namespace
 
 bool InvertEnvelopeBlock(double *a)
@@ -115,8 +125,8 @@ bool InvertEnvelopeBlock(double *a)
 BlockEnvelopeCount CountBlockEnvelope(int num_block_rows, const int *row_start, const int *columns, const std::vector<int> &order)
 {
   const int        n = num_block_rows;
-  std::vector<int> position(n);
-  for (int i = 0; i < n; ++i) position[order[i]] = i;
+  std::vector<int> position, first;
+  SymmetricEnvelope(n, row_start, columns, order, &position, &first);
   // The symmetrised pattern's lower part in factorisation order: lower[i] holds the j < i coupled to i.
   std::vector<int> lower_start(n + 1, 0), lower;
   for (int row = 0; row < n; ++row)
@@ -137,9 +147,8 @@ BlockEnvelopeCount CountBlockEnvelope(int num_block_rows, const int *row_start, 
   // is the union of the tree paths from its pattern's columns up to i (each node marked once).
   std::vector<int> parent(n, -1), ancestor(n, -1), mark(n, -1);
   for (int i = 0; i < n; ++i) {
-    int first = i;
-    for (int k = lower_start[i]; k < lower_start[i + 1]; ++k) {
-      first = std::min(first, lower[k]);
+    count.envelope += (size_t)(i - first[i]);
+    for (int k = lower_start[i]; k < lower_start[i + 1]; ++k)
       for (int r = lower[k]; r != i;) {
         const int up = ancestor[r];
         ancestor[r]  = i;
@@ -149,8 +158,6 @@ BlockEnvelopeCount CountBlockEnvelope(int num_block_rows, const int *row_start, 
         }
         r = up;
       }
-    }
-    count.envelope += (size_t)(i - first);
     mark[i] = i;
     for (int k = lower_start[i]; k < lower_start[i + 1]; ++k)
       for (int r = lower[k]; mark[r] != i; r = parent[r]) {
@@ -166,17 +173,10 @@ void BlockEnvelopeLU::Analyse(int num_block_rows, const int *row_start, const in
   const int n     = num_block_rows;
   num_block_rows_ = n;
   order_          = order;
-  std::vector<int> position(n);
-  for (int i = 0; i < n; ++i) position[order[i]] = i;
-  // The envelope is that of the pattern made symmetric: row i's first column and column i's
-  // first row alike, so that L's row i and U's column i have the same extent.
-  first_.resize(n);
-  for (int i = 0; i < n; ++i) first_[i] = i;
-  for (int row = 0; row < n; ++row)
-    for (int k = row_start[row]; k < row_start[row + 1]; ++k) {
-      const int i = position[row], j = position[columns[k]];
-      first_[std::max(i, j)] = std::min(first_[std::max(i, j)], std::min(i, j));
-    }
+  // The envelope of the pattern made symmetric: row i's first column and column i's first row
+  // alike, so that L's row i and U's column i have the same extent.
+  std::vector<int> position;
+  SymmetricEnvelope(n, row_start, columns, order, &position, &first_);
   offset_.resize(n + 1);
   offset_[0] = 0;
   for (int i = 0; i < n; ++i) offset_[i + 1] = offset_[i] + 2 * (size_t)(i - first_[i]) + 1;

@@ -3,6 +3,7 @@
 // changes), the values are refactored at every set-up.
 #include "core/block_envelope_pc.hpp"
 #include "core/block_envelope_lu.hpp"
+#include "core/rcm_order.hpp"
 #include "core/shell_pc.hpp"
 
 #include <string>
@@ -22,27 +23,6 @@ struct BlockLU {
   PetscLogEvent    factor_event = 0, solve_event = 0;
 };
 
-// RCM order of the block graph (order[i]: the block row factored i-th), from PETSc's ordering of
-// the pattern wrapped in a sequential AIJ matrix of zeros.
-PetscErrorCode RcmOrder(PetscInt n, const std::vector<PetscInt> &row_start, const std::vector<PetscInt> &columns, std::vector<int> *order)
-{
-  Mat                   wrapper;
-  IS                    row_permutation, column_permutation;
-  const PetscInt       *indices;
-  std::vector<PetscInt> starts(row_start), cols(columns); // MatCreateSeqAIJWithArrays takes non-const arrays
-  std::vector<double>   zeros(cols.size(), 0.0);
-  PetscFunctionBeginUser;
-  PetscCall(MatCreateSeqAIJWithArrays(PETSC_COMM_SELF, n, n, starts.data(), cols.data(), zeros.data(), &wrapper));
-  PetscCall(MatGetOrdering(wrapper, MATORDERINGRCM, &row_permutation, &column_permutation));
-  PetscCall(MatDestroy(&wrapper));
-  PetscCall(ISGetIndices(row_permutation, &indices));
-  order->assign(indices, indices + n);
-  PetscCall(ISRestoreIndices(row_permutation, &indices));
-  PetscCall(ISDestroy(&row_permutation));
-  PetscCall(ISDestroy(&column_permutation));
-  PetscFunctionReturn(PETSC_SUCCESS);
-}
-
 // The block pattern of P (block CSR) and its RCM order.
 PetscErrorCode BlockPatternInRcmOrder(Mat P, std::vector<int> *row_start, std::vector<int> *columns, std::vector<int> *order)
 {
@@ -52,12 +32,13 @@ PetscErrorCode BlockPatternInRcmOrder(Mat P, std::vector<int> *row_start, std::v
   PetscFunctionBeginUser;
   PetscCall(MatGetRowIJ(P, 0, PETSC_FALSE, PETSC_TRUE, &n, &ia, &ja, &done));
   PetscCheck(done, PETSC_COMM_SELF, PETSC_ERR_SUP, "block LU: the matrix does not give its block pattern");
-  std::vector<PetscInt> petsc_row_start(ia, ia + n + 1), petsc_columns(ja, ja + ia[n]);
-  PetscInt              restored; // MatRestoreRowIJ zeroes the count it is given
+  std::vector<PetscInt> rcm;
+  PetscCall(RcmOrder(n, ia, ja, &rcm));
+  row_start->assign(ia, ia + n + 1);
+  columns->assign(ja, ja + ia[n]);
+  order->assign(rcm.begin(), rcm.end());
+  PetscInt restored; // MatRestoreRowIJ zeroes the count it is given
   PetscCall(MatRestoreRowIJ(P, 0, PETSC_FALSE, PETSC_TRUE, &restored, &ia, &ja, &done));
-  PetscCall(RcmOrder(n, petsc_row_start, petsc_columns, order));
-  row_start->assign(petsc_row_start.begin(), petsc_row_start.end());
-  columns->assign(petsc_columns.begin(), petsc_columns.end());
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
@@ -214,6 +195,15 @@ PetscErrorCode PCSetBlockLU(PC pc)
   PetscCall(PCShellSetDestroy(pc, BlockLUDestroy));
   PetscCall(PCShellSetView(pc, BlockLUView));
   PetscCall(PCShellSetName(pc, kBlockLUName));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode PCIsBlockLU(PC pc, bool *is_block_lu)
+{
+  void *found;
+  PetscFunctionBeginUser;
+  PetscCall(ShellContextIfNamed(pc, kBlockLUName, &found));
+  *is_block_lu = found != nullptr;
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 

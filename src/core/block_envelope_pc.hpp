@@ -35,6 +35,8 @@ PetscErrorCode BlockLUSuits(Mat matrix, const char *prefix, bool *suits);
 // Makes `pc` the block LU above. `-pc_type` or `-pc_factor_mat_solver_type` in the options replace it.
 PetscErrorCode PCSetBlockLU(PC pc);
 
+// Whether `pc` is that solver.
+PetscErrorCode PCIsBlockLU(PC pc, bool *is_block_lu);
 // Whether `pc` is that solver, and if its last factorisation met a singular diagonal block, which
 // (`detail`).
 PetscErrorCode BlockLUDescribeFailure(PC pc, bool *is_block_lu, std::string *detail);

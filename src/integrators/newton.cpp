@@ -319,9 +319,8 @@ PetscErrorCode BandedLUByStructure(PC pc, bool *answer)
   PetscCall(PCGetOptionsPrefix(pc, &prefix));
   PetscCall(PetscOptionsHasName(nullptr, prefix, "-pc_factor_mat_solver_type", &package_named));
   PetscCall(PetscOptionsHasName(nullptr, prefix, "-pc_type", &pc_named));
-  bool        block_lu;
-  std::string unused;
-  PetscCall(BlockLUDescribeFailure(pc, &block_lu, &unused));
+  bool block_lu;
+  PetscCall(PCIsBlockLU(pc, &block_lu));
   *answer = block_lu || (lu && package && !strcmp(package, MATSOLVERPETSC) && !package_named && !pc_named);
   PetscFunctionReturn(PETSC_SUCCESS);
 }
