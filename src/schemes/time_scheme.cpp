@@ -97,22 +97,41 @@ MotionUpdate AdvanceMotion(const TimeScheme &s, const MotionState &start, const 
   return next;
 }
 
-void TangentScaledIncrement(const Vec3 &omega, Vec3 *alpha, Mat3 *dalpha_domega)
+namespace {
+// Below this angle f and f'/t come from their Taylor series: the closed form of f'/t cancels.
+constexpr double kScaledSeriesAngle = 1e-3;
+
+// f(t) = 2 tan(t/2)/t, alpha = f omega, d alpha = f I + (f'(t)/t) omega omega^T, with
+// f'(t) = (sec^2(t/2) - f)/t and sec^2(t/2) = 1 + tan^2(t/2) = 1 + x f^2/4 (x = t^2).
+void ScaledIncrementFrom(const Vec3 &omega, double x, double f, Vec3 *alpha, Mat3 *dalpha_domega)
 {
-  // f(t) = 2 tan(t/2)/t, alpha = f omega, d alpha = f I + (f'(t)/t) omega omega^T.
-  const double t = omega.norm();
-  double       f, fprime_over_t;
-  if (t < 1e-3) {
-    const double x = t * t;
-    f              = 1.0 + x / 12.0 + x * x / 120.0 + x * x * x * 17.0 / 20160.0;
-    fprime_over_t  = 1.0 / 6.0 + x / 30.0 + x * x * 17.0 / 3360.0;
+  double fprime_over_t;
+  if (x < kScaledSeriesAngle * kScaledSeriesAngle) {
+    f             = 1.0 + x / 12.0 + x * x / 120.0 + x * x * x * 17.0 / 20160.0;
+    fprime_over_t = 1.0 / 6.0 + x / 30.0 + x * x * 17.0 / 3360.0;
   } else {
-    const double half = 0.5 * t, tan_half = std::tan(half), sec2 = 1.0 + tan_half * tan_half;
-    f             = 2.0 * tan_half / t;
-    fprime_over_t = (sec2 / t - 2.0 * tan_half / (t * t)) / t;
+    fprime_over_t = (1.0 + 0.25 * x * f * f - f) / x;
   }
   *alpha = f * omega;
-  if (dalpha_domega) *dalpha_domega = f * Mat3::Identity() + fprime_over_t * omega * omega.transpose();
+  if (dalpha_domega) {
+    Mat3 &d = *dalpha_domega;
+    for (int i = 0; i < 3; ++i)
+      for (int j = 0; j < 3; ++j) d(i, j) = fprime_over_t * omega(i) * omega(j);
+    d(0, 0) += f, d(1, 1) += f, d(2, 2) += f;
+  }
+}
+} // namespace
+
+void TangentScaledIncrement(const Vec3 &omega, Vec3 *alpha, Mat3 *dalpha_domega)
+{
+  const double x = omega.squaredNorm();
+  const double f = x < kScaledSeriesAngle * kScaledSeriesAngle ? 1.0 : std::tan(0.5 * std::sqrt(x)) / (0.5 * std::sqrt(x));
+  ScaledIncrementFrom(omega, x, f, alpha, dalpha_domega);
+}
+
+void TangentScaledIncrement(const Vec3 &omega, double c1, double c2, Vec3 *alpha, Mat3 *dalpha_domega)
+{
+  ScaledIncrementFrom(omega, omega.squaredNorm(), 2.0 * c2 / c1, alpha, dalpha_domega);
 }
 
 } // namespace msflex

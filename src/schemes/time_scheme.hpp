@@ -85,5 +85,9 @@ MotionUpdate AdvanceMotion(const TimeScheme &scheme, const MotionState &start, c
 
 // a = 2 tan(|omega|/2) omega/|omega| and its derivative d a / d omega.
 void TangentScaledIncrement(const Vec3 &omega, Vec3 *alpha, Mat3 *dalpha_domega);
+// The same from the rotation series c1 = sin(t)/t and c2 = (1 - cos t)/t^2 at x = t^2 = |omega|^2,
+// which the node update has already evaluated (math/rotation.hpp): tan(t/2) = t c2/c1, so the
+// factor 2 tan(t/2)/t is 2 c2/c1 without a call of tan (the node update runs per node and iterate).
+void TangentScaledIncrement(const Vec3 &omega, double c1, double c2, Vec3 *alpha, Mat3 *dalpha_domega);
 
 } // namespace msflex

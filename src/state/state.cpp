@@ -8,16 +8,18 @@ namespace msflex {
 
 namespace {
 
-void NodeUpdateConfiguration(NodeState *node)
+// exp(omega) R_n, H(omega) and H(omega)^{-1} (which the inertia's tangents read) from one
+// evaluation of the series c_n(|omega|^2): this runs per node and Newton iterate. `midpoint`: also
+// the mid-point schemes' tangent-scaled increment, from the same series.
+void NodeUpdateConfiguration(NodeState *node, bool midpoint = false)
 {
-  // exp(omega) R_n, H(omega) and H(omega)^{-1} (which the inertia's tangents read) from one
-  // evaluation of the series c_n(|omega|^2): this runs per node and Newton iterate.
   const Vec3          &omega     = node->rotation_increment;
   const RotationSeries series    = RotationSeriesValues(omega.squaredNorm());
   node->position                 = node->position_start + node->displacement_increment;
   node->rotation                 = RodriguesMatrix(ExpForm(series), omega) * QuaternionToMatrix(node->rotation_start);
   node->rotation_tangent         = RodriguesMatrix(TangentForm(series), omega);
   node->rotation_tangent_inverse = RodriguesMatrix(TangentInverseForm(series), omega);
+  if (midpoint) TangentScaledIncrement(omega, series.c[1], series.c[2], &node->tangent_scaled_increment, &node->tangent_scaled_derivative);
 }
 
 void NodeCommit(NodeState *node)
@@ -79,10 +81,9 @@ void StateCreate(const Model &model, const DofMap &map, State *state)
 void StateUpdateNode(const StepEquations &equations, NodeState *s)
 {
   if (equations.RateUnknowns()) return;
-  NodeUpdateConfiguration(s);
+  NodeUpdateConfiguration(s, equations.Midpoint());
   if (!equations.Dynamic()) return;
   s->translation_update = AdvanceMotion(equations.scheme, s->translation_motion, s->displacement_increment);
-  if (equations.Midpoint()) TangentScaledIncrement(s->rotation_increment, &s->tangent_scaled_increment, &s->tangent_scaled_derivative);
 }
 
 Vec3 NodeTangentScaledIncrement(const StepEquations &equations, const NodeState &node)

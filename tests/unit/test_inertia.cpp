@@ -75,6 +75,23 @@ TEST(TimeScheme, TangentScaledIncrementAndDerivative)
   }
 }
 
+TEST(TimeScheme, TangentScaledIncrementFromTheSeriesIsTheTangentForm)
+{
+  // The node update's form (2 c2/c1 from the rotation series) against tan: the same vector and
+  // derivative to round-off, on both sides of the small-angle switch and towards pi.
+  for (double angle : {0.0, 1e-7, 1e-3 - 1e-12, 1e-3 + 1e-12, 0.02, 0.4, 1.5, 2.8, 3.1}) {
+    const Vec3           omega  = RandomVector(1.0).normalized() * angle;
+    const RotationSeries series = RotationSeriesValues(omega.squaredNorm());
+    Vec3                 alpha, alpha_series;
+    Mat3                 dalpha, dalpha_series;
+    TangentScaledIncrement(omega, &alpha, &dalpha);
+    TangentScaledIncrement(omega, series.c[1], series.c[2], &alpha_series, &dalpha_series);
+    EXPECT_LT((alpha_series - alpha).norm(), 4e-16 * (1 + alpha.norm())) << angle;
+    EXPECT_LT(MaxAbs(dalpha_series - dalpha), 1e-13 * (1 + MaxAbs(dalpha))) << angle;
+    EXPECT_LT((alpha_series - TangentScaledFromRotationVector(omega)).norm(), 1e-14 * (1 + alpha.norm())) << angle;
+  }
+}
+
 TEST(Inertia, RotationalInertiaTangentMatchesFiniteDifferences)
 {
   for (TimeSchemeKind kind : kAllSchemes) {
