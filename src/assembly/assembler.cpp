@@ -777,13 +777,13 @@ PetscErrorCode Assembler::SetIncrements(Vec increments, bool keep_if_current)
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
-void Assembler::EvaluateElement(size_t k, bool want_tangent, ElementContribution *out, const double *combined_beta)
+void Assembler::EvaluateElement(size_t k, bool want_tangent, ElementContribution *out, const double *combined_beta, bool keep_iterate)
 {
   const StepEquations &eq = state_->equations;
   // em with beta = 0 known (the round-off rule): no energy terms, the tangent is K_mc.
   const bool energy_terms = eq.Dynamic() && eq.scheme.kind == TimeSchemeKind::EnergyMomentum && !(combined_beta && *combined_beta == 0.0);
   out->Clear(model_->elements[map_->local_elements[k]].order + 1, want_tangent, energy_terms, combined_beta);
-  out->iterate_key = increments_version_;
+  out->iterate_key = keep_iterate ? increments_version_ : -1;
   for (ForceContributor *c : element_contributors_) {
     c->AddElement(*state_, k, out);
     if (!out->evaluable) return;
@@ -850,7 +850,7 @@ PetscErrorCode Assembler::FinishResidual(Vec residual, double strain_energy, Pet
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
-PetscErrorCode Assembler::AssembleResidual(Vec residual, PetscBool *geometry_ok)
+PetscErrorCode Assembler::AssembleResidual(Vec residual, PetscBool *geometry_ok, bool tangent_may_follow)
 {
   PetscFunctionBeginUser;
   PetscCall(PetscLogEventBegin(event_residual, 0, 0, 0, 0));
@@ -862,7 +862,7 @@ PetscErrorCode Assembler::AssembleResidual(Vec residual, PetscBool *geometry_ok)
   double              strain_energy = 0.0;
   ElementContribution element;
   for (size_t k = 0; k < map.local_elements.size(); ++k) {
-    EvaluateElement(k, false, &element);
+    EvaluateElement(k, false, &element, nullptr, tangent_may_follow);
     const int nd = 6 * element.num_nodes;
     if (!element.evaluable) {
       *geometry_ok = PETSC_FALSE;
@@ -967,18 +967,54 @@ PetscErrorCode Assembler::AssembleJacobian(Mat jacobian, PetscBool *geometry_ok)
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
-bool Assembler::CanAssembleResidualWithJacobian() const
-{
-  const StepEquations &eq = state_->equations;
-  return !(eq.Dynamic() && eq.scheme.kind == TimeSchemeKind::EnergyMomentum) && !eq.InitialAcceleration() && !mass_matrix_only_;
-}
+bool Assembler::CanAssembleResidualWithJacobian() const { return !state_->equations.InitialAcceleration() && !mass_matrix_only_; }
 
 PetscErrorCode Assembler::AssembleResidualWithJacobian(Vec residual, PetscBool *geometry_ok)
 {
   PetscFunctionBeginUser;
   PetscCheck(CanAssembleResidualWithJacobian(), PETSC_COMM_SELF, PETSC_ERR_ARG_WRONGSTATE,
-             "the residual and the tangent are assembled together only outside em and the initial-acceleration problem");
+             "the residual and the tangent are assembled together only outside the initial-acceleration problem");
+  const StepEquations &eq = state_->equations;
+  if (eq.Dynamic() && eq.scheme.kind == TimeSchemeKind::EnergyMomentum) {
+    PetscBool all_ok;
+    PetscCall(EnergyCorrectionOfElements(&all_ok));
+    // An element that cannot be evaluated: the residual alone, as AssembleResidual reports it
+    // (the line search shortens the step; no tangent is asked for there).
+    if (!all_ok) {
+      PetscCall(AssembleResidual(residual, geometry_ok, false));
+      PetscFunctionReturn(PETSC_SUCCESS);
+    }
+  }
   PetscCall(AssembleTangentPass(jacobian_, residual, geometry_ok));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode Assembler::EnergyCorrectionOfElements(PetscBool *all_ok)
+{
+  PetscFunctionBeginUser;
+  PetscCall(PetscLogEventBegin(event_residual, 0, 0, 0, 0));
+  // work mismatch, correction work, scale of the internal work (as AssembleResidual sums them), and
+  // the count of elements that could not be evaluated
+  double              sums[4] = {0.0, 0.0, 0.0, 0.0}, global[4];
+  ElementContribution element;
+  for (size_t k = 0; k < map_->local_elements.size(); ++k) {
+    EvaluateElement(k, false, &element);
+    if (!element.evaluable) {
+      sums[3] += 1.0;
+      break;
+    }
+    sums[0] += element.work_mismatch;
+    sums[1] += element.correction_work;
+    sums[2] += element.work_scale;
+  }
+  PetscCall(MPIU_Allreduce(sums, global, 4, MPI_DOUBLE, MPI_SUM, comm_));
+  *all_ok = global[3] == 0.0 ? PETSC_TRUE : PETSC_FALSE;
+  if (*all_ok) {
+    energy_correction_         = BetaOfWorkSums(global);
+    energy_correction_work_    = global[1];
+    energy_correction_version_ = increments_version_;
+  }
+  PetscCall(PetscLogEventEnd(event_residual, 0, 0, 0, 0));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
@@ -1000,7 +1036,7 @@ PetscErrorCode Assembler::AssembleTangentPass(Mat jacobian, Vec residual, PetscB
   double strain_energy     = 0.0;
   if (residual) {
     PetscCall(StartResidual(residual));
-    energy_correction_ = 0.0; // not em
+    if (!em) energy_correction_ = 0.0; // em: beta of these unknowns (EnergyCorrectionOfElements)
   }
   // em: when the last residual was assembled at these unknowns (SNES's order: residual, then the
   // tangent at the same iterate), its beta and correction work hold here: the beam kernel builds
@@ -1044,6 +1080,9 @@ PetscErrorCode Assembler::AssembleTangentPass(Mat jacobian, Vec residual, PetscB
     for (int a = 0; a <= element_nodes.order; ++a) local_nodes[a] = map.node_to_local[element_nodes.nodes[a]];
     if (residual) {
       strain_energy += element.strain_energy;
+      // em: R = R_mc + beta R_corr, element by element as AssembleResidual adds it
+      if (fused && fused_beta != 0.0)
+        for (int i = 0; i < nd; ++i) element.residual[i] += fused_beta * element.correction[i];
       for (int a = 0; a <= element_nodes.order; ++a) PetscCall(AddNodeResidual(residual, local_nodes[a], &element.residual[6 * a])); // slaves' too
     }
     if (separate_correction) {
@@ -1069,7 +1108,8 @@ PetscErrorCode Assembler::AssembleTangentPass(Mat jacobian, Vec residual, PetscB
     }
     for (int a = 0; a <= element_nodes.order; ++a) {
       if (!IsSlave(local_nodes[a])) continue;
-      if (!residual) slave_residual_[local_nodes[a]] += Eigen::Map<const Vec6>(&element.residual[6 * a]);
+      if (residual) continue; // AddNodeResidual above gathered R, beta R_corr included
+      slave_residual_[local_nodes[a]] += Eigen::Map<const Vec6>(&element.residual[6 * a]);
       if (em) slave_correction_residual_[local_nodes[a]] += Eigen::Map<const Vec6>(&element.correction[6 * a]);
     }
     PetscCall(AddExpandedMatrix(jacobian, element_nodes.order + 1, local_nodes, element.tangent));

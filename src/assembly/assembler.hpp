@@ -70,7 +70,10 @@ public:
   // tangent at the iterate whose residual was just evaluated).
   PetscErrorCode SetIncrements(Vec increments, bool keep_if_current = false);
   // Residual at the current unknowns. *geometry_ok = false when an element cannot be evaluated.
-  PetscErrorCode AssembleResidual(Vec residual, PetscBool *geometry_ok);
+  // `tangent_may_follow`: a tangent at the same unknowns may be asked for next, so em's beam
+  // elements keep what their tangent needs of this evaluation (BeamContributor); false where
+  // nothing will follow (Newton's residual alone when the solve assembles tangents with residuals).
+  PetscErrorCode AssembleResidual(Vec residual, PetscBool *geometry_ok, bool tangent_may_follow = true);
   // Exact tangent at the current unknowns, in every problem and scheme. In the energy-momentum
   // scheme the residual R = R_mc + beta(X) R_corr has the tangent K_mc + beta K_corr (assembled)
   // plus the rank-one term R_corr (grad beta)^T, which couples every element (beta of eq. 20 is a
@@ -80,9 +83,10 @@ public:
   // The residual and the tangent (into the assembler's own matrix) at the current unknowns in one
   // pass: each kernel evaluated once for both, the residual equal to AssembleResidual's. Newton
   // assembles the next tangent with the residual of its line search this way (integrators/newton.cpp),
-  // so an iteration costs one pass instead of a residual pass and a tangent pass. Not in em (its
-  // tangent needs beta of the whole residual first: K_corr kept apart until it is known cost more
-  // than the residual pass it saved, docs/performance.md) nor the initial-acceleration problem.
+  // so an iteration costs one pass instead of a residual pass and a tangent pass. In em, whose
+  // tangent needs beta of the whole residual first, the elements are visited twice (their forces
+  // and beta's sums, keeping each kernel's iterate; then the tangent with beta known), but nodes,
+  // free blocks and the residual's assembly once. Not in the initial-acceleration problem.
   bool           CanAssembleResidualWithJacobian() const;
   PetscErrorCode AssembleResidualWithJacobian(Vec residual, PetscBool *geometry_ok);
   // Whether the matrix holds the tangent at the current unknowns from AssembleResidualWithJacobian
@@ -217,7 +221,13 @@ private:
   PetscErrorCode FinishResidual(Vec residual, double strain_energy, PetscBool geometry_ok);
   // The element loop's evaluation of local element k by every element contributor.
   // `combined_beta` (em with beta known): the elements' tangents are K_mc + beta K_corr.
-  void EvaluateElement(size_t k, bool want_tangent, ElementContribution *out, const double *combined_beta = nullptr);
+  // keep_iterate: the contribution carries the unknowns' version (ElementContribution::iterate_key),
+  // so that em's beam kernels may keep or reuse what a residual evaluation computed.
+  void EvaluateElement(size_t k, bool want_tangent, ElementContribution *out, const double *combined_beta = nullptr, bool keep_iterate = true);
+  // em: beta of eq. (20) at the current unknowns from one visit of every element, which keeps each
+  // beam kernel's iterate for the tangent pass that follows; *all_ok = false (alike on every rank)
+  // when an element cannot be evaluated somewhere. Collective.
+  PetscErrorCode EnergyCorrectionOfElements(PetscBool *all_ok);
   // The node loop's evaluation of owned node l by every node contributor.
   void EvaluateNode(int l, bool want_tangent, NodeContribution *out);
   // Per local node, whether it is a slave (its expansion goes through its joint).
