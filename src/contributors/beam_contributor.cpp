@@ -75,6 +75,19 @@ void BeamContributor::BeginStep(const State &state)
   for (KeptMidpoint &kept : kept_) kept.key = -1;
 }
 
+namespace {
+// sum += K and Ktp = K^T p for a row-major ND x ND matrix K, in one sweep over K (the size fixed at
+// compile time, so that K^T p accumulates in registers: with a run-time size GCC kept it in memory
+// and every row waited for the last row's stores).
+template <int ND> void AddWithTransposeProduct(const double *K, const double *p, double *sum, double *Ktp)
+{
+  double accumulated[ND] = {};
+  for (int i = 0; i < ND; ++i)
+    for (int j = 0; j < ND; ++j) accumulated[j] += K[i * ND + j] * p[i], sum[i * ND + j] += K[i * ND + j];
+  for (int j = 0; j < ND; ++j) Ktp[j] = accumulated[j];
+}
+} // namespace
+
 // Statics and the Newmark family: r and K at t_{n+1}. Mid-point family: the mid-point forces
 // F_mc and em's correction F_corr with the pieces of beta (eq. 17-20) and their exact tangents
 // (elements/beam.hpp); for em also the gradients of beta's numerator and denominator:
@@ -151,14 +164,15 @@ void BeamContributor::AddElement(const State &state, size_t k, ElementContributi
     out->work_mismatch += (energy_end - energy_start) - work;
     out->strain_energy += energy_end;
     for (int i = 0; i < nd; ++i) out->residual[i] += force[i], out->correction[i] += correction[i];
-    if (end_tangent)
-      for (int i = 0; i < nd * nd; ++i) out->tangent[i] += K_mc[i];
-    if (!energy_terms) return;
-    if (K_corr_apart)
-      for (int i = 0; i < nd * nd; ++i) out->tangent_correction[i] += K_corr[i];
+    if (!(energy_terms && end_tangent)) { // (em's energy terms come with its tangent only)
+      if (end_tangent)
+        for (int i = 0; i < nd * nd; ++i) out->tangent[i] += K_mc[i];
+      return;
+    }
+    // S(alpha)^T m = m + alpha x m / 2 + alpha (alpha.m) / 4, S(a) = I - hat(a)/2 + a a^T/4
+    auto S_transpose_times = [](const Vec3 &a, const Vec3 &m) -> Vec3 { return m + 0.5 * a.cross(m) + (0.25 * a.dot(m)) * a; };
     for (int a = 0; a < n; ++a) {
-      const Mat3 S    = Mat3::Identity() - 0.5 * Skew(alpha[a]) + 0.25 * alpha[a] * alpha[a].transpose();
-      const Vec3 m_mc = S.transpose() * Vec3(&force[6 * a + 3]), m_corr = S.transpose() * Vec3(&correction[6 * a + 3]);
+      const Vec3 m_mc = S_transpose_times(alpha[a], Vec3(&force[6 * a + 3])), m_corr = S_transpose_times(alpha[a], Vec3(&correction[6 * a + 3]));
       for (int i = 0; i < 3; ++i) {
         out->mismatch_gradient[6 * a + i] += end_residual[6 * a + i] - force[6 * a + i];
         out->mismatch_gradient[6 * a + 3 + i] += end_residual[6 * a + 3 + i] - m_mc(i);
@@ -166,18 +180,15 @@ void BeamContributor::AddElement(const State &state, size_t k, ElementContributi
         out->correction_work_gradient[6 * a + 3 + i] += m_corr(i);
       }
     }
-    // K^T p, row by row of K (with beta given, K_mc holds K_mc + beta K_corr and K_corr^T p is in
-    // it: grad M - beta grad C needs only the sum).
+    // K^T p, row by row of K, in the same sweep that adds K into the element's tangent (with beta
+    // given, K_mc holds K_mc + beta K_corr and K_corr^T p is in it: grad M - beta grad C needs only
+    // the sum).
     double p[kBeamMaxDofs], mc[kBeamMaxDofs] = {}, corr[kBeamMaxDofs] = {};
     for (int a = 0; a < n; ++a)
       for (int i = 0; i < 3; ++i) p[6 * a + i] = u[a](i), p[6 * a + 3 + i] = alpha[a](i);
-    for (int i = 0; i < nd; ++i) {
-      const double *row = &K_mc[i * nd];
-      for (int j = 0; j < nd; ++j) mc[j] += row[j] * p[i];
-      if (!K_corr_apart) continue;
-      const double *correction_row = &K_corr[i * nd];
-      for (int j = 0; j < nd; ++j) corr[j] += correction_row[j] * p[i];
-    }
+    auto add_and_multiply = n == 2 ? AddWithTransposeProduct<12> : AddWithTransposeProduct<18>;
+    add_and_multiply(K_mc, p, out->tangent, mc);
+    if (K_corr_apart) add_and_multiply(K_corr, p, out->tangent_correction, corr);
     for (int j = 0; j < nd; ++j) {
       out->mismatch_gradient[j] -= mc[j];
       out->correction_work_gradient[j] += corr[j];
