@@ -464,13 +464,16 @@ void MidpointTangent(const BeamElementReference &ref, const int *others, const M
   //   delta m_a = -hat(w_a) dtheta_c / 2 + W_a (dtheta_a - dtheta_c),  W_a = Lbar d(Hinv^T h_psi_a)/dpsi|_mid P_a / 2
   //   delta (-dbar_a x f_a) = hat(f_a) (dx_a - dx_c) / 2 - hat(dbar_a) delta f_a
   for (int o = 0; o < NN - 1; ++o) {
-    const int  a  = others[o];
-    const Vec3 g  = maps.L * h_rho[a];
-    const Vec3 f  = maps.Lbar * h_rho[a];
-    const Vec3 w  = maps.L * (maps.HinvT_mid[a] * h_psi[a]);
-    const Mat3 W  = 0.5 * Mul(Mul(maps.Lbar, RodriguesTransposeApplyJacobian(maps.Finv_mid[a], maps.psi_mid[a], h_psi[a])), maps.P[a]);
-    const Mat3 hg = 0.5 * Skew(g), hf = 0.5 * Skew(f), hw = 0.5 * Skew(w);
-    const int  ax = 6 * a, at = 6 * a + 3, cx = 6 * c, ct = 6 * c + 3;
+    const int            a  = others[o];
+    const Vec3           g  = maps.L * h_rho[a];
+    const Vec3           f  = maps.Lbar * h_rho[a];
+    const Vec3           w  = maps.L * (maps.HinvT_mid[a] * h_psi[a]);
+    const RodriguesForm &Fi = maps.Finv_mid[a];
+    const Vec3          &pm = maps.psi_mid[a];
+    const Mat3           J  = JacobianMatrix(Fi.alpha, Fi.beta, pm, h_psi[a], JacobianShift(Fi.alpha_x, Fi.beta, Fi.beta_x, pm, h_psi[a])); // d(Hinv^T h)/dpsi
+    const Mat3           W  = 0.5 * Mul(Mul(maps.Lbar, J), maps.P[a]);
+    const Mat3           hg = 0.5 * Skew(g), hf = 0.5 * Skew(f), hw = 0.5 * Skew(w);
+    const int            ax = 6 * a, at = 6 * a + 3, cx = 6 * c, ct = 6 * c + 3;
     K.template block<3, 3>(ax, ct) -= hg;
     K.template block<3, 3>(cx, ct) += hg;
     K.template block<3, 3>(at, at) += W;
@@ -579,12 +582,12 @@ BeamKernelStatus MidpointResidualPhase(const BeamElementReference &ref, const Be
     maps.psi_mid[a]   = psi_m[a];
     maps.Finv_mid[a]  = TangentInverseForm(ElementRotationSeries(psi_m[a].squaredNorm(), 2, for_tangent));
     maps.HinvT_mid[a] = RodriguesMatrix(maps.Finv_mid[a], psi_m[a]).transpose();
-    maps.PbarT[a]     = Mul(maps.Lbar, maps.HinvT_mid[a]);   // (H^{-1}(psi_mid) Lbar^T)^T
-    const Mat3 MT     = -SkewTimes(maps.dbar[a], maps.Lbar); // (Lbar^T hat(dbar))^T
+    maps.PbarT[a]     = Mul(maps.Lbar, maps.HinvT_mid[a]); // (H^{-1}(psi_mid) Lbar^T)^T
     for (int which = 0; which < 2; ++which) {
       double     *out = which == 0 ? force_mc : force_correction;
       const Vec3 &hr = which == 0 ? h_rho[a] : k_rho[a], &hp = which == 0 ? h_psi[a] : k_psi[a];
-      const Vec3  f = maps.Lbar * hr, m = maps.PbarT[a] * hp, mc = MT * hr - m;
+      // theta_c: (Lbar^T hat(dbar))^T hr - m = -dbar x f - m
+      const Vec3 f = maps.Lbar * hr, m = maps.PbarT[a] * hp, mc = -maps.dbar[a].cross(f) - m;
       for (int i = 0; i < 3; ++i) {
         out[6 * a + i] += f(i);
         out[6 * a + 3 + i] += m(i);
@@ -596,7 +599,7 @@ BeamKernelStatus MidpointResidualPhase(const BeamElementReference &ref, const Be
     maps.P[a] = Mul(RodriguesMatrix(TangentInverseForm(ElementRotationSeries(psi_1[a].squaredNorm(), 2, false)), psi_1[a]), maps.LT);
     if (end_residual_out) {
       // r_{n+1} = T_{n+1}^T g: the gradient of the end strain energy (as BeamInternalForces).
-      const Vec3 f = maps.L * g_rho[a], m = maps.P[a].transpose() * g_psi[a], mc = (maps.LT * Skew(maps.d[a])).transpose() * g_rho[a] - m;
+      const Vec3 f = maps.L * g_rho[a], m = maps.P[a].transpose() * g_psi[a], mc = -maps.d[a].cross(f) - m; // (L^T hat(d))^T g - m
       for (int i = 0; i < 3; ++i) {
         end_residual_out[6 * a + i] += f(i);
         end_residual_out[6 * a + 3 + i] += m(i);
