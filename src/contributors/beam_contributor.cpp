@@ -113,7 +113,9 @@ void BeamContributor::AddElement(const State &state, size_t k, ElementContributi
     Mat3    triads_start[kBeamMaxNodes];
     double  correction_here[kBeamMaxDofs], end_residual_here[kBeamMaxDofs], energy_start, energy_end, K_mc[kBeamMaxDofs * kBeamMaxDofs],
         K_corr[kBeamMaxDofs * kBeamMaxDofs];
-    double       *correction = correction_here, *end_residual = end_residual_here;
+    // F_corr only where beta weights it (em); mc's kernel skips it.
+    const bool    em         = eq.scheme.kind == TimeSchemeKind::EnergyMomentum;
+    double       *correction = em ? correction_here : nullptr, *end_residual = end_residual_here;
     const bool    energy_terms = out->want_energy_terms;
     const double *beta         = end_tangent ? out->combined_beta : nullptr; // K_mc + beta K_corr at once
     const bool    K_corr_apart = energy_terms && !beta;
@@ -159,11 +161,13 @@ void BeamContributor::AddElement(const State &state, size_t k, ElementContributi
       const double node_work = u[a].dot(Vec3(&force[6 * a])) + alpha[a].dot(Vec3(&force[6 * a + 3]));
       work += node_work;
       out->work_scale += std::abs(node_work);
-      out->correction_work += u[a].dot(Vec3(&correction[6 * a])) + alpha[a].dot(Vec3(&correction[6 * a + 3]));
+      if (correction) out->correction_work += u[a].dot(Vec3(&correction[6 * a])) + alpha[a].dot(Vec3(&correction[6 * a + 3]));
     }
     out->work_mismatch += (energy_end - energy_start) - work;
     out->strain_energy += energy_end;
-    for (int i = 0; i < nd; ++i) out->residual[i] += force[i], out->correction[i] += correction[i];
+    for (int i = 0; i < nd; ++i) out->residual[i] += force[i];
+    if (correction)
+      for (int i = 0; i < nd; ++i) out->correction[i] += correction[i];
     if (!(energy_terms && end_tangent)) { // (em's energy terms come with its tangent only)
       if (end_tangent)
         for (int i = 0; i < nd * nd; ++i) out->tangent[i] += K_mc[i];

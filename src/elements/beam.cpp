@@ -505,7 +505,8 @@ BeamKernelStatus MidpointResidualPhase(const BeamElementReference &ref, const Be
     rho_m[a] = 0.5 * (start.rho[a] + rho_1[a]);
     psi_m[a] = 0.5 * (start.psi[a] + psi_1[a]);
   }
-  const bool  want_end = for_tangent || end_residual_out; // the end-point operators A_1, B_1
+  const bool  want_end        = for_tangent || end_residual_out; // the end-point operators A_1, B_1
+  const bool  want_correction = force_correction != nullptr;     // em's F_corr (mc has no use for it)
   const Vec3 &CN = section.axial_shear, &CM = section.torsion_bending;
   Vec3       *h_rho = it->h_rho, *h_psi = it->h_psi, *k_rho = it->k_rho, *k_psi = it->k_psi;
   Vec3        g_rho[NN], g_psi[NN];
@@ -546,12 +547,16 @@ BeamKernelStatus MidpointResidualPhase(const BeamElementReference &ref, const Be
     };
     Vec3 EN, AN_BM, HM, ENd, ANd, HMd;
     gradient(pt.N_mid, pt.M_mid, &EN, &AN_BM, &HM);
-    gradient(pt.N_d, pt.M_d, &ENd, &ANd, &HMd);
     for (int a : others) {
       h_rho[a] += wJ * dI[a] * EN;
       h_psi[a] += wJ * (I[a] * AN_BM + dI[a] * HM);
-      k_rho[a] += wJ * dI[a] * ENd;
-      k_psi[a] += wJ * (I[a] * ANd + dI[a] * HMd);
+    }
+    if (want_correction) {
+      gradient(pt.N_d, pt.M_d, &ENd, &ANd, &HMd);
+      for (int a : others) {
+        k_rho[a] += wJ * dI[a] * ENd;
+        k_psi[a] += wJ * (I[a] * ANd + dI[a] * HMd);
+      }
     }
     if (!want_end) continue;
     pt.ue1 = JacobianShift(Fe1.alpha_x, Fe1.beta, Fe1.beta_x, end.Psi, end.drho);
@@ -573,7 +578,9 @@ BeamKernelStatus MidpointResidualPhase(const BeamElementReference &ref, const Be
   maps.Lbar                     = 0.5 * (start.triad_c + triads[c]);
   maps.L                        = triads[c];
   maps.LT                       = maps.L.transpose();
-  for (int i = 0; i < 6 * NN; ++i) force_mc[i] = force_correction[i] = 0.0;
+  for (int i = 0; i < 6 * NN; ++i) force_mc[i] = 0.0;
+  if (want_correction)
+    for (int i = 0; i < 6 * NN; ++i) force_correction[i] = 0.0;
   if (end_residual_out)
     for (int i = 0; i < 6 * NN; ++i) end_residual_out[i] = 0.0;
   for (int a : others) {
@@ -583,7 +590,7 @@ BeamKernelStatus MidpointResidualPhase(const BeamElementReference &ref, const Be
     maps.Finv_mid[a]  = TangentInverseForm(ElementRotationSeries(psi_m[a].squaredNorm(), 2, for_tangent));
     maps.HinvT_mid[a] = RodriguesMatrix(maps.Finv_mid[a], psi_m[a]).transpose();
     maps.PbarT[a]     = Mul(maps.Lbar, maps.HinvT_mid[a]); // (H^{-1}(psi_mid) Lbar^T)^T
-    for (int which = 0; which < 2; ++which) {
+    for (int which = 0; which < (want_correction ? 2 : 1); ++which) {
       double     *out = which == 0 ? force_mc : force_correction;
       const Vec3 &hr = which == 0 ? h_rho[a] : k_rho[a], &hp = which == 0 ? h_psi[a] : k_psi[a];
       // theta_c: (Lbar^T hat(dbar))^T hr - m = -dbar x f - m
@@ -682,6 +689,8 @@ BeamKernelStatus MidpointForces(const BeamElementReference &ref, const BeamSecti
                                 EnergyCorrection correction, const double *combined_beta, const BeamMidpointStart *start)
 {
   if (combined_beta) tangent_correction = nullptr;
+  double correction_scratch[6 * NN]; // the correction's tangents are built from its gradient
+  if (!force_correction && (tangent_correction || combined_beta)) force_correction = correction_scratch;
   BeamMidpointStart computed;
   if (!start) {
     if (BeamMidpointStartState(ref, positions_start, triads_start, &computed) != BeamKernelStatus::Ok) return BeamKernelStatus::RotationTooLarge;

@@ -87,8 +87,9 @@ BeamKernelStatus BeamAddInternalForces(const BeamElementReference &ref, const Be
 // N_d alone the correction does almost no work while a beam mainly bends, so beta grows large
 // (docs/dynamics.md compares the two).
 //
-// Outputs, 6 per node (force then moment), every one but the two force vectors optional (nullptr):
-//   force_mc, force_correction   F_mc and F_corr
+// Outputs, 6 per node (force then moment), every one but force_mc optional (nullptr):
+//   force_mc, force_correction   F_mc and F_corr (mc has no use for F_corr, and without it the
+//       kernel skips its gradient unless a tangent of the correction is asked for)
 //   tangent_mc, tangent_correction   K_mc = dF_mc/d(x, theta)_{n+1}, K_corr = dF_corr/d(x, theta)_{n+1}
 //       (row-major 6n x 6n; columns: nodal displacement variations and spatial spin variations
 //       delta Lambda_{a,n+1} = hat(delta theta_a) Lambda_{a,n+1} of the END of the step, the start

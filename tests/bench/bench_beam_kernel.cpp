@@ -106,10 +106,11 @@ int main(int argc, char **argv)
         const double start = ThreadSeconds();
         for (int i = 0; i < repetitions; ++i) {
           deformed.positions[1](0) += 1e-12;
-          BeamMidpointInternalForces(ref, section, reference.positions, reference.triads, deformed.positions, deformed.triads, residual, correction,
-                                     call >= 1 ? tangent : nullptr, call == 2 ? tangent_correction : nullptr, call >= 2 ? end_residual : nullptr, &energy_start,
-                                     &energy, EnergyCorrection::Resultants, call == 3 ? &beta : nullptr);
-          checksum += residual[0] + correction[1] + (call >= 1 ? tangent[7] : 0.0) + (call == 2 ? tangent_correction[8] : 0.0) +
+          // mc's tangent pass has no use for F_corr (call 1 passes none); em's passes do.
+          BeamMidpointInternalForces(ref, section, reference.positions, reference.triads, deformed.positions, deformed.triads, residual,
+                                     call == 1 ? nullptr : correction, call >= 1 ? tangent : nullptr, call == 2 ? tangent_correction : nullptr,
+                                     call >= 2 ? end_residual : nullptr, &energy_start, &energy, EnergyCorrection::Resultants, call == 3 ? &beta : nullptr);
+          checksum += residual[0] + (call == 1 ? 0.0 : correction[1]) + (call >= 1 ? tangent[7] : 0.0) + (call == 2 ? tangent_correction[8] : 0.0) +
                       (call >= 2 ? end_residual[2] : 0.0) + energy;
         }
         const double stop = ThreadSeconds();

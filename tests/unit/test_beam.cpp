@@ -564,6 +564,33 @@ TEST_P(BeamKernel, MidpointKernelFromTheStoredStartOfTheStep)
   }
 }
 
+// mc's call without the correction (force_correction null): F_mc, K_mc and the energies bit for
+// bit those of the call with it, and the correction's tangents still right when asked for.
+TEST_P(BeamKernel, MidpointKernelWithoutTheCorrectionIsTheSame)
+{
+  const int            nn = GetParam(), nd = 6 * nn;
+  const ElementCase    ec = CurvedTwistedReference(nn, 0.6);
+  BeamElementReference ref;
+  ASSERT_EQ(BeamElementSetup(nn, ec.positions.data(), ec.triads.data(), &ref), BeamKernelStatus::Ok);
+  for (const StepCase &s : MidpointStepCases(ec)) {
+    std::vector<double> f[2], K[2], K_corr[2];
+    double              energies[2][2];
+    for (int with = 0; with < 2; ++with) {
+      std::vector<double> correction(nd, 0.0);
+      f[with].assign(nd, 0.0), K[with].assign(nd * nd, 0.0), K_corr[with].assign(nd * nd, 0.0);
+      ASSERT_EQ(BeamMidpointInternalForces(ref, kSection, s.start.positions.data(), s.start.triads.data(), s.end.positions.data(), s.end.triads.data(),
+                                           f[with].data(), with ? correction.data() : nullptr, K[with].data(), K_corr[with].data(), nullptr, &energies[with][0],
+                                           &energies[with][1]),
+                BeamKernelStatus::Ok);
+    }
+    EXPECT_TRUE(f[0] == f[1]) << s.name;
+    EXPECT_TRUE(K[0] == K[1]) << s.name;
+    EXPECT_TRUE(K_corr[0] == K_corr[1]) << s.name;
+    EXPECT_EQ(energies[0][0], energies[1][0]) << s.name;
+    EXPECT_EQ(energies[0][1], energies[1][1]) << s.name;
+  }
+}
+
 // em's combined tangent (beta given): K_mc + beta K_corr from one set of blocks equals the sum of
 // the two tangents built apart, for both corrections, with the forces and r_{n+1} unchanged.
 TEST_P(BeamKernel, MidpointCombinedTangentIsTheSumOfBoth)
