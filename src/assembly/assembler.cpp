@@ -778,7 +778,7 @@ PetscErrorCode Assembler::SetIncrements(Vec increments, bool keep_if_current)
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
-void Assembler::EvaluateElement(size_t k, bool want_tangent, ElementContribution *out, const double *combined_beta, bool keep_iterate)
+void Assembler::EvaluateElement(size_t k, bool want_tangent, ElementContribution *out, const double *combined_beta, bool keep_iterate, bool beams_only)
 {
   const StepEquations &eq = state_->equations;
   // em with beta = 0 known (the round-off rule): no energy terms, the tangent is K_mc.
@@ -786,6 +786,7 @@ void Assembler::EvaluateElement(size_t k, bool want_tangent, ElementContribution
   out->Clear(model_->elements[map_->local_elements[k]].order + 1, want_tangent, energy_terms, combined_beta);
   out->iterate_key = keep_iterate ? increments_version_ : -1;
   for (ForceContributor *c : element_contributors_) {
+    if (beams_only && c != static_cast<const ForceContributor *>(beams_)) continue;
     c->AddElement(*state_, k, out);
     if (!out->evaluable) return;
   }
@@ -999,7 +1000,9 @@ PetscErrorCode Assembler::EnergyCorrectionOfElements(PetscBool *all_ok)
   double              sums[4] = {0.0, 0.0, 0.0, 0.0}, global[4];
   ElementContribution element;
   for (size_t k = 0; k < map_->local_elements.size(); ++k) {
-    EvaluateElement(k, false, &element);
+    // The beams alone: no other element contributor adds to beta's sums, and every element's
+    // residual is assembled in the tangent's visit.
+    EvaluateElement(k, false, &element, nullptr, true, true);
     if (!element.evaluable) {
       sums[3] += 1.0;
       break;

@@ -223,7 +223,9 @@ private:
   // `combined_beta` (em with beta known): the elements' tangents are K_mc + beta K_corr.
   // keep_iterate: the contribution carries the unknowns' version (ElementContribution::iterate_key),
   // so that em's beam kernels may keep or reuse what a residual evaluation computed.
-  void EvaluateElement(size_t k, bool want_tangent, ElementContribution *out, const double *combined_beta = nullptr, bool keep_iterate = true);
+  // beams_only: the beam contributor alone (em's sums of beta, to which no other contributor adds).
+  void EvaluateElement(size_t k, bool want_tangent, ElementContribution *out, const double *combined_beta = nullptr, bool keep_iterate = true,
+                       bool beams_only = false);
   // em: beta of eq. (20) at the current unknowns from one visit of every element, which keeps each
   // beam kernel's iterate for the tangent pass that follows; *all_ok = false (alike on every rank)
   // when an element cannot be evaluated somewhere. Collective.
