@@ -128,18 +128,21 @@ void BeamContributor::AddElement(const State &state, size_t k, ElementContributi
     const bool       reuse  = kept && beta && kept->key == out->iterate_key;
     const bool       keep   = kept && !out->want_tangent && start;
     BeamKernelStatus status = BeamKernelStatus::Ok;
-    if (reuse || keep) force = kept->force, correction = kept->correction, end_residual = kept->end_residual;
+    if (reuse || keep) {
+      if (n == 2) force = kept_two_[kept->slot].force, correction = kept_two_[kept->slot].correction, end_residual = kept_two_[kept->slot].end_residual;
+      else force = kept_three_[kept->slot].force, correction = kept_three_[kept->slot].correction, end_residual = kept_three_[kept->slot].end_residual;
+    }
     if (reuse) {
       energy_start = kept->energy_start, energy_end = kept->energy_end;
-      if (n == 2) BeamMidpointTangentOfIterate<2>(ref, section, kept_two_[kept->slot], eq.scheme.energy_correction, beta, K_mc, nullptr);
-      else BeamMidpointTangentOfIterate<3>(ref, section, kept_three_[kept->slot], eq.scheme.energy_correction, beta, K_mc, nullptr);
+      if (n == 2) BeamMidpointTangentOfIterate<2>(ref, section, kept_two_[kept->slot].iterate, eq.scheme.energy_correction, beta, K_mc, nullptr);
+      else BeamMidpointTangentOfIterate<3>(ref, section, kept_three_[kept->slot].iterate, eq.scheme.energy_correction, beta, K_mc, nullptr);
     } else if (keep) {
       Configuration(state, k, positions, triads);
       kept->key = -1;
       status    = n == 2 ? BeamMidpointResidualKeeping<2>(ref, section, *start, positions, triads, force, correction, end_residual, &energy_start, &energy_end,
-                                                       eq.scheme.energy_correction, &kept_two_[kept->slot])
+                                                       eq.scheme.energy_correction, &kept_two_[kept->slot].iterate)
                          : BeamMidpointResidualKeeping<3>(ref, section, *start, positions, triads, force, correction, end_residual, &energy_start, &energy_end,
-                                                       eq.scheme.energy_correction, &kept_three_[kept->slot]);
+                                                       eq.scheme.energy_correction, &kept_three_[kept->slot].iterate);
       if (status == BeamKernelStatus::Ok) kept->energy_start = energy_start, kept->energy_end = energy_end, kept->key = out->iterate_key;
     } else {
       Configuration(state, k, positions, triads);

@@ -82,11 +82,17 @@ private:
   struct KeptMidpoint {
     long long key  = -1;
     int       slot = 0; // into kept_two_ or kept_three_, by the element's number of nodes
-    double    force[kBeamMaxDofs], correction[kBeamMaxDofs], end_residual[kBeamMaxDofs], energy_start, energy_end;
+    double    energy_start, energy_end;
   };
-  std::vector<KeptMidpoint>           kept_;
-  std::vector<BeamMidpointIterate<2>> kept_two_;
-  std::vector<BeamMidpointIterate<3>> kept_three_;
+  // The kernel's iterate with the forces it gave, in one record of the element's size (read back
+  // whole by the tangent's visit).
+  template <int NN> struct KeptIterate {
+    BeamMidpointIterate<NN> iterate;
+    double                  force[6 * NN], correction[6 * NN], end_residual[6 * NN];
+  };
+  std::vector<KeptMidpoint>   kept_;
+  std::vector<KeptIterate<2>> kept_two_;
+  std::vector<KeptIterate<3>> kept_three_;
 };
 
 // Reference data of element e of a model (shared by the set-up of beams and nodal masses).

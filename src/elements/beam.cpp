@@ -419,7 +419,8 @@ struct MidpointGaussBlocks {
 };
 
 // K = Tbar^T K_loc T_{n+1} + (delta Tbar^T) h for one output (mc or corr), row-major 6 NN x 6 NN,
-// with the maps of the iterate: Tbar (mid-point, maps the forces) and T_{n+1} (end, maps the variations),
+// with the maps of the iterate (per non-reference node, by slot: node others[o]; so are the local
+// gradients h_rho, h_psi): Tbar (mid-point, maps the forces) and T_{n+1} (end, maps the variations),
 //   delta rho_a = L^T (dx_a - dx_c) + L^T hat(d_a) dtheta_c,   delta psi_a = P_a (dtheta_a - dtheta_c),  P_a = Hinv(psi_a) L^T.
 template <int NN>
 void MidpointTangent(const BeamElementReference &ref, const int *others, const MidpointGaussBlocks *blocks, const BeamMidpointIterate<NN> &maps,
@@ -447,11 +448,11 @@ void MidpointTangent(const BeamElementReference &ref, const int *others, const M
       // Tbar^T (rows) and T_{n+1} (columns) of the local block: rows x_a = Lbar (.), theta_a = PbarT_a (.),
       // x_c = -x_a, theta_c = -dbar_a x x_a - theta_a; columns x_b = (.)_rho L^T, theta_b = (.)_psi P_b,
       // x_c = -x_b, theta_c = x_b hat(d_b) - theta_b.
-      const Mat3 LKrr = Mul(maps.Lbar, Krr), LKrp = Mul(maps.Lbar, Krp), PKpr = Mul(maps.PbarT[a], Kpr), PKpp = Mul(maps.PbarT[a], Kpp);
-      const Mat3 Nxx = Mul(LKrr, maps.LT), Nxt = Mul(LKrp, maps.P[b]), Ntx = Mul(PKpr, maps.LT), Ntt = Mul(PKpp, maps.P[b]);
-      const Mat3 Nxc = TimesSkew(Nxx, maps.d[b]) - Nxt, Ntc = TimesSkew(Ntx, maps.d[b]) - Ntt; // theta_c columns
+      const Mat3 LKrr = Mul(maps.Lbar, Krr), LKrp = Mul(maps.Lbar, Krp), PKpr = Mul(maps.PbarT[o], Kpr), PKpp = Mul(maps.PbarT[o], Kpp);
+      const Mat3 Nxx = MulT(LKrr, maps.L), Nxt = Mul(LKrp, maps.P[ob]), Ntx = MulT(PKpr, maps.L), Ntt = Mul(PKpp, maps.P[ob]);
+      const Mat3 Nxc = TimesSkew(Nxx, maps.d[ob]) - Nxt, Ntc = TimesSkew(Ntx, maps.d[ob]) - Ntt; // theta_c columns
       // theta_c rows, negated: -C = hat(dbar_a) N + N_t
-      const Mat3 mCxx = SkewTimes(maps.dbar[a], Nxx) + Ntx, mCxt = SkewTimes(maps.dbar[a], Nxt) + Ntt, mCxc = SkewTimes(maps.dbar[a], Nxc) + Ntc;
+      const Mat3 mCxx = SkewTimes(maps.dbar[o], Nxx) + Ntx, mCxt = SkewTimes(maps.dbar[o], Nxt) + Ntt, mCxc = SkewTimes(maps.dbar[o], Nxc) + Ntc;
       const int  ax = 6 * a, at = 6 * a + 3, bx = 6 * b, bt = 6 * b + 3, cx = 6 * c, ct = 6 * c + 3;
       add(ax, bx, Nxx), add(ax, bt, Nxt), sub(ax, cx, Nxx), add(ax, ct, Nxc);
       add(at, bx, Ntx), add(at, bt, Ntt), sub(at, cx, Ntx), add(at, ct, Ntc);
@@ -465,13 +466,13 @@ void MidpointTangent(const BeamElementReference &ref, const int *others, const M
   //   delta (-dbar_a x f_a) = hat(f_a) (dx_a - dx_c) / 2 - hat(dbar_a) delta f_a
   for (int o = 0; o < NN - 1; ++o) {
     const int            a  = others[o];
-    const Vec3           g  = maps.L * h_rho[a];
-    const Vec3           f  = maps.Lbar * h_rho[a];
-    const Vec3           w  = maps.L * (maps.HinvT_mid[a] * h_psi[a]);
-    const RodriguesForm &Fi = maps.Finv_mid[a];
-    const Vec3          &pm = maps.psi_mid[a];
-    const Mat3           J  = JacobianMatrix(Fi.alpha, Fi.beta, pm, h_psi[a], JacobianShift(Fi.alpha_x, Fi.beta, Fi.beta_x, pm, h_psi[a])); // d(Hinv^T h)/dpsi
-    const Mat3           W  = 0.5 * Mul(Mul(maps.Lbar, J), maps.P[a]);
+    const Vec3           g  = maps.L * h_rho[o];
+    const Vec3           f  = maps.Lbar * h_rho[o];
+    const Vec3           w  = maps.L * (maps.HinvT_mid[o] * h_psi[o]);
+    const RodriguesForm &Fi = maps.Finv_mid[o];
+    const Vec3          &pm = maps.psi_mid[o];
+    const Mat3           J  = JacobianMatrix(Fi.alpha, Fi.beta, pm, h_psi[o], JacobianShift(Fi.alpha_x, Fi.beta, Fi.beta_x, pm, h_psi[o])); // d(Hinv^T h)/dpsi
+    const Mat3           W  = 0.5 * Mul(Mul(maps.Lbar, J), maps.P[o]);
     const Mat3           hg = 0.5 * Skew(g), hf = 0.5 * Skew(f), hw = 0.5 * Skew(w);
     const int            ax = 6 * a, at = 6 * a + 3, cx = 6 * c, ct = 6 * c + 3;
     K.template block<3, 3>(ax, ct) -= hg;
@@ -479,7 +480,7 @@ void MidpointTangent(const BeamElementReference &ref, const int *others, const M
     K.template block<3, 3>(at, at) += W;
     K.template block<3, 3>(at, ct) -= hw + W;
     K.template block<3, 3>(ct, at) -= W;
-    K.template block<3, 3>(ct, ct) += hw + W + SkewTimes(maps.dbar[a], hg);
+    K.template block<3, 3>(ct, ct) += hw + W + SkewTimes(maps.dbar[o], hg);
     K.template block<3, 3>(ct, ax) += hf;
     K.template block<3, 3>(ct, cx) -= hf;
   }
@@ -508,9 +509,10 @@ BeamKernelStatus MidpointResidualPhase(const BeamElementReference &ref, const Be
   const bool  want_end        = for_tangent || end_residual_out; // the end-point operators A_1, B_1
   const bool  want_correction = force_correction != nullptr;     // em's F_corr (mc has no use for it)
   const Vec3 &CN = section.axial_shear, &CM = section.torsion_bending;
-  Vec3       *h_rho = it->h_rho, *h_psi = it->h_psi, *k_rho = it->k_rho, *k_psi = it->k_psi;
-  Vec3        g_rho[NN], g_psi[NN];
-  for (int a = 0; a < NN; ++a) h_rho[a].setZero(), h_psi[a].setZero(), k_rho[a].setZero(), k_psi[a].setZero(), g_rho[a].setZero(), g_psi[a].setZero();
+  // Local gradients per non-reference node, by its slot o (node others[o]).
+  Vec3 *h_rho = it->h_rho, *h_psi = it->h_psi, *k_rho = it->k_rho, *k_psi = it->k_psi;
+  Vec3  g_rho[NN - 1], g_psi[NN - 1];
+  for (int o = 0; o < NN - 1; ++o) h_rho[o].setZero(), h_psi[o].setZero(), k_rho[o].setZero(), k_psi[o].setZero(), g_rho[o].setZero(), g_psi[o].setZero();
   double energy_n = 0.0, energy_1 = 0.0;
   for (int gp = 0; gp < ref.num_gauss; ++gp) {
     const double *I = ref.shape[gp], *dI = ref.shape_derivative[gp];
@@ -547,15 +549,17 @@ BeamKernelStatus MidpointResidualPhase(const BeamElementReference &ref, const Be
     };
     Vec3 EN, AN_BM, HM, ENd, ANd, HMd;
     gradient(pt.N_mid, pt.M_mid, &EN, &AN_BM, &HM);
-    for (int a : others) {
-      h_rho[a] += wJ * dI[a] * EN;
-      h_psi[a] += wJ * (I[a] * AN_BM + dI[a] * HM);
+    for (int o = 0; o < NN - 1; ++o) {
+      const int a = others[o];
+      h_rho[o] += wJ * dI[a] * EN;
+      h_psi[o] += wJ * (I[a] * AN_BM + dI[a] * HM);
     }
     if (want_correction) {
       gradient(pt.N_d, pt.M_d, &ENd, &ANd, &HMd);
-      for (int a : others) {
-        k_rho[a] += wJ * dI[a] * ENd;
-        k_psi[a] += wJ * (I[a] * ANd + dI[a] * HMd);
+      for (int o = 0; o < NN - 1; ++o) {
+        const int a = others[o];
+        k_rho[o] += wJ * dI[a] * ENd;
+        k_psi[o] += wJ * (I[a] * ANd + dI[a] * HMd);
       }
     }
     if (!want_end) continue;
@@ -565,9 +569,10 @@ BeamKernelStatus MidpointResidualPhase(const BeamElementReference &ref, const Be
       const Vec3 EN1 = FormTimes(Fe1.alpha, Fe1.beta, end.Psi, x1, N_1), HM1 = FormTimes(Fh1.alpha, Fh1.beta, end.Psi, x1, M_1);
       const Vec3 AN_BM1 = JacobianTransposeTimes(Fe1.alpha, Fe1.beta, end.Psi, end.drho, pt.ue1, N_1) +
                           JacobianTransposeTimes(Fh1.alpha, Fh1.beta, end.Psi, end.dPsi, pt.uh1, M_1);
-      for (int a : others) {
-        g_rho[a] += wJ * dI[a] * EN1;
-        g_psi[a] += wJ * (I[a] * AN_BM1 + dI[a] * HM1);
+      for (int o = 0; o < NN - 1; ++o) {
+        const int a = others[o];
+        g_rho[o] += wJ * dI[a] * EN1;
+        g_psi[o] += wJ * (I[a] * AN_BM1 + dI[a] * HM1);
       }
     }
   }
@@ -577,24 +582,24 @@ BeamKernelStatus MidpointResidualPhase(const BeamElementReference &ref, const Be
   BeamMidpointIterate<NN> &maps = *it;
   maps.Lbar                     = 0.5 * (start.triad_c + triads[c]);
   maps.L                        = triads[c];
-  maps.LT                       = maps.L.transpose();
   for (int i = 0; i < 6 * NN; ++i) force_mc[i] = 0.0;
   if (want_correction)
     for (int i = 0; i < 6 * NN; ++i) force_correction[i] = 0.0;
   if (end_residual_out)
     for (int i = 0; i < 6 * NN; ++i) end_residual_out[i] = 0.0;
-  for (int a : others) {
-    maps.dbar[a]      = 0.5 * (start.d[a] + (positions[a] - positions[c]));
-    maps.d[a]         = positions[a] - positions[c];
-    maps.psi_mid[a]   = psi_m[a];
-    maps.Finv_mid[a]  = TangentInverseForm(ElementRotationSeries(psi_m[a].squaredNorm(), 2, for_tangent));
-    maps.HinvT_mid[a] = RodriguesMatrix(maps.Finv_mid[a], psi_m[a]).transpose();
-    maps.PbarT[a]     = Mul(maps.Lbar, maps.HinvT_mid[a]); // (H^{-1}(psi_mid) Lbar^T)^T
+  for (int o = 0; o < NN - 1; ++o) {
+    const int a       = others[o];
+    maps.dbar[o]      = 0.5 * (start.d[a] + (positions[a] - positions[c]));
+    maps.d[o]         = positions[a] - positions[c];
+    maps.psi_mid[o]   = psi_m[a];
+    maps.Finv_mid[o]  = TangentInverseForm(ElementRotationSeries(psi_m[a].squaredNorm(), 2, for_tangent));
+    maps.HinvT_mid[o] = RodriguesMatrix(maps.Finv_mid[o], psi_m[a]).transpose();
+    maps.PbarT[o]     = Mul(maps.Lbar, maps.HinvT_mid[o]); // (H^{-1}(psi_mid) Lbar^T)^T
     for (int which = 0; which < (want_correction ? 2 : 1); ++which) {
       double     *out = which == 0 ? force_mc : force_correction;
-      const Vec3 &hr = which == 0 ? h_rho[a] : k_rho[a], &hp = which == 0 ? h_psi[a] : k_psi[a];
+      const Vec3 &hr = which == 0 ? h_rho[o] : k_rho[o], &hp = which == 0 ? h_psi[o] : k_psi[o];
       // theta_c: (Lbar^T hat(dbar))^T hr - m = -dbar x f - m
-      const Vec3 f = maps.Lbar * hr, m = maps.PbarT[a] * hp, mc = -maps.dbar[a].cross(f) - m;
+      const Vec3 f = maps.Lbar * hr, m = maps.PbarT[o] * hp, mc = -maps.dbar[o].cross(f) - m;
       for (int i = 0; i < 3; ++i) {
         out[6 * a + i] += f(i);
         out[6 * a + 3 + i] += m(i);
@@ -603,10 +608,10 @@ BeamKernelStatus MidpointResidualPhase(const BeamElementReference &ref, const Be
       }
     }
     if (!want_end) continue;
-    maps.P[a] = Mul(RodriguesMatrix(TangentInverseForm(ElementRotationSeries(psi_1[a].squaredNorm(), 2, false)), psi_1[a]), maps.LT);
+    maps.P[o] = MulT(RodriguesMatrix(TangentInverseForm(ElementRotationSeries(psi_1[a].squaredNorm(), 2, false)), psi_1[a]), maps.L);
     if (end_residual_out) {
       // r_{n+1} = T_{n+1}^T g: the gradient of the end strain energy (as BeamInternalForces).
-      const Vec3 f = maps.L * g_rho[a], m = maps.P[a].transpose() * g_psi[a], mc = -maps.d[a].cross(f) - m; // (L^T hat(d))^T g - m
+      const Vec3 f = maps.L * g_rho[o], m = maps.P[o].transpose() * g_psi[o], mc = -maps.d[o].cross(f) - m; // (L^T hat(d))^T g - m
       for (int i = 0; i < 3; ++i) {
         end_residual_out[6 * a + i] += f(i);
         end_residual_out[6 * a + 3 + i] += m(i);
@@ -673,10 +678,10 @@ void MidpointTangentPhase(const BeamElementReference &ref, const BeamSectionStif
   }
   // With beta given, blocks_mc combine both tangents; so must the local gradients of the maps'
   // variation (the forces are already out).
-  Vec3 h_rho[NN], h_psi[NN];
-  for (int a = 0; a < NN; ++a) {
-    h_rho[a] = it.h_rho[a], h_psi[a] = it.h_psi[a];
-    if (combined_beta) h_rho[a] += *combined_beta * it.k_rho[a], h_psi[a] += *combined_beta * it.k_psi[a];
+  Vec3 h_rho[NN - 1], h_psi[NN - 1];
+  for (int o = 0; o < NN - 1; ++o) {
+    h_rho[o] = it.h_rho[o], h_psi[o] = it.h_psi[o];
+    if (combined_beta) h_rho[o] += *combined_beta * it.k_rho[o], h_psi[o] += *combined_beta * it.k_psi[o];
   }
   if (tangent_mc) MidpointTangent<NN>(ref, others, blocks_mc, it, h_rho, h_psi, tangent_mc);
   if (tangent_correction) MidpointTangent<NN>(ref, others, blocks_corr, it, it.k_rho, it.k_psi, tangent_correction);

@@ -136,9 +136,13 @@ BeamKernelStatus BeamMidpointStartState(const BeamElementReference &ref, const V
 //   per Gauss point: Psi, Psi', rho' interpolated at the mid-point and at the end of the step,
 //     their Rodrigues forms (exp and H; the mid-point's with second derivatives), the shift vectors
 //     u of the Jacobians A, B (JacobianShift), and the stresses S_mid = (S_n + S_{n+1})/2, S_d;
-//   per node: the maps Tbar (Lbar = (Lambda_{c,n} + Lambda_{c,n+1})/2, dbar_a, H^{-1}(psi_mid)^T,
-//     Lbar H^{-1}(psi_mid)^T) and T_{n+1} (Lambda_{c,n+1}, d_a, P_a = H^{-1}(psi_{a,n+1}) Lambda_c^T),
-//     and the local gradients h (of F_mc) and k (of F_corr).
+//   per node other than the reference node c (slot o for the o-th of them in node order): the maps
+//     Tbar (Lbar = (Lambda_{c,n} + Lambda_{c,n+1})/2, dbar_a, H^{-1}(psi_mid)^T, Lbar H^{-1}(psi_mid)^T)
+//     and T_{n+1} (Lambda_{c,n+1}, d_a, P_a = H^{-1}(psi_{a,n+1}) Lambda_c^T), and the local
+//     gradients h (of F_mc) and k (of F_corr).
+// It is kept per element between two visits of every element (em's beta is global), so it holds
+// no slot for the reference node, whose maps are the identity, and no copy of Lambda_c^T: at
+// 10^4 elements the iterates leave the caches, and their size is then the tangent visit's cost.
 template <int NN> struct BeamMidpointIterate {
   struct Point {
     double        wJ, x, x1; // Gauss weight times ds/dxi; |Psi|^2 at the mid-point and at the end
@@ -147,11 +151,11 @@ template <int NN> struct BeamMidpointIterate {
     Vec3          ue, uh, ue1, uh1;
     Vec3          N_mid, M_mid, N_d, M_d;
   } point[NN - 1];
-  Mat3          Lbar, L, LT;
-  Vec3          d[NN], dbar[NN], psi_mid[NN];
-  Mat3          P[NN], HinvT_mid[NN], PbarT[NN];
-  RodriguesForm Finv_mid[NN];
-  Vec3          h_rho[NN], h_psi[NN], k_rho[NN], k_psi[NN];
+  Mat3          Lbar, L;
+  Vec3          d[NN - 1], dbar[NN - 1], psi_mid[NN - 1];
+  Mat3          P[NN - 1], HinvT_mid[NN - 1], PbarT[NN - 1];
+  RodriguesForm Finv_mid[NN - 1];
+  Vec3          h_rho[NN - 1], h_psi[NN - 1], k_rho[NN - 1], k_psi[NN - 1];
 };
 // The residual outputs of BeamMidpointInternalForces (force_mc, force_correction, end_residual,
 // the two energies; all but the forces optional) and the iterate for the tangent. `start` as there
