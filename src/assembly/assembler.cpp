@@ -884,9 +884,7 @@ PetscErrorCode Assembler::AssembleResidual(Vec residual, PetscBool *geometry_ok,
   if (state_->equations.Dynamic() && state_->equations.scheme.kind == TimeSchemeKind::EnergyMomentum) {
     double global[3];
     PetscCall(MPIU_Allreduce(sums, global, 3, MPI_DOUBLE, MPI_SUM, comm_));
-    energy_correction_         = BetaOfWorkSums(global);
-    energy_correction_work_    = global[1];
-    energy_correction_version_ = increments_version_;
+    AdoptEnergyCorrection(global);
   }
   // Pass 2: assemble. The residual left on prescribed DOFs is the reaction that drives them; its
   // work over the increments counts as external work.
@@ -991,6 +989,13 @@ PetscErrorCode Assembler::AssembleResidualWithJacobian(Vec residual, PetscBool *
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
+void Assembler::AdoptEnergyCorrection(const double global_sums[3])
+{
+  energy_correction_         = BetaOfWorkSums(global_sums);
+  energy_correction_work_    = global_sums[1];
+  energy_correction_version_ = increments_version_;
+}
+
 PetscErrorCode Assembler::EnergyCorrectionOfElements(PetscBool *all_ok)
 {
   PetscFunctionBeginUser;
@@ -1013,18 +1018,15 @@ PetscErrorCode Assembler::EnergyCorrectionOfElements(PetscBool *all_ok)
   }
   PetscCall(MPIU_Allreduce(sums, global, 4, MPI_DOUBLE, MPI_SUM, comm_));
   *all_ok = global[3] == 0.0 ? PETSC_TRUE : PETSC_FALSE;
-  if (*all_ok) {
-    energy_correction_         = BetaOfWorkSums(global);
-    energy_correction_work_    = global[1];
-    energy_correction_version_ = increments_version_;
-  }
+  if (*all_ok) AdoptEnergyCorrection(global);
   PetscCall(PetscLogEventEnd(event_energy_correction, 0, 0, 0, 0));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
-// One pass over elements, nodes and blocks for the tangent and, when `residual` is given (not em,
-// not the initial-acceleration problem: CanAssembleResidualWithJacobian), the residual too, from
-// the same kernel calls: every residual entry is added in the order AssembleResidual adds it.
+// One pass over elements, nodes and blocks for the tangent and, when `residual` is given (not the
+// initial-acceleration problem: CanAssembleResidualWithJacobian; in em after
+// EnergyCorrectionOfElements gave beta at these unknowns), the residual too, from the same kernel
+// calls: every residual entry is added in the order AssembleResidual adds it.
 PetscErrorCode Assembler::AssembleTangentPass(Mat jacobian, Vec residual, PetscBool *geometry_ok)
 {
   PetscFunctionBeginUser;

@@ -230,6 +230,9 @@ private:
   // beam kernel's iterate for the tangent pass that follows; *all_ok = false (alike on every rank)
   // when an element cannot be evaluated somewhere. Collective.
   PetscErrorCode EnergyCorrectionOfElements(PetscBool *all_ok);
+  // em: beta, its denominator and the version they belong to, from the global sums of the
+  // elements' work mismatch, correction work and internal-work scale (BetaOfWorkSums).
+  void AdoptEnergyCorrection(const double global_sums[3]);
   // The node loop's evaluation of owned node l by every node contributor.
   void EvaluateNode(int l, bool want_tangent, NodeContribution *out);
   // Per local node, whether it is a slave (its expansion goes through its joint).

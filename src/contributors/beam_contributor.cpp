@@ -129,8 +129,9 @@ void BeamContributor::AddElement(const State &state, size_t k, ElementContributi
     const bool       keep   = kept && !out->want_tangent && start;
     BeamKernelStatus status = BeamKernelStatus::Ok;
     if (reuse || keep) {
-      if (n == 2) force = kept_two_[kept->slot].force, correction = kept_two_[kept->slot].correction, end_residual = kept_two_[kept->slot].end_residual;
-      else force = kept_three_[kept->slot].force, correction = kept_three_[kept->slot].correction, end_residual = kept_three_[kept->slot].end_residual;
+      auto forces_of = [&](auto &record) { force = record.force, correction = record.correction, end_residual = record.end_residual; };
+      if (n == 2) forces_of(kept_two_[kept->slot]);
+      else forces_of(kept_three_[kept->slot]);
     }
     if (reuse) {
       energy_start = kept->energy_start, energy_end = kept->energy_end;

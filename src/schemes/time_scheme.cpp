@@ -124,8 +124,9 @@ void ScaledIncrementFrom(const Vec3 &omega, double x, double f, Vec3 *alpha, Mat
 
 void TangentScaledIncrement(const Vec3 &omega, Vec3 *alpha, Mat3 *dalpha_domega)
 {
-  const double x = omega.squaredNorm();
-  const double f = x < kScaledSeriesAngle * kScaledSeriesAngle ? 1.0 : std::tan(0.5 * std::sqrt(x)) / (0.5 * std::sqrt(x));
+  const double x    = omega.squaredNorm();
+  const double half = 0.5 * std::sqrt(x);
+  const double f    = x < kScaledSeriesAngle * kScaledSeriesAngle ? 1.0 : std::tan(half) / half;
   ScaledIncrementFrom(omega, x, f, alpha, dalpha_domega);
 }
 
