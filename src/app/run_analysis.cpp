@@ -106,11 +106,15 @@ struct Analysis {
   // Scratch of the history row and the step's element results, kept from step to step so that a
   // step's output allocates nothing once the first has sized them.
   struct HistoryRowScratch {
-    std::vector<double>       values, joint_values, element_values, probe_values;
+    std::vector<double>       values, joint_values, element_values, probe_values, probe_records;
     std::vector<ProbeSample>  probes;
     std::vector<HistoryValue> force_elements;
   } history_scratch;
   std::vector<ElementResults> step_results;
+  // The local indices of the elements the element probes read (ProbeHistory), found at the first
+  // row: a step without a frame computes their results alone.
+  std::vector<int> probed_elements;
+  bool             probed_elements_known = false;
 
   Analysis(MPI_Comm c, const RunOptions &o, const CheckpointRun *r) : comm(c), options(o), restart(r) {}
   bool Dynamic() const { return model.analysis.type == AnalysisType::Dynamic; }
@@ -253,7 +257,7 @@ PetscErrorCode WriteHistory(Analysis &a, const StepRecord &record, double strain
     values.insert(values.end(), row_values.begin(), row_values.end());
   };
   const State &state = a.integrator.GetState();
-  PetscCall(SampleProbes(a.comm, a.model, a.map, state, &probes));
+  PetscCall(SampleProbes(a.comm, a.model, a.map, state, &probes, &scratch.probe_records));
   add({"time", "step", "step_size", "newton_iterations", "residual_norm", "strain_energy"},
       {record.time, (double)record.step, record.step_size, (double)record.newton_iterations, record.residual_norm, strain_energy});
   // Force elements and damped beams: their stored energy, and in dynamics the energy their dampers dissipated.
@@ -296,7 +300,8 @@ PetscErrorCode WriteHistory(Analysis &a, const StepRecord &record, double strain
   if (force_elements) {
     std::vector<std::string> element_names;
     scratch.force_elements.clear();
-    a.integrator.ForceElementHistory(&scratch.force_elements);
+    // The names are gathered once (with the places that order the series), whatever the file knows.
+    a.integrator.ForceElementHistory(with_names || !a.force_element_history.gathered, &scratch.force_elements);
     PetscCall(GatherHistory(a.comm, scratch.force_elements, &a.force_element_history, with_names ? &element_names : nullptr, &scratch.element_values));
     append(element_names, scratch.element_values);
   }
@@ -394,11 +399,22 @@ PetscErrorCode RecordStep(Analysis &a, const StepRecord &record, bool write_fram
   results.clear();
   PetscCall(PetscLogStagePush(a.stage_output));
   PetscCall(PetscLogEventBegin(output_events.results, 0, 0, 0, 0));
-  // The element results only for a frame or an element probe; the history's strain energy alone
-  // is what the converged step's last residual kept (MechanicalSystem::StrainEnergy).
-  const bool element_probes = std::any_of(a.model.probes.begin(), a.model.probes.end(), [](const Probe &p) { return p.kind == Probe::Kind::Element; });
-  if (write_frame || element_probes) PetscCall(a.integrator.ElementResults(&results, &strain_energy));
-  else PetscCall(a.integrator.StrainEnergy(&strain_energy));
+  // Every element's results only for a frame, those of the probed elements for the element probes;
+  // the history's strain energy alone is what the converged step's last residual kept
+  // (MechanicalSystem::StrainEnergy).
+  if (!a.probed_elements_known) {
+    for (const Probe &probe : a.model.probes) {
+      if (probe.kind != Probe::Kind::Element || probe.element < 0) continue; // element < 0: held by another rank
+      const int k = a.map.element_to_local[probe.element];
+      if (k >= 0 && k < (int)a.map.local_elements.size()) a.probed_elements.push_back(k);
+    }
+    a.probed_elements_known = true;
+  }
+  if (write_frame) PetscCall(a.integrator.ElementResults(&results, &strain_energy));
+  else {
+    PetscCall(a.integrator.StrainEnergy(&strain_energy));
+    if (!a.probed_elements.empty()) PetscCall(a.integrator.ElementResultsOf(a.probed_elements, &results));
+  }
   PetscCall(PetscLogEventEnd(output_events.results, 0, 0, 0, 0));
   if (write_frame) PetscCall(WriteFrame(a, record.step, record.time, &strain_energy, &results));
   PetscCall(WriteHistory(a, record, strain_energy, results, &kinetic_energy, &total_energy));

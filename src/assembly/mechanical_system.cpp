@@ -62,9 +62,9 @@ void MechanicalSystem::CommitStep()
   for (ForceContributor *c : contributors_) c->CommitStep(&state_);
 }
 
-void MechanicalSystem::ForceElementHistory(std::vector<HistoryValue> *values) const
+void MechanicalSystem::ForceElementHistory(bool with_names, std::vector<HistoryValue> *values) const
 {
-  for (const ForceContributor *c : contributors_) c->AddHistory(state_, values);
+  for (const ForceContributor *c : contributors_) c->AddHistory(state_, with_names, values);
 }
 
 PetscErrorCode MechanicalSystem::Momenta(msflex::Momenta *momenta)
@@ -90,6 +90,13 @@ PetscErrorCode MechanicalSystem::StrainEnergy(double *strain_energy)
   if (!assembler_.LastResidualStrainEnergy(&local))
     PetscCheck(beams_.StrainEnergy(state_, &local), PETSC_COMM_SELF, PETSC_ERR_PLIB, "an element cannot be evaluated in a converged state");
   PetscCall(MPIU_Allreduce(&local, strain_energy, 1, MPI_DOUBLE, MPI_SUM, comm_));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode MechanicalSystem::ElementResultsOf(const std::vector<int> &only, std::vector<msflex::ElementResults> *results)
+{
+  PetscFunctionBeginUser;
+  PetscCheck(beams_.ResultsOf(state_, only, results), PETSC_COMM_SELF, PETSC_ERR_PLIB, "an element cannot be evaluated in a converged state");
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 

@@ -40,6 +40,8 @@ public:
   PetscErrorCode Momenta(msflex::Momenta *momenta);
   // Element results and strain energy of the current configuration (collective).
   PetscErrorCode ElementResults(std::vector<msflex::ElementResults> *results, double *strain_energy);
+  // The results of the local elements `only` alone, the others zero (not collective).
+  PetscErrorCode ElementResultsOf(const std::vector<int> &only, std::vector<msflex::ElementResults> *results);
   // The strain energy alone (collective): on each rank what the last residual kept when the State
   // still holds its unknowns (Assembler::LastResidualStrainEnergy), else a pass over the elements.
   PetscErrorCode StrainEnergy(double *strain_energy);
@@ -52,8 +54,9 @@ public:
   // converged increments of a step before the state commits them.
   void StartMotion();
   void CommitStep();
-  // History values of the force elements this rank evaluates (output/results.hpp gathers them).
-  void ForceElementHistory(std::vector<HistoryValue> *values) const;
+  // History values of the force elements this rank evaluates (output/results.hpp gathers them),
+  // named only `with_names`.
+  void ForceElementHistory(bool with_names, std::vector<HistoryValue> *values) const;
 
 private:
   MPI_Comm                        comm_ = MPI_COMM_NULL;

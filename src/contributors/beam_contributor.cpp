@@ -244,28 +244,43 @@ bool BeamContributor::StrainEnergy(const State &state, double *strain_energy) co
   return all_ok;
 }
 
+bool BeamContributor::ElementResultOf(const State &state, size_t k, ElementResults *out, double *energy) const
+{
+  BeamGaussResults gauss;
+  *out    = {Vec3::Zero(), Vec3::Zero(), Vec3::Zero(), Vec3::Zero()};
+  *energy = 0.0;
+  if (!EndPointForces(state, k, energy, &gauss)) return false;
+  // Means over the Gauss points.
+  const int ng = references_[k].num_gauss;
+  for (int g = 0; g < ng; ++g) {
+    out->strain += gauss.strain[g] / ng;
+    out->curvature += gauss.curvature[g] / ng;
+    out->force += gauss.force[g] / ng;
+    out->moment += gauss.moment[g] / ng;
+  }
+  return true;
+}
+
 bool BeamContributor::Results(const State &state, std::vector<ElementResults> *results, double *strain_energy) const
 {
   bool all_ok    = true;
   *strain_energy = 0.0;
   results->resize(references_.size());
   for (size_t k = 0; k < references_.size(); ++k) {
-    double           energy = 0.0;
-    BeamGaussResults gauss;
-    ElementResults  &out = (*results)[k];
-    out                  = {Vec3::Zero(), Vec3::Zero(), Vec3::Zero(), Vec3::Zero()};
-    if (!EndPointForces(state, k, &energy, &gauss)) {
-      all_ok = false;
-      continue;
-    }
-    *strain_energy += energy;
-    const int ng = references_[k].num_gauss;
-    for (int g = 0; g < ng; ++g) {
-      out.strain += gauss.strain[g] / ng;
-      out.curvature += gauss.curvature[g] / ng;
-      out.force += gauss.force[g] / ng;
-      out.moment += gauss.moment[g] / ng;
-    }
+    double energy = 0.0;
+    if (ElementResultOf(state, k, &(*results)[k], &energy)) *strain_energy += energy;
+    else all_ok = false;
+  }
+  return all_ok;
+}
+
+bool BeamContributor::ResultsOf(const State &state, const std::vector<int> &only, std::vector<ElementResults> *results) const
+{
+  bool all_ok = true;
+  results->assign(references_.size(), {Vec3::Zero(), Vec3::Zero(), Vec3::Zero(), Vec3::Zero()});
+  for (const int k : only) {
+    double energy;
+    if (!ElementResultOf(state, (size_t)k, &(*results)[(size_t)k], &energy)) all_ok = false;
   }
   return all_ok;
 }

@@ -35,6 +35,9 @@ public:
   // Element results for the local elements and their strain energy; false when an element cannot
   // be evaluated.
   bool Results(const State &state, std::vector<ElementResults> *results, double *strain_energy) const;
+  // The results of the local elements `only` (local indices) alone, in *results sized for every
+  // local element (the others zero): the history's element probes at a step without a frame.
+  bool ResultsOf(const State &state, const std::vector<int> &only, std::vector<ElementResults> *results) const;
   // The strain energy of the local elements in the current configuration alone (false: an element
   // could not be evaluated).
   bool StrainEnergy(const State &state, double *strain_energy) const;
@@ -66,6 +69,8 @@ private:
   // Element k's end-point internal forces in the current configuration, for their energy and
   // (gauss not null) Gauss-point results; false when it cannot be evaluated.
   bool EndPointForces(const State &state, size_t k, double *energy, BeamGaussResults *gauss) const;
+  // Element k's results (means over its Gauss points) and strain energy; false: not evaluable.
+  bool ElementResultOf(const State &state, size_t k, ElementResults *out, double *energy) const;
 
   const Model                      *model_ = nullptr;
   const DofMap                     *map_   = nullptr;

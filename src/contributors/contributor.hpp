@@ -171,8 +171,10 @@ public:
   // output).
   virtual void StartMotion(State *state) {}
   virtual void CommitStep(State *state) {}
-  // History values of this rank's elements at the last committed step (or the start).
-  virtual void AddHistory(const State &state, std::vector<HistoryValue> *values) const {}
+  // History values of this rank's elements at the last committed step (or the start); their names
+  // only `with_names` (the first row: the names are gathered once, and building them for every
+  // row of a small model's step cost more than the values).
+  virtual void AddHistory(const State &state, bool with_names, std::vector<HistoryValue> *values) const {}
 
   // Numerical trouble in the contributor's data (loads, inertia) rather than in its forces, and
   // in the forces of its free blocks whose nodes are finite (node_finite: per local node).

@@ -148,14 +148,14 @@ void CoordinateForceContributor::CommitStep(State *state)
   }
 }
 
-void CoordinateForceContributor::AddHistory(const State &state, std::vector<HistoryValue> *values) const
+void CoordinateForceContributor::AddHistory(const State &state, bool with_names, std::vector<HistoryValue> *values) const
 {
   const bool dynamic = IsDynamic(*model_);
   for (const Element &e : elements_) {
     const ForceElement &element = model_->force_elements[e.element];
     const long long     order   = 8LL * element.number;
-    values->push_back({order, element.name + ".force", e.force});
-    if (dynamic) values->push_back({order + 1, element.name + ".power", e.power});
+    values->push_back({order, with_names ? element.name + ".force" : std::string(), e.force});
+    if (dynamic) values->push_back({order + 1, with_names ? element.name + ".power" : std::string(), e.power});
   }
 }
 
@@ -324,20 +324,20 @@ void NodePairForceContributor::CommitStep(State *state)
   }
 }
 
-void NodePairForceContributor::AddHistory(const State &state, std::vector<HistoryValue> *values) const
+void NodePairForceContributor::AddHistory(const State &state, bool with_names, std::vector<HistoryValue> *values) const
 {
   const bool dynamic = IsDynamic(*model_);
   for (const Element &e : elements_) {
     const ForceElement &element = model_->force_elements[e.element];
     const long long     order   = 8LL * element.number;
     if (element.kind == ForceElement::Kind::SpringDamper) {
-      values->push_back({order, element.name + ".length", e.recorded(0)});
-      values->push_back({order + 1, element.name + ".tension", e.recorded(1)});
+      values->push_back({order, with_names ? element.name + ".length" : std::string(), e.recorded(0)});
+      values->push_back({order + 1, with_names ? element.name + ".tension" : std::string(), e.recorded(1)});
     } else {
       const char *names[6] = {".force_x", ".force_y", ".force_z", ".moment_x", ".moment_y", ".moment_z"};
-      for (int i = 0; i < 6; ++i) values->push_back({order + i, element.name + names[i], e.recorded(i)});
+      for (int i = 0; i < 6; ++i) values->push_back({order + i, with_names ? element.name + names[i] : std::string(), e.recorded(i)});
     }
-    if (dynamic) values->push_back({order + 7, element.name + ".power", e.power});
+    if (dynamic) values->push_back({order + 7, with_names ? element.name + ".power" : std::string(), e.power});
   }
 }
 

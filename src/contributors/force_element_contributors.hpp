@@ -31,7 +31,7 @@ public:
   void AddStepDissipation(const State &state, double *dissipation) const override;
   void StartMotion(State *state) override;
   void CommitStep(State *state) override;
-  void AddHistory(const State &state, std::vector<HistoryValue> *values) const override;
+  void AddHistory(const State &state, bool with_names, std::vector<HistoryValue> *values) const override;
 
 private:
   struct Element {
@@ -65,7 +65,7 @@ public:
   void AddStepDissipation(const State &state, double *dissipation) const override;
   void StartMotion(State *state) override;
   void CommitStep(State *state) override;
-  void AddHistory(const State &state, std::vector<HistoryValue> *values) const override;
+  void AddHistory(const State &state, bool with_names, std::vector<HistoryValue> *values) const override;
   void FindNonFiniteBlocks(const State &state, const std::vector<char> &node_finite, TroubleFindings *findings) const override;
 
 private:

@@ -62,12 +62,17 @@ public:
   // Results view (collective): element results and strain energy of the current state, momenta
   // of the start-of-step state.
   PetscErrorCode ElementResults(std::vector<msflex::ElementResults> *results, double *strain_energy);
+  // The results of the local elements `only` alone, the others zero (not collective).
+  PetscErrorCode ElementResultsOf(const std::vector<int> &only, std::vector<msflex::ElementResults> *results)
+  {
+    return system_.ElementResultsOf(only, results);
+  }
   PetscErrorCode StrainEnergy(double *strain_energy);
   PetscErrorCode MomentaOfState(Momenta *momenta);
   // Stored energy of the force elements' springs in the current state (collective).
   PetscErrorCode SpringEnergy(double *energy) { return system_.SpringEnergy(energy); }
   bool           HasForceElementsOrDamping() const { return system_.HasForceElementsOrDamping(); }
-  void           ForceElementHistory(std::vector<HistoryValue> *values) const { system_.ForceElementHistory(values); }
+  void           ForceElementHistory(bool with_names, std::vector<HistoryValue> *values) const { system_.ForceElementHistory(with_names, values); }
 
   bool Dynamic() const { return dynamic_; }
   // No messages (-quiet).

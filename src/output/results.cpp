@@ -47,6 +47,11 @@ static PetscErrorCode GatherToRoot(MPI_Comm comm, const void *send, int count, M
   PetscFunctionBeginUser;
   PetscCallMPI(MPI_Comm_rank(comm, &rank));
   PetscCallMPI(MPI_Comm_size(comm, &size));
+  if (size == 1) { // a copy: no count tables to allocate, nothing to gather (a history row per step)
+    const char *bytes = static_cast<const char *>(send);
+    received->assign(bytes, bytes + element_size * (size_t)count);
+    PetscFunctionReturn(PETSC_SUCCESS);
+  }
   std::vector<int> counts(rank == 0 ? size : 0), offsets(rank == 0 ? size : 0);
   PetscCallMPI(MPI_Gather(&count, 1, MPI_INT, counts.data(), 1, MPI_INT, 0, comm));
   int total = 0;
@@ -239,30 +244,37 @@ PetscErrorCode GatherFrame(MPI_Comm comm, const Model &model, const DofMap &map,
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
-PetscErrorCode SampleProbes(MPI_Comm comm, const Model &model, const DofMap &map, const State &state, std::vector<ProbeSample> *samples)
+PetscErrorCode SampleProbes(MPI_Comm comm, const Model &model, const DofMap &map, const State &state, std::vector<ProbeSample> *samples,
+                            std::vector<double> *scratch)
 {
+  PetscMPIInt size;
   PetscFunctionBeginUser;
+  PetscCallMPI(MPI_Comm_size(comm, &size));
   const std::vector<NodeState> &nodes = state.nodes;
   const size_t                  count = model.probes.size();
-  std::vector<double>           local(kNodeRecordSize * count, 0.0), global(kNodeRecordSize * count, 0.0);
+  std::vector<double>           own;
+  std::vector<double>          &records = scratch ? *scratch : own; // kept from row to row by the caller
+  records.assign(kNodeRecordSize * count, 0.0);
   for (size_t p = 0; p < count; ++p) {
     const Probe &probe = model.probes[p];
     const int    node  = probe.node; // -1: not held here (restricted model)
     const int    l     = node >= 0 ? map.node_to_local[node] : -1;
     if (probe.kind != Probe::Kind::Point || l < 0 || l >= map.num_owned_nodes) continue;
-    double *record = &local[kNodeRecordSize * p];
+    double *record = &records[kNodeRecordSize * p];
     PackNodeRecord(model, node, nodes[l], record);
     // A point at `offset` from the node (in the node's frame, given at the reference).
     const Vec3 point = nodes[l].rotation * probe.offset;
     for (int i = 0; i < 3; ++i) record[i] += point(i), record[3 + i] += point(i) - probe.offset(i);
   }
-  PetscCall(MPIU_Allreduce(local.data(), global.data(), (PetscMPIInt)global.size(), MPI_DOUBLE, MPI_SUM, comm));
-  samples->clear();
+  // Each record is held by one rank and zero on the others.
+  if (size > 1 && count > 0) PetscCallMPI(MPI_Allreduce(MPI_IN_PLACE, records.data(), (PetscMPIInt)records.size(), MPI_DOUBLE, MPI_SUM, comm));
+  // The samples are overwritten in place: a row allocates nothing once the first has named them.
+  size_t written = 0;
   for (size_t p = 0; p < count; ++p) {
     if (model.probes[p].kind != Probe::Kind::Point) continue;
-    samples->push_back(ProbeSample{});
-    ProbeSample  &sample = samples->back();
-    const double *in     = &global[kNodeRecordSize * p];
+    if (written == samples->size()) samples->emplace_back();
+    ProbeSample  &sample = (*samples)[written++];
+    const double *in     = &records[kNodeRecordSize * p];
     sample.name          = model.probes[p].name;
     for (int i = 0; i < 3; ++i) {
       sample.position[i]     = in[i];
@@ -271,6 +283,7 @@ PetscErrorCode SampleProbes(MPI_Comm comm, const Model &model, const DofMap &map
     for (int i = 0; i < 4; ++i) sample.rotation[i] = in[6 + i];
     sample.rotation_angle = in[10];
   }
+  samples->resize(written);
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
@@ -316,16 +329,19 @@ static PetscErrorCode GatherSeriesInOrder(MPI_Comm comm, const char *what, const
     PetscCall(GatherNamesInOrder(comm, local_names, local_orders, &cache->names, &cache->permutation));
     cache->gathered = true;
   }
-  PetscCall(GatherToRoot(comm, local_values.data(), (int)local_values.size(), MPI_DOUBLE, &gathered_values, sizeof(double)));
+  PetscMPIInt size;
+  PetscCallMPI(MPI_Comm_size(comm, &size));
+  // One rank holds every series: its values are permuted where they are, without a gathered copy.
+  if (size > 1) PetscCall(GatherToRoot(comm, local_values.data(), (int)local_values.size(), MPI_DOUBLE, &gathered_values, sizeof(double)));
   if (names) names->clear();
   values->clear();
   if (rank == 0) {
-    const size_t count = cache->names.size();
+    const size_t count    = cache->names.size();
+    const size_t received = size > 1 ? gathered_values.size() / sizeof(double) : local_values.size();
     if (names) *names = cache->names;
-    values->assign(count, 0.0);
-    PetscCheck(gathered_values.size() == sizeof(double) * count, PETSC_COMM_SELF, PETSC_ERR_PLIB, "%s: %zu values for %zu series", what,
-               gathered_values.size() / sizeof(double), count);
-    const double *in = reinterpret_cast<const double *>(gathered_values.data());
+    values->resize(count);
+    PetscCheck(received == count, PETSC_COMM_SELF, PETSC_ERR_PLIB, "%s: %zu values for %zu series", what, received, count);
+    const double *in = size > 1 ? reinterpret_cast<const double *>(gathered_values.data()) : local_values.data();
     for (size_t i = 0; i < count; ++i) (*values)[cache->permutation[i]] = in[i];
   }
   PetscFunctionReturn(PETSC_SUCCESS);
@@ -340,7 +356,8 @@ PetscErrorCode JointHistory(MPI_Comm comm, const Model &model, const DofMap &map
   PetscFunctionBeginUser;
   PetscCallMPI(MPI_Comm_rank(comm, &rank));
   // Owned joints in slot order; the series names are only built (and gathered to rank 0) once.
-  std::vector<const JointState *> owned;
+  std::vector<const JointState *> &owned = cache->owned_joints; // scratch: no allocation per row
+  owned.clear();
   for (const JointState &J : state.joints)
     if (map.joint_rank[J.joint] == rank) owned.push_back(&J);
   std::sort(owned.begin(), owned.end(), [&](const JointState *a, const JointState *b) { return map.joint_slot[a->joint] < map.joint_slot[b->joint]; });
@@ -402,23 +419,19 @@ PetscErrorCode ProbeHistory(MPI_Comm comm, const Model &model, const DofMap &map
   PetscFunctionBeginUser;
   if (names) names->clear();
   values->clear();
-  const size_t        count = model.probes.size();
+  const size_t count = model.probes.size();
+  // Every rank has the same probes, so every rank takes part or none does.
+  const bool any = std::any_of(model.probes.begin(), model.probes.end(),
+                               [](const Probe &probe) { return probe.kind == Probe::Kind::Element || probe.kind == Probe::Kind::Reaction; });
+  if (!any) PetscFunctionReturn(PETSC_SUCCESS);
   std::vector<double> local(6 * count, 0.0), global(6 * count, 0.0);
-  bool                any = false;
   for (size_t p = 0; p < count; ++p) {
     const Probe &probe = model.probes[p];
-    if (probe.kind == Probe::Kind::Element) {
-      any = true;
-      if (probe.element < 0) continue; // held by another rank
-      const int k = map.element_to_local[probe.element];
-      if (k < 0 || k >= (int)element_results.size()) continue;
-      for (int i = 0; i < 3; ++i) local[6 * p + i] = element_results[k].force(i), local[6 * p + 3 + i] = element_results[k].moment(i);
-    } else if (probe.kind == Probe::Kind::Reaction) {
-      any = true;
-    }
+    if (probe.kind != Probe::Kind::Element || probe.element < 0) continue; // element < 0: held by another rank
+    const int k = map.element_to_local[probe.element];
+    if (k < 0 || k >= (int)element_results.size()) continue;
+    for (int i = 0; i < 3; ++i) local[6 * p + i] = element_results[k].force(i), local[6 * p + 3 + i] = element_results[k].moment(i);
   }
-  // Every rank has the same probes, so every rank takes part or none does.
-  if (!any) PetscFunctionReturn(PETSC_SUCCESS);
   PetscCall(MPIU_Allreduce(local.data(), global.data(), (PetscMPIInt)global.size(), MPI_DOUBLE, MPI_SUM, comm));
   for (size_t p = 0; p < count; ++p) {
     const Probe &probe = model.probes[p];

@@ -33,8 +33,11 @@ PetscErrorCode GatherFrame(MPI_Comm comm, const Model &model, const DofMap &map,
                            int step, double time, bool with_velocities, OutputFrame *frame);
 
 // One sample per point probe (a node's point: its position x + Lambda offset, displacement from
-// the point's reference position, the node's rotation), valid on every rank. Collective.
-PetscErrorCode SampleProbes(MPI_Comm comm, const Model &model, const DofMap &map, const State &state, std::vector<ProbeSample> *samples);
+// the point's reference position, the node's rotation), valid on every rank; *samples is
+// overwritten in place. `scratch` (may be null): the records' buffer, kept by a caller that samples
+// every step. Collective.
+PetscErrorCode SampleProbes(MPI_Comm comm, const Model &model, const DofMap &map, const State &state, std::vector<ProbeSample> *samples,
+                            std::vector<double> *scratch = nullptr);
 
 // The series' names in the model's order, whatever the partition (gathered once, on rank 0), and
 // where each value gathered in the ranks' order goes: the joints' and the force elements' alike.
@@ -43,8 +46,9 @@ struct HistoryGather {
   std::vector<std::string> names;       // in order
   std::vector<size_t>      permutation; // gathered position (the ranks' parts one after the other) -> place in names
   // Scratch kept from row to row (a row allocates nothing once the first has sized them).
-  std::vector<double> local_values;
-  std::vector<char>   gathered_values;
+  std::vector<double>             local_values;
+  std::vector<char>               gathered_values;
+  std::vector<const JointState *> owned_joints; // JointHistory's joints of this rank, in slot order
 };
 
 // The joints' history series, per joint "<joint>.<quantity>": the released coordinates (tx ty tz
