@@ -41,7 +41,8 @@ const OptionInfo kOptions[] = {
      "dynamics, statics without stability: a relay node every N joints down a chain of joints (linear time); 0: condense whole chains"},
     {"-analysis_linear_solver", "direct|multigrid", "Newton's linear solver: a direct factorisation, or GMRES with algebraic multigrid (large networks)"},
     {"-analysis_direct_solver", "auto|mumps",
-     "direct factorisation: by the tangent's structure (one rank, banded: PETSc's LU, MUMPS after a failed solve; else MUMPS), or MUMPS always"},
+     "direct factorisation: auto picks by the tangent (one rank: dense LU for small models, a banded LU - msflex's block LU or PETSc's - "
+     "for banded ones; MUMPS otherwise and after a failed solve); mumps: MUMPS always"},
     {"-analysis_output_times", "T1,T2,...", "times the steps must land on (replaces the input's list)"},
     {"-analysis_control", "NAME", "path control of a static analysis: load, arc_length or displacement"},
     {"-analysis_arc_length_psi", "PSI", "weight of the load factor in the arc-length constraint (0: cylindrical)"},
@@ -165,6 +166,100 @@ bool LooksLikeMsflexOption(const std::string &name)
   return distance <= 2;
 }
 
+std::string DescribeBadOptionValue()
+{
+  // The kind of value an option takes, from its argument in the list.
+  enum class Kind { Flag, Integer, Real, Reals, Choice, Text };
+  const auto kind_of = [](const char *argument) {
+    if (!argument[0]) return Kind::Flag;
+    if (std::strchr(argument, '|')) return Kind::Choice; // "metis|simple"
+    if (std::strcmp(argument, "N") == 0) return Kind::Integer;
+    if (std::strcmp(argument, "T1,T2,...") == 0) return Kind::Reals;
+    for (const char *real : {"T", "DT", "F", "RAD", "TOL", "S", "PSI", "V", "R"})
+      if (std::strcmp(argument, real) == 0) return Kind::Real;
+    return Kind::Text; // names and choices: their readers say which are valid
+  };
+  // Conversions report through PETSc's error handler: returned quietly, not printed.
+  const auto reads = [](PetscErrorCode (*convert)(const char *, void *), const std::string &text, void *value) {
+    if (PetscPushErrorHandler(PetscReturnErrorHandler, nullptr) != PETSC_SUCCESS) return false;
+    const PetscErrorCode status = convert(text.c_str(), value);
+    (void)PetscPopErrorHandler();
+    return status == PETSC_SUCCESS;
+  };
+  const auto real    = [](const char *s, void *v) { return PetscOptionsStringToReal(s, static_cast<PetscReal *>(v)); };
+  const auto integer = [](const char *s, void *v) { return PetscOptionsStringToInt(s, static_cast<PetscInt *>(v)); };
+  const auto logical = [](const char *s, void *v) { return PetscOptionsStringToBool(s, static_cast<PetscBool *>(v)); };
+  for (const OptionInfo &option : kOptions) {
+    const Kind kind = kind_of(option.argument);
+    if (kind == Kind::Text) continue;
+    const char *raw = nullptr;
+    PetscBool   set = PETSC_FALSE;
+    if (PetscOptionsFindPair(nullptr, nullptr, option.name, &raw, &set) != PETSC_SUCCESS || !set) continue;
+    if (!raw && kind != Kind::Flag) return std::string(option.name) + " needs a value (" + option.argument + ")";
+    const std::string text = raw ? raw : "";
+    const std::string head = std::string(option.name) + ": '" + text + "' ";
+    PetscReal         r;
+    PetscInt          n;
+    PetscBool         b;
+    switch (kind) {
+    case Kind::Flag:
+      if (!text.empty() && !reads(logical, text, &b)) return head + "is not a logical value (true/false, yes/no, 1/0, or no value)";
+      break;
+    case Kind::Integer:
+      if (!reads(integer, text, &n)) return head + "is not an integer";
+      break;
+    case Kind::Real:
+      if (!reads(real, text, &r)) return head + "is not a number";
+      break;
+    case Kind::Reals:
+      for (size_t start = 0; start <= text.size();) {
+        const size_t end = std::min(text.find(',', start), text.size());
+        if (!reads(real, text.substr(start, end - start), &r)) return head + "is not a comma-separated list of numbers";
+        start = end + 1;
+      }
+      break;
+    case Kind::Choice: {
+      std::vector<std::string> choices;
+      for (const char *c = option.argument; *c;) {
+        const char *bar = std::strchr(c, '|');
+        choices.emplace_back(c, bar ? (size_t)(bar - c) : std::strlen(c));
+        c = bar ? bar + 1 : c + std::strlen(c);
+      }
+      if (std::none_of(choices.begin(), choices.end(), [&](const std::string &c) { return strcasecmp(c.c_str(), text.c_str()) == 0; })) {
+        std::string list;
+        for (size_t i = 0; i < choices.size(); ++i) list += (i == 0 ? "" : i + 1 == choices.size() ? " or " : ", ") + choices[i];
+        return std::string(option.name) + " must be " + list + ", got '" + text + "'";
+      }
+      break;
+    }
+    case Kind::Text:
+      break;
+    }
+  }
+  return "";
+}
+
+std::string StrayArgument(int argc, char **argv, bool restart)
+{
+  // A negative number is a value, not an option.
+  const auto is_option    = [](const char *word) { return word[0] == '-' && !(std::isdigit((unsigned char)word[1]) || word[1] == '.'); };
+  bool       after_option = false, input_seen = restart;
+  for (int i = 1; i < argc; ++i) {
+    if (is_option(argv[i])) after_option = true;
+    else if (after_option) after_option = false; // the option's value (--restart's too)
+    else if (!input_seen) input_seen = true;     // the input file
+    else return argv[i];
+  }
+  return "";
+}
+
+std::string NearestLongArgument(const std::string &word)
+{
+  for (const char *name : {"--help", "--version", "--restart"})
+    if (OptionNameDistance(word, name) <= 2) return name;
+  return "";
+}
+
 std::string HelpText()
 {
   std::string text = "msflex: flexible mechanisms of geometrically exact beams.\n\n"
@@ -180,7 +275,8 @@ std::string HelpText()
     text += left + option.description + "\n";
   }
   text += "A misspelt msflex option is an error; an option nothing reads is reported at the end of the run.\n"
-          "Solver options (-snes_*, -ksp_*, -pc_*, -eps_*) are PETSc's and SLEPc's; the default is Newton with line search and MUMPS LU.\n";
+          "Solver options (-snes_*, -ksp_*, -pc_*, -eps_*) are PETSc's and SLEPc's; the default is Newton with a safeguarded step and the\n"
+          "direct LU that -analysis_direct_solver auto picks (docs/solvers.md).\n";
   int  count;
   auto column = [](const char *name, size_t width) { return std::string("  ") + name + std::string(width - std::min(width - 1, std::strlen(name)), ' '); };
   text += "\nAnalysis types (analysis.type, -analysis_type):\n";

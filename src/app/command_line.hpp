@@ -35,6 +35,21 @@ const OptionInfo *NearestOption(const std::string &name, int *distance);
 // spelt with '-') or is within two edits of an msflex option.
 bool LooksLikeMsflexOption(const std::string &name);
 
+// The msflex option whose value the command line gives in a form its kind does not take (a real,
+// an integer, a logical value, a list of reals), as a line naming the option and the value:
+// "-analysis_end_time: 'abc' is not a number"; empty when every value reads. For the
+// message of a failed read of the settings (PETSc's own names the value alone).
+std::string DescribeBadOptionValue();
+
+// A word of the command line that is neither the input file (the first word, without --restart),
+// an option nor an option's value (the word after an option): "msflex a.yaml b.yaml", or an input
+// given to a restart, which takes its input from the checkpoint. Empty when there is none.
+std::string StrayArgument(int argc, char **argv, bool restart);
+
+// For a word starting with "--" that msflex does not know: the nearest of --help, --version,
+// --restart within two edits ("--verison": "--version"), else empty.
+std::string NearestLongArgument(const std::string &word);
+
 // msflex's help: usage, the options and the registered choices (analysis types, path controls,
 // integrators, joint kinds).
 std::string HelpText();

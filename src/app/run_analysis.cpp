@@ -192,7 +192,7 @@ PetscErrorCode Setup(Analysis &a, Model whole)
     PetscCall(CheckpointValidateState(a.comm, a.options.restart_file, *a.restart));
     const bool load_factor_end = whole.analysis.type == AnalysisType::Static && whole.analysis.control == PathControl::ArcLength;
     PetscCheck(load_factor_end || a.restart->time < whole.analysis.end_time * (1.0 - 1e-14), a.comm, PETSC_ERR_FILE_UNEXPECTED,
-               "the checkpoint '%s' is at t = %g, at or beyond the end time %g; give a later -analysis_end_time", path, a.restart->time,
+               "the checkpoint '%s' is at t = %.6g, at or beyond the end time %.6g; give a later -analysis_end_time", path, a.restart->time,
                whole.analysis.end_time);
   }
   OutputMesh mesh; // rank 0: for a new result file
@@ -498,9 +498,9 @@ PetscErrorCode CheckpointIfDue(Analysis &a, int step, double t, int last_written
   *stop = signal != 0;
   if (!due && !*stop) PetscFunctionReturn(PETSC_SUCCESS);
   PetscCall(WriteCheckpoint(a, step, t, last_written, controller));
-  if (!o.quiet && !*stop) PetscCall(PetscPrintf(a.comm, "checkpoint at step %d, t = %g: %s\n", step, t, o.checkpoint_file.c_str()));
+  if (!o.quiet && !*stop) PetscCall(PetscPrintf(a.comm, "checkpoint at step %d, t = %.6g: %s\n", step, t, o.checkpoint_file.c_str()));
   if (*stop)
-    PetscCall(PetscPrintf(a.comm, "msflex: stopped by %s at step %d, t = %g; checkpoint %s; continue with: msflex --restart %s\n",
+    PetscCall(PetscPrintf(a.comm, "msflex: stopped by %s at step %d, t = %.6g; checkpoint %s; continue with: msflex --restart %s\n",
                           signal == SIGTERM   ? "SIGTERM"
                           : signal == SIGUSR1 ? "SIGUSR1"
                                               : "a signal",
@@ -538,7 +538,7 @@ PetscErrorCode RunStaticStage(Analysis &a)
         break;
       }
       PetscCheck(controller.Reject(dt), a.comm, PETSC_ERR_NOT_CONVERGED,
-                 "the static stage could not reach equilibrium under the loads at t = 0: the step to load factor %g failed (%s); a static stage needs every "
+                 "the static stage could not reach equilibrium under the loads at t = 0: the step to load factor %.6g failed (%s); a static stage needs every "
                  "free motion held (supports, drives, springs or stiffness)",
                  factor + dt, outcome.why.c_str());
       dt = controller.Propose(factor, 1.0);
@@ -602,7 +602,7 @@ PetscErrorCode RunAnalysis(MPI_Comm comm, Model model, const RunOptions &options
     step         = restart->step;
     last_written = restart->last_written;
     controller.Restore(restart->controller_step, restart->controller_easy_run);
-    if (!options.quiet) PetscCall(PetscPrintf(comm, "msflex: continuing from step %d, t = %g (checkpoint %s)\n", step, t, options.restart_file.c_str()));
+    if (!options.quiet) PetscCall(PetscPrintf(comm, "msflex: continuing from step %d, t = %.6g (checkpoint %s)\n", step, t, options.restart_file.c_str()));
   }
   a.wall_start = a.last_checkpoint_wall = WallClock(comm);
   a.time_start                          = t;
@@ -653,8 +653,8 @@ PetscErrorCode RunAnalysis(MPI_Comm comm, Model model, const RunOptions &options
         PetscCall(PrintSummary(a));
         const std::string advice = a.Static() ? a.path.StopAdvice() : std::string();
         SETERRQ(comm, PETSC_ERR_NOT_CONVERGED,
-                "%s analysis stopped at t = %g after step %d: the step to t = %g failed (%s) and halving it would go below min_step = %g%s; the "
-                "results up to t = %g are in %s, a checkpoint of that state in %s",
+                "%s analysis stopped at t = %.6g after step %d: the step to t = %.6g failed (%s) and halving it would go below min_step = %.6g%s; the "
+                "results up to t = %.6g are in %s, a checkpoint of that state in %s",
                 AnalysisTypeName(analysis.type), t, step, t + dt, why, analysis.min_step, advice.c_str(), t, options.output_file.c_str(),
                 options.checkpoint_file.c_str());
       }
@@ -663,9 +663,9 @@ PetscErrorCode RunAnalysis(MPI_Comm comm, Model model, const RunOptions &options
   }
   PetscCall(CloseOutput(a));
   if (!options.quiet && arc_length && a.path.StoppedByMaxSteps())
-    PetscCall(PetscPrintf(comm, "msflex: stopped after max_steps = %d steps at load factor %g without reaching end_time = %g\n", analysis.max_steps,
+    PetscCall(PetscPrintf(comm, "msflex: stopped after max_steps = %d steps at load factor %.6g without reaching end_time = %.6g\n", analysis.max_steps,
                           a.path.LoadFactor(), analysis.end_time));
-  if (!options.quiet) PetscCall(PetscPrintf(comm, "msflex: completed %d steps to t = %g; results in %s\n", step, t, options.output_file.c_str()));
+  if (!options.quiet) PetscCall(PetscPrintf(comm, "msflex: completed %d steps to t = %.6g; results in %s\n", step, t, options.output_file.c_str()));
   PetscCall(PrintSummary(a));
   PetscFunctionReturn(PETSC_SUCCESS);
 }

@@ -37,7 +37,7 @@ PetscErrorCode Preload(MPI_Comm comm, const Model &model, Integrator &integrator
       continue;
     }
     PetscCheck(controller.Reject(dt), comm, PETSC_ERR_NOT_CONVERGED,
-               "%s analysis: the preload stopped at t = %g: the step to t = %g failed (%s) and halving it would go below min_step = %g",
+               "%s analysis: the preload stopped at t = %.6g: the step to t = %.6g failed (%s) and halving it would go below min_step = %.6g",
                AnalysisTypeName(a.type), t, t + dt, outcome.why.c_str(), a.min_step);
   }
   *lambda = t;
@@ -131,7 +131,7 @@ PetscErrorCode RunEigenAnalysis(MPI_Comm comm, const Model &model, const DofMap 
     PetscCall(VecDuplicate(weights, &direction));
     PetscCall(factor.Factor(K, 1e-8, &inertia));
     PetscCheck(inertia.factored && (!inertia.symmetric || inertia.negative_pivots == 0), comm, PETSC_ERR_USER_INPUT,
-               "buckling analysis: the tangent at load factor %g is %s, so the structure has buckled already (or is a mechanism)", lambda,
+               "buckling analysis: the tangent at load factor %.6g is %s, so the structure has buckled already (or is a mechanism)", lambda,
                inertia.factored ? "not positive definite" : "singular");
     PetscCall(StaticResidual(system, lambda, lambda, nullptr, residual, &ok, &force_scale));
     PetscCall(StaticLoadPattern(system, lambda, lambda, nullptr, residual, q));
@@ -151,7 +151,7 @@ PetscErrorCode RunEigenAnalysis(MPI_Comm comm, const Model &model, const DofMap 
     PetscCall(VecDestroy(&direction));
   }
   if (!quiet) {
-    PetscCall(PetscPrintf(comm, "msflex: %zu %s%s about the equilibrium at load factor %g", pairs.values.size(), buckling ? "buckling modes" : "modes",
+    PetscCall(PetscPrintf(comm, "msflex: %zu %s%s about the equilibrium at load factor %.6g", pairs.values.size(), buckling ? "buckling modes" : "modes",
                           buckling ? "" : Format(" (shift-and-invert at %.6g, %d solve%s)", pairs.shift, pairs.solves, pairs.solves == 1 ? "" : "s").c_str(),
                           lambda));
     PetscCall(PetscPrintf(comm, buckling ? "\n  mode  load factor          backward error\n"

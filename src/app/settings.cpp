@@ -127,7 +127,7 @@ PetscErrorCode SettingsFromOptions(MPI_Comm comm, Model *model, RunOptions *opti
     InputError error;
     PetscCheck(CheckStaticModel(*model, &error), comm, PETSC_ERR_USER_INPUT, "with -analysis_type %s: %s", AnalysisTypeName(a.type), error.Format().c_str());
   }
-  PetscCheck(std::isfinite(a.arc_length_psi) && a.arc_length_psi >= 0, comm, PETSC_ERR_USER_INPUT, "option -analysis_arc_length_psi must be >= 0, got %g",
+  PetscCheck(std::isfinite(a.arc_length_psi) && a.arc_length_psi >= 0, comm, PETSC_ERR_USER_INPUT, "option -analysis_arc_length_psi must be >= 0, got %.6g",
              a.arc_length_psi);
   PetscCheck(desired_iterations >= 1 && max_steps >= 1 && eigenvalues >= 1, comm, PETSC_ERR_USER_INPUT,
              "options -analysis_desired_iterations, -analysis_max_steps and -analysis_eigenvalues must be >= 1, got %" PetscInt_FMT ", %" PetscInt_FMT
@@ -137,10 +137,10 @@ PetscErrorCode SettingsFromOptions(MPI_Comm comm, Model *model, RunOptions *opti
   a.max_steps          = (int)max_steps;
   a.eigenvalues        = (int)eigenvalues;
   a.stability          = stability == PETSC_TRUE;
-  PetscCheck(!shift_set || std::isfinite(shift), comm, PETSC_ERR_USER_INPUT, "option -analysis_shift must be a finite number, got %g", (double)shift);
+  PetscCheck(!shift_set || std::isfinite(shift), comm, PETSC_ERR_USER_INPUT, "option -analysis_shift must be a finite number, got %.6g", (double)shift);
   a.shift = shift;
   PetscCheck(std::isfinite(a.control_value) && a.control_value != 0.0, comm, PETSC_ERR_USER_INPUT,
-             "option -analysis_control_value must be a finite number other than zero, got %g", a.control_value);
+             "option -analysis_control_value must be a finite number other than zero, got %.6g", a.control_value);
   a.control_node  = control_node;
   a.control_joint = control_joint;
   if (control_dof[0]) {
@@ -152,11 +152,11 @@ PetscErrorCode SettingsFromOptions(MPI_Comm comm, Model *model, RunOptions *opti
     InputError error;
     PetscCheck(CheckAnalysisSettings(*model, &error), comm, PETSC_ERR_USER_INPUT, "%s", error.Format().c_str());
   }
-  PetscCheck(a.spectral_radius >= 0.0 && a.spectral_radius <= 1.0, comm, PETSC_ERR_USER_INPUT, "option -analysis_spectral_radius must lie in [0, 1], got %g",
+  PetscCheck(a.spectral_radius >= 0.0 && a.spectral_radius <= 1.0, comm, PETSC_ERR_USER_INPUT, "option -analysis_spectral_radius must lie in [0, 1], got %.6g",
              a.spectral_radius);
   if (output_times_set) a.output_times.assign(output_times.begin(), output_times.begin() + num_output_times);
   PetscCheck(std::isfinite(a.jacobian_reuse) && a.jacobian_reuse >= 0.0 && a.jacobian_reuse < 1.0, comm, PETSC_ERR_USER_INPUT,
-             "option -analysis_jacobian_reuse must lie in [0, 1), got %g", a.jacobian_reuse);
+             "option -analysis_jacobian_reuse must lie in [0, 1), got %.6g", a.jacobian_reuse);
   PetscCheck(condensation_depth >= 0 && condensation_depth <= 1000000, comm, PETSC_ERR_USER_INPUT,
              "option -analysis_condensation_depth must lie in [0, 1000000] (0: condense whole chains), got %" PetscInt_FMT, condensation_depth);
   a.condensation_depth    = (int)condensation_depth;
@@ -176,20 +176,20 @@ PetscErrorCode SettingsFromOptions(MPI_Comm comm, Model *model, RunOptions *opti
                   {"-analysis_easy_steps_to_grow", (double)a.easy_steps_to_grow},
                   {"-analysis_max_newton_iterations", (double)a.max_newton_iterations}};
   for (const auto &p : positive)
-    PetscCheck(std::isfinite(p.value) && p.value > 0, comm, PETSC_ERR_USER_INPUT, "option %s must be positive, got %g", p.name, p.value);
-  PetscCheck(a.growth_factor >= 1.0, comm, PETSC_ERR_USER_INPUT, "option -analysis_growth_factor must be >= 1, got %g", a.growth_factor);
-  PetscCheck(a.min_step <= a.initial_step, comm, PETSC_ERR_USER_INPUT, "min_step %g is larger than initial_step %g", a.min_step, a.initial_step);
-  PetscCheck(a.initial_step <= a.max_step, comm, PETSC_ERR_USER_INPUT, "initial_step %g is larger than max_step %g", a.initial_step, a.max_step);
-  PetscCheck(std::isfinite(a.newton_atol) && a.newton_atol >= 0, comm, PETSC_ERR_USER_INPUT, "option -analysis_newton_atol must be >= 0, got %g",
+    PetscCheck(std::isfinite(p.value) && p.value > 0, comm, PETSC_ERR_USER_INPUT, "option %s must be positive, got %.6g", p.name, p.value);
+  PetscCheck(a.growth_factor >= 1.0, comm, PETSC_ERR_USER_INPUT, "option -analysis_growth_factor must be >= 1, got %.6g", a.growth_factor);
+  PetscCheck(a.min_step <= a.initial_step, comm, PETSC_ERR_USER_INPUT, "min_step %.6g is larger than initial_step %.6g", a.min_step, a.initial_step);
+  PetscCheck(a.initial_step <= a.max_step, comm, PETSC_ERR_USER_INPUT, "initial_step %.6g is larger than max_step %.6g", a.initial_step, a.max_step);
+  PetscCheck(std::isfinite(a.newton_atol) && a.newton_atol >= 0, comm, PETSC_ERR_USER_INPUT, "option -analysis_newton_atol must be >= 0, got %.6g",
              a.newton_atol);
-  PetscCheck(a.max_rotation_increment < M_PI, comm, PETSC_ERR_USER_INPUT, "max_rotation_increment must be below pi, got %g", a.max_rotation_increment);
+  PetscCheck(a.max_rotation_increment < M_PI, comm, PETSC_ERR_USER_INPUT, "max_rotation_increment must be below pi, got %.6g", a.max_rotation_increment);
   // A run shortened with -analysis_end_time keeps the output times it still reaches.
   a.output_times.erase(std::remove_if(a.output_times.begin(), a.output_times.end(), [&a](double t) { return t > a.end_time; }), a.output_times.end());
   PetscCheck(a.control != PathControl::ArcLength || a.output_times.empty(), comm, PETSC_ERR_USER_INPUT,
              "output times do not apply to arc-length control, whose steps are lengths along the path");
   for (size_t i = 0; i < a.output_times.size(); ++i)
     PetscCheck(a.output_times[i] > 0 && (i == 0 || a.output_times[i] > a.output_times[i - 1]), comm, PETSC_ERR_USER_INPUT,
-               "output time %g must be positive and exceed the one before it", a.output_times[i]);
+               "output time %.6g must be positive and exceed the one before it", a.output_times[i]);
 
   char     file[PETSC_MAX_PATH_LEN];
   PetscInt every = model->output.every; // default: the input's output.every
@@ -209,7 +209,7 @@ PetscErrorCode SettingsFromOptions(MPI_Comm comm, Model *model, RunOptions *opti
   options->output_xdmf = xdmf;
   PetscCheck(every >= 1, comm, PETSC_ERR_USER_INPUT, "option -output_every must be >= 1, got %" PetscInt_FMT, every);
   PetscCheck(std::isfinite(options->output_flush_interval) && options->output_flush_interval >= 0, comm, PETSC_ERR_USER_INPUT,
-             "option -output_flush_interval must be >= 0 seconds, got %g", (double)options->output_flush_interval);
+             "option -output_flush_interval must be >= 0 seconds, got %.6g", (double)options->output_flush_interval);
   options->output_file       = file;
   options->output_every      = every;
   options->progress_every    = model->output.progress_every;    // default: the input's output.progress_every
@@ -222,7 +222,7 @@ PetscErrorCode SettingsFromOptions(MPI_Comm comm, Model *model, RunOptions *opti
   PetscOptionsEnd();
   PetscCheck(options->progress_every >= 1, comm, PETSC_ERR_USER_INPUT, "option -progress_every must be >= 1, got %" PetscInt_FMT, options->progress_every);
   PetscCheck(std::isfinite(options->progress_interval) && options->progress_interval >= 0, comm, PETSC_ERR_USER_INPUT,
-             "option -progress_interval must be >= 0 seconds, got %g", (double)options->progress_interval);
+             "option -progress_interval must be >= 0 seconds, got %.6g", (double)options->progress_interval);
 
   // Checkpoints; defaults: the input's output.checkpoint, the file next to the output file.
   std::string default_checkpoint = model->output.checkpoint_file;
@@ -243,7 +243,7 @@ PetscErrorCode SettingsFromOptions(MPI_Comm comm, Model *model, RunOptions *opti
   PetscCheck(options->checkpoint_every >= 0, comm, PETSC_ERR_USER_INPUT, "option -checkpoint_every must be >= 0, got %" PetscInt_FMT,
              options->checkpoint_every);
   PetscCheck(std::isfinite(options->checkpoint_wall_time) && options->checkpoint_wall_time >= 0, comm, PETSC_ERR_USER_INPUT,
-             "option -checkpoint_wall_time must be >= 0 seconds, got %g", (double)options->checkpoint_wall_time);
+             "option -checkpoint_wall_time must be >= 0 seconds, got %.6g", (double)options->checkpoint_wall_time);
   options->checkpoint_file = checkpoint_file;
   // Whether the checkpoint is the output file (or any other file of the run), after links, `.`
   // and `..`: the run-file policy in main (CheckRunFiles).

@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <limits>
 #include <numeric>
 
@@ -166,6 +167,41 @@ PetscErrorCode EigenFinalize()
   PetscFunctionBeginUser;
   PetscCall(SlepcInitialized(&initialized));
   if (initialized) PetscCall(SlepcFinalize());
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode CheckEigenOptions(MPI_Comm comm)
+{
+  static const char *const prefixes[] = {"-eps_", "-st_", "-bv_", "-ds_", "-rg_", "-fn_"};
+  PetscInt                 count;
+  char                   **names, **values;
+  bool                     any = false;
+  PetscFunctionBeginUser;
+  // Only the options nothing has read yet can be eigensolver options (the same on every rank).
+  PetscCall(PetscOptionsLeftGet(nullptr, &count, &names, &values));
+  for (PetscInt i = 0; i < count && !any; ++i)
+    for (const char *prefix : prefixes)
+      if (std::strncmp(names[i], prefix + 1, std::strlen(prefix) - 1) == 0) any = true;
+  PetscCall(PetscOptionsLeftRestore(nullptr, &count, &names, &values));
+  if (!any) PetscFunctionReturn(PETSC_SUCCESS);
+  PetscCall(EigenInitialize());
+  EPS eps;
+  ST  st;
+  PetscCall(EPSCreate(comm, &eps));
+  PetscCall(EPSSetProblemType(eps, EPS_GHEP));
+  PetscCall(EPSGetST(eps, &st));
+  PetscCall(STSetType(st, STSINVERT));
+  PetscCall(UseCholesky(eps));
+  MSFLEX_CALL_READING_OPTIONS(comm, EPSSetFromOptions(eps));
+  // The factorisation package too, for the AIJ matrices the eigenanalyses factor (ConvertForCholesky).
+  PetscMPIInt rank;
+  Mat         probe;
+  PetscCallMPI(MPI_Comm_rank(comm, &rank));
+  PetscCall(MatCreateAIJ(comm, rank == 0 ? 1 : 0, rank == 0 ? 1 : 0, 1, 1, 1, nullptr, 0, nullptr, &probe));
+  const PetscErrorCode available = CheckFactorSolverAvailable(eps, probe);
+  PetscCall(MatDestroy(&probe));
+  PetscCall(EPSDestroy(&eps));
+  PetscCall(available);
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 

@@ -38,6 +38,10 @@ struct EigenPairs {
 // SLEPc is initialised on first use, PETSc being initialised already; EigenFinalize ends it.
 PetscErrorCode EigenInitialize();
 PetscErrorCode EigenFinalize();
+// The eigensolver options (-eps_*, -st_*, ...) read as the eigenanalyses read them, when any is
+// given: a bad value is one line before any file is created or replaced, not an error after the
+// result file was replaced. Collective.
+PetscErrorCode CheckEigenOptions(MPI_Comm comm);
 PetscErrorCode EigenPairsDestroy(EigenPairs *pairs);
 
 // The `count` lowest eigenpairs of K phi = lambda M phi. `shift`: the shift of shift-and-invert,

@@ -44,7 +44,7 @@ void PackNumbers(const CheckpointRun &run, double *numbers)
 std::string IntegerProblem(const char *what, double value, double lo, double hi)
 {
   if (value == std::floor(value) && value >= lo && value <= hi) return "";
-  return Format("%s %g is not an integer in [%.0f, %.0f]", what, value, lo, hi);
+  return Format("%s %.6g is not an integer in [%.0f, %.0f]", what, value, lo, hi);
 }
 
 // Validates the numbers (every entry finite already: ReadExactDoubles) and unpacks them; "" or
@@ -75,7 +75,7 @@ std::string UnpackNumbers(const std::vector<double> &numbers, CheckpointRun *run
   if (run->history_rows != (long long)run->step + 1)
     return Format("history rows %lld do not match step %d (expected %lld)", run->history_rows, run->step, (long long)run->step + 1);
   if (run->last_written > run->step) return Format("the last written step %d is beyond the step %d", run->last_written, run->step);
-  if (!(run->controller_step > 0.0)) return Format("the step controller's step %g is not positive", run->controller_step);
+  if (!(run->controller_step > 0.0)) return Format("the step controller's step %.6g is not positive", run->controller_step);
   if (run->num_nodes == 0) return "the model has no nodes";
   return "";
 }
@@ -310,7 +310,7 @@ PetscErrorCode ReadRunRecord(const std::string &path, CheckpointRun *run)
   if (H5Lexists(file, "/run/pivoting_lu", H5P_DEFAULT) > 0) { // /run exists: its numbers were read
     problem = ReadExactDoubles(file, "/run/pivoting_lu", 1, &numbers);
     PetscCheck(problem.empty(), PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "'%s': %s", p, problem.c_str());
-    PetscCheck(numbers[0] == 0.0 || numbers[0] == 1.0, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "'%s': /run/pivoting_lu is %g, not 0 or 1", p, numbers[0]);
+    PetscCheck(numbers[0] == 0.0 || numbers[0] == 1.0, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "'%s': /run/pivoting_lu is %.6g, not 0 or 1", p, numbers[0]);
     run->pivoting_lu = numbers[0] == 1.0;
   }
   const struct {

@@ -15,8 +15,12 @@ args = mt.parse_arguments(__doc__)
 check = mt.Checker("bad option values")
 bend = f"{args.source_dir}/input/bend45.yaml"
 spaghetti = f"{args.source_dir}/input/flying_spaghetti.yaml"
-cases = [(bend, ["-analysis_end_time", "abc"], "Input string abc has no numeric value"),
-         (bend, ["-analysis_initial_step", "2"], "initial_step 2. is larger than max_step 1."),
+cases = [(bend, ["-analysis_end_time", "abc"], "-analysis_end_time: 'abc' is not a number"),
+         (bend, ["-analysis_end_time"], "-analysis_end_time needs a value"),
+         (bend, ["-analysis_max_newton_iterations", "2.5"], "-analysis_max_newton_iterations: '2.5' is not an integer"),
+         (bend, ["-analysis_stability", "maybe"], "-analysis_stability: 'maybe' is not a logical value"),
+         (bend, ["-analysis_output_times", "0.5,x"], "-analysis_output_times: '0.5,x' is not a comma-separated list of numbers"),
+         (bend, ["-analysis_initial_step", "2"], "initial_step 2 is larger than max_step 1"),
          (bend, ["-analysis_newton_atol", "-1"], "-analysis_newton_atol must be >= 0"),
          (spaghetti, ["-analysis_type", "static"], "with -analysis_type static: " + spaghetti + ":"),
          (bend, ["-pc_factor_mat_solver_type", "foo"], "-pc_factor_mat_solver_type foo: no LU factorisation of that name"),
@@ -36,11 +40,14 @@ for source, options, expected in cases:
         check.true(f"{label}: the message has the expected text", bool(lines) and "bad option: " in lines[0] and expected in lines[0])
         check.equal(f"{label}: PETSc trace-back lines", stderr.count("PETSC ERROR"), 0)
         check.true(f"{label}: no result file created", not os.path.exists(output))
-# The eigensolver's factorisation package (-st_pc_factor_mat_solver_type) is checked once SLEPc has
-# read its options, after the result file (mesh only) is made: one line, exit 1, no trace.
+# The eigensolver's options (-eps_*, -st_*, its factorisation package) are read before any file is
+# made: one line, exit 1, no trace, no result file; and a result file already there survives even
+# with -output_overwrite (it was replaced before the eigensolver found the bad value).
 modes = f"{args.source_dir}/input/hinged_beam_modes.yaml"
 for ranks in sorted({1, args.np}):
     output = f"{args.work_dir}/modes_bad_package.h5"
+    if os.path.exists(output):
+        os.remove(output)
     code, _, stderr = mt.run_msflex(args, modes, output, extra=["-st_pc_factor_mat_solver_type", "foo"], np_ranks=ranks,
                                     expect_success=False)
     lines = [line for line in stderr.splitlines() if line.startswith("msflex:")]
@@ -51,4 +58,18 @@ for ranks in sorted({1, args.np}):
     check.true(f"{label}: the message names the option",
                bool(lines) and "bad option: -st_pc_factor_mat_solver_type foo: no Cholesky factorisation of that name" in lines[0])
     check.equal(f"{label}: PETSc trace-back lines", stderr.count("PETSC ERROR"), 0)
+    check.true(f"{label}: no result file created", not os.path.exists(output))
+kept = f"{args.work_dir}/modes_kept.h5"
+mt.run_msflex(args, modes, kept, extra=["-quiet", "-output_overwrite"])
+with open(kept, "rb") as f:
+    before = f.read()
+for options in (["-eps_type", "foo"], ["-st_pc_factor_mat_solver_type", "foo"]):
+    code, _, stderr = mt.run_msflex(args, modes, kept, extra=["-output_overwrite", *options], expect_success=False)
+    lines = [line for line in stderr.splitlines() if line.startswith("msflex:")]
+    label = f"modes {' '.join(options)} over an existing result"
+    print(f"{label}: exit {code}: {lines[0] if lines else stderr.strip()[:300]}")
+    check.equal(f"{label}: exit status", code, 1)
+    check.true(f"{label}: one line naming the bad value", len(lines) == 1 and "bad option: " in lines[0] and "foo" in lines[0])
+    with open(kept, "rb") as f:
+        check.true(f"{label}: the earlier result file is untouched", f.read() == before)
 check.finish()

@@ -367,6 +367,11 @@ CASES = [
     restart_case("restart_result_frames_short", None, [r"'out\.h5': /frames/position has 3 frames, /frames/step 5"],
                  result_edit=lambda f: f["frames/position"].resize(3, axis=0)),
     restart_case("restart_end_before_checkpoint", None, [r"is at t = 0\.04, at or beyond the end time 0\.01"], arguments=("-analysis_end_time", "0.01")),
+    # A restart from another directory: the run's result file (a relative path) is not there, and
+    # the restart must not start a new one holding only the rest of the run.
+    Case("restart_elsewhere", lambda d: (os.mkdir(os.path.join(d, "run")), checkpointed_run(os.path.join(d, "run")),
+                                         ["--restart", "run/out.ckpt.h5", "-analysis_end_time", "0.08"])[-1],
+         [r"the result file 'out\.h5' that the checkpoint 'run/out\.ckpt\.h5' continues is not there", r"pass -output_file FILE\.h5"]),
     # The control: the same restart from an intact checkpoint continues the run.
     Case("restart_continues", lambda d: (checkpointed_run(d), ["--restart", "out.ckpt.h5", "-analysis_end_time", "0.08", "-quiet"])[-1], [], status=0,
          may_change=("out.h5", "out.xmf", "out.ckpt.h5"), verify=restart_continues_check),
