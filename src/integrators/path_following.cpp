@@ -254,7 +254,10 @@ PetscErrorCode PathFollower::DetectJump(double dt, double previous_rate, Vec x)
     PetscCall(VecWAXPY(dx_, -scale, tangent, x));
     PetscCall(WeightedDot(dx_, dx_, &error));
     PetscCall(WeightedDot(tangent, tangent, &predicted));
-    deviation[end] = predicted > 0 && scale != 0 ? std::sqrt(error / predicted) / std::abs(scale) : INFINITY;
+    // A path tangent of zero (nothing loads the model: K^{-1} q = 0) or a load factor at rest
+    // predicts nothing, so it cannot tell a jump: such an end does not report one (it reported a
+    // jump at every step of a path without load).
+    deviation[end] = predicted > 0 && scale != 0 ? std::sqrt(error / predicted) / std::abs(scale) : 0.0;
   }
   if (std::min(deviation[0], deviation[1]) > kJumpDeviation && last_critical_.kind == CriticalPointKind::None) {
     last_critical_             = CriticalPoint{};

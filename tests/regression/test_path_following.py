@@ -11,7 +11,9 @@ spring's top at u = w + P/k.
  - with too few Newton iterations to jump, load control stops near the limit point with a message
    that names it and suggests arc length;
  - displacement control of the apex passes both limit points; displacement control of the spring's
-   top, which turns back in the snap-back, jumps (and the jump is named).
+   top, which turns back in the snap-back, jumps (and the jump is named);
+ - the truss without its load: nothing moves, and no step names a critical point (the jump test,
+   whose path tangent is then zero, once named a jump at every step).
 Also on --np ranks (the main run)."""
 
 import numpy as np
@@ -119,4 +121,22 @@ history, w, u = run("top", ["-analysis_control", "displacement", "-analysis_cont
 jumps = np.nonzero(history["critical_point"] == 3)[0]
 print(f"top control: jump named at u = {u[jumps]}")
 check.true(f"top control: at least 1 jump named ({len(jumps)})", len(jumps) >= 1)
+
+# Without load: the path stays at the reference state and names no critical point.
+import yaml  # noqa: E402
+with open(truss) as f:
+    unloaded = yaml.safe_load(f)
+unloaded.pop("loads")
+unloaded.pop("expected", None)
+unloaded_file = f"{args.work_dir}/truss_unloaded.yaml"
+with open(unloaded_file, "w") as f:
+    yaml.safe_dump(unloaded, f)
+path = f"{args.work_dir}/truss_unloaded.h5"
+mt.run_msflex(args, unloaded_file, path, extra=["-analysis_control", "load"])
+history = mt.history(path)
+named = int(np.count_nonzero(history["critical_point"]))
+print(f"no load: {len(history['time']) - 1} steps, critical points named {named}, largest strain energy {np.max(history['strain_energy']):.3e}")
+check.true("no load: steps taken", len(history["time"]) > 2)
+check.equal("no load: critical points named", named, 0)
+check.less("no load: largest strain energy (J)", float(np.max(np.abs(history["strain_energy"]))), 1e-20)
 check.finish()
