@@ -665,7 +665,12 @@ PetscErrorCode RunAnalysis(MPI_Comm comm, Model model, const RunOptions &options
   if (!options.quiet && arc_length && a.path.StoppedByMaxSteps())
     PetscCall(PetscPrintf(comm, "msflex: stopped after max_steps = %d steps at load factor %.6g without reaching end_time = %.6g\n", analysis.max_steps,
                           a.path.LoadFactor(), analysis.end_time));
-  if (!options.quiet) PetscCall(PetscPrintf(comm, "msflex: completed %d steps to t = %.6g; results in %s\n", step, t, options.output_file.c_str()));
+  // Under arc-length or displacement control t is the path's parameter, not the load factor.
+  const bool path_parameter = a.Static() && analysis.control != PathControl::Load;
+  if (!options.quiet && path_parameter)
+    PetscCall(PetscPrintf(comm, "msflex: completed %d steps to load factor %.6g (path parameter t = %.6g); results in %s\n", step, a.path.LoadFactor(), t,
+                          options.output_file.c_str()));
+  else if (!options.quiet) PetscCall(PetscPrintf(comm, "msflex: completed %d steps to t = %.6g; results in %s\n", step, t, options.output_file.c_str()));
   PetscCall(PrintSummary(a));
   PetscFunctionReturn(PETSC_SUCCESS);
 }

@@ -75,6 +75,10 @@ public:
   void           ForceElementHistory(bool with_names, std::vector<HistoryValue> *values) const { system_.ForceElementHistory(with_names, values); }
 
   bool Dynamic() const { return dynamic_; }
+  // The -log_view stages of a Newton solve's assembly and linear solves (the path follower's own
+  // Newton loop logs into them too).
+  PetscLogStage AssemblyStage() const { return newton_context_.assembly_stage; }
+  PetscLogStage SolveStage() const { return solve_stage_; }
   // No messages (-quiet).
   void   SetQuiet(bool quiet) { quiet_ = quiet; }
   double ExternalWork() const { return external_work_; }

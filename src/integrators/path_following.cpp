@@ -466,14 +466,22 @@ PetscErrorCode PathFollower::Correct(double dl, double displacement_target, doub
     // The bordered solve with one factorisation: K dx_R = -R, K dx_F = q.
     KSPConvergedReason reason_R, reason_F;
     PetscBool          geometry_ok;
+    PetscCall(PetscLogStagePush(integrator_->AssemblyStage()));
     PetscCall(StaticLoadPattern(system, lambda, lambda + *dlambda, x_, residual_, q_));
     PetscCall(assembler.AssembleJacobian(assembler.Jacobian(), &geometry_ok));
+    PetscCall(PetscLogStagePop());
     PetscCall(KSPSetOperators(ksp_, assembler.Jacobian(), assembler.Jacobian()));
     PetscCall(VecAXPBY(work_, -1.0, 0.0, residual_));
+    PetscInt iterations_R, iterations_F;
+    PetscCall(PetscLogStagePush(integrator_->SolveStage()));
     PetscCall(KSPSolve(ksp_, work_, dx_R_));
     PetscCall(KSPGetConvergedReason(ksp_, &reason_R));
+    PetscCall(KSPGetIterationNumber(ksp_, &iterations_R));
     PetscCall(KSPSolve(ksp_, q_, dx_F_));
     PetscCall(KSPGetConvergedReason(ksp_, &reason_F));
+    PetscCall(KSPGetIterationNumber(ksp_, &iterations_F));
+    PetscCall(PetscLogStagePop());
+    outcome->linear_iterations += (int)(iterations_R + iterations_F); // the summary's Krylov count: two solves per iteration
     PetscCall(assembler.ZeroRelayEntries(dx_R_));
     PetscCall(assembler.ZeroRelayEntries(dx_F_));
     if (reason_R < 0 || reason_F < 0) {

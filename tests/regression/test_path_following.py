@@ -12,6 +12,9 @@ spring's top at u = w + P/k.
    that names it and suggests arc length;
  - displacement control of the apex passes both limit points; displacement control of the spring's
    top, which turns back in the snap-back, jumps (and the jump is named);
+ - the arc-length run's last line gives the load factor it reached and the path parameter apart,
+   and its summary counts the bordered solves (two per Newton iteration that solves) as Krylov
+   iterations and logs the corrector's assembly in the Assembly stage;
  - the truss without its load: nothing moves, and no step names a critical point (the jump test,
    whose path tangent is then zero, once named a jump at every step).
 Also on --np ranks (the main run)."""
@@ -121,6 +124,24 @@ history, w, u = run("top", ["-analysis_control", "displacement", "-analysis_cont
 jumps = np.nonzero(history["critical_point"] == 3)[0]
 print(f"top control: jump named at u = {u[jumps]}")
 check.true(f"top control: at least 1 jump named ({len(jumps)})", len(jumps) >= 1)
+
+# The arc-length run's report: load factor and path parameter, Krylov iterations, Assembly stage.
+import re  # noqa: E402
+_, stdout, _ = mt.run_msflex(args, truss, f"{args.work_dir}/report.h5")
+done = re.search(r"completed (\d+) steps to load factor ([0-9.eE+-]+) \(path parameter t = ([0-9.eE+-]+)\)", stdout)
+newton = re.search(r"Newton iterations\s+(\d+) in accepted steps, (\d+) in all attempts", stdout)
+krylov = re.search(r"Krylov iterations\s+(\d+) in all attempts", stdout)
+assembly = re.search(r"Assembly ([0-9.eE+-]+) s", stdout)
+print(f"arc-length report: {done.group(0) if done else None}; {newton.group(0) if newton else None}; {krylov.group(0) if krylov else None}; "
+      f"{assembly.group(0) if assembly else None}")
+check.true("arc length: the last line gives the load factor and the path parameter", done is not None)
+if done:
+    check.less("arc length: final load factor - 1", abs(float(done.group(2)) - 1.0), 1e-12)
+    check.true("arc length: the path parameter differs from the load factor", float(done.group(3)) > 1.5)
+if newton and krylov:
+    attempts, solves = int(newton.group(2)), int(krylov.group(1))
+    check.true(f"arc length: Krylov iterations {solves} between the Newton iterations {attempts} and twice them", attempts <= solves <= 2 * attempts)
+check.true("arc length: the corrector's assembly is logged in the Assembly stage", assembly is not None and float(assembly.group(1)) > 0)
 
 # Without load: the path stays at the reference state and names no critical point.
 import yaml  # noqa: E402
