@@ -1,4 +1,4 @@
-"""Spin-up of a flexible arm (input/spin_up.yaml; benchmark D3):
+"""Spin-up of a flexible arm (input/spin_up.yaml; Simo & Vu-Quoc 1986):
  - genalpha (the file's integrator): in steady spin (15 < t < 20, omega = 6 rad/s) the mean axial
    tip displacement in the rotating frame matches the centrifugal stretch tan(kL)/k - L =
    5.1432e-4 of a uniformly rotating bar to 1 %;

@@ -1,4 +1,4 @@
-"""Torque-free symmetric top (input/torque_free_top.yaml; benchmark E2): J = diag(1, 1, 0.5),
+"""Torque-free symmetric top (input/torque_free_top.yaml): J = diag(1, 1, 0.5),
 Omega(0) = (0.5, 0.5, 1). Closed form: R(t) = exp(t hat(pi)/A) exp(-lambda t hat(e3)),
 pi = (0.5, 0.5, 0.5), A = 1, lambda = Omega_3 (C - A)/A = -0.5 (precession about pi at |pi|/A,
 constant nutation angle).
