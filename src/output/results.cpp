@@ -65,7 +65,7 @@ static void AddRigidBodiesToMesh(const Model &model, OutputMesh *mesh)
 {
   for (const RigidBody &body : model.rigid_bodies) {
     const BodyPrincipalAxes principal = RigidBodyPrincipalAxes(body);
-    mesh->body_names.push_back(model.nodes[body.node].name);
+    mesh->body_names.push_back(body.name.empty() ? model.nodes[body.node].name : body.name); // its own name when given, else its node's
     mesh->body_node.push_back(body.node);
     mesh->body_mass.push_back(body.mass);
     for (int i = 0; i < 3; ++i) {
