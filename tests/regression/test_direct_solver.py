@@ -65,7 +65,7 @@ def expect_error(label, model, extra, *messages):
     check.true(f"{label}: no PETSc trace-back", "PETSC ERROR" not in stderr)
 
 
-expect_error("unknown option value", source, ["-analysis_direct_solver", "superlu"], "option -analysis_direct_solver must be auto or mumps, got 'superlu'")
+expect_error("unknown option value", source, ["-analysis_direct_solver", "superlu"], "bad option: -analysis_direct_solver must be auto or mumps, got 'superlu'")
 bad_input = os.path.join(args.work_dir, "bad.yaml")
 with open(bad_input, "w") as f:
     f.write(text.replace("analysis:", "analysis:\n  direct_solver: superlu", 1))

@@ -80,7 +80,7 @@ expect_error("relays", f"{args.source_dir}/input/slider_crank.yaml",
              ["-analysis_linear_solver", "multigrid", "-analysis_condensation_depth", "1", "-analysis_end_time", "0.01"],
              "-analysis_linear_solver multigrid with relay nodes")
 expect_error("unknown solver", statics, ["-analysis_linear_solver", "cholesky", "-analysis_stability", "false"],
-             "option -analysis_linear_solver must be direct or multigrid, got 'cholesky'")
+             "bad option: -analysis_linear_solver must be direct or multigrid, got 'cholesky'")
 with open(statics) as f:
     text = f.read()
 bad_input = os.path.join(args.work_dir, "bad.yaml")
