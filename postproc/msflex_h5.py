@@ -10,6 +10,7 @@ and `description` attributes (or none); they are read as well.
 """
 
 import difflib
+import os
 import sys
 
 import h5py
@@ -24,7 +25,8 @@ PROBE_COMPONENTS = {
 
 SERIES_HELP = """\
 series names:
-  <name>                        every history series, e.g. time (the load factor in statics),
+  <name>                        every history series, e.g. time (the load factor in statics,
+                                the mode number in modes and buckling analyses),
                                 newton_iterations, residual_norm, step_size, <joint>.rz
   <probe>.position.x|y|z        probed node's current position
   <probe>.displacement.x|y|z    probed node's displacement
@@ -41,11 +43,76 @@ class UsageError(Exception):
     """A mistake on the command line; the scripts exit with status 2 for it."""
 
 
+class FileError(OSError):
+    """A file that is not an msflex result file, or one without history rows; the scripts exit
+    with status 1 for it (as for any file that cannot be read)."""
+
+
+def _dataset_text(dataset):
+    """The text of a string dataset, or of one of characters (msflex checkpoints: int8 arrays)."""
+    value = dataset[()]
+    if hasattr(value, "dtype") and value.dtype.kind in "iu":
+        return bytes(value.astype("uint8").tolist()).decode(errors="replace").rstrip("\0")
+    if hasattr(value, "shape") and value.shape:
+        value = value.ravel()[0] if value.size else b""
+    return _text(value.item() if hasattr(value, "item") else value)
+
+
+def _text_attribute(group, name):
+    value = group.attrs.get(name)
+    return None if value is None else _text(value.item() if hasattr(value, "item") else value)
+
+
+def open_result_file(path):
+    """The msflex result file `path`, open for reading (an h5py.File); FileError, with a one-line
+    message, for a missing file, a file that is not HDF5 (an XDMF sidecar, ...), an msflex
+    checkpoint, or another program's HDF5 file. Files of older msflex versions carry no marker
+    (the root attribute msflex_format) and are recognised by their /history group."""
+    if not os.path.exists(path):
+        raise FileError(f"{path}: no such file")
+    if os.path.isdir(path):
+        raise FileError(f"{path} is a directory, not an msflex result file")
+    try:
+        is_hdf5 = h5py.is_hdf5(path)
+    except OSError as error:
+        raise FileError(f"cannot read {path}: {error}") from None
+    if not is_hdf5:
+        with open(path, "rb") as f:
+            head = f.read(4096)
+        if b"msflex results" in head and b"<Xdmf" in head:
+            beside = os.path.splitext(path)[0] + ".h5"
+            raise FileError(f"{path} is an msflex XDMF sidecar, not a result file; the results are in the HDF5 file beside it ({beside})")
+        raise FileError(f"{path} is not an HDF5 file, so not an msflex result file")
+    try:
+        f = h5py.File(path, "r")
+    except OSError as error:
+        raise FileError(f"cannot read {path}: {error}") from None
+    try:
+        marker = _text_attribute(f, "msflex_format") or ""
+        if not marker and isinstance(f.get("run/format"), h5py.Dataset):  # checkpoints written before the marker
+            marker = _dataset_text(f["run/format"])
+            marker = marker if marker.startswith("msflex checkpoint") else ""
+        if marker.startswith("msflex checkpoint"):
+            results = ""
+            if isinstance(f.get("run/output_file"), h5py.Dataset):
+                results = f"; its run's results are in {_dataset_text(f['run/output_file'])}"
+            raise FileError(f"{path} is an msflex checkpoint, not a result file{results}")
+        if marker and not marker.startswith("msflex result"):
+            raise FileError(f"{path} is not an msflex result file (its msflex_format is '{marker}')")
+        if not marker and "history" not in f:
+            raise FileError(f"{path} is not an msflex result file (an HDF5 file without /history)")
+    except BaseException:
+        f.close()
+        raise
+    return f
+
+
 class HistoryFile:
-    """An open result file; use as a context manager."""
+    """An open result file; use as a context manager. FileError (open_result_file) for a file that
+    is not a result file."""
 
     def __init__(self, path):
-        self._file = h5py.File(path, "r")
+        self._file = open_result_file(path)
         history = self._file.get("history", {})
         # Series name -> (dataset path, column or None for 1-D datasets), and -> (unit, description)
         # where the file keeps them in tables.
@@ -81,12 +148,35 @@ class HistoryFile:
         """All series of the file, in the writer's order (time first)."""
         return list(self._series)
 
-    def is_static(self):
-        """Whether the file holds a static analysis (its time is the load factor)."""
-        kind = self._file.attrs.get("analysis_type")
+    def rows(self):
+        """Number of history rows (0 when the file has no series)."""
+        if not self._series:
+            return 0
+        path, _ = self._series[next(iter(self._series))]
+        return len(self._file[path])
+
+    def require_rows(self):
+        """FileError unless the file holds at least one history row: a run that stopped before its
+        first row (or has not flushed it yet) leaves a result file with the model only."""
+        if self.rows() == 0:
+            raise FileError(f"{self._file.filename} holds no history rows: its run stopped before writing its initial state"
+                            " (or has not flushed it yet), so there is nothing to list, print or plot")
+
+    def analysis_type(self):
+        """What the file holds: "static", "dynamic", "modes" or "buckling" (one row per mode, the
+        time being the mode number)."""
+        kind = _text_attribute(self._file, "analysis_type")
+        if kind in ("modes", "buckling", "dynamic"):
+            return kind
+        if "mode" in self._series and "eigenvalue" in self._series:  # msflex writes "static" for eigenanalyses
+            return "modes" if "frequency" in self._series else "buckling"
         if kind is None:  # older files: dynamics writes kinetic_energy
-            return "kinetic_energy" not in self._series
-        return _text(kind) == "static"
+            return "static" if "kinetic_energy" not in self._series else "dynamic"
+        return "static"
+
+    def is_static(self):
+        """Whether the file holds a static analysis (its time is the pseudo-time, the load factor)."""
+        return self.analysis_type() == "static"
 
     def quantity(self, name):
         """(unit, description) of series `name`; unit None when the file does not say."""
@@ -102,12 +192,17 @@ class HistoryFile:
 
     def label(self, name):
         """Axis label of series `name`: its name, or 'load factor' for the time of a static
-        analysis, with the unit in brackets (none for a dimensionless series)."""
+        analysis and 'mode' for that of an eigenanalysis, with the unit in brackets (none for a
+        dimensionless series)."""
         unit, _ = self.quantity(name)
-        shown = "load factor" if name == "time" and self.is_static() else name
+        shown = name
+        if name == "time":
+            shown = {"static": "load factor", "modes": "mode", "buckling": "mode"}.get(self.analysis_type(), name)
         return shown if unit in (None, "", "1") else f"{shown} [{unit}]"
 
     def _check(self, name):
+        if not self._series:
+            self.require_rows()
         if name not in self._series:
             close = difflib.get_close_matches(name, self._series, n=5, cutoff=0.6)
             hint = f"; did you mean: {', '.join(close)}" if close else ""
@@ -115,8 +210,10 @@ class HistoryFile:
                              f" (list them with: msflex-history {self._file.filename})")
 
     def read(self, name):
-        """The values of series `name` as a 1-D float array; UsageError if there is none."""
+        """The values of series `name` as a 1-D float array; UsageError if there is none, FileError
+        if the file has no history rows."""
         self._check(name)
+        self.require_rows()
         path, column = self._series[name]
         dataset = self._file[path]
         return (dataset[:] if column is None else dataset[:, column]).astype(float)
@@ -138,7 +235,8 @@ class HistoryFile:
 
 def run_cli(prog, main):
     """Runs main() and turns the expected failures into one-line messages and exit codes:
-    2 for a usage mistake (as argparse does), 1 for a file that cannot be read."""
+    2 for a usage mistake (as argparse does), 1 for a file that cannot be read, is not an msflex
+    result file or holds no history rows (FileError)."""
     try:
         main()
     except UsageError as error:

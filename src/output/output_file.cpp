@@ -430,9 +430,10 @@ struct OutputFile::Impl {
   H5Id                    file;
   H5Id                    frame_transfer; // collective with MPI-IO (more than one rank), else the default
   hsize_t                 n_nodes = 0, n_elements = 0, n_segments = 0, n_bodies = 0, n_joints = 0, n_ground = 0;
-  bool                    dynamic = false; // time in s (else the load factor)
-  std::vector<int>        segment_element; // rank 0, during Create: element of each 2-node visualisation segment
-  std::vector<FrameEntry> frames;          // in the order written (buffered ones included)
+  bool                    dynamic  = false;                // time in s (else the load factor)
+  AnalysisType            analysis = AnalysisType::Static; // what time is in /history and /frames (output_units.hpp)
+  std::vector<int>        segment_element;                 // rank 0, during Create: element of each 2-node visualisation segment
+  std::vector<FrameEntry> frames;                          // in the order written (buffered ones included)
   // Frame buffer (every rank, its rows): the frames not yet in the file (their entries are the
   // last frames_buffered of `frames`), their rows (the same for each), and per field the values,
   // frame after frame. frames_written: frames in the file. field_exists: the frame datasets the
@@ -613,6 +614,7 @@ PetscErrorCode OutputFile::Impl::Create(bool overwrite, const std::string &input
   // stays intact until the new file is complete.
   PetscCall(CreateHdf5Temporary(path, &temporary, &file, create_access, creation));
   dynamic = mesh.analysis_type == "dynamic";
+  if (!AnalysisTypeFromName(mesh.analysis_type, &analysis)) analysis = AnalysisType::Static;
   PetscCall(WriteFileMarkerChecked(path, file, marker));
   PetscCall(WriteProvenance(mesh));
   PetscCall(WriteStrings(file, "input", {}, {input_text}, ""));
@@ -819,7 +821,7 @@ void OutputFile::Impl::TableColumns(std::vector<std::string> *names, std::vector
   for (std::vector<std::string> *list : {names, units, descriptions})
     if (list) list->clear();
   for (const std::string &name : history_names) {
-    const Quantity quantity = HistoryQuantity(name, dynamic);
+    const Quantity quantity = HistoryQuantity(name, analysis);
     if (names) names->push_back(name);
     if (units) units->push_back(quantity.unit);
     if (descriptions) descriptions->push_back(quantity.description);
@@ -1390,7 +1392,7 @@ PetscErrorCode OutputFile::Impl::WriteFrameBlock()
     // Frames written before the dataset existed (a static stage without velocities) read as 0.
     if (H5Tequal(type, H5T_IEEE_F64LE) > 0) PetscCallHDF5(H5Pset_fill_value(properties, H5T_NATIVE_DOUBLE, &zero));
     PetscCallHDF5(*dataset = H5Dcreate2(group, name, type, space, H5P_DEFAULT, properties, H5P_DEFAULT));
-    PetscCall(Annotate(*dataset, ".", DatasetQuantity("frames", name, dynamic)));
+    PetscCall(Annotate(*dataset, ".", DatasetQuantity("frames", name, analysis)));
     PetscFunctionReturn(PETSC_SUCCESS);
   };
   // Rank 0 writes the step, time and contents of every buffered frame.
@@ -1548,7 +1550,8 @@ PetscErrorCode OutputFile::Impl::Resume(int last_step, long long history_rows, c
                  "output file '%s': the attribute analysis_type is not a fixed-length string", path.c_str());
       std::string text(H5Tget_size(type), '\0');
       PetscCallHDF5(H5Aread(attribute, type, text.data()));
-      dynamic = std::string(text.c_str()) == "dynamic";
+      dynamic  = std::string(text.c_str()) == "dynamic";
+      analysis = dynamic ? AnalysisType::Dynamic : AnalysisType::Static; // a restart continues no eigenanalysis
     }
   }
   // The frames: /frames/step, time and contents list them in the order written (steps rising).
@@ -1714,7 +1717,8 @@ template <class RootWork> PetscErrorCode OutputFile::OpenWith(MPI_Comm comm, con
   PetscErrorCode status = RunOnRoot(comm_, root_work);
   if (status == PETSC_SUCCESS) {
     // Only the sizes travel: a distributed frame brings the segment numbers of its elements.
-    unsigned long long sizes[7] = {impl_->n_nodes, impl_->n_elements, impl_->n_segments, impl_->n_bodies, impl_->n_joints, impl_->n_ground, impl_->dynamic};
+    unsigned long long sizes[7] = {
+        impl_->n_nodes, impl_->n_elements, impl_->n_segments, impl_->n_bodies, impl_->n_joints, impl_->n_ground, (unsigned long long)impl_->analysis};
     PetscCallMPI(MPI_Bcast(sizes, 7, MPI_UNSIGNED_LONG_LONG, 0, comm));
     impl_->n_nodes    = sizes[0];
     impl_->n_elements = sizes[1];
@@ -1722,7 +1726,8 @@ template <class RootWork> PetscErrorCode OutputFile::OpenWith(MPI_Comm comm, con
     impl_->n_bodies   = sizes[3];
     impl_->n_joints   = sizes[4];
     impl_->n_ground   = sizes[5];
-    impl_->dynamic    = sizes[6] != 0;
+    impl_->analysis   = (AnalysisType)sizes[6];
+    impl_->dynamic    = impl_->analysis == AnalysisType::Dynamic;
     status            = RunCollective(comm_, [&] { return impl_->OpenParallel(); });
   }
   if (status != PETSC_SUCCESS) {

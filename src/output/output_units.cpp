@@ -8,8 +8,9 @@ struct Entry {
   const char *group, *name, *unit, *description;
 };
 
-// Every dataset of the root (group ""), /mesh, /frames and /history. "TIME" in a unit stands for the unit
-// of time: s in dynamics, 1 (the load factor) in statics.
+// Every dataset of the root (group ""), /mesh, /frames and /history, as in a dynamic analysis (kByAnalysis
+// below has what differs in the others). "TIME" in a unit stands for the unit of time: s in dynamics, 1
+// (the pseudo-time, the load factor under load control) in statics.
 const Entry kDatasets[] = {
     {"", "input", "", "the input file's text (YAML), verbatim"},
     {"mesh", "node_coordinates", "m", "reference position (x, y, z) of each node"},
@@ -28,7 +29,7 @@ const Entry kDatasets[] = {
     {"mesh", "joint_axes", "1", "joint axes a1, a2, a3 (3 components each) in global axes at the reference configuration"},
     {"mesh", "joint_offset", "m", "slave minus master reference position (0 for a joint to the ground)"},
     {"mesh", "joint_vertices", "1", "point index of each joint marker (the vertex cells of the XDMF joints grid)"},
-    {"mesh", "body_names", "", "rigid body name: the name of its node"},
+    {"mesh", "body_names", "", "rigid body name: its name in the input, or its node's name when it has none"},
     {"mesh", "body_node", "1", "node index each rigid body is attached to"},
     {"mesh", "body_mass", "kg", "mass of each rigid body"},
     {"mesh", "body_inertia", "kg m^2", "inertia tensor about the centre of mass in global axes at the reference configuration (row-major, 9)"},
@@ -45,7 +46,7 @@ const Entry kDatasets[] = {
     {"mesh", "ground_a3", "1", "third axis of each ground marker: the joint's a3, or z for a support"},
     {"mesh", "ground_vertices", "1", "point index of each ground marker (the vertex cells of the XDMF ground grid)"},
     {"frames", "step", "1", "step number of each frame (0: the initial state)"},
-    {"frames", "time", "TIME", "time of each frame (statics: the load factor)"},
+    {"frames", "time", "TIME", "time of each frame"},
     {"frames", "contents", "1", "what each frame holds besides nodes and elements, bits: 1 velocities, 2 section triads, 4 rigid bodies, 8 joints"},
     {"frames", "position", "m", "current position of each node"},
     {"frames", "displacement", "m", "current minus reference position of each node"},
@@ -92,7 +93,7 @@ const struct {
     {"rotation_angle", "", "rad", "tracked rotation angle 2 atan2(|q_v|, q_w) of the probed node, in [0, 2 pi]"},
 };
 
-// The fixed history series.
+// The fixed history series. "TIME" as above.
 const Entry kHistory[] = {
     {"", "time", "TIME", "time"},
     {"", "step", "1", "converged step number"},
@@ -100,10 +101,12 @@ const Entry kHistory[] = {
     {"", "newton_iterations", "1", "Newton iterations of the step"},
     {"", "residual_norm", "mixed", "2-norm of the final residual of the step: forces (N) and moments (N m) together"},
     {"", "strain_energy", "J", "strain energy of the beams"},
-    {"", "kinetic_energy", "J", "kinetic energy"},
-    {"", "total_energy", "J", "kinetic plus strain energy"},
-    {"", "external_work", "J", "work of the external loads since t = 0"},
-    {"", "energy_balance", "J", "total energy minus external work"},
+    {"", "spring_energy", "J", "energy stored in the force elements: their springs and bushings"},
+    {"", "kinetic_energy", "J", "kinetic energy of the beams and rigid bodies"},
+    {"", "total_energy", "J", "kinetic_energy + strain_energy + spring_energy"},
+    {"", "external_work", "J", "work done on the model since t = 0 by the loads, actuators, prescribed supports and drives"},
+    {"", "dissipated_energy", "J", "energy dissipated since t = 0 by the force elements' dampers and the beams' structural damping"},
+    {"", "energy_balance", "J", "total_energy - external_work + dissipated_energy: constant when the time scheme conserves energy (em)"},
     {"", "linear_momentum_x", "kg m/s", "total linear momentum, x"},
     {"", "linear_momentum_y", "kg m/s", "total linear momentum, y"},
     {"", "linear_momentum_z", "kg m/s", "total linear momentum, z"},
@@ -111,8 +114,10 @@ const Entry kHistory[] = {
     {"", "angular_momentum_y", "kg m^2/s", "total angular momentum about the origin, y"},
     {"", "angular_momentum_z", "kg m^2/s", "total angular momentum about the origin, z"},
     {"", "energy_correction", "1", "the energy-momentum scheme's correction factor beta of the step (0 for the other schemes)"},
-    {"", "algorithmic_dissipation", "J", "external work less the change of total energy: what the time scheme itself dissipates"},
-    {"", "load_factor", "1", "load factor at which the loads are evaluated"},
+    {"", "algorithmic_dissipation", "J",
+     "external_work - dissipated_energy - (total_energy - total_energy at t = 0): the energy the time scheme itself dissipates (< 0: creates)"},
+    {"", "load_factor", "1",
+     "load factor at which the loads are evaluated (the pseudo-time under load control; solved for under arc-length or displacement control)"},
     {"", "negative_pivots", "1", "negative pivots of the tangent at the equilibrium (-1: the tangent is not symmetric)"},
     {"", "determinant_sign", "1", "sign of the tangent's determinant (0: it could not be factored)"},
     {"", "lowest_eigenvalue", "1", "eigenvalue of smallest magnitude of K phi = mu D phi, D = |diag K0|"},
@@ -127,26 +132,78 @@ const Entry kHistory[] = {
     {"", "rigid_mode", "1", "1: a rigid mode (eigenvalue at round-off), else 0"},
 };
 
-// Joint series "<joint>.<suffix>". "TIME" as above; rates are per unit of time.
-const Entry kJointSeries[] = {
-    {"", "tx", "m", "released translation along the joint axis a1"},
-    {"", "ty", "m", "released translation along the joint axis a2"},
-    {"", "tz", "m", "released translation along the joint axis a3"},
-    {"", "rx", "rad", "released rotation about the joint axis a1"},
-    {"", "ry", "rad", "released rotation about the joint axis a2"},
-    {"", "rz", "rad", "released rotation about the joint axis a3"},
-    {"", "tx_rate", "m/TIME", "mean rate over the step of the translation along a1"},
-    {"", "ty_rate", "m/TIME", "mean rate over the step of the translation along a2"},
-    {"", "tz_rate", "m/TIME", "mean rate over the step of the translation along a3"},
-    {"", "rx_rate", "rad/TIME", "mean rate over the step of the rotation about a1"},
-    {"", "ry_rate", "rad/TIME", "mean rate over the step of the rotation about a2"},
-    {"", "rz_rate", "rad/TIME", "mean rate over the step of the rotation about a3"},
-    {"", "force_x", "N", "force the joint exerts on its slave, global x"},
-    {"", "force_y", "N", "force the joint exerts on its slave, global y"},
-    {"", "force_z", "N", "force the joint exerts on its slave, global z"},
-    {"", "moment_x", "N m", "moment the joint exerts on its slave about the slave node, global x"},
-    {"", "moment_y", "N m", "moment the joint exerts on its slave about the slave node, global y"},
-    {"", "moment_z", "N m", "moment the joint exerts on its slave about the slave node, global z"},
+// What differs with the kind of analysis: what time is, and the eigenanalyses' series. Looked up
+// before kDatasets and kHistory (the latter's entries are those of a dynamic analysis).
+const struct {
+  AnalysisType analysis;
+  Entry        entry;
+} kByAnalysis[] = {
+    {AnalysisType::Static,
+     {"", "time", "1", "pseudo-time of the static analysis: the load factor under load control with the default ramp (load_factor under any control)"}},
+    {AnalysisType::Modes, {"", "time", "1", "mode number: one row per mode (the same as step and mode)"}},
+    {AnalysisType::Buckling, {"", "time", "1", "mode number: one row per buckling mode (the same as step and mode)"}},
+    {AnalysisType::Modes, {"", "step", "1", "mode number (the same as time and mode)"}},
+    {AnalysisType::Buckling, {"", "step", "1", "mode number (the same as time and mode)"}},
+    {AnalysisType::Modes, {"", "eigenvalue", "(rad/s)^2", "eigenvalue omega^2 of the mode (K phi = omega^2 M phi)"}},
+    {AnalysisType::Buckling, {"", "eigenvalue", "1", "eigenvalue mu of the mode: the load-factor increment from the equilibrium to buckling"}},
+    {AnalysisType::Buckling, {"", "load_factor", "1", "buckling load factor of the mode: the equilibrium's load factor plus the eigenvalue"}},
+    {AnalysisType::Static, {"frames", "time", "1", "pseudo-time of each frame: the load factor under load control with the default ramp"}},
+    {AnalysisType::Modes, {"frames", "time", "1", "mode number of each frame: 0 the equilibrium, k the k-th mode added to it"}},
+    {AnalysisType::Buckling, {"frames", "time", "1", "mode number of each frame: 0 the equilibrium, k the k-th buckling mode added to it"}},
+    {AnalysisType::Modes, {"frames", "step", "1", "mode number of each frame (0: the equilibrium)"}},
+    {AnalysisType::Buckling, {"frames", "step", "1", "mode number of each frame (0: the equilibrium)"}},
+};
+
+// The series "<name>.<suffix>" of joints, force elements and probes of kind reaction or beam, by
+// suffix; `kind` names what writes them. "TIME" as above; rates are per unit of time. A suffix
+// that more than one kind writes has one unit for all of them and a description that names each
+// kind's meaning: the name alone does not tell the kind.
+const struct {
+  const char *kind, *suffix, *unit, *description;
+} kNamedSeries[] = {
+    // Joints: released coordinates (a dependent translation under its axis), their rates.
+    {"joint", "tx", "m", "translation along the joint axis a1, slave relative to master: a released coordinate, or a screw's dependent translation"},
+    {"joint", "ty", "m",
+     "translation along the joint axis a2, slave relative to master: a released coordinate, or a rack-and-pinion's or cam's dependent translation"},
+    {"joint", "tz", "m", "translation along the joint axis a3, slave relative to master: a released coordinate"},
+    {"joint", "rx", "rad", "rotation about the joint axis a1, a released angle (spherical and free joints: the rotation vector's component in joint axes)"},
+    {"joint", "ry", "rad", "rotation about the joint axis a2, a released angle (spherical and free joints: the rotation vector's component in joint axes)"},
+    {"joint", "rz", "rad", "rotation about the joint axis a3, a released angle (spherical and free joints: the rotation vector's component in joint axes)"},
+    {"joint", "tx_rate", "m/TIME", "mean rate over the step of the translation along a1"},
+    {"joint", "ty_rate", "m/TIME", "mean rate over the step of the translation along a2"},
+    {"joint", "tz_rate", "m/TIME", "mean rate over the step of the translation along a3"},
+    {"joint", "rx_rate", "rad/TIME", "mean rate over the step of the rotation about a1"},
+    {"joint", "ry_rate", "rad/TIME", "mean rate over the step of the rotation about a2"},
+    {"joint", "rz_rate", "rad/TIME", "mean rate over the step of the rotation about a3"},
+    // Joints, bushings and reaction probes (which may not share a name).
+    {"joint, bushing or reaction probe", "force_x", "N",
+     "force along global x (a joint: on its slave; a bushing: on its second node; a reaction probe: the supports' reaction at its node)"},
+    {"joint, bushing or reaction probe", "force_y", "N",
+     "force along global y (a joint: on its slave; a bushing: on its second node; a reaction probe: the supports' reaction at its node)"},
+    {"joint, bushing or reaction probe", "force_z", "N",
+     "force along global z (a joint: on its slave; a bushing: on its second node; a reaction probe: the supports' reaction at its node)"},
+    {"joint, bushing or reaction probe", "moment_x", "N m",
+     "moment about global x, about the node it acts on (a joint: on its slave; a bushing: on its second node; a reaction probe: the supports' reaction at its "
+     "node)"},
+    {"joint, bushing or reaction probe", "moment_y", "N m",
+     "moment about global y, about the node it acts on (a joint: on its slave; a bushing: on its second node; a reaction probe: the supports' reaction at its "
+     "node)"},
+    {"joint, bushing or reaction probe", "moment_z", "N m",
+     "moment about global z, about the node it acts on (a joint: on its slave; a bushing: on its second node; a reaction probe: the supports' reaction at its "
+     "node)"},
+    // Force elements.
+    {"coordinate force element", "force", "N or N m",
+     "generalised force of its spring, damper and actuator on its joint coordinate: N on a translation (tx, ty, tz), N m on a rotation (rx, ry, rz)"},
+    {"force element", "power", "W", "power it delivers to the model: its work over the step divided by the step (0 in the first row)"},
+    {"spring-damper", "length", "m", "current distance between its two nodes"},
+    {"spring-damper", "tension", "N", "tension: spring plus damper force along the line of its nodes (positive: it pulls them together)"},
+    // Beam probes: the section forces of an element, section frame (1 = beam axis), mean over its Gauss points.
+    {"beam probe", "N1", "N", "axial force N1 of the element, section frame, mean over its Gauss points"},
+    {"beam probe", "N2", "N", "shear force N2 of the element, section frame, mean over its Gauss points"},
+    {"beam probe", "N3", "N", "shear force N3 of the element, section frame, mean over its Gauss points"},
+    {"beam probe", "M1", "N m", "torsional moment M1 of the element, section frame, mean over its Gauss points"},
+    {"beam probe", "M2", "N m", "bending moment M2 of the element, section frame, mean over its Gauss points"},
+    {"beam probe", "M3", "N m", "bending moment M3 of the element, section frame, mean over its Gauss points"},
 };
 
 // Replaces TIME by the unit of time: "TIME" -> s | 1, "m/TIME" -> m/s | m.
@@ -159,38 +216,53 @@ std::string TimeUnit(const char *unit, bool dynamic)
   return at == 0 ? "1" : text.substr(0, at - 1); // "m/TIME" -> "m": per unit load factor
 }
 
-Quantity Found(const Entry &entry, bool dynamic) { return {TimeUnit(entry.unit, dynamic), entry.description}; }
+Quantity Found(const char *unit, const char *description, AnalysisType analysis) { return {TimeUnit(unit, analysis == AnalysisType::Dynamic), description}; }
+Quantity Found(const Entry &entry, AnalysisType analysis) { return Found(entry.unit, entry.description, analysis); }
+
+// The entry of `name` in `group` that depends on the analysis, or null.
+const Entry *ByAnalysis(const char *group, const std::string &name, AnalysisType analysis)
+{
+  for (const auto &special : kByAnalysis)
+    if (special.analysis == analysis && name == special.entry.name && std::string(group) == special.entry.group) return &special.entry;
+  return nullptr;
+}
 
 } // namespace
 
-Quantity DatasetQuantity(const std::string &group, const std::string &name, bool dynamic)
+Quantity DatasetQuantity(const std::string &group, const std::string &name, AnalysisType analysis)
 {
+  if (const Entry *special = ByAnalysis(group.c_str(), name, analysis)) return Found(*special, analysis);
   for (const Entry &entry : kDatasets)
-    if (group == entry.group && name == entry.name) return Found(entry, dynamic);
+    if (group == entry.group && name == entry.name) return Found(entry, analysis);
   return {};
 }
 
-Quantity HistoryQuantity(const std::string &name, bool dynamic)
+Quantity DatasetQuantity(const std::string &group, const std::string &name, bool dynamic)
 {
+  return DatasetQuantity(group, name, dynamic ? AnalysisType::Dynamic : AnalysisType::Static);
+}
+
+Quantity HistoryQuantity(const std::string &name, AnalysisType analysis)
+{
+  if (const Entry *special = ByAnalysis("", name, analysis)) return Found(*special, analysis);
   for (const Entry &entry : kHistory)
-    if (name == entry.name) {
-      Quantity quantity = Found(entry, dynamic);
-      if (!dynamic && name == "time") quantity.description = "load factor: the pseudo-time of the static analysis (the load factor under the default ramp)";
-      return quantity;
-    }
+    if (name == entry.name) return Found(entry, analysis);
   const size_t dot = name.rfind('.');
   if (dot != std::string::npos && dot > 0) {
-    const std::string joint = name.substr(0, dot), suffix = name.substr(dot + 1);
-    for (const Entry &entry : kJointSeries)
-      if (suffix == entry.name) {
-        Quantity quantity    = Found(entry, dynamic);
-        quantity.description = "joint " + joint + ": " + quantity.description;
-        if (!dynamic && suffix.size() > 5 && suffix.compare(suffix.size() - 5, 5, "_rate") == 0) quantity.description += ", per unit load factor";
+    const std::string owner = name.substr(0, dot), suffix = name.substr(dot + 1);
+    for (const auto &series : kNamedSeries)
+      if (suffix == series.suffix) {
+        Quantity quantity    = Found(series.unit, series.description, analysis);
+        quantity.description = owner + " (" + series.kind + "): " + quantity.description;
+        if (analysis != AnalysisType::Dynamic && suffix.size() > 5 && suffix.compare(suffix.size() - 5, 5, "_rate") == 0)
+          quantity.description += ", per unit pseudo-time (the load factor under load control)";
         return quantity;
       }
   }
   return {"", "a series of unknown meaning"};
 }
+
+Quantity HistoryQuantity(const std::string &name, bool dynamic) { return HistoryQuantity(name, dynamic ? AnalysisType::Dynamic : AnalysisType::Static); }
 
 void ProbeColumnNames(const std::string &probe, std::string names[kProbeColumns])
 {

@@ -1,9 +1,13 @@
 #!/usr/bin/env python3
-"""Runs postproc/msflex-history, postproc/plot-history and postproc/msflex-modes on synthetic result
-files that follow docs/output.md (a history table with one probe's columns, with the units and
-descriptions msflex writes, of a static and of a dynamic analysis, and one of an older msflex: a
-dataset per series, without units; modes; critical points): the listing, CSV, the axis labels with units ("load factor" for a static
-analysis's time) and the errors. Run: python3 tests/regression/test_postproc.py"""
+"""Runs postproc/msflex-history, postproc/plot-history, postproc/msflex-modes and
+postproc/plot-energy-momentum on synthetic result files that follow docs/output.md (a history table
+with one probe's columns, with the units and descriptions msflex writes, of a static and of a
+dynamic analysis, and one of an older msflex: a dataset per series, without units; modes; critical
+points; the energies and momenta of a damped mechanism): the listing, CSV, the axis labels with
+units ("load factor" for a static analysis's time, "mode" for an eigenanalysis'), the energy
+balance and momentum panels, and the errors: one line on stderr and exit status 1 for a file
+without history rows, a checkpoint and files that are no result files. (tests/regression/
+test_output_units.py does the same on the files msflex writes.) Run: python3 tests/regression/test_postproc.py"""
 
 import csv
 import importlib.machinery
@@ -75,13 +79,87 @@ def write_result_file(path, analysis="static"):
         write_table(f, columns, quantities)
 
 
-def plot_history_module():
-    """postproc/plot-history as a module, for its plot() (the axes of the figure it draws)."""
-    loader = importlib.machinery.SourceFileLoader("plot_history", os.path.join(POSTPROC, "plot-history"))
-    spec = importlib.util.spec_from_loader("plot_history", loader)
+def script_module(script):
+    """postproc/<script> as a module, for its plot() (the axes of the figure it draws)."""
+    name = script.replace("-", "_")
+    loader = importlib.machinery.SourceFileLoader(name, os.path.join(POSTPROC, script))
+    spec = importlib.util.spec_from_loader(name, loader)
     module = importlib.util.module_from_spec(spec)
     loader.exec_module(module)
     return module
+
+
+def plot_history_module():
+    return script_module("plot-history")
+
+
+def write_model_only_file(path):
+    """A result file as msflex leaves it when its run stops before the first history row (for
+    example a static stage that finds no equilibrium): the marker, the input and the mesh, an empty
+    /frames and /history."""
+    with h5py.File(path, "w") as f:
+        f.attrs["msflex_format"] = "msflex result 3"
+        f.attrs["analysis_type"] = np.bytes_(b"dynamic")
+        f["input"] = "nodes: {a: [0, 0, 0]}"
+        f["mesh/node_coordinates"] = np.zeros((1, 3))
+        f.create_group("frames")
+        f.create_group("history")
+
+
+def write_checkpoint(path, output_file="out.h5"):
+    """An msflex checkpoint: its marker, and the format and result file as /run datasets of
+    characters (int8), as msflex writes them."""
+    with h5py.File(path, "w") as f:
+        f.attrs["msflex_format"] = "msflex checkpoint 3"
+        f["run/format"] = np.frombuffer(b"msflex checkpoint 3", dtype=np.int8)
+        f["run/output_file"] = np.frombuffer(output_file.encode(), dtype=np.int8)
+        f.create_group("nodes")
+
+
+# A damped mechanism's energies (J) and momenta: a motor does work until the end, dampers
+# dissipate part of it, the rest is the total energy, so that total - work falls while
+# energy_balance = total - work + dissipated stays constant.
+MECHANISM_TIME = np.linspace(0.0, 1.0, 11)
+MECHANISM_WORK = 6.0 * MECHANISM_TIME ** 2
+MECHANISM_DISSIPATED = 3.5 * MECHANISM_TIME ** 2
+MECHANISM_SPRING = 0.01 * np.sin(10 * MECHANISM_TIME) ** 2
+MECHANISM_STRAIN = 1e-4 * MECHANISM_TIME
+MECHANISM_TOTAL = MECHANISM_WORK - MECHANISM_DISSIPATED + 3e-11 * np.cos(7 * MECHANISM_TIME)
+MECHANISM_BALANCE = MECHANISM_TOTAL - MECHANISM_WORK + MECHANISM_DISSIPATED
+
+
+def write_dynamic_file(path, damped=True, held=True, work=None):
+    """The history of a dynamic analysis with energies and momenta (docs/output.md): `damped` adds
+    spring_energy, dissipated_energy and energy_balance (without them: a file of an older msflex);
+    `held`: a revolute joint to the ground; `work`: the external work (default MECHANISM_WORK)."""
+    work = MECHANISM_WORK if work is None else work
+    dissipated = MECHANISM_DISSIPATED if damped else 0 * work
+    total = work - dissipated + 3e-11 * np.cos(7 * MECHANISM_TIME)
+    spring = MECHANISM_SPRING if damped else 0 * work
+    columns = {"time": MECHANISM_TIME, "strain_energy": MECHANISM_STRAIN}
+    quantities = {"time": ("s", "time"), "strain_energy": ("J", "strain energy of the beams")}
+    if damped:
+        columns["spring_energy"] = spring
+    columns.update(kinetic_energy=total - MECHANISM_STRAIN - spring, total_energy=total, external_work=work)
+    if damped:
+        columns["energy_balance"] = total - work + dissipated
+    for k, axis in enumerate("xyz"):
+        columns[f"linear_momentum_{axis}"] = (k + 1) * np.sin(3 * MECHANISM_TIME)
+    for k, axis in enumerate("xyz"):
+        columns[f"angular_momentum_{axis}"] = (k + 1) * np.cos(3 * MECHANISM_TIME)
+    if damped:
+        columns["dissipated_energy"] = dissipated
+    for name in columns:
+        quantities.setdefault(name, ("kg m/s" if name.startswith("linear") else "kg m^2/s" if name.startswith("angular") else "J", name))
+    with h5py.File(path, "w") as f:
+        f.attrs["msflex_format"] = "msflex result 3"
+        f.attrs["analysis_type"] = np.bytes_(b"dynamic")
+        f["input"] = "nodes: {rotor: [0, 0, 0]}\nrigid_bodies:\n  - {node: rotor, mass: 1}\n"
+        if held:
+            f["mesh/joint_names"] = np.array([b"rotor"])
+            f["mesh/joint_types"] = np.array([b"revolute"])
+            f["mesh/joint_master"] = np.array([-1], dtype=np.int32)
+        write_table(f, columns, quantities)
 
 
 def run(script, *arguments):
@@ -236,6 +314,142 @@ class PostprocTest(unittest.TestCase):
         result = run("msflex-modes", self.h5)
         self.assertEqual(result.returncode, 2)
         self.assertIn("no modes", result.stderr)
+
+    def test_time_of_an_eigenanalysis_is_labelled_mode(self):
+        # msflex marks an eigenanalysis' file "static"; its rows are the modes.
+        path = os.path.join(self.directory.name, "modes.h5")
+        with h5py.File(path, "w") as f:
+            f.attrs["analysis_type"] = np.bytes_(b"static")
+            write_table(f, {"time": [1, 2], "step": [1, 2], "mode": [1, 2], "eigenvalue": [1.0, 400.0], "angular_frequency": [1.0, 20.0],
+                            "frequency": [0.16, 3.2], "rigid_mode": [0, 0], "backward_error": [1e-16, 2e-16]},
+                        {"time": ("1", "mode number"), "eigenvalue": ("(rad/s)^2", "eigenvalue omega^2 of the mode"), "frequency": ("Hz", "frequency")})
+        sys.path.insert(0, POSTPROC)
+        import msflex_h5
+        with msflex_h5.HistoryFile(path) as history:
+            axes = plot_history_module().plot(history, "time", ["eigenvalue"], "t").axes[0]
+        self.assertEqual(axes.get_xlabel(), "mode")
+        self.assertEqual(axes.get_ylabel(), "eigenvalue [(rad/s)^2]")
+
+    def assert_one_line_error(self, result, script, message):
+        """Exit status 1, nothing on stdout, and on stderr the one line '<script>: error: <message>'."""
+        self.assertEqual(result.returncode, 1, result.stderr)
+        self.assertEqual(result.stdout, "")
+        self.assertEqual(result.stderr, f"{script}: error: {message}\n")
+
+    def test_a_file_without_history_rows_is_an_error_of_one_line(self):
+        path = os.path.join(self.directory.name, "stopped.h5")
+        write_model_only_file(path)
+        message = (f"{path} holds no history rows: its run stopped before writing its initial state (or has not flushed it yet),"
+                   " so there is nothing to list, print or plot")
+        for arguments in ([], ["--names"], ["time"], ["time", "kinetic_energy"]):
+            self.assert_one_line_error(run("msflex-history", path, *arguments), "msflex-history", message)
+        png = os.path.join(self.directory.name, "plot.png")
+        self.assert_one_line_error(run("plot-history", path, "time", "-o", png), "plot-history", message)
+        self.assert_one_line_error(run("plot-energy-momentum", path, "-o", png), "plot-energy-momentum", message)
+        self.assert_one_line_error(run("msflex-modes", path), "msflex-modes", message)
+        self.assertFalse(os.path.exists(png))
+
+    def test_a_checkpoint_is_not_a_result_file(self):
+        path = os.path.join(self.directory.name, "out.ckpt.h5")
+        write_checkpoint(path)
+        message = f"{path} is an msflex checkpoint, not a result file; its run's results are in out.h5"
+        for arguments in ([], ["--names"], ["time"]):
+            self.assert_one_line_error(run("msflex-history", path, *arguments), "msflex-history", message)
+        png = os.path.join(self.directory.name, "plot.png")
+        self.assert_one_line_error(run("plot-history", path, "time", "-o", png), "plot-history", message)
+        self.assert_one_line_error(run("plot-energy-momentum", path, "-o", png), "plot-energy-momentum", message)
+        self.assert_one_line_error(run("msflex-modes", path), "msflex-modes", message)
+        self.assertFalse(os.path.exists(png))
+
+    def test_other_files_are_not_result_files(self):
+        sidecar = os.path.join(self.directory.name, "out.xmf")
+        with open(sidecar, "w") as f:
+            f.write('<?xml version="1.0" ?>\n<!-- msflex results (layout: docs/output.md). -->\n<Xdmf Version="3.0">\n</Xdmf>\n')
+        text = os.path.join(self.directory.name, "notes.txt")
+        with open(text, "w") as f:
+            f.write("not a result\n")
+        foreign = os.path.join(self.directory.name, "other.h5")
+        with h5py.File(foreign, "w") as f:
+            f["x"] = [1.0, 2.0]
+        missing = os.path.join(self.directory.name, "missing.h5")
+        cases = {sidecar: f"{sidecar} is an msflex XDMF sidecar, not a result file; the results are in the HDF5 file beside it"
+                          f" ({os.path.join(self.directory.name, 'out.h5')})",
+                 text: f"{text} is not an HDF5 file, so not an msflex result file",
+                 foreign: f"{foreign} is not an msflex result file (an HDF5 file without /history)",
+                 missing: f"{missing}: no such file"}
+        for path, message in cases.items():
+            self.assert_one_line_error(run("msflex-history", path), "msflex-history", message)
+            self.assert_one_line_error(run("msflex-modes", path), "msflex-modes", message)
+
+    def energy_momentum_axes(self, path, **options):
+        with __import__("msflex_h5").HistoryFile(path) as history:
+            figure = script_module("plot-energy-momentum").plot(history, title="t", **options)
+        top, bottom = figure.axes
+        return {line.get_label(): line for line in top.get_lines()}, bottom
+
+    def test_energy_plot_shows_the_energy_balance_of_a_damped_model(self):
+        sys.path.insert(0, POSTPROC)
+        path = os.path.join(self.directory.name, "damped.h5")
+        write_dynamic_file(path)
+        lines, bottom = self.energy_momentum_axes(path)
+        balance = [line for label, line in lines.items() if label.startswith("energy_balance")]
+        self.assertEqual(len(balance), 1, list(lines))
+        np.testing.assert_array_equal(balance[0].get_ydata(), MECHANISM_BALANCE)
+        self.assertIn("= total − external work + dissipated", balance[0].get_label())
+        # total - work falls by the dissipated energy: not plotted when energy_balance exists.
+        self.assertNotIn("total − external work", lines)
+        np.testing.assert_array_equal(lines["dissipated"].get_ydata(), MECHANISM_DISSIPATED)
+        np.testing.assert_array_equal(lines["spring"].get_ydata(), MECHANISM_SPRING)
+        self.assertEqual(bottom.figure.axes[0].get_ylabel(), "energy [J]")
+        # Held by a joint to the ground, and the motor works until the end: the momenta are not
+        # conserved, so their values are shown over the whole run, and the panel says why.
+        self.assertEqual(len(bottom.get_lines()), 6)
+        for line in bottom.get_lines():
+            self.assertEqual(len(line.get_xdata()), len(MECHANISM_TIME))
+        self.assertIn("momenta not conserved", bottom.get_title().replace("\n", " "))
+        self.assertIn("joints to the ground (rotor)", bottom.get_title().replace("\n", " "))
+        self.assertIn("external work changes until the end", bottom.get_title().replace("\n", " "))
+        self.assertEqual(bottom.get_xlabel(), "time [s]")
+        # An older file without energy_balance: total - external work.
+        write_dynamic_file(path, damped=False)
+        lines, _ = self.energy_momentum_axes(path)
+        self.assertFalse(any(label.startswith("energy_balance") for label in lines))
+        np.testing.assert_allclose(lines["total − external work"].get_ydata(), 3e-11 * np.cos(7 * MECHANISM_TIME), rtol=0, atol=1e-15)
+
+    def test_momentum_deviation_from_the_end_of_the_loading(self):
+        sys.path.insert(0, POSTPROC)
+        path = os.path.join(self.directory.name, "free.h5")
+        work = np.minimum(MECHANISM_TIME, 0.4)  # the loads stop at t = 0.4
+        write_dynamic_file(path, held=False, work=work)
+        _, bottom = self.energy_momentum_axes(path)
+        self.assertEqual(len(bottom.get_lines()), 6)
+        first = int(np.searchsorted(MECHANISM_TIME, 0.4 - 1e-12))
+        for k, line in enumerate(bottom.get_lines()):
+            np.testing.assert_array_equal(line.get_xdata(), MECHANISM_TIME[first:])
+            self.assertEqual(line.get_ydata()[0], 0.0)
+        self.assertIn("from t₀ = 0.4 s, when the external work stops changing", bottom.get_title().replace("\n", " "))
+        # The motor works until the end and nothing holds the model: values, and the panel says why.
+        write_dynamic_file(path, held=False)
+        _, bottom = self.energy_momentum_axes(path)
+        self.assertEqual([len(line.get_xdata()) for line in bottom.get_lines()], [len(MECHANISM_TIME)] * 6)
+        self.assertIn("external work changes until the end", bottom.get_title().replace("\n", " "))
+        self.assertNotIn("held", bottom.get_title().replace("\n", " "))
+        # --from-time: deviations from there, even where the momenta are not conserved.
+        write_dynamic_file(path)
+        _, bottom = self.energy_momentum_axes(path, from_time=0.5)
+        self.assertEqual([len(line.get_xdata()) for line in bottom.get_lines()], [6] * 6)
+        self.assertIn("they are not", bottom.get_title().replace("\n", " "))
+        png = os.path.join(self.directory.name, "energy.png")
+        result = run("plot-energy-momentum", path, "-o", png, "--from-time", "2")
+        self.assertEqual(result.returncode, 2)
+        self.assertIn("--from-time 2.0 is after the last time 1", result.stderr)
+        result = run("plot-energy-momentum", path, "-o", png)
+        self.assertEqual(result.returncode, 0, result.stderr)
+        with open(png, "rb") as image:
+            self.assertEqual(image.read(8), b"\x89PNG\r\n\x1a\n")
+        result = run("plot-energy-momentum", self.h5, "-o", png)
+        self.assertEqual(result.returncode, 2)
+        self.assertIn("it holds a static analysis, not a dynamic one", result.stderr)
 
 
 if __name__ == "__main__":
