@@ -42,12 +42,18 @@ int ElementIndices(const BeamElement &element, const DofMap &map, PetscInt *indi
 // to element, so the residual's norm cannot drop below about eps sqrt(sum_e (|C_N| R / h_e)^2),
 // which grows like N^1.5 with the element count N. Newton stops there instead of iterating on
 // round-off (ForceScaledConvergenceTest in integrators/newton.cpp). Returns the local sum.
+// The size of the model's coordinates: the largest |x_i| of a node's reference position.
+double ModelReach(const Model &model)
+{
+  double reach = 0.0;
+  for (const Node &node : model.nodes) reach = std::max(reach, node.position.cwiseAbs().maxCoeff());
+  return reach;
+}
+
 double LocalPositionRoundoffSquares(const Model &model, const DofMap &map)
 {
-  Vec3 lower = Vec3::Constant(std::numeric_limits<double>::max()), upper = -lower;
-  for (const Node &node : model.nodes) lower = lower.cwiseMin(node.position), upper = upper.cwiseMax(node.position);
   if (model.nodes.empty()) return 0.0;
-  const double reach   = std::max(lower.cwiseAbs().maxCoeff(), upper.cwiseAbs().maxCoeff());
+  const double reach   = ModelReach(model);
   double       squares = 0.0;
   for (const int e : map.local_elements) {
     const BeamElement &element = model.elements[e];
@@ -105,7 +111,9 @@ PetscErrorCode Assembler::Setup(MPI_Comm comm, const Model &model, const DofMap 
   PetscCall(MPIU_Allreduce(&stiffness_squares, &global_stiffness_squares, 1, MPI_DOUBLE, MPI_SUM, comm));
   double global_position_squares, position_squares = LocalPositionRoundoffSquares(model, map);
   PetscCall(MPIU_Allreduce(&position_squares, &global_position_squares, 1, MPI_DOUBLE, MPI_SUM, comm));
-  roundoff_force_level_  = std::numeric_limits<double>::epsilon() * std::sqrt(1e4 * global_stiffness_squares + global_position_squares);
+  roundoff_force_level_        = std::numeric_limits<double>::epsilon() * std::sqrt(1e4 * global_stiffness_squares + global_position_squares);
+  const double inertia_squares = inertia ? inertia->LocalInertiaRoundoffSquares(ModelReach(model)) : 0.0;
+  PetscCall(MPIU_Allreduce(&inertia_squares, &global_inertia_roundoff_squares_, 1, MPI_DOUBLE, MPI_SUM, comm));
   double damping_squares = 0.0;
   for (ForceContributor *c : contributors_) damping_squares += c->LocalDampingRoundoffSquares();
   PetscCall(MPIU_Allreduce(&damping_squares, &global_damping_squares_, 1, MPI_DOUBLE, MPI_SUM, comm));
@@ -583,10 +591,15 @@ PetscErrorCode Assembler::BeginStep(const StepEquations &equations)
   for (ForceContributor *c : contributors_) c->BeginStep(*state_);
   inertial_roundoff_level_ = 0.0;
   damping_roundoff_level_  = 0.0;
+  stagnation_level_        = 0.0;
   if (equations.Dynamic()) {
     double squares = inertia_->LocalMomentumRateSquares(*state_, equations.scheme.dt);
     PetscCall(MPIU_Allreduce(MPI_IN_PLACE, &squares, 1, MPI_DOUBLE, MPI_SUM, comm_));
     inertial_roundoff_level_ = 100.0 * std::numeric_limits<double>::epsilon() * std::sqrt(squares);
+    // The inertia times the configuration's rounding, eps c sqrt(sum (m R)^2 + |J|^2) with c the
+    // scheme's inertia coefficient, which the momenta miss at rest or at a turning point: a bound
+    // of the residual's noise there, ten times over (StagnationLevel).
+    stagnation_level_ = 10.0 * std::numeric_limits<double>::epsilon() * equations.scheme.InertiaCoefficient() * std::sqrt(global_inertia_roundoff_squares_);
     // Damping forces C_d times strain rates, which are the strains' increments (rounded as the
     // strains are) times a rate coefficient: eps times 100 C_d times it, as the stiffness's floor
     // is eps times 100 K (structural damping of tau = 0.01 s at dt = 1 ms raised the floor

@@ -113,6 +113,10 @@ public:
   // difference of momenta over dt, which a predictor that moves every node and joint coordinate at
   // its rate can leave at round-off of them (a body spinning freely about its axis).
   double RoundoffForceLevel() const { return std::max({roundoff_force_level_, inertial_roundoff_level_, damping_roundoff_level_}); }
+  // Dynamics: a residual that no longer falls and is below this level is at the noise of the
+  // inertia terms' rounding (a body at rest or at a turning point with a small step, where the
+  // momenta give no floor), and Newton has converged (ForceScaledConvergenceTest). 0 in statics.
+  double StagnationLevel() const { return std::max(stagnation_level_, RoundoffForceLevel()); }
   // Largest |omega| over the nodes of the whole model. Collective.
   PetscErrorCode MaxRotationIncrement(double *max_rotation);
   // Work of the external loads over the current increments, plus that of the reactions that drive
@@ -362,11 +366,13 @@ private:
   std::vector<Vec6> reaction_sums_;
   bool              collect_reactions_ = false;
 
-  double            roundoff_force_level_    = 0.0;
-  double            inertial_roundoff_level_ = 0.0;  // of the step (BeginStep; 0 outside dynamics)
-  double            damping_roundoff_level_  = 0.0;  // of the step: viscous forces on rounded strain rates (BeginStep)
-  double            global_damping_squares_  = 0.0;  // sum of LocalDampingRoundoffSquares over the ranks
-  double            local_force_squares_     = 0.0;  // sum of squares of every node vector added in the last residual
+  double            roundoff_force_level_            = 0.0;
+  double            global_inertia_roundoff_squares_ = 0.0; // InertiaContributor::LocalInertiaRoundoffSquares, summed
+  double            stagnation_level_                = 0.0;
+  double            inertial_roundoff_level_         = 0.0; // of the step (BeginStep; 0 outside dynamics)
+  double            damping_roundoff_level_          = 0.0; // of the step: viscous forces on rounded strain rates (BeginStep)
+  double            global_damping_squares_          = 0.0; // sum of LocalDampingRoundoffSquares over the ranks
+  double            local_force_squares_             = 0.0; // sum of squares of every node vector added in the last residual
   std::vector<Vec6> prescribed_residual_;            // per local node: the last residual's entries on prescribed DOFs (the reactions this rank assembled)
   bool              mass_matrix_only_       = false; // AssembleMassMatrix: no equations for massless groups
   double            energy_correction_      = 0.0;   // em's beta of the last residual

@@ -133,6 +133,23 @@ double InertiaContributor::LocalMomentumRateSquares(const State &state, double d
   return squares;
 }
 
+double InertiaContributor::LocalInertiaRoundoffSquares(double reach) const
+{
+  double squares = 0.0;
+  for (size_t k = 0; k < map_->local_elements.size(); ++k) {
+    const BeamElement &element = model_->elements[map_->local_elements[k]];
+    const double       rhoA    = model_->sections[element.section].rhoA;
+    for (int a = 0; a <= element.order; ++a) squares += std::pow(rhoA * beams_->References()[k].nodal_length[a] * reach, 2);
+  }
+  for (PetscInt l = 0; l < map_->num_owned_nodes; ++l) squares += std::pow(mass_.rotary_inertia[l].norm(), 2);
+  for (const RigidBody &body : model_->rigid_bodies) {
+    const int l = map_->node_to_local[body.node];
+    if (l < 0 || l >= map_->num_owned_nodes) continue;
+    squares += std::pow(body.mass * reach, 2) + std::pow(body.mass * body.offset.squaredNorm(), 2);
+  }
+  return squares;
+}
+
 void InertiaContributor::DropMasslessElementRows(const State &state, size_t k, ElementContribution *out) const
 {
   const BeamElement &element = model_->elements[map_->local_elements[k]];

@@ -40,6 +40,12 @@ public:
   // m |v| per body): the scale of the momentum differences over dt that an inertial residual is,
   // whose rounding bounds how small that residual can get (Assembler::BeginStep).
   double LocalMomentumRateSquares(const State &state, double dt) const;
+  // Sum over this rank's elements, owned nodes and rigid bodies of the squared inertia that the
+  // rounding of the configuration meets: (m R)^2 per mass m at positions of size R (`reach`, m)
+  // and (|J|_F + m |c|^2)^2 per rotary inertia J and offset c (rotations rounded to about eps rad).
+  // Times eps and the scheme's inertia coefficient (1/(beta dt^2), 2/dt^2) it bounds how small an
+  // inertial residual can get whatever the momenta: at rest, at a turning point, with small steps.
+  double LocalInertiaRoundoffSquares(double reach) const;
 
   // The equations of the massless groups (initial-acceleration problem): an element's rows
   // dropped, a node's rows replaced; called by the assembler after every contributor has added.
