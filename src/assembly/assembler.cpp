@@ -1306,7 +1306,8 @@ PetscErrorCode Assembler::EvaluateJointReactions(double dt)
     if (map.joint_rank[J.joint] != rank) continue;
     const PetscScalar *row = output + 12 * (map.joint_slot[J.joint] - map.first_owned_joint_slot);
     for (int i = 0; i < 6; ++i) J.reaction(i) = row[i];
-    for (int c = 0; c < kJointMaxReleased; ++c) J.rate[c] = row[6 + c];
+    if (dt > 0.0)
+      for (int c = 0; c < kJointMaxReleased; ++c) J.rate[c] = row[6 + c];
   }
   PetscCall(VecRestoreArrayRead(joint_output_, &output));
   PetscFunctionReturn(PETSC_SUCCESS);

@@ -131,7 +131,8 @@ public:
   // Called at the converged increments (before the step is committed): each local joint's
   // transmitted force and moment (the slave's residual: what the joint exerts on the slave, about
   // the slave node, global axes) and the step's mean rates of its released coordinates, into the
-  // State's joints. Collective.
+  // State's joints. With dt = 0 (the initial accelerations) the reactions alone: the rates stay.
+  // Collective.
   PetscErrorCode EvaluateJointReactions(double dt);
   // The energy-momentum scheme's beta of the last residual (0 otherwise).
   double EnergyCorrectionFactor() const { return energy_correction_; }

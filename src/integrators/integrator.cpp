@@ -71,7 +71,10 @@ PetscErrorCode Integrator::InitialiseMotion(double t)
     StateSetCoordinateRates(*model_, t, &system_.GetState());
   }
   system_.StartMotion();
-  if (IsMidpointScheme(model_->analysis.integrator)) {
+  const bool midpoint = IsMidpointScheme(model_->analysis.integrator);
+  // The mid-point schemes need no initial accelerations, but the first history row's joint
+  // reactions do (they were 0): the problem is solved for them alone when there are joints.
+  if (midpoint && map_->global_count.joints == 0) {
     if (reaction_probes_) {
       PetscCall(assembler.BeginStep(InitialAccelerationProblem(t)));
       PetscCall(assembler.EvaluateSupportReactions());
@@ -92,6 +95,15 @@ PetscErrorCode Integrator::InitialiseMotion(double t)
   PetscCheck(reason > 0, comm_, PETSC_ERR_NOT_CONVERGED,
              "the initial accelerations could not be computed (%s): is every node with a DOF free given mass or stiffness?", SNESConvergedReasons[reason]);
   PetscCall(assembler.SetIncrements(increments_));
+  // The joints' reactions at t, for the first history row (the rates stay as given).
+  if (map_->global_count.joints > 0) PetscCall(assembler.EvaluateJointReactions(0.0));
+  if (midpoint) {
+    // Nothing of the accelerations is kept: the mid-point schemes' steps start from positions and
+    // velocities alone, the State as it was before this solve.
+    if (reaction_probes_) PetscCall(assembler.EvaluateSupportReactions());
+    assembler.DiscardStep();
+    PetscFunctionReturn(PETSC_SUCCESS);
+  }
   // The reactions at t (the trapezoidal work of the first step starts from them).
   PetscCall(assembler.StoreReactions());
   if (reaction_probes_) PetscCall(assembler.EvaluateSupportReactions());
