@@ -340,9 +340,28 @@ PetscErrorCode WriteFrame(Analysis &a, int step, double time, double *strain_ene
 }
 
 // The end-of-run summary, with the run's tangent counts (nothing with -quiet).
+// A warning line on standard error (also with -quiet) when the dynamics created energy: the energy
+// balance grew by more than kEnergyGrowthWarning of the largest total energy, which no scheme does
+// on purpose (em conserves it, genalpha and the dampers only take energy away).
+constexpr double kEnergyGrowthWarning = 0.05;
+
+PetscErrorCode WarnEnergyGrowth(Analysis &a)
+{
+  PetscFunctionBeginUser;
+  const double growth = a.summary.RelativeEnergyGrowth();
+  if (!a.Dynamic() || !(growth > kEnergyGrowthWarning)) PetscFunctionReturn(PETSC_SUCCESS);
+  PetscCall(PetscFPrintf(a.comm, PETSC_STDERR,
+                         "msflex: warning: the energy balance grew by %.3g times the largest total energy: %s created energy (newmark and genalpha "
+                         "near rho_infinity = 1 are not energy-stable for rotating bodies and joints; em conserves energy, a smaller "
+                         "-analysis_spectral_radius damps it)\n",
+                         growth, TimeSchemeName(a.model.analysis.integrator)));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
 PetscErrorCode PrintSummary(Analysis &a)
 {
   PetscFunctionBeginUser;
+  PetscCall(WarnEnergyGrowth(a));
   if (a.options.quiet) PetscFunctionReturn(PETSC_SUCCESS);
   a.summary.Tangents(a.integrator.TangentsFormed(), a.integrator.TangentsReused());
   PetscCall(a.summary.Print(a.comm, a.run_wall_start, a.Dynamic()));

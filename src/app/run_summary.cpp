@@ -30,6 +30,7 @@ void RunSummary::Energy(double energy_balance, double total_energy)
   have_energy_  = true;
   balance_last_ = energy_balance;
   max_drift_    = std::max(max_drift_, std::fabs(energy_balance - balance_first_));
+  max_growth_   = std::max(max_growth_, energy_balance - balance_first_);
   max_total_    = std::max(max_total_, std::fabs(total_energy));
 }
 
