@@ -168,7 +168,13 @@ void ReadDrive(const YAML::Node &value, const MappingReader &joint_entry, const 
   const std::vector<std::string> names           = DrivableCoordinates(joint);
   std::vector<std::string>       choices         = names;
   if (joint.rotation == Joint::Rotation::OneAxis) choices.push_back("rotation");
-  if (joint.dependence == Joint::Dependence::Linear) choices.push_back("translation");
+  // The dependent translation also by the name its history series has (<joint>.tx for a screw along
+  // its first axis), where that name is no released coordinate of its own.
+  const std::string dependent_name =
+      joint.dependence == Joint::Dependence::Linear && std::find(names.begin(), names.end(), kCoordinateNames[joint.dependent_axis]) == names.end()
+          ? kCoordinateNames[joint.dependent_axis]
+          : "";
+  if (joint.dependence == Joint::Dependence::Linear) choices.push_back(dependent_name.empty() ? "translation" : "translation (or " + dependent_name + ")");
   const std::string joint_kind = joint_entry.Description() + " (" + JointKindName(joint.kind) + ")";
   const std::string hint =
       choices.empty() ? joint_kind + " has no coordinate that can be driven" : "the coordinates of " + joint_kind + " are " + JoinWords(choices);
@@ -178,7 +184,7 @@ void ReadDrive(const YAML::Node &value, const MappingReader &joint_entry, const 
     if (joint.rotation != Joint::Rotation::OneAxis)
       FailAt(coordinate_node.Mark(), "'rotation' drives the single rotation of a one-axis joint, but " + joint_kind + " has none; " + hint);
     index = joint.num_translations;
-  } else if (coordinate == "translation") {
+  } else if (coordinate == "translation" || (!dependent_name.empty() && coordinate == dependent_name)) {
     if (joint.dependence != Joint::Dependence::Linear)
       FailAt(coordinate_node.Mark(),
              "'translation' drives the dependent translation of a screw or rack_pinion joint, but " + joint_kind + " is neither; " + hint);

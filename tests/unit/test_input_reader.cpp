@@ -605,7 +605,7 @@ joints:
     axis: [0, 0, 1]
     pitch: 2.2918
     drive: {coordinate: translation, value: 1.0, function: spin}
-  - {name: j_rack, type: rack_pinion, master: hub, slave: s_rack, radius: -0.1, drive: {coordinate: translation, value: 0.2}}
+  - {name: j_rack, type: rack_pinion, master: hub, slave: s_rack, radius: -0.1, drive: {coordinate: ty, value: 0.2}} # by its series name
   - {name: j_cam, type: cam, master: hub, slave: s_cam, radius: 0.05}
   - name: j_table
     type: cam_table
@@ -702,7 +702,8 @@ TEST(InputReader, JointsOfEveryType)
   EXPECT_EQ(custom.driven_coordinate, 3); // tx, tz, rz, ry
   EXPECT_DOUBLE_EQ(custom.drive_value, 0.4);
 
-  // Dependent translations. A drive of a screw's translation drives its angle by value / pitch.
+  // Dependent translations. A drive of a screw's translation drives its angle by value / pitch; the
+  // rack's names it by its history series' axis (ty), the same.
   const Joint &screw = JointNamed(model, "j_screw");
   ExpectRelease(screw, {}, Joint::Rotation::OneAxis, {0});
   EXPECT_EQ(screw.dependence, Joint::Dependence::Linear);
