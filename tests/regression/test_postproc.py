@@ -336,12 +336,10 @@ class PostprocTest(unittest.TestCase):
         self.assertEqual(result.stdout, "")
         self.assertEqual(result.stderr, f"{script}: error: {message}\n")
 
-    def test_a_file_without_history_rows_is_an_error_of_one_line(self):
-        path = os.path.join(self.directory.name, "stopped.h5")
-        write_model_only_file(path)
-        message = (f"{path} holds no history rows: its run stopped before writing its initial state (or has not flushed it yet),"
-                   " so there is nothing to list, print or plot")
-        for arguments in ([], ["--names"], ["time"], ["time", "kinetic_energy"]):
+    def assert_every_tool_refuses(self, path, message, history_arguments):
+        """msflex-history (with each of `history_arguments`), plot-history, plot-energy-momentum and
+        msflex-modes on `path`: each one line `message`, exit 1, and no picture written."""
+        for arguments in history_arguments:
             self.assert_one_line_error(run("msflex-history", path, *arguments), "msflex-history", message)
         png = os.path.join(self.directory.name, "plot.png")
         self.assert_one_line_error(run("plot-history", path, "time", "-o", png), "plot-history", message)
@@ -349,17 +347,18 @@ class PostprocTest(unittest.TestCase):
         self.assert_one_line_error(run("msflex-modes", path), "msflex-modes", message)
         self.assertFalse(os.path.exists(png))
 
+    def test_a_file_without_history_rows_is_an_error_of_one_line(self):
+        path = os.path.join(self.directory.name, "stopped.h5")
+        write_model_only_file(path)
+        message = (f"{path} holds no history rows: its run stopped before writing its initial state (or has not flushed it yet),"
+                   " so there is nothing to list, print or plot")
+        self.assert_every_tool_refuses(path, message, ([], ["--names"], ["time"], ["time", "kinetic_energy"]))
+
     def test_a_checkpoint_is_not_a_result_file(self):
         path = os.path.join(self.directory.name, "out.ckpt.h5")
         write_checkpoint(path)
         message = f"{path} is an msflex checkpoint, not a result file; its run's results are in out.h5"
-        for arguments in ([], ["--names"], ["time"]):
-            self.assert_one_line_error(run("msflex-history", path, *arguments), "msflex-history", message)
-        png = os.path.join(self.directory.name, "plot.png")
-        self.assert_one_line_error(run("plot-history", path, "time", "-o", png), "plot-history", message)
-        self.assert_one_line_error(run("plot-energy-momentum", path, "-o", png), "plot-energy-momentum", message)
-        self.assert_one_line_error(run("msflex-modes", path), "msflex-modes", message)
-        self.assertFalse(os.path.exists(png))
+        self.assert_every_tool_refuses(path, message, ([], ["--names"], ["time"]))
 
     def test_other_files_are_not_result_files(self):
         sidecar = os.path.join(self.directory.name, "out.xmf")
