@@ -267,6 +267,7 @@ PetscErrorCode TangentFactor::Solve(Vec b, Vec x)
   PetscScalar *values;
   PetscBLASInt one = 1, info = 0;
   PetscCall(VecCopy(b, x));
+  if (dense_n_ == 0) PetscFunctionReturn(PETSC_SUCCESS); // no unknowns (everything prescribed): nothing to solve
   PetscCall(VecGetArray(x, &values));
   if (symmetric_)
     PetscCallBLAS("LAPACKsytrs", LAPACKsytrs_("L", &dense_n_, &one, dense_factors_.data(), &dense_n_, dense_pivots_.data(), values, &dense_n_, &info));
@@ -278,7 +279,13 @@ PetscErrorCode TangentFactor::Solve(Vec b, Vec x)
 
 PetscErrorCode TangentFactor::LowestEigenvalue(Vec D, Vec mode, double *mu)
 {
+  PetscInt size;
   PetscFunctionBeginUser;
+  PetscCall(VecGetSize(mode, &size));
+  if (size == 0) { // no unknowns (everything prescribed): no mode, nothing that can lose stability
+    *mu = INFINITY;
+    PetscFunctionReturn(PETSC_SUCCESS);
+  }
   if (symmetric_) PetscCall(LanczosLowestEigenvalue(D, mode, mu));
   else PetscCall(InverseIteration(D, mode, mu));
   PetscFunctionReturn(PETSC_SUCCESS);

@@ -1,26 +1,87 @@
 // Static mechanism check: every connected group of beams, and every group of rigid bodies outside
-// all beams, must be held by its supports and its joints to the ground against the six linearised
-// rigid-body motions, or the static tangent stiffness is singular from the first step. Elements and
-// joints between two nodes, and bushings stiff in all six directions, connect nodes into groups. Caught here, the user gets a message naming
-// the beams or the node instead of a failed solve. Dynamic analyses skip the check: there the mass
-// holds free motions. Mechanisms inside a group (e.g. a free revolute joint between two supported
-// beams) are not detected.
+// all beams, must be held against the six linearised rigid-body motions, or the static tangent
+// stiffness is singular from the first step. Caught here, the user gets a message naming the beams
+// or the node instead of a failed solve. Dynamic analyses skip the check: there the mass holds free
+// motions.
+//
+// Groups: elements, joints between two nodes and bushings stiff in all six directions connect
+// nodes into groups. What holds a group: its supports, its joints to the ground (along the axes
+// they do not release, and along a released coordinate that the spring of a coordinate element
+// holds), and, from a group that is held completely, the springs between two nodes that restrain
+// only part of their relative motion (a spring-damper its length, a bushing with a singular
+// stiffness the relative motions that stiffness resists). Dampers and actuators hold nothing in
+// statics. The check is conservative about partial restraints: they count outwards from the
+// groups held completely, so groups that would only hold each other through springs between them
+// are refused, and the stiffness that a preload or the loads add is not counted. Mechanisms inside
+// a group (e.g. a free revolute joint between two supported beams) are not detected.
 #include "io/input_reader_internal.hpp"
 
-#include <Eigen/Cholesky>
+#include <Eigen/Eigenvalues>
 #include <Eigen/Geometry>
 #include <Eigen/LU>
 
 #include <algorithm>
 #include <array>
 #include <numeric>
+#include <utility>
 
 namespace msflex::input_detail {
 
 namespace {
 
-// Connected components of the node graph (nodes linked by elements and by joints between two
-// nodes), by union-find.
+// Relative threshold of the ranks: of the rigid-body modes held and of a bushing's stiffness
+// scaled to unit diagonal.
+constexpr double kRankThreshold = 1e-10;
+
+using ModeRow = Eigen::Matrix<double, 1, 6>;
+using Vec6    = Eigen::Matrix<double, 6, 1>;
+using Mat6    = Eigen::Matrix<double, 6, 6>;
+
+// Whether a spring has stiffness at `value` of its coordinate or length: a linear spring with
+// k > 0, or a table whose slope there is not zero, on both sides when the deflection is a knot (a
+// table flat on one side, as a cable slack in compression, does not certainly hold).
+bool SpringHolds(const SpringLaw &spring, double value)
+{
+  if (!spring.present) return false;
+  if (spring.deflections.empty()) return spring.stiffness > 0.0;
+  const std::vector<double> &x = spring.deflections, &f = spring.forces;
+  const int                  last_segment = static_cast<int>(x.size()) - 2;
+  // Segment i, or the end segment continued beyond the table.
+  const auto slope = [&](int i) {
+    i = std::clamp(i, 0, last_segment);
+    return (f[i + 1] - f[i]) / (x[i + 1] - x[i]);
+  };
+  const double deflection = value - spring.free_value;
+  const int    segment    = static_cast<int>(std::upper_bound(x.begin(), x.end(), deflection) - x.begin()) - 1;
+  if (slope(segment) == 0.0) return false;
+  const bool at_knot = segment >= 0 && x[segment] == deflection;
+  return !at_knot || slope(segment - 1) != 0.0;
+}
+
+// The deflections e = (d, eta) in bushing axes that a bushing's stiffness K resists, as rows r:
+// K e = 0 exactly when r . e = 0 for every row, so the rows span the row space of K. Found on K
+// scaled to unit diagonal, so that translations (N/m) and rotations (N m/rad) compare. Six rows:
+// stiff in every direction; none: damping only.
+std::vector<Vec6> BushingRows(const Mat6 &stiffness)
+{
+  const Vec6                                root    = stiffness.diagonal().cwiseMax(0.0).cwiseSqrt();
+  const Vec6                                inverse = root.unaryExpr([](double value) { return value > 0.0 ? 1.0 / value : 0.0; });
+  const Mat6                                scaled  = inverse.asDiagonal() * stiffness * inverse.asDiagonal();
+  const Eigen::SelfAdjointEigenSolver<Mat6> eigen(scaled);
+  std::vector<Vec6>                         rows;
+  // K = D S D with D = diag(root): the row space of K is D times the range of S.
+  for (int k = 0; k < 6; ++k)
+    if (eigen.eigenvalues()(k) > kRankThreshold) rows.push_back(root.asDiagonal() * eigen.eigenvectors().col(k));
+  return rows;
+}
+
+bool BushingStiffEverywhere(const ForceElement &element)
+{
+  return element.kind == ForceElement::Kind::Bushing && BushingRows(element.bushing_stiffness).size() == 6;
+}
+
+// Connected components of the node graph (nodes linked by elements, by joints between two nodes
+// and by bushings stiff in every direction), by union-find.
 class NodeComponents {
 public:
   explicit NodeComponents(const Model &model) : parent_(model.nodes.size())
@@ -30,9 +91,8 @@ public:
       for (int a = 1; a <= element.order; ++a) Join(element.nodes[0], element.nodes[a]);
     for (const Joint &joint : model.joints)
       if (joint.master >= 0) Join(joint.master, joint.slave);
-    // A bushing stiff in all six directions ties its nodes like an element.
     for (const ForceElement &element : model.force_elements)
-      if (element.kind == ForceElement::Kind::Bushing && element.bushing_stiffness.llt().info() == Eigen::Success) Join(element.nodes[0], element.nodes[1]);
+      if (BushingStiffEverywhere(element)) Join(element.nodes[0], element.nodes[1]);
   }
   int Root(int node)
   {
@@ -55,10 +115,9 @@ std::vector<std::array<bool, 6>> ConstrainedDofs(const Model &model)
   return constrained;
 }
 
-using ModeRow = Eigen::Matrix<double, 1, 6>;
-
 // The constraint "displacement along a = 0" at a point with (scaled) arm from the centroid, in the
-// six modes: mode k < 3 translates along e_k, mode 3 + k rotates about e_k through the centroid.
+// six modes: mode k < 3 translates along e_k, mode 3 + k rotates about e_k through the centroid
+// (by an angle times the group's size, so that all six are lengths).
 ModeRow TranslationRow(const Vec3 &a, const Vec3 &arm)
 {
   ModeRow row;
@@ -77,67 +136,177 @@ ModeRow RotationRow(const Vec3 &a)
   return row;
 }
 
+// The released coordinates of each joint (translations, then rotations) that the spring of a
+// coordinate element holds at the reference configuration (q = 0), or a drive prescribes.
+std::vector<std::array<bool, 5>> SprungCoordinates(const Model &model)
+{
+  std::vector<std::array<bool, 5>> sprung(model.joints.size(), std::array<bool, 5>{});
+  for (const ForceElement &element : model.force_elements)
+    if (element.kind == ForceElement::Kind::Coordinate && element.coordinate >= 0 && element.coordinate < 5 && SpringHolds(element.spring, 0.0))
+      sprung[element.joint][element.coordinate] = true;
+  for (size_t j = 0; j < model.joints.size(); ++j)
+    if (model.joints[j].driven_coordinate >= 0 && model.joints[j].driven_coordinate < 5) sprung[j][model.joints[j].driven_coordinate] = true;
+  return sprung;
+}
+
 // The joint axes along which a joint to the ground holds its slave: translations not released
-// (the dependent translation of a screw, rack or cam counts as released) and rotations not released.
-void GroundJointConstraints(const Joint &joint, std::vector<Vec3> *translations, std::vector<Vec3> *rotations)
+// and rotations not released, or released but held by a spring (sprung: by coordinate). The
+// dependent translation of a screw, rack or cam counts as released unless its rotation is sprung.
+void GroundJointConstraints(const Joint &joint, const std::array<bool, 5> &sprung, std::vector<Vec3> *translations, std::vector<Vec3> *rotations)
 {
   std::array<bool, 3> translation_released{};
-  for (int k = 0; k < joint.num_translations; ++k) translation_released[joint.translation_axis[k]] = true;
-  if (joint.dependence != Joint::Dependence::None) translation_released[joint.dependent_axis] = true;
+  for (int k = 0; k < joint.num_translations; ++k)
+    if (!sprung[k]) translation_released[joint.translation_axis[k]] = true;
   std::array<bool, 3> rotation_released{};
+  const auto          release_rotation = [&](int k) {
+    if (!sprung[joint.num_translations + k]) rotation_released[joint.rotation_axis[k]] = true;
+  };
   switch (joint.rotation) {
   case Joint::Rotation::None:
     break;
   case Joint::Rotation::OneAxis:
-    rotation_released[joint.rotation_axis[0]] = true;
+    release_rotation(0);
     break;
-  case Joint::Rotation::TwoAxes:
-    rotation_released[joint.rotation_axis[0]] = rotation_released[joint.rotation_axis[1]] = true;
+  case Joint::Rotation::TwoAxes: // about a_[0], then about the carried a_[1]: a_[1] at the reference configuration
+    release_rotation(0);
+    release_rotation(1);
     break;
   case Joint::Rotation::Free:
     rotation_released.fill(true);
     break;
   }
+  if (joint.dependence != Joint::Dependence::None && !sprung[joint.num_translations]) translation_released[joint.dependent_axis] = true;
   for (int axis = 0; axis < 3; ++axis) {
     if (!translation_released[axis]) translations->push_back(joint.axes.col(axis));
     if (!rotation_released[axis]) rotations->push_back(joint.axes.col(axis));
   }
 }
 
-// Number of independent rigid-body modes of the component's nodes held by the constraints: the
-// supported DOFs and the joints to the ground (indices into Model::joints) whose slaves lie in
-// the component. Each constraint contributes the row of its values in the six modes. Lengths are
-// divided by the component size so the rank threshold does not depend on units.
-int RestrainedRigidBodyModes(const Model &model, const std::vector<int> &nodes, const std::vector<std::array<bool, 6>> &constrained,
-                             const std::vector<int> &ground_joints)
-{
-  Vec3 centroid = Vec3::Zero();
-  for (int node : nodes) centroid += model.nodes[node].position;
-  centroid /= static_cast<double>(nodes.size());
-  double size = 0.0;
-  for (int node : nodes) size = std::max(size, (model.nodes[node].position - centroid).norm());
-  if (size == 0.0) size = 1.0;
-  const auto arm_of = [&](int node) -> Vec3 { return (model.nodes[node].position - centroid) / size; };
+// A spring between two nodes that holds only part of their relative motion (it does not join
+// their groups): for each row (u, w), u . (dp_1 - dp_0) + w . (theta_1 - theta_0) = 0, with dp_s the
+// displacement of points[s] carried with nodes[s] and theta_s the rotation of nodes[s].
+struct PartialSpring {
+  std::array<int, 2>                 nodes{{-1, -1}};
+  std::array<Vec3, 2>                points;
+  std::vector<std::pair<Vec3, Vec3>> rows;
+};
 
-  std::vector<ModeRow> rows;
-  for (int node : nodes)
-    for (int dof = 0; dof < 6; ++dof) {
-      if (!constrained[node][dof]) continue;
-      rows.push_back(dof < 3 ? TranslationRow(Vec3::Unit(dof), arm_of(node)) : RotationRow(Vec3::Unit(dof - 3)));
+// Spring-dampers with stiffness (along their line: the length, l = |x_1 - x_0|) and bushings
+// with some stiffness but not in all six directions (the relative motion of the point at the
+// second node carried by each node's frame, and the relative rotation, in bushing axes).
+std::vector<PartialSpring> PartialSprings(const Model &model)
+{
+  std::vector<PartialSpring> springs;
+  for (const ForceElement &element : model.force_elements) {
+    PartialSpring spring;
+    spring.nodes      = element.nodes;
+    const Vec3 first  = model.nodes[element.nodes[0]].position;
+    const Vec3 second = model.nodes[element.nodes[1]].position;
+    if (element.kind == ForceElement::Kind::SpringDamper) {
+      const double length = (second - first).norm();
+      if (!(length > 0.0) || !SpringHolds(element.spring, length)) continue;
+      spring.points = {first, second};
+      spring.rows.emplace_back((second - first) / length, Vec3::Zero());
+    } else if (element.kind == ForceElement::Kind::Bushing) {
+      const std::vector<Vec6> rows = BushingRows(element.bushing_stiffness);
+      if (rows.empty() || rows.size() == 6) continue; // nothing, or joins the groups
+      spring.points = {second, second};
+      for (const Vec6 &row : rows) spring.rows.emplace_back(element.axes * row.head<3>(), element.axes * row.tail<3>());
+    } else {
+      continue;
     }
-  for (int index : ground_joints) {
-    const Joint      &joint = model.joints[index];
-    std::vector<Vec3> translations, rotations;
-    GroundJointConstraints(joint, &translations, &rotations);
-    for (const Vec3 &axis : translations) rows.push_back(TranslationRow(axis, arm_of(joint.slave)));
-    for (const Vec3 &axis : rotations) rows.push_back(RotationRow(axis));
+    springs.push_back(std::move(spring));
   }
+  return springs;
+}
+
+int Rank(const std::vector<ModeRow> &rows)
+{
   if (rows.empty()) return 0;
   Eigen::MatrixXd modes(rows.size(), 6);
   for (size_t row = 0; row < rows.size(); ++row) modes.row(static_cast<Eigen::Index>(row)) = rows[row];
   Eigen::FullPivLU<Eigen::MatrixXd> decomposition(modes);
-  decomposition.setThreshold(1e-10);
+  decomposition.setThreshold(kRankThreshold);
   return static_cast<int>(decomposition.rank());
+}
+
+// A group of nodes that moves as one rigid body in the check. Lengths are divided by its size so
+// that the rank threshold does not depend on units.
+struct Group {
+  std::vector<int>     nodes, beams, ground_joints, partial_springs;
+  Vec3                 centroid = Vec3::Zero();
+  double               size     = 1.0;
+  std::vector<ModeRow> rows; // the constraints held so far, in the six modes
+  int                  restrained = 0;
+  bool                 held       = false;
+  Vec3                 Arm(const Vec3 &point) const { return (point - centroid) / size; }
+};
+
+// The groups (indexed by their component root) with the constraints of their supports and
+// joints to the ground, then of the partial springs from groups held completely, from the held
+// groups outwards.
+std::vector<Group> HeldGroups(const Model &model, NodeComponents &components)
+{
+  std::vector<Group> groups(model.nodes.size());
+  for (size_t node = 0; node < model.nodes.size(); ++node) groups[components.Root(static_cast<int>(node))].nodes.push_back(static_cast<int>(node));
+  for (size_t beam = 0; beam < model.beams.size(); ++beam) groups[components.Root(model.beams[beam].nodes.front())].beams.push_back(static_cast<int>(beam));
+  for (size_t joint = 0; joint < model.joints.size(); ++joint)
+    if (model.joints[joint].master < 0) groups[components.Root(model.joints[joint].slave)].ground_joints.push_back(static_cast<int>(joint));
+  const std::vector<PartialSpring> springs = PartialSprings(model);
+  for (size_t index = 0; index < springs.size(); ++index) {
+    const int first = components.Root(springs[index].nodes[0]), second = components.Root(springs[index].nodes[1]);
+    if (first == second) continue; // inside a group that moves as one body: holds nothing of it
+    groups[first].partial_springs.push_back(static_cast<int>(index));
+    groups[second].partial_springs.push_back(static_cast<int>(index));
+  }
+
+  const auto       constrained = ConstrainedDofs(model);
+  const auto       sprung      = SprungCoordinates(model);
+  std::vector<int> held_queue;
+  for (Group &group : groups) {
+    if (group.nodes.empty()) continue;
+    for (int node : group.nodes) group.centroid += model.nodes[node].position;
+    group.centroid /= static_cast<double>(group.nodes.size());
+    double size = 0.0;
+    for (int node : group.nodes) size = std::max(size, (model.nodes[node].position - group.centroid).norm());
+    group.size = size > 0.0 ? size : 1.0;
+    for (int node : group.nodes)
+      for (int dof = 0; dof < 6; ++dof) {
+        if (!constrained[node][dof]) continue;
+        group.rows.push_back(dof < 3 ? TranslationRow(Vec3::Unit(dof), group.Arm(model.nodes[node].position)) : RotationRow(Vec3::Unit(dof - 3)));
+      }
+    for (int index : group.ground_joints) {
+      const Joint      &joint = model.joints[index];
+      std::vector<Vec3> translations, rotations;
+      GroundJointConstraints(joint, sprung[index], &translations, &rotations);
+      for (const Vec3 &axis : translations) group.rows.push_back(TranslationRow(axis, group.Arm(model.nodes[joint.slave].position)));
+      for (const Vec3 &axis : rotations) group.rows.push_back(RotationRow(axis));
+    }
+    group.restrained = Rank(group.rows);
+    group.held       = group.restrained == 6;
+    if (group.held) held_queue.push_back(static_cast<int>(&group - groups.data()));
+  }
+  // A held group is the ground for the partial springs to the other groups: each spring's rows,
+  // in the other group's modes, are added once, when the first of its groups is found held.
+  while (!held_queue.empty()) {
+    const int held = held_queue.back();
+    held_queue.pop_back();
+    for (int index : groups[held].partial_springs) {
+      const PartialSpring &spring = springs[index];
+      const int            side   = components.Root(spring.nodes[0]) == held ? 1 : 0;
+      const int            other  = components.Root(spring.nodes[side]);
+      Group               &group  = groups[other];
+      if (group.held) continue;
+      for (const auto &[u, w] : spring.rows) {
+        const ModeRow row = TranslationRow(u, group.Arm(spring.points[side])) + RotationRow(w / group.size);
+        if (row.norm() > 0.0) group.rows.push_back(row / row.norm());
+      }
+      group.restrained = Rank(group.rows);
+      group.held       = group.restrained == 6;
+      if (group.held) held_queue.push_back(other);
+    }
+  }
+  return groups;
 }
 
 std::string BeamList(const Model &model, const std::vector<int> &beams)
@@ -153,39 +322,23 @@ std::string BeamList(const Model &model, const std::vector<int> &beams)
 
 void CheckStaticMechanisms(const Model &model)
 {
-  NodeComponents                components(model);
-  const auto                    constrained = ConstrainedDofs(model);
-  std::vector<std::vector<int>> nodes_of_component(model.nodes.size()); // indexed by component root
-  std::vector<std::vector<int>> beams_of_component(model.nodes.size());
-  std::vector<std::vector<int>> ground_joints_of_component(model.nodes.size());
-  for (size_t node = 0; node < model.nodes.size(); ++node) nodes_of_component[components.Root(static_cast<int>(node))].push_back(static_cast<int>(node));
-  for (size_t beam = 0; beam < model.beams.size(); ++beam)
-    beams_of_component[components.Root(model.beams[beam].nodes.front())].push_back(static_cast<int>(beam));
-  for (size_t joint = 0; joint < model.joints.size(); ++joint)
-    if (model.joints[joint].master < 0) ground_joints_of_component[components.Root(model.joints[joint].slave)].push_back(static_cast<int>(joint));
-  // Components in the order of their first beam, so the first mechanism reported is the first
-  // one in the file.
+  NodeComponents           components(model);
+  const std::vector<Group> groups = HeldGroups(model, components);
+  // Groups in the order of their first beam, so the first mechanism reported is the first one in
+  // the file.
   for (size_t beam = 0; beam < model.beams.size(); ++beam) {
-    const int               root  = components.Root(model.beams[beam].nodes.front());
-    const std::vector<int> &beams = beams_of_component[root];
-    if (beams.front() != static_cast<int>(beam)) continue;
-    const int restrained = RestrainedRigidBodyModes(model, nodes_of_component[root], constrained, ground_joints_of_component[root]);
-    if (restrained < 6)
-      FailAt(model.beams[beam].mark, "mechanism: beam(s) " + BeamList(model, beams) + " can move as a rigid body (" + std::to_string(restrained) +
-                                         " of 6 rigid-body modes restrained); add supports");
+    const Group &group = groups[components.Root(model.beams[beam].nodes.front())];
+    if (group.beams.front() != static_cast<int>(beam) || group.held) continue;
+    FailAt(model.beams[beam].mark, "mechanism: beam(s) " + BeamList(model, group.beams) + " can move as a rigid body (" + std::to_string(group.restrained) +
+                                       " of 6 rigid-body modes restrained); add supports");
   }
   // A group of nodes outside every beam (carrying rigid bodies, possibly joined by joints) has no
-  // stiffness at all: statics needs supports and joints to the ground that hold it completely.
-  // Checked once per group, at its first rigid body.
-  std::vector<bool> checked(model.nodes.size(), false);
+  // stiffness of its own: statics needs what holds it completely. Reported at its first rigid body.
   for (const RigidBody &body : model.rigid_bodies) {
-    const int root = components.Root(body.node);
-    if (!beams_of_component[root].empty() || checked[root]) continue;
-    checked[root]        = true;
-    const int restrained = RestrainedRigidBodyModes(model, nodes_of_component[root], constrained, ground_joints_of_component[root]);
-    if (restrained < 6)
-      FailAt(body.mark, "mechanism: the rigid body at node " + Quote(model.nodes[body.node].name) + " is not connected to any beam and can move freely (" +
-                            std::to_string(restrained) + " of 6 rigid-body modes restrained); in a static analysis add supports or use type: dynamic");
+    const Group &group = groups[components.Root(body.node)];
+    if (!group.beams.empty() || group.held) continue;
+    FailAt(body.mark, "mechanism: the rigid body at node " + Quote(model.nodes[body.node].name) + " is not connected to any beam and can move freely (" +
+                          std::to_string(group.restrained) + " of 6 rigid-body modes restrained); in a static analysis add supports or use type: dynamic");
   }
 }
 
