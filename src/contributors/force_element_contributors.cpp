@@ -21,6 +21,9 @@ SpringCurve CurveOf(const SpringLaw &law)
 
 bool IsDynamic(const Model &model) { return model.analysis.type == AnalysisType::Dynamic; }
 
+// A step of the Newmark family: its work and dissipation take the trapezoidal rule.
+bool Trapezoidal(const StepEquations &equations) { return equations.Dynamic() && !equations.Midpoint(); }
+
 // The spatial angular velocity at the end of the step of the Newmark family, w = Lambda_{n+1} W_{n+1},
 // and d w / d theta = -hat(w) + c_v Lambda_{n+1} Lambda_n^T H(omega)^{-1}.
 void EndAngularVelocity(const TimeScheme &scheme, const NodeState &s, Vec3 *w, Mat3 *jacobian)
@@ -61,9 +64,10 @@ void CoordinateForceContributor::BeginStep(const State &state)
   const StepEquations &eq = state.equations;
   for (Element &e : elements_) {
     const ForceElement &element = model_->force_elements[e.element];
-    e.actuator = element.has_actuator ? element.actuator * (eq.LoadWeightStart() * FunctionValue(*model_, element.actuator_function, eq.t_start) +
+    e.actuator       = element.has_actuator ? element.actuator * (eq.LoadWeightStart() * FunctionValue(*model_, element.actuator_function, eq.t_start) +
                                                             eq.LoadWeightEnd() * FunctionValue(*model_, element.actuator_function, eq.t_end))
-                                      : 0.0;
+                                            : 0.0;
+    e.actuator_start = element.has_actuator ? element.actuator * eq.load_scale * FunctionValue(*model_, element.actuator_function, eq.t_start) : 0.0;
   }
 }
 
@@ -94,6 +98,19 @@ CoordinateForceValues CoordinateForceContributor::Evaluate(const State &state, c
   return values;
 }
 
+CoordinateForceValues CoordinateForceContributor::EvaluateStart(const State &state, const Element &e) const
+{
+  const JointState   &J = state.joints[e.joint];
+  CoordinateForceStep step;
+  step.start    = J.start.q[e.coordinate];
+  step.angle    = e.angle;
+  step.rate     = J.CoordinateRate(e.coordinate);
+  step.actuator = e.actuator_start;
+  CoordinateForceValues values;
+  CoordinateForce(e.has_spring ? &e.spring : nullptr, model_->force_elements[e.element].damping, step, &values);
+  return values;
+}
+
 void CoordinateForceContributor::AddBlocks(const State &state, bool want_tangent, BlockSink *sink)
 {
   for (const Element &e : elements_) {
@@ -111,14 +128,31 @@ void CoordinateForceContributor::AddStoredEnergy(const State &state, double *ene
   }
 }
 
+// Mid-point family: the actuator's force of the step's equations, (A(t_n) + A(t_{n+1}))/2, times
+// dq (exact). Newmark family: the equations hold at t_{n+1} with A(t_{n+1}); the work is the
+// trapezoidal rule (A(t_n) + A(t_{n+1}))/2 dq, as for the loads (Assembler::StepExternalWork).
 void CoordinateForceContributor::AddStepWork(const State &state, double *work) const
 {
-  for (const Element &e : elements_) *work += Evaluate(state, e).actuator_work;
+  const StepEquations &eq = state.equations;
+  for (const Element &e : elements_) {
+    if (Trapezoidal(eq)) *work += 0.5 * (e.actuator_start + e.actuator) * state.joints[e.joint].increment[e.coordinate];
+    else *work += Evaluate(state, e).actuator_work;
+  }
 }
 
+// Mid-point family: c dq/dt dq (exact). Newmark family: the trapezoidal rule c (qdot_n + qdot_{n+1})/2 dq.
 void CoordinateForceContributor::AddStepDissipation(const State &state, double *dissipation) const
 {
-  for (const Element &e : elements_) *dissipation += Evaluate(state, e).dissipation;
+  const StepEquations &eq = state.equations;
+  for (const Element &e : elements_) {
+    const CoordinateForceValues end = Evaluate(state, e);
+    if (!Trapezoidal(eq)) {
+      *dissipation += end.dissipation;
+      continue;
+    }
+    // damper_force is the force the damper exerts, -c qdot.
+    *dissipation += -0.5 * (EvaluateStart(state, e).damper_force + end.damper_force) * state.joints[e.joint].increment[e.coordinate];
+  }
 }
 
 void CoordinateForceContributor::StartMotion(State *state)
@@ -143,8 +177,16 @@ void CoordinateForceContributor::CommitStep(State *state)
   for (Element &e : elements_) {
     const CoordinateForceValues values = Evaluate(*state, e);
     e.force                            = values.spring_force + values.damper_force + values.actuator_force;
-    // Work on the mechanism over the step: minus the residual times the released test quantity.
-    e.power = eq.Dynamic() ? -values.residual * state->joints[e.joint].released_test[e.coordinate] / eq.scheme.dt : 0.0;
+    // Work on the mechanism over the step: minus the residual times the released test quantity
+    // (mid-point family), the mean of the start state's and the end's force times the increment
+    // (Newmark family).
+    const double test = state->joints[e.joint].released_test[e.coordinate];
+    if (Trapezoidal(eq)) {
+      const CoordinateForceValues start = EvaluateStart(*state, e);
+      e.power                           = 0.5 * (start.spring_force + start.damper_force + start.actuator_force + e.force) * test / eq.scheme.dt;
+    } else {
+      e.power = eq.Dynamic() ? -values.residual * test / eq.scheme.dt : 0.0;
+    }
   }
 }
 
@@ -182,17 +224,18 @@ void NodePairForceContributor::Setup(const Model &model, const DofMap &map)
   }
 }
 
-bool NodePairForceContributor::Evaluate(const State &state, const Element &e, Vec12 *residual, Mat12 *tangent, Vec6 *recorded, double *dissipation) const
+bool NodePairForceContributor::Evaluate(const State &state, const Element &e, bool start_state, Vec12 *residual, Mat12 *tangent, Vec6 *recorded,
+                                        DamperWork *damper) const
 {
   const ForceElement  &element = model_->force_elements[e.element];
   const StepEquations &eq      = state.equations;
   const NodeState     &a = state.nodes[e.nodes[0]], &b = state.nodes[e.nodes[1]];
-  const bool           at_start = eq.InitialAcceleration(); // the configuration and velocities of the start state
+  const bool           at_start = start_state || eq.InitialAcceleration(); // the configuration and velocities of the start state
   if (at_start) tangent = nullptr;
   if (element.kind == ForceElement::Kind::SpringDamper) {
     AxialSpringValues values;
     bool              ok;
-    if (eq.Midpoint()) {
+    if (eq.Midpoint() && !at_start) {
       ok = AxialSpringDamperMidpoint(e.spring, element.damping, a.position_start, b.position_start, a.position, b.position, eq.scheme.dt, &values, tangent);
     } else {
       const Vec3 xa = at_start ? a.position_start : a.position, xb = at_start ? b.position_start : b.position;
@@ -205,13 +248,17 @@ bool NodePairForceContributor::Evaluate(const State &state, const Element &e, Ve
     if (!ok) return false;
     *residual = values.residual;
     if (recorded) *recorded << values.length, values.tension, 0.0, 0.0, 0.0, 0.0;
-    if (dissipation) *dissipation = values.damper_tension * (values.length - (b.position_start - a.position_start).norm());
+    if (damper) {
+      *damper          = DamperWork{};
+      damper->force(0) = values.damper_tension;
+      if (!at_start) damper->change(0) = values.length - (b.position_start - a.position_start).norm();
+    }
     return true;
   }
   BushingNode   na, nb;
   BushingValues values;
   bool          ok;
-  if (eq.Midpoint()) {
+  if (eq.Midpoint() && !at_start) {
     BushingNode sa, sb;
     sa.position = a.position_start, sa.rotation = QuaternionToMatrix(a.rotation_start);
     sb.position = b.position_start, sb.rotation = QuaternionToMatrix(b.rotation_start);
@@ -243,12 +290,13 @@ bool NodePairForceContributor::Evaluate(const State &state, const Element &e, Ve
   if (!ok) return false;
   *residual = values.residual;
   if (recorded) *recorded = -values.residual.tail<6>(); // force and moment the bushing exerts on the second node
-  if (dissipation) {
+  if (damper) {
     Vec6 start;
-    *dissipation = 0.0;
-    if (BushingDeflection(element.axes, e.reference_offset, a.position_start, QuaternionToMatrix(a.rotation_start), b.position_start,
-                          QuaternionToMatrix(b.rotation_start), &start))
-      *dissipation = values.damper_force.dot(values.deflection - start);
+    *damper       = DamperWork{};
+    damper->force = values.damper_force;
+    if (!at_start && BushingDeflection(element.axes, e.reference_offset, a.position_start, QuaternionToMatrix(a.rotation_start), b.position_start,
+                                       QuaternionToMatrix(b.rotation_start), &start))
+      damper->change = values.deflection - start;
   }
   return true;
 }
@@ -263,7 +311,7 @@ void NodePairForceContributor::AddBlocks(const State &state, bool want_tangent, 
     block.num_nodes = 2;
     block.nodes[0]  = e.nodes[0];
     block.nodes[1]  = e.nodes[1];
-    if (!Evaluate(state, e, &r, tangent ? &K : nullptr, nullptr, nullptr)) {
+    if (!Evaluate(state, e, false, &r, tangent ? &K : nullptr, nullptr, nullptr)) {
       // Not evaluable (coinciding nodes, a bushing turned by pi): NaN, named by the diagnostics.
       r.setConstant(std::numeric_limits<double>::quiet_NaN());
       K.setZero();
@@ -287,13 +335,22 @@ void NodePairForceContributor::AddStoredEnergy(const State &state, double *energ
   }
 }
 
+// Mid-point family: the damper's force of the step's equations times the change of what it resists
+// (exact). Newmark family: the trapezoidal rule, the mean of the start state's and the end's force.
+double NodePairForceContributor::StepDissipation(const State &state, const Element &e) const
+{
+  Vec12      r;
+  DamperWork end;
+  if (!Evaluate(state, e, false, &r, nullptr, nullptr, &end)) return 0.0;
+  if (!Trapezoidal(state.equations)) return end.force.dot(end.change);
+  DamperWork start;
+  if (!Evaluate(state, e, true, &r, nullptr, nullptr, &start)) return end.force.dot(end.change);
+  return (0.5 * (start.force + end.force)).dot(end.change);
+}
+
 void NodePairForceContributor::AddStepDissipation(const State &state, double *dissipation) const
 {
-  for (const Element &e : elements_) {
-    Vec12  r;
-    double d = 0.0;
-    if (Evaluate(state, e, &r, nullptr, nullptr, &d)) *dissipation += d;
-  }
+  for (const Element &e : elements_) *dissipation += StepDissipation(state, e);
 }
 
 void NodePairForceContributor::StartMotion(State *state)
@@ -304,7 +361,7 @@ void NodePairForceContributor::StartMotion(State *state)
   if (!IsDynamic(*model_)) state->equations = StaticStep(0.0, 0.0);
   for (Element &e : elements_) {
     Vec12 r;
-    if (!Evaluate(*state, e, &r, nullptr, &e.recorded, nullptr)) e.recorded.setConstant(std::numeric_limits<double>::quiet_NaN());
+    if (!Evaluate(*state, e, false, &r, nullptr, &e.recorded, nullptr)) e.recorded.setConstant(std::numeric_limits<double>::quiet_NaN());
     e.power = 0.0;
   }
   state->equations = saved;
@@ -314,12 +371,14 @@ void NodePairForceContributor::CommitStep(State *state)
 {
   const StepEquations &eq = state->equations;
   for (Element &e : elements_) {
-    Vec12 r;
-    if (!Evaluate(*state, e, &r, nullptr, &e.recorded, nullptr)) continue;
+    Vec12 r, r_start;
+    if (!Evaluate(*state, e, false, &r, nullptr, &e.recorded, nullptr)) continue;
     if (!eq.Dynamic()) continue;
     const NodeState &a = state->nodes[e.nodes[0]], &b = state->nodes[e.nodes[1]];
     Vec12            test;
     test << a.displacement_increment, NodeTangentScaledIncrement(eq, a), b.displacement_increment, NodeTangentScaledIncrement(eq, b);
+    // Newmark family: the trapezoidal rule, the mean of the start state's residual and the end's.
+    if (Trapezoidal(eq) && Evaluate(*state, e, true, &r_start, nullptr, nullptr, nullptr)) r = 0.5 * (r_start + r);
     e.power = -r.dot(test) / eq.scheme.dt;
   }
 }
@@ -347,7 +406,7 @@ void NodePairForceContributor::FindNonFiniteBlocks(const State &state, const std
     if (!node_finite[e.nodes[0]] || !node_finite[e.nodes[1]]) continue;
     Vec12 r;
     Mat12 K;
-    if (Evaluate(state, e, &r, state.equations.InitialAcceleration() ? nullptr : &K, nullptr, nullptr) && r.allFinite() &&
+    if (Evaluate(state, e, false, &r, state.equations.InitialAcceleration() ? nullptr : &K, nullptr, nullptr) && r.allFinite() &&
         (state.equations.InitialAcceleration() || K.allFinite()))
       continue;
     const ForceElement &element = model_->force_elements[e.element];

@@ -8,6 +8,14 @@
 // State::joints' coordinate_motion), the mid-point family (the discrete-gradient forms, rows
 // conjugate to the test quantities), the initial-acceleration problem (the start state's forces,
 // no tangent). Stored energy, dissipation and the actuators' work feed the energy balance.
+//
+// The work over a step (the actuators' work, the dampers' dissipation and the elements' `power`)
+// is taken with the quadrature of the scheme's energy balance, the one Assembler::StepExternalWork
+// takes for the loads: the mid-point family's own forces times the increments (exact: em keeps
+// energy - work + dissipated energy constant), the trapezoidal rule (F_n + F_{n+1}) / 2 times the
+// increments in the Newmark family, with F_n the forces of the start state (its configuration,
+// velocities and actuators at t_n). Trapezoidal Newmark conserves the energy of a linear system
+// exactly in that rule (docs/force_elements.md, energy balance).
 #pragma once
 
 #include "contributors/contributor.hpp"
@@ -40,13 +48,16 @@ private:
     int         coordinate = -1;
     bool        angle      = false;
     SpringCurve spring;
-    bool        has_spring = false;
-    double      actuator   = 0.0; // weighted in time for the step
+    bool        has_spring     = false;
+    double      actuator       = 0.0; // weighted in time for the step
+    double      actuator_start = 0.0; // at the start of the step (the Newmark family's trapezoidal work)
     // Recorded at the last commit for the history: the generalised force on the coordinate and the
     // mean power delivered over the step.
     double force = 0.0, power = 0.0;
   };
   CoordinateForceValues Evaluate(const State &state, const Element &element) const;
+  // The forces of the start state (q_n, its rate, the actuator at t_n): the Newmark family's F_n.
+  CoordinateForceValues EvaluateStart(const State &state, const Element &element) const;
 
   const Model         *model_ = nullptr;
   const DofMap        *map_   = nullptr;
@@ -79,9 +90,20 @@ private:
     Vec6   recorded = Vec6::Zero();
     double power    = 0.0;
   };
-  // Residual (12) and tangent (12x12, may be null) of an element; false when not evaluable. The
-  // recorded quantities and the change of what the damper resists (for the dissipation) on request.
-  bool Evaluate(const State &state, const Element &element, Vec12 *residual, Mat12 *tangent, Vec6 *recorded, double *dissipation) const;
+  // The damper's force (a spring-damper's damper tension in [0], a bushing's six components, bushing
+  // axes) and the change over the step of what it resists (length, or deflection): the dissipation
+  // is their product, with the force of the step's equations (mid-point family) or the mean of the
+  // start state's and the end's (Newmark family).
+  struct DamperWork {
+    Vec6 force  = Vec6::Zero();
+    Vec6 change = Vec6::Zero();
+  };
+  // Residual (12) and tangent (12x12, may be null) of an element in the step's equations, or with
+  // `start_state` those of the start state (its configuration and velocities, no tangent); false
+  // when not evaluable. The recorded quantities and the damper's work on request.
+  bool Evaluate(const State &state, const Element &element, bool start_state, Vec12 *residual, Mat12 *tangent, Vec6 *recorded, DamperWork *damper) const;
+  // The step's dissipation of an element (0 when not evaluable).
+  double StepDissipation(const State &state, const Element &element) const;
 
   const Model         *model_ = nullptr;
   const DofMap        *map_   = nullptr;
