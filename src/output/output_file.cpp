@@ -60,9 +60,14 @@ hsize_t HistoryChunkRows(size_t values_per_row, hsize_t first_rows)
 constexpr hsize_t kMaxBufferedRows = 8192;
 
 // The grids of the XDMF sidecar, one temporal collection each, in this order: ParaView's "XDMF
-// Reader" shows them as the blocks of these names.
-enum GridKind { kBeams, kBodies, kJoints, kGround, kGridKinds };
-const char *const kGridNames[kGridKinds] = {"beams", "bodies", "joints", "ground"};
+// Reader" shows them as the blocks of these names. The force elements come last, so that the
+// earlier kinds keep their places (the Xdmf3 readers' pieces of a frame are in this order).
+enum GridKind { kBeams, kBodies, kJoints, kGround, kForceElements, kGridKinds };
+const char *const kGridNames[kGridKinds] = {"beams", "bodies", "joints", "ground", "force_elements"};
+
+// The kinds of force element and their codes in /mesh/force_element_kind_codes (the `kind` cell
+// array of the XDMF force_elements grid; docs/output.md).
+const char *const kForceElementKinds[] = {"coordinate", "spring_damper", "bushing"};
 
 // The end of the sidecar: every flush writes its new frames over it and writes it again after them.
 const char kXdmfTail[] = "  </Information>\n</Xdmf>\n";
@@ -334,6 +339,7 @@ struct OutputFile::Impl {
   PetscErrorCode WriteMesh(const OutputMesh &mesh);
   PetscErrorCode WriteBodies(hid_t group, const OutputMesh &mesh);
   PetscErrorCode WriteGround(hid_t group, const OutputMesh &mesh);
+  PetscErrorCode WriteForceElements(hid_t group, const OutputMesh &mesh);
   // The table's columns from history_names and probe_names: their names, units and descriptions
   // (each when asked for, non-null).
   void TableColumns(std::vector<std::string> *names, std::vector<std::string> *units = nullptr, std::vector<std::string> *descriptions = nullptr) const;
@@ -385,7 +391,7 @@ struct OutputFile::Impl {
   {
     // The beams grid of a model without beam elements has points but no cells: the Xdmf3 readers
     // take it (the nodes' arrays), ParaView's XDMF Reader rejects its topology, so xdmf2 leaves it out.
-    const bool has[kGridKinds] = {n_segments > 0 || xdmf_flavour == XdmfFlavour::Xdmf3, n_bodies > 0, n_joints > 0, n_ground > 0};
+    const bool has[kGridKinds] = {n_segments > 0 || xdmf_flavour == XdmfFlavour::Xdmf3, n_bodies > 0, n_joints > 0, n_ground > 0, n_force_elements > 0};
     return has[kind];
   }
   // Number of rows of a kind of table in the model.
@@ -429,7 +435,7 @@ struct OutputFile::Impl {
   XdmfFlavour             xdmf_flavour = XdmfFlavour::Xdmf3;
   H5Id                    file;
   H5Id                    frame_transfer; // collective with MPI-IO (more than one rank), else the default
-  hsize_t                 n_nodes = 0, n_elements = 0, n_segments = 0, n_bodies = 0, n_joints = 0, n_ground = 0;
+  hsize_t                 n_nodes = 0, n_elements = 0, n_segments = 0, n_bodies = 0, n_joints = 0, n_ground = 0, n_force_elements = 0;
   bool                    dynamic  = false;                // time in s (else the load factor)
   AnalysisType            analysis = AnalysisType::Static; // what time is in /history and /frames (output_units.hpp)
   std::vector<int>        segment_element;                 // rank 0, during Create: element of each 2-node visualisation segment
@@ -717,6 +723,7 @@ PetscErrorCode OutputFile::Impl::WriteMesh(const OutputMesh &mesh)
   }
   PetscCall(WriteBodies(group, mesh));
   PetscCall(WriteGround(group, mesh));
+  PetscCall(WriteForceElements(group, mesh));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
@@ -766,6 +773,32 @@ PetscErrorCode OutputFile::Impl::WriteGround(hid_t group, const OutputMesh &mesh
   PetscCall(WriteDoubles(group, "ground_a2", {n_ground, 3}, axes[1]));
   PetscCall(WriteDoubles(group, "ground_a3", {n_ground, 3}, axes[2]));
   PetscCall(WriteInts(group, "ground_vertices", {n_ground, 1}, vertices));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+// The force elements: names, kinds (as text and as codes) and the segment drawn for each, whose
+// points are the nodes (the XDMF force_elements grid takes its points from /frames/position).
+PetscErrorCode OutputFile::Impl::WriteForceElements(hid_t group, const OutputMesh &mesh)
+{
+  PetscFunctionBeginUser;
+  n_force_elements = mesh.force_element_names.size();
+  if (n_force_elements == 0) PetscFunctionReturn(PETSC_SUCCESS);
+  PetscCheck(mesh.force_element_kinds.size() == n_force_elements && mesh.force_element_nodes.size() == 2 * n_force_elements, PETSC_COMM_SELF, PETSC_ERR_ARG_SIZ,
+             "output file '%s': force-element arrays do not match %llu force elements", path.c_str(), (unsigned long long)n_force_elements);
+  std::vector<int> codes;
+  for (const std::string &kind : mesh.force_element_kinds) {
+    const auto found = std::find(std::begin(kForceElementKinds), std::end(kForceElementKinds), kind);
+    PetscCheck(found != std::end(kForceElementKinds), PETSC_COMM_SELF, PETSC_ERR_ARG_OUTOFRANGE, "output file '%s': unknown kind of force element '%s'",
+               path.c_str(), kind.c_str());
+    codes.push_back((int)(found - std::begin(kForceElementKinds)));
+  }
+  for (const int node : mesh.force_element_nodes)
+    PetscCheck(node >= 0 && (hsize_t)node < n_nodes, PETSC_COMM_SELF, PETSC_ERR_ARG_OUTOFRANGE, "output file '%s': a force element refers to node %d of %llu",
+               path.c_str(), node, (unsigned long long)n_nodes);
+  PetscCall(WriteStrings(group, "force_element_names", {n_force_elements}, mesh.force_element_names));
+  PetscCall(WriteStrings(group, "force_element_kinds", {n_force_elements}, mesh.force_element_kinds));
+  PetscCall(WriteInts(group, "force_element_kind_codes", {n_force_elements}, codes));
+  PetscCall(WriteInts(group, "force_element_vertices", {n_force_elements, 2}, mesh.force_element_nodes));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
@@ -936,7 +969,7 @@ PetscErrorCode OutputFile::Impl::WriteHistoryBlock()
 }
 
 // The sidecar is laid out so that a new frame costs the same whatever the number before it: the
-// Domain holds one temporal collection per kind of grid (beams, bodies, joints, ground), and each
+// Domain holds one temporal collection per kind of grid (beams, bodies, joints, ground, force elements), and each
 // collection takes its grids, one per frame, by XInclude from the Information element "frames"
 // at the end of the file, to which every flush appends the new frames' grids before writing the
 // closing tail again. ParaView's XDMF readers resolve the XIncludes (libxml2); its "XDMF Reader"
@@ -1010,6 +1043,10 @@ std::string OutputFile::Impl::XdmfSharedPart(GridKind kind) const
       xml += XdmfAttribute(axis, "Vector", "Node", "mesh", std::string("ground_") + axis, floats(n_ground, 3, std::string("/mesh/ground_") + axis));
     return xml;
   }
+  case kForceElements:
+    return topology("Polyline", 2, n_force_elements, "/mesh/force_element_vertices") +
+           XdmfAttribute("kind", "Scalar", "Cell", "mesh", "force_element_kind_codes",
+                         XdmfDataItem("Int", 4, n_force_elements, 0, "/mesh/force_element_kind_codes"));
   default:
     return "";
   }
@@ -1082,10 +1119,15 @@ std::string OutputFile::Impl::XdmfFramePattern(const FrameEntry &frame, const st
   // A grid's points. Xdmf2: ParaView's XDMF reader keys its geometry cache by the text of the
   // geometry's first DataItem, so the hyperslab (which has none) is named beside the grids and
   // referred to; the Xdmf3 item's text names the frame already.
-  const auto geometry_of = [&](const char *field, hsize_t rows) {
+  // A hyperslab named once per frame (the beams and the force elements share the nodes' positions).
+  std::vector<std::string> named;
+  const auto               geometry_of = [&](const char *field, hsize_t rows) {
     if (xdmf_flavour == XdmfFlavour::Xdmf3) return frame_slab(field, rows, 3);
     const std::string name = std::string(field) + "_" + index;
-    xml << "    " << frame_slab(field, rows, 3, name) << "\n";
+    if (std::find(named.begin(), named.end(), name) == named.end()) {
+      xml << "    " << frame_slab(field, rows, 3, name) << "\n";
+      named.push_back(name);
+    }
     return "<DataItem Reference=\"XML\">/Xdmf/Information[@Name='frames']/DataItem[@Name='" + name + "']</DataItem>";
   };
   const auto attribute = [&](const std::string &name, const char *type, const char *center, const std::string &field, hsize_t rows, int columns) {
@@ -1139,6 +1181,11 @@ std::string OutputFile::Impl::XdmfFramePattern(const FrameEntry &frame, const st
   // Xdmf3 readers drop a grid outside the temporal collections).
   if (n_ground > 0) {
     grid(kGround, "");
+    xml << "    </Grid>\n";
+  }
+  // Force elements: a segment per element between nodes, whose points are the nodes at this frame.
+  if (n_force_elements > 0) {
+    grid(kForceElements, geometry_of("position", n_nodes));
     xml << "    </Grid>\n";
   }
   return xml.str();
@@ -1534,6 +1581,7 @@ PetscErrorCode OutputFile::Impl::Resume(int last_step, long long history_rows, c
   PetscCall(rows_of("/mesh/joint_names", 1, true, &n_joints));
   PetscCall(rows_of("/mesh/body_names", 1, true, &n_bodies));
   PetscCall(rows_of("/mesh/ground_names", 1, true, &n_ground));
+  PetscCall(rows_of("/mesh/force_element_names", 1, true, &n_force_elements));
   for (const char *group : {"/frames", "/history"})
     PetscCheck(H5Lexists(file, group, H5P_DEFAULT) > 0, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "'%s' has no group %s", p, group);
   {
@@ -1717,18 +1765,20 @@ template <class RootWork> PetscErrorCode OutputFile::OpenWith(MPI_Comm comm, con
   PetscErrorCode status = RunOnRoot(comm_, root_work);
   if (status == PETSC_SUCCESS) {
     // Only the sizes travel: a distributed frame brings the segment numbers of its elements.
-    unsigned long long sizes[7] = {
-        impl_->n_nodes, impl_->n_elements, impl_->n_segments, impl_->n_bodies, impl_->n_joints, impl_->n_ground, (unsigned long long)impl_->analysis};
-    PetscCallMPI(MPI_Bcast(sizes, 7, MPI_UNSIGNED_LONG_LONG, 0, comm));
-    impl_->n_nodes    = sizes[0];
-    impl_->n_elements = sizes[1];
-    impl_->n_segments = sizes[2];
-    impl_->n_bodies   = sizes[3];
-    impl_->n_joints   = sizes[4];
-    impl_->n_ground   = sizes[5];
-    impl_->analysis   = (AnalysisType)sizes[6];
-    impl_->dynamic    = impl_->analysis == AnalysisType::Dynamic;
-    status            = RunCollective(comm_, [&] { return impl_->OpenParallel(); });
+    unsigned long long sizes[8] = {
+        impl_->n_nodes,         impl_->n_elements, impl_->n_segments, impl_->n_bodies, impl_->n_joints, impl_->n_ground, (unsigned long long)impl_->analysis,
+        impl_->n_force_elements};
+    PetscCallMPI(MPI_Bcast(sizes, 8, MPI_UNSIGNED_LONG_LONG, 0, comm));
+    impl_->n_nodes          = sizes[0];
+    impl_->n_elements       = sizes[1];
+    impl_->n_segments       = sizes[2];
+    impl_->n_bodies         = sizes[3];
+    impl_->n_joints         = sizes[4];
+    impl_->n_ground         = sizes[5];
+    impl_->analysis         = (AnalysisType)sizes[6];
+    impl_->n_force_elements = sizes[7];
+    impl_->dynamic          = impl_->analysis == AnalysisType::Dynamic;
+    status                  = RunCollective(comm_, [&] { return impl_->OpenParallel(); });
   }
   if (status != PETSC_SUCCESS) {
     // A failed Open leaves nothing open, so the object can be opened again.

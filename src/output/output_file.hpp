@@ -58,6 +58,12 @@ struct OutputMesh {
   // a3 (x 9, one after the other).
   std::vector<std::string> ground_names, ground_kinds;
   std::vector<double>      ground_position, ground_axes;
+  // Force elements (empty when there are none): name, kind ("coordinate", "spring_damper",
+  // "bushing"), and the two node indices of the segment drawn for each (x 2): a two-node element's
+  // nodes; a coordinate element's joint's master and slave, or the slave twice (a segment of no
+  // length, a point) when the master is the ground.
+  std::vector<std::string> force_element_names, force_element_kinds;
+  std::vector<int>         force_element_nodes;
 };
 
 struct OutputFrame {

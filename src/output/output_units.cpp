@@ -45,6 +45,13 @@ const Entry kDatasets[] = {
     {"mesh", "ground_a2", "1", "second axis of each ground marker: the joint's a2, or y for a support"},
     {"mesh", "ground_a3", "1", "third axis of each ground marker: the joint's a3, or z for a support"},
     {"mesh", "ground_vertices", "1", "point index of each ground marker (the vertex cells of the XDMF ground grid)"},
+    {"mesh", "force_element_names", "", "force element names from the input"},
+    {"mesh", "force_element_kinds", "", "kind of each force element: coordinate, spring_damper or bushing"},
+    {"mesh", "force_element_kind_codes", "1",
+     "kind of each force element as a code: 0 coordinate, 1 spring_damper, 2 bushing (the XDMF force_elements grid's kind)"},
+    {"mesh", "force_element_vertices", "1",
+     "node indices of the segment drawn for each force element: its two nodes, a coordinate element's joint master and slave (the slave twice for a joint to "
+     "the ground)"},
     {"frames", "step", "1", "step number of each frame (0: the initial state)"},
     {"frames", "time", "TIME", "time of each frame"},
     {"frames", "contents", "1", "what each frame holds besides nodes and elements, bits: 1 velocities, 2 section triads, 4 rigid bodies, 8 joints"},

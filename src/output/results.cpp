@@ -101,6 +101,27 @@ static void AddGroundToMesh(const Model &model, OutputMesh *mesh)
     if (fixed_dofs[n] == 0x3f) add(model.nodes[n].name, "support", model.nodes[n].position, Mat3::Identity());
 }
 
+// The force elements, each drawn as a segment between nodes: a two-node element's nodes; a
+// coordinate element's joint's master and slave, or the slave twice (a point) for a joint to the
+// ground.
+static void AddForceElementsToMesh(const Model &model, OutputMesh *mesh)
+{
+  mesh->force_element_names.clear();
+  mesh->force_element_kinds.clear();
+  mesh->force_element_nodes.clear();
+  for (const ForceElement &element : model.force_elements) {
+    std::array<int, 2> nodes = element.nodes;
+    const char        *kind  = "coordinate";
+    if (element.kind == ForceElement::Kind::Coordinate) {
+      const Joint &joint = model.joints[element.joint];
+      nodes              = {{joint.master >= 0 ? joint.master : joint.slave, joint.slave}};
+    } else kind = element.kind == ForceElement::Kind::SpringDamper ? "spring_damper" : "bushing";
+    mesh->force_element_names.push_back(element.name);
+    mesh->force_element_kinds.push_back(kind);
+    mesh->force_element_nodes.insert(mesh->force_element_nodes.end(), nodes.begin(), nodes.end());
+  }
+}
+
 void BuildOutputMesh(const Model &model, OutputMesh *mesh)
 {
   mesh->node_coordinates.clear();
@@ -132,6 +153,7 @@ void BuildOutputMesh(const Model &model, OutputMesh *mesh)
   mesh->analysis_type = AnalysisTypeName(model.analysis.type);
   AddRigidBodiesToMesh(model, mesh);
   AddGroundToMesh(model, mesh);
+  AddForceElementsToMesh(model, mesh);
 }
 
 // Position (3), displacement (3), quaternion (4), tracked rotation angle (1), velocity (3) and

@@ -14,11 +14,23 @@ ranks, and checks:
    R_master a_k (the reference axes for a joint to the ground) to 1e-12; the body's rotation equal
    to its node's (difference 0), its centre of mass x + R c and its axes R a_k e_k (the principal
    axes scaled by the semi-axes) to 1e-12;
+ - the force elements of input/bushing_mount.yaml (to t = 0.04: a bushing between the beam's tip
+   and the box) and input/slider_crank.yaml (to t = 0.04: two coordinate elements, one on a
+   revolute joint to the ground, one on a joint between two nodes): /mesh/force_element_names,
+   _kinds, _kind_codes (0 coordinate, 1 spring_damper, 2 bushing) and _vertices (the two nodes; a
+   coordinate element's joint master and slave, the slave twice for a joint to the ground), and in
+   the sidecar a temporal collection `force_elements` with a grid per frame whose points are the
+   frame's /frames/position, whose cells are the 2-node polylines of /mesh/force_element_vertices
+   and whose cell array `kind` is /mesh/force_element_kind_codes; the models without force elements
+   have neither the datasets nor the grid;
  - provenance and units in each file, and in that of tests/regression/inputs/joint_mechanism.yaml
    run as an eigenanalysis (-analysis_type modes): the root attributes msflex_version, git_hash,
    command_line (naming the input), options, ranks (= --np) and start_time; a `unit` and a
    `description` attribute on every dataset, and every /history series known to the table of units
    (no "a series of unknown meaning")."""
+
+import os
+import re
 
 import h5py
 import numpy as np
@@ -54,6 +66,46 @@ def check_units_and_provenance(label, path, input_name):
         names, descriptions = f["history/names"][()], f["history/descriptions"][()]
         unknown = [name.decode() for name, description in zip(names, descriptions) if b"unknown" in description]
         check.equal(f"{label}: history series of unknown unit ({unknown[:5]})", len(unknown), 0)
+
+
+FORCE_ELEMENT_DATASETS = ("force_element_names", "force_element_kinds", "force_element_kind_codes", "force_element_vertices")
+
+
+def check_force_elements(label, path, expected):
+    """`expected`: (name, kind, code, (node name, node name)) per force element, in order; none: the
+    file and its sidecar have no force elements."""
+    with h5py.File(path, "r") as f:
+        mesh = f["mesh"]
+        frame_count, n_nodes = mt.frame_count(f), len(mesh["node_names"])
+        if not expected:
+            present = [name for name in FORCE_ELEMENT_DATASETS if name in mesh]
+            check.equal(f"{label}: no force-element datasets ({present})", len(present), 0)
+        else:
+            nodes = strings(mesh["node_names"])
+            check.true(f"{label}: force-element names", strings(mesh["force_element_names"]) == [e[0] for e in expected])
+            check.true(f"{label}: force-element kinds", strings(mesh["force_element_kinds"]) == [e[1] for e in expected])
+            check.true(f"{label}: force-element kind codes", mesh["force_element_kind_codes"][()].tolist() == [e[2] for e in expected])
+            vertices = mesh["force_element_vertices"][()]
+            check.true(f"{label}: force-element segments' nodes {vertices.tolist()}",
+                       vertices.shape == (len(expected), 2) and [[nodes[i] for i in row] for row in vertices] == [list(e[3]) for e in expected])
+    with open(os.path.splitext(path)[0] + ".xmf", encoding="utf-8") as f:
+        xmf = f.read()
+    if not expected:
+        check.equal(f"{label}: no force_elements grid in the sidecar", xmf.count("force_element"), 0)
+        return
+    h5 = os.path.basename(path)
+    check.equal(f"{label}: a force_elements collection", xmf.count('<Grid Name="force_elements" GridType="Collection" CollectionType="Temporal">'), 1)
+    grids = re.findall(r'<Grid Name="force_elements" GridType="Uniform">(.*?)</Grid>', xmf, re.S)
+    check.equal(f"{label}: a force_elements grid per frame", len(grids), frame_count)
+    wrong = [k for k, grid in enumerate(grids) if f">{h5}:/frames/position|{k} 0 0:1 1 1:1 {n_nodes} 3:{k + 1} {n_nodes} 3<" not in grid]
+    check.equal(f"{label}: frames whose force_elements points are not that frame's positions ({wrong[:5]})", len(wrong), 0)
+    shared = re.search(r'<Information Name="shared".*?<Grid Name="force_elements">(.*?)</Grid>', xmf, re.S)
+    shared = shared.group(1) if shared else ""
+    check.true(f"{label}: force_elements topology: a 2-node polyline per element from /mesh/force_element_vertices",
+               f'<Topology TopologyType="Polyline" NodesPerElement="2" NumberOfElements="{len(expected)}">' in shared
+               and f">{h5}:/mesh/force_element_vertices<" in shared)
+    check.true(f"{label}: force_elements cell array kind from /mesh/force_element_kind_codes",
+               '<Attribute Name="kind" AttributeType="Scalar" Center="Cell">' in shared and f">{h5}:/mesh/force_element_kind_codes<" in shared)
 
 
 def check_frames(label, path):
@@ -112,6 +164,7 @@ with h5py.File(screw, "r") as f:
                + abs(np.linalg.det(principal) - 1.0), 1e-14)
     check.less("driven screw: the axis of the largest moment is x", np.abs(np.abs(principal[2]) - [1, 0, 0]).max(), 1e-14)
 check_frames("driven_screw", screw)
+check_force_elements("driven_screw", screw, [])
 check_units_and_provenance("driven_screw", screw, "driven_screw.yaml")
 
 arm = run("turning_arm_screw", 0.2)
@@ -139,6 +192,14 @@ with h5py.File(mechanism, "r") as f:
     check.less("joint mechanism: I_k = m (a_i^2 + a_j^2) / 5", np.abs([mass * (a2.sum() - a2[k]) / 5 - moments[k] for k in range(3)]).max(), 1e-14)
 check_frames("joint_mechanism", mechanism)
 check_units_and_provenance("joint_mechanism", mechanism, "joint_mechanism.yaml")
+check_force_elements("joint_mechanism", mechanism, [])
+
+bushing = run("bushing_mount", 0.04)
+check_force_elements("bushing_mount", bushing, [("mount", "bushing", 2, ("tip", "box"))])
+check_units_and_provenance("bushing_mount", bushing, "bushing_mount.yaml")
+crank = run("slider_crank", 0.04)
+check_force_elements("slider_crank", crank, [("motor", "coordinate", 0, ("rotor", "rotor")), ("torsional_damper", "coordinate", 0, ("rotor", "hub"))])
+check_units_and_provenance("slider_crank", crank, "slider_crank.yaml")
 
 modes = f"{args.work_dir}/joint_mechanism_modes.h5"
 mt.run_msflex(args, f"{args.source_dir}/tests/regression/inputs/joint_mechanism.yaml", modes, extra=["-analysis_type", "modes", "-quiet"])

@@ -1,15 +1,17 @@
 """ParaView reads what msflex writes, and postproc/render-paraview renders it.
 
-Two runs: input/flying_spaghetti.yaml (em, dt = 0.01) to t = 7.5 with a frame every 50 steps (with
+Three runs: input/flying_spaghetti.yaml (em, dt = 0.01) to t = 7.5 with a frame every 50 steps (with
 the input's output_times 2.5, 5, 7.5: 16 frames), beams only; and input/driven_screw.yaml to
-t = 0.3 (a frame every step), with a rigid body, four joints and two joints to the ground; each
+t = 0.3 (a frame every step), with a rigid body, four joints and two joints to the ground; and
+input/bushing_mount.yaml to t = 0.06 (a static stage, then a frame every 20 steps), with a rigid
+body, a clamped node and a bushing between two nodes; each
 twice, with the default sidecar (-output_xdmf xdmf3) and with -output_xdmf xdmf2. The xdmf3
 sidecars are opened with ParaView's Xdmf3 readers (Xdmf3ReaderS and Xdmf3ReaderT), the xdmf2 ones
 with its XDMF Reader (XDMFReader), in pvpython (paraview_read.py, which dumps what ParaView sees
 into a .npz file), and compared with the HDF5 file read by h5py:
  - time steps: one per frame (/frames/step), at the frames' times (/frames/time);
- - per time step, the grids in order: beams, then bodies, joints and ground when the model has
-   them (XDMFReader names its blocks so; a single grid comes alone);
+ - per time step, the grids in order: beams, then bodies, joints, ground and force_elements when
+   the model has them (XDMFReader names its blocks so; a single grid comes alone);
  - beams: n_nodes points at the frame's `position`, n_segments 2-node poly-line cells with the point
    ids of /mesh/segments; point arrays displacement [m], rotation (4 components), velocity [m/s],
    angular_velocity [rad/s], cell arrays force [N], moment [N m] and section_e1..e3, and no others
@@ -19,12 +21,15 @@ into a .npz file), and compared with the HDF5 file read by h5py:
    rotation (`body_rotation`), semi_axes [m] and mass [kg] (/mesh/body_semi_axes, body_mass) and
    the body index; joints: a vertex at each slave node (`joint_position`) with a1..a3 (`joint_a1..3`)
    and the joint index; ground: a vertex at each /mesh/ground_position with a1..a3 (/mesh/ground_a1..3);
+   force_elements: the frame's `position` as points, the 2-node poly-lines of
+   /mesh/force_element_vertices as cells, cell array kind (/mesh/force_element_kind_codes);
  - values: every array at every time step equals its dataset, difference 0.
 Then renders PNGs with postproc/render-paraview (the spaghetti's last frame coloured by
 displacement; t = 2.5 in grey with the section triads; the driven screw with its body, joints and
 ground, from both sidecars) and checks that each has the requested size and is not blank, that the triads put red,
 green and blue pixels into the second and the joint axes (magenta), body (orange) and ground
-(brown) show in the third; and a movie of the driven screw (--movie, every 4th frame): the PNG
+(brown) show in the third; the bushing mount's force element (cyan) from both sidecars, and not with
+--no-force-elements; and a movie of the driven screw (--movie, every 4th frame): the PNG
 series and an .mp4 file made by ffmpeg."""
 
 import os
@@ -56,6 +61,9 @@ for flavour in ("xdmf3", "xdmf2"):
     results["screw", flavour] = os.path.join(args.work_dir, f"driven_screw{suffix}.h5")
     mt.run_msflex(args, f"{args.source_dir}/input/driven_screw.yaml", results["screw", flavour],
                   extra=["-analysis_end_time", "0.3", "-quiet", "-output_xdmf", flavour])
+    results["bushing", flavour] = os.path.join(args.work_dir, f"bushing_mount{suffix}.h5")
+    mt.run_msflex(args, f"{args.source_dir}/input/bushing_mount.yaml", results["bushing", flavour],
+                  extra=["-analysis_end_time", "0.06", "-quiet", "-output_xdmf", flavour])
 spaghetti, screw = results["spaghetti", "xdmf3"], results["screw", "xdmf3"]
 
 
@@ -89,6 +97,9 @@ def expected_grids(path):
             if "ground_names" in mesh:
                 grids["ground"] = {"points": mesh["ground_position"][()], "cells": None, "cell": {},
                                    "point": {f"a{k}": mesh[f"ground_a{k}"][()] for k in (1, 2, 3)}}
+            if "force_element_names" in mesh:
+                grids["force_elements"] = {"points": frame["position"], "cells": mesh["force_element_vertices"][()], "point": {},
+                                           "cell": {"kind": mesh["force_element_kind_codes"][()]}}
             result.append(grids)
     return times, result
 
@@ -101,14 +112,15 @@ def difference(paraview, hdf5):
     return float(np.abs(paraview - hdf5).max()) if paraview.size else 0.0
 
 
-def compare(name, h5, expected_kinds, readers):
+def compare(name, h5, expected_kinds, readers, every_frame_full=True):
     times_h5, frames = expected_grids(h5)
     xmf = os.path.splitext(h5)[0] + ".xmf"
     print(f"{name}: {len(times_h5)} frames, t = {times_h5[0]:g} .. {times_h5[-1]:g}, grids {', '.join(frames[0])}")
     check.true(f"{name}: grids {expected_kinds} in the file", list(frames[0]) == expected_kinds)
     partial = [k for k, grids in enumerate(frames) if list(grids) != expected_kinds or "velocity [m/s]" not in grids["beams"]["point"]
                or "section_e1" not in grids["beams"]["cell"]]
-    check.equal(f"{name}: frames without all grids, velocities and section triads ({partial[:5]})", len(partial), 0)
+    if every_frame_full:
+        check.equal(f"{name}: frames without all grids, velocities and section triads ({partial[:5]})", len(partial), 0)
     for reader in readers:
         dump = os.path.join(args.work_dir, f"{name}.{reader}.npz")
         result = subprocess.run([pvpython, os.path.join(here, "paraview_read.py"), xmf, dump, "--reader", reader],
@@ -172,6 +184,8 @@ def compare(name, h5, expected_kinds, readers):
 for flavour, readers in (("xdmf3", ("Xdmf3ReaderS", "Xdmf3ReaderT")), ("xdmf2", ("XDMFReader",))):
     compare(f"flying_spaghetti ({flavour})", results["spaghetti", flavour], ["beams"], readers)
     compare(f"driven_screw ({flavour})", results["screw", flavour], ["beams", "bodies", "joints", "ground"], readers)
+    # Its static stage's frame has no velocities.
+    compare(f"bushing_mount ({flavour})", results["bushing", flavour], ["beams", "bodies", "ground", "force_elements"], readers, every_frame_full=False)
 xmf = os.path.splitext(spaghetti)[0] + ".xmf"
 
 
@@ -230,6 +244,24 @@ for flavour in ("xdmf3", "xdmf2"):
                         ("rigid body (orange)", (r > 0.6) & (g > 0.3) & (g < 0.6) & (b < 0.2)),
                         ("ground (brown)", (r > 0.15) & (r < 0.45) & (g > 0.1) & (g < 0.4) & (b < 0.3) & (r > b + 0.04))):
         check.true(f"{os.path.basename(png)}: {what} drawn (more than 30 pixels: {count.sum()})", bool(count.sum() > 30))
+
+# The bushing mount: its force element (a bushing between two coincident nodes) shows as a cyan
+# sphere, whichever reader render-paraview picks; --no-force-elements leaves it out.
+for flavour, options in (("xdmf3", []), ("xdmf2", []), ("xdmf3", ["--no-force-elements"])):
+    png = os.path.join(args.work_dir, f"bushing_mount_{flavour}{'_without' if options else ''}.png")
+    command = [sys.executable, render_paraview, os.path.splitext(results["bushing", flavour])[0] + ".xmf", "-o", png, "--xvfb", "--size", "480", "360",
+               "--color", "none", *options]
+    result = subprocess.run(command, capture_output=True, text=True, timeout=600)
+    if result.returncode != 0:
+        sys.stderr.write(result.stdout + result.stderr[-4000:])
+        raise SystemExit(f"render-paraview failed ({result.returncode}): {' '.join(command)}")
+    image = matplotlib.image.imread(png)[:, :, :3]
+    r, g, b = image[:, :, 0], image[:, :, 1], image[:, :, 2]
+    cyan = int(((g > r + 0.2) & (b > r + 0.2) & (np.abs(g - b) < 0.25)).sum())
+    if options:
+        check.true(f"{os.path.basename(png)}: no force element (fewer than 30 cyan pixels: {cyan})", cyan < 30)
+    else:
+        check.true(f"{os.path.basename(png)}: force element (cyan) drawn (more than 100 pixels: {cyan})", cyan > 100)
 
 # A movie of every 4th frame: the PNG series and an .mp4 by ffmpeg.
 movie = os.path.join(args.work_dir, "driven_screw.mp4")

@@ -2,7 +2,7 @@
 // the HDF5 C API. Runs on any number of ranks: as in the solver, only rank 0 passes data (or each
 // rank its rows, for distributed frames), and only rank 0 reads the file back. Also: history rows
 // buffered and written in chunks, the flush semantics, the sidecar well-formed after every frame
-// and its cost per frame, rigid bodies, joints and ground, units and provenance.
+// and its cost per frame, rigid bodies, joints, ground and force elements, units and provenance.
 #include "core/hdf5_files.hpp"
 #include "output/output_file.hpp"
 #include "output/output_units.hpp"
@@ -867,6 +867,115 @@ TEST_F(OutputFileTest, SidecarOfRigidBodiesAloneHasNoCellArrays)
   }
 }
 
+// ---- Force elements ------------------------------------------------------------------------------
+
+// The mechanism with three force elements: a bushing (tip, mid), a coordinate element on the
+// hinge to the ground (a point at its slave, the tip, twice) and a spring-damper (root, tip).
+OutputMesh ForceElementMesh()
+{
+  OutputMesh mesh          = MechanismMesh();
+  mesh.force_element_names = {"mount", "motor", "strut"};
+  mesh.force_element_kinds = {"bushing", "coordinate", "spring_damper"};
+  mesh.force_element_nodes = {2, 1, 2, 2, 0, 2};
+  return mesh;
+}
+
+// Frames 0 and 1 whole on rank 0, frame 2 dealt out over the ranks, a history row each; then
+// (restart) the file reopened after frame 1 and frame 3 written.
+void WriteMechanismRun(const fs::path &h5_path, XdmfFlavour flavour, const OutputMesh &mesh)
+{
+  {
+    OutputFile out;
+    out.SetXdmfFlavour(flavour);
+    ASSERT_EQ(out.Open(PETSC_COMM_WORLD, h5_path.string(), false, "mechanism.yaml", "analysis: {type: dynamic}\n", IsRoot() ? mesh : OutputMesh{}, kFingerprint,
+                       kRunId),
+              PETSC_SUCCESS);
+    for (int step = 0; step < 3; ++step) {
+      ASSERT_EQ(out.WriteFrame(step < 2 ? (IsRoot() ? MechanismFrame(step) : OutputFrame{}) : DistributedPart(MechanismFrame(step), WorldRank(), WorldSize())),
+                PETSC_SUCCESS);
+      ASSERT_EQ(out.AppendHistory(kHistoryNames, HistoryRow(step), {}), PETSC_SUCCESS);
+    }
+    ASSERT_EQ(out.Close(), PETSC_SUCCESS);
+  }
+  OutputFile out;
+  out.SetXdmfFlavour(flavour);
+  ASSERT_EQ(out.Reopen(PETSC_COMM_WORLD, h5_path.string(), 1, 2, kRunId), PETSC_SUCCESS);
+  ASSERT_EQ(out.WriteFrame(IsRoot() ? MechanismFrame(3) : OutputFrame{}), PETSC_SUCCESS);
+  ASSERT_EQ(out.AppendHistory(kHistoryNames, HistoryRow(3), {}), PETSC_SUCCESS);
+  ASSERT_EQ(out.Close(), PETSC_SUCCESS);
+}
+
+// /mesh/force_element_* (names, kinds as text and codes, the segments' node indices), and a
+// force_elements grid in every frame of the sidecar: the segments as 2-node polylines whose points
+// are the nodes' positions of the frame (the beams' points), with the kind as a cell array; also
+// after a restart, and in both syntaxes. A model without force elements has neither.
+TEST_F(OutputFileTest, WritesForceElementsAsSegmentsBetweenNodes)
+{
+  for (XdmfFlavour flavour : {XdmfFlavour::Xdmf3, XdmfFlavour::Xdmf2}) {
+    const bool xdmf3 = flavour == XdmfFlavour::Xdmf3;
+    WriteMechanismRun(h5_path(), flavour, ForceElementMesh());
+    if (IsRoot()) {
+      const hid_t file = H5Fopen(h5_path().c_str(), H5F_ACC_RDONLY, H5P_DEFAULT);
+      ASSERT_GE(file, 0);
+      std::vector<hsize_t> dims;
+      const OutputMesh     mesh = ForceElementMesh();
+      EXPECT_EQ(ReadStrings(file, "/mesh/force_element_names", &dims), mesh.force_element_names);
+      EXPECT_EQ(ReadStrings(file, "/mesh/force_element_kinds", &dims), mesh.force_element_kinds);
+      EXPECT_EQ(ReadInts(file, "/mesh/force_element_kind_codes", &dims), (std::vector<int>{2, 0, 1}));
+      EXPECT_EQ(dims, (std::vector<hsize_t>{3}));
+      EXPECT_EQ(ReadInts(file, "/mesh/force_element_vertices", &dims), mesh.force_element_nodes);
+      EXPECT_EQ(dims, (std::vector<hsize_t>{3, 2}));
+      EXPECT_EQ(ReadInts(file, "/frames/step", &dims), (std::vector<int>{0, 1, 3}));
+      for (const char *name : {"force_element_names", "force_element_kinds", "force_element_kind_codes", "force_element_vertices"}) {
+        const std::string dataset = std::string("/mesh/") + name;
+        EXPECT_EQ(ReadStringAttribute(file, dataset.c_str(), "unit"), DatasetQuantity("mesh", name, true).unit) << name;
+        EXPECT_FALSE(ReadStringAttribute(file, dataset.c_str(), "description").empty()) << name;
+        EXPECT_EQ(DatasetQuantity("mesh", name, true).description.find("unknown"), std::string::npos) << name;
+      }
+      EXPECT_GE(H5Fclose(file), 0);
+
+      const std::string xdmf = ReadText(xdmf_path());
+      std::string       why;
+      EXPECT_TRUE(WellFormedXml(xdmf, &why)) << why;
+      EXPECT_EQ(CountOf(xdmf, "<Grid Name=\"force_elements\" GridType=\"Collection\" CollectionType=\"Temporal\">"), 1u);
+      EXPECT_EQ(CountOf(xdmf, "<Grid Name=\"force_elements\" GridType=\"Uniform\">"), 3u) << "one grid per frame, the restart's included";
+      EXPECT_LT(xdmf.find("<Grid Name=\"ground\" GridType=\"Collection\""), xdmf.find("<Grid Name=\"force_elements\" GridType=\"Collection\""))
+          << "the force elements come after the kinds before them";
+      EXPECT_EQ(CountOf(xdmf, "<Topology TopologyType=\"Polyline\" NodesPerElement=\"2\" NumberOfElements=\"3\">\n        <DataItem Format=\"HDF\" "
+                              "NumberType=\"Int\" Precision=\"4\" Dimensions=\"3 2\">output.h5:/mesh/force_element_vertices<"),
+                xdmf3 ? 1u : 3u);
+      EXPECT_EQ(CountOf(xdmf, ">output.h5:/mesh/force_element_vertices<"), xdmf3 ? 1u : 3u);
+      EXPECT_EQ(CountOf(xdmf, "<Attribute Name=\"kind\" AttributeType=\"Scalar\" Center=\"Cell\">"), xdmf3 ? 1u : 3u);
+      EXPECT_EQ(CountOf(xdmf, ">output.h5:/mesh/force_element_kind_codes<"), xdmf3 ? 1u : 3u);
+      if (xdmf3) { // both grids of a frame take the nodes' positions as their points
+        EXPECT_EQ(CountOf(xdmf, ">output.h5:/frames/position|2 0 0:1 1 1:1 3 3:3 3 3<"), 2u);
+      } else { // the positions' hyperslab named once per frame, the geometry of both grids
+        EXPECT_EQ(CountOf(xdmf, "Name=\"position_2\""), 1u);
+        EXPECT_EQ(CountOf(xdmf, "/DataItem[@Name='position_2']"), 2u);
+      }
+    }
+    MPI_Barrier(PETSC_COMM_WORLD);
+    if (IsRoot()) fs::remove(h5_path()), fs::remove(xdmf_path());
+    MPI_Barrier(PETSC_COMM_WORLD);
+
+    // Without force elements: no datasets, no grid.
+    WriteMechanismRun(h5_path(), flavour, MechanismMesh());
+    if (IsRoot()) {
+      const hid_t file = H5Fopen(h5_path().c_str(), H5F_ACC_RDONLY, H5P_DEFAULT);
+      ASSERT_GE(file, 0);
+      for (const char *name : {"/mesh/force_element_names", "/mesh/force_element_kinds", "/mesh/force_element_kind_codes", "/mesh/force_element_vertices"})
+        EXPECT_EQ(H5Lexists(file, name, H5P_DEFAULT), 0) << name;
+      EXPECT_GE(H5Fclose(file), 0);
+      const std::string xdmf = ReadText(xdmf_path());
+      EXPECT_EQ(xdmf.find("force_element"), std::string::npos);
+      if (!xdmf3) EXPECT_EQ(CountOf(xdmf, "/DataItem[@Name='position_2']"), 1u);
+    }
+    MPI_Barrier(PETSC_COMM_WORLD);
+    if (IsRoot()) fs::remove(h5_path()), fs::remove(xdmf_path());
+    MPI_Barrier(PETSC_COMM_WORLD);
+  }
+}
+
 // A rank's part of a frame with every table's rows in reverse order (segments following their
 // elements), as a partition may hand them over.
 OutputFrame Reversed(const OutputFrame &part)
@@ -944,7 +1053,7 @@ TEST_F(OutputFileTest, WritesRowsGivenInAnyOrder)
 TEST_F(OutputFileTest, EveryDatasetHasAUnitAndADescription)
 {
   OutputFile out;
-  ASSERT_EQ(out.Open(PETSC_COMM_WORLD, h5_path().string(), false, "mechanism.yaml", "analysis: {type: dynamic}\n", IsRoot() ? MechanismMesh() : OutputMesh{},
+  ASSERT_EQ(out.Open(PETSC_COMM_WORLD, h5_path().string(), false, "mechanism.yaml", "analysis: {type: dynamic}\n", IsRoot() ? ForceElementMesh() : OutputMesh{},
                      kFingerprint, kRunId),
             PETSC_SUCCESS);
   ASSERT_EQ(out.WriteFrame(DistributedPart(MechanismFrame(0), WorldRank(), WorldSize())), PETSC_SUCCESS);
@@ -984,6 +1093,8 @@ TEST_F(OutputFileTest, EveryDatasetHasAUnitAndADescription)
       {"/frames/segment_moment", "N m"},
       {"/frames/body_axis_1", "m"},
       {"/frames/joint_a2", "1"},
+      {"/mesh/force_element_vertices", "1"},
+      {"/mesh/force_element_kinds", ""},
       {"/input", ""},
   };
   for (const auto &[dataset, unit] : units) EXPECT_EQ(ReadStringAttribute(file, dataset, "unit"), unit) << dataset;
