@@ -51,6 +51,26 @@ void BeamDampingContributor::BeginStep(const State &state)
     if (damped_[k]) Strains(state, k, true, start_strain_[k].data(), start_curvature_[k].data());
 }
 
+bool BeamDampingContributor::StartForces(const State &state, size_t k, double *force) const
+{
+  // C_d edot_n at the start state: the stress C_d (e - (e_n - edot_n)) at e = e_n, with edot_n the
+  // committed strain rates (State::beam_strains, not yet advanced within the step).
+  const BeamElement          &element = model_->elements[map_->local_elements[k]];
+  const BeamSectionStiffness &C       = damping_[element.section];
+  const BeamElementReference &ref     = beams_->References()[k];
+  const BeamStrainMotion     &motion  = state.beam_strains[k];
+  BeamElementReference        shifted = ref;
+  Vec3                        positions[kBeamMaxNodes], strain[kBeamMaxGauss], curvature[kBeamMaxGauss];
+  Mat3                        triads[kBeamMaxNodes];
+  beams_->StartConfiguration(state, k, positions, triads);
+  if (!Strains(state, k, true, strain, curvature)) return false;
+  for (int gp = 0; gp < ref.num_gauss; ++gp) {
+    shifted.strain0[gp] += strain[gp] - motion.strain[gp].velocity;
+    shifted.curvature0[gp] += curvature[gp] - motion.curvature[gp].velocity;
+  }
+  return BeamInternalForces(shifted, C, positions, triads, force, nullptr, nullptr, nullptr) == BeamKernelStatus::Ok;
+}
+
 bool BeamDampingContributor::Forces(const State &state, size_t k, double *force, double *tangent) const
 {
   const StepEquations        &eq      = state.equations;
@@ -72,30 +92,18 @@ bool BeamDampingContributor::Forces(const State &state, size_t k, double *force,
     return BeamMidpointInternalForces(ref, scaled, positions_start, triads_start, positions, triads, force_mc, force, nullptr, tangent, nullptr, &energy_start,
                                       &energy_end) == BeamKernelStatus::Ok;
   }
+  if (eq.InitialAcceleration()) return StartForces(state, k, force);
+  // edot_{n+1} = c_v (e_{n+1} - e_n) + edot*: the stress c_v C_d (e - (e_n - edot*/c_v)).
   const BeamStrainMotion &motion  = state.beam_strains[k];
   BeamElementReference    shifted = ref;
-  BeamSectionStiffness    section = C;
-  if (eq.InitialAcceleration()) {
-    // C_d edot_0 at the start state: the stress C_d (e - (e_0 - edot_0)).
-    beams_->StartConfiguration(state, k, positions, triads);
-    Vec3 strain[kBeamMaxGauss], curvature[kBeamMaxGauss];
-    if (!Strains(state, k, true, strain, curvature)) return false;
-    for (int gp = 0; gp < ref.num_gauss; ++gp) {
-      shifted.strain0[gp] += strain[gp] - motion.strain[gp].velocity;
-      shifted.curvature0[gp] += curvature[gp] - motion.curvature[gp].velocity;
-    }
-    tangent = nullptr;
-  } else {
-    // edot_{n+1} = c_v (e_{n+1} - e_n) + edot*: the stress c_v C_d (e - (e_n - edot*/c_v)).
-    beams_->Configuration(state, k, positions, triads);
-    const double cv = eq.scheme.VelocityCoefficient();
-    section         = {cv * C.axial_shear, cv * C.torsion_bending};
-    for (int gp = 0; gp < ref.num_gauss; ++gp) {
-      const Vec3 strain_rate    = AdvanceMotion(eq.scheme, motion.strain[gp], Vec3::Zero()).velocity;
-      const Vec3 curvature_rate = AdvanceMotion(eq.scheme, motion.curvature[gp], Vec3::Zero()).velocity;
-      shifted.strain0[gp] += start_strain_[k][gp] - strain_rate / cv;
-      shifted.curvature0[gp] += start_curvature_[k][gp] - curvature_rate / cv;
-    }
+  beams_->Configuration(state, k, positions, triads);
+  const double               cv = eq.scheme.VelocityCoefficient();
+  const BeamSectionStiffness section{cv * C.axial_shear, cv * C.torsion_bending};
+  for (int gp = 0; gp < ref.num_gauss; ++gp) {
+    const Vec3 strain_rate    = AdvanceMotion(eq.scheme, motion.strain[gp], Vec3::Zero()).velocity;
+    const Vec3 curvature_rate = AdvanceMotion(eq.scheme, motion.curvature[gp], Vec3::Zero()).velocity;
+    shifted.strain0[gp] += start_strain_[k][gp] - strain_rate / cv;
+    shifted.curvature0[gp] += start_curvature_[k][gp] - curvature_rate / cv;
   }
   return BeamInternalForces(shifted, section, positions, triads, force, tangent, nullptr, nullptr) == BeamKernelStatus::Ok;
 }
@@ -115,17 +123,25 @@ void BeamDampingContributor::AddElement(const State &state, size_t k, ElementCon
     for (int i = 0; i < nd * nd; ++i) out->tangent[i] += K[i];
 }
 
+// Mid-point family: the damping force of the step's equations times the increments (exact).
+// Newmark family: the trapezoidal rule, the mean of the start state's damping force and the end's
+// times the same increments, as for the force elements' dampers and the loads.
 void BeamDampingContributor::AddStepDissipation(const State &state, double *dissipation) const
 {
-  if (!state.equations.Dynamic()) return;
+  const StepEquations &eq = state.equations;
+  if (!eq.Dynamic()) return;
+  const bool trapezoidal = !eq.Midpoint();
   for (size_t k = 0; k < damped_.size(); ++k) {
     if (!damped_[k]) continue;
-    double force[kBeamMaxDofs];
+    double force[kBeamMaxDofs], start[kBeamMaxDofs];
     if (!Forces(state, k, force, nullptr)) continue;
     const BeamElement &element = model_->elements[map_->local_elements[k]];
+    const int          nd      = 6 * (element.order + 1);
+    if (trapezoidal && StartForces(state, k, start))
+      for (int i = 0; i < nd; ++i) force[i] = 0.5 * (start[i] + force[i]);
     for (int a = 0; a <= element.order; ++a) {
       const NodeState &s = state.nodes[map_->node_to_local[element.nodes[a]]];
-      *dissipation += s.displacement_increment.dot(Vec3(&force[6 * a])) + NodeTangentScaledIncrement(state.equations, s).dot(Vec3(&force[6 * a + 3]));
+      *dissipation += s.displacement_increment.dot(Vec3(&force[6 * a])) + NodeTangentScaledIncrement(eq, s).dot(Vec3(&force[6 * a + 3]));
     }
   }
 }

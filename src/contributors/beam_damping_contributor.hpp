@@ -15,6 +15,9 @@
 //    correction vector of the mid-point kernel with the section C_d / dt; its work over (u, alpha)
 //    is the step's dissipation, which the energy balance counts.
 //  - initial-acceleration problem: C_d edot_0 at the start state (no tangent).
+// The step's dissipation: mid-point family, the damping force of the step's equations times the
+// increments (exact); Newmark family, the trapezoidal rule, the mean of the start state's damping
+// force C_d edot_n and the end's times the increments (as for the force elements and the loads).
 // The tangent of the mid-point form is the end-point one of the stress C_d (e - e_n)/dt (exact
 // once the mid-point kernel's tangent is available to it).
 #pragma once
@@ -45,6 +48,10 @@ private:
   // The damping forces of local element k (6 per node) and, on request, their tangent; false when
   // the element cannot be evaluated.
   bool Forces(const State &state, size_t k, double *force, double *tangent) const;
+  // The damping forces of local element k at the start of the step (start configuration, C_d edot_n
+  // with edot_n the committed strain rates; no tangent): the initial-acceleration problem's, and the
+  // start point of the Newmark family's trapezoidal dissipation. False when not evaluable.
+  bool StartForces(const State &state, size_t k, double *force) const;
   // Strains and curvatures of local element k at the Gauss points of its current (or start) configuration.
   bool Strains(const State &state, size_t k, bool start, Vec3 *strain, Vec3 *curvature) const;
 

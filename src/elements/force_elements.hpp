@@ -16,7 +16,9 @@
 //      damper  f = c (x_{n+1} - x_n) / dt                    (dissipation c (x_{n+1} - x_n)^2 / dt >= 0)
 //    so that em keeps energy - work + dissipated energy constant.
 // The dissipation of a step is the damper's force times the change of the element's deflection
-// over the step: exact work in the mid-point form, the trapezoid-free estimate at the end point.
+// over the step: exact work in the mid-point form; elsewhere the kernel's dissipation and
+// actuator_work are end-point values (the force at the end of the step times the change), and the
+// contributors take the trapezoidal rule (the mean of the start's and the end's) in the Newmark family.
 #pragma once
 
 #include "math/rotation.hpp"
