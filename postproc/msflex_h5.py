@@ -14,6 +14,7 @@ import os
 import sys
 
 import h5py
+import numpy as np
 
 # Older files: probe datasets and the names of their columns (None: a 1-D dataset, one value per row).
 PROBE_COMPONENTS = {
@@ -191,13 +192,18 @@ class HistoryFile:
         return unit, description
 
     def label(self, name):
-        """Axis label of series `name`: its name, or 'load factor' for the time of a static
-        analysis and 'mode' for that of an eigenanalysis, with the unit in brackets (none for a
-        dimensionless series)."""
+        """Axis label of series `name`: its name, or for the time of a static analysis 'load factor'
+        (its pseudo-time under load control) or 'path parameter' (arc-length or displacement
+        control, where the series load_factor differs from it), and 'mode' for that of an
+        eigenanalysis, with the unit in brackets (none for a dimensionless series)."""
         unit, _ = self.quantity(name)
         shown = name
         if name == "time":
             shown = {"static": "load factor", "modes": "mode", "buckling": "mode"}.get(self.analysis_type(), name)
+            if shown == "load factor" and "load_factor" in self._series:
+                time, load_factor = self.read("time"), self.read("load_factor")
+                if len(time) == len(load_factor) and not np.allclose(time, load_factor, rtol=1e-12, atol=1e-12):
+                    shown = "path parameter"
         return shown if unit in (None, "", "1") else f"{shown} [{unit}]"
 
     def _check(self, name):

@@ -169,6 +169,12 @@ PetscErrorCode Setup(Analysis &a, Model whole)
   PetscCall(PetscLogEventBegin(event_dof_map, 0, 0, 0, 0));
   PetscCall(DofMapCreate(a.comm, whole, node_rank, &whole_map));
   PetscCall(PetscLogEventEnd(event_dof_map, 0, 0, 0, 0));
+  // An eigenanalysis of a model without unknowns has no modes: said before any file is made.
+  const bool eigen = whole.analysis.type == AnalysisType::Modes || whole.analysis.type == AnalysisType::Buckling;
+  PetscCheck(!eigen || whole_map.num_global > 0, a.comm, PETSC_ERR_USER_INPUT,
+             "%s analysis: the model has no unknowns (every degree of freedom is fixed or prescribed), so it has no %s",
+             whole.analysis.type == AnalysisType::Buckling ? "buckling" : "modes",
+             whole.analysis.type == AnalysisType::Buckling ? "buckling modes" : "modes of vibration");
   PetscCall(PetscLogEventBegin(event_preallocation, 0, 0, 0, 0));
   PetscCall(MechanicalSystemPrepare(whole, whole_map, &pattern, &nodal_mass));
   PetscCall(PetscLogEventEnd(event_preallocation, 0, 0, 0, 0));

@@ -106,9 +106,6 @@ PetscErrorCode RunEigenAnalysis(MPI_Comm comm, const Model &model, const DofMap 
   Vec                     weights, shape;
   EigenPairs              pairs;
   PetscFunctionBeginUser;
-  PetscCheck(map.num_global > 0, comm, PETSC_ERR_USER_INPUT,
-             "%s analysis: the model has no unknowns (every degree of freedom is fixed or prescribed), so it has no %s", buckling ? "buckling" : "modes",
-             buckling ? "buckling modes" : "modes of vibration");
   PetscCall(EigenInitialize());
   if (a.preload) PetscCall(Preload(comm, model, integrator, quiet, &lambda));
   PetscCall(MatDuplicate(assembler.Jacobian(), MAT_DO_NOT_COPY_VALUES, &K));

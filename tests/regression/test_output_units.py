@@ -212,7 +212,12 @@ try:
     with mt.msflex_h5.HistoryFile(files["hinged_beam_modes"]) as history:
         axes = plot_history.plot(history, "time", ["frequency"], "t").axes[0]
         labels += [axes.get_xlabel(), axes.get_ylabel()]
-    expected = ["time [s]", "motor.power [W]", "rod_middle.N1 [N]", "value [J]", "spring_energy [J]", "dissipated_energy [J]", "mode", "frequency [Hz]"]
+    # Statics: the time is the load factor under load control, the path parameter under arc length.
+    for name in ("cantilever_rollup", "von_mises_truss"):
+        with mt.msflex_h5.HistoryFile(files[name]) as history:
+            labels.append(plot_history.plot(history, "time", ["load_factor"], "t").axes[0].get_xlabel())
+    expected = ["time [s]", "motor.power [W]", "rod_middle.N1 [N]", "value [J]", "spring_energy [J]", "dissipated_energy [J]", "mode", "frequency [Hz]",
+                "load factor", "path parameter"]
     check.true(f"plot-history's axis labels and legend {labels} (expected {expected})", labels == expected)
 except Exception as error:  # an older tool without plot() or without these curves
     check.true(f"the post-processing tools plot the energies, momenta and series ({type(error).__name__}: {error})", False)

@@ -219,10 +219,11 @@ class PostprocTest(unittest.TestCase):
         plot_history = plot_history_module()
         sys.path.insert(0, POSTPROC)
         import msflex_h5
-        # Statics: time is the load factor.
+        # Statics: time is the path parameter where the load factor series differs from it (an
+        # arc-length path, as this file's), else the load factor (test_output_units runs both).
         with msflex_h5.HistoryFile(self.h5) as history:
             axes = plot_history.plot(history, "time", ["tip.position.z"], "t").axes[0]
-        self.assertEqual(axes.get_xlabel(), "load factor")
+        self.assertEqual(axes.get_xlabel(), "path parameter")
         self.assertEqual(axes.get_ylabel(), "tip.position.z [m]")
         # Two series of one unit: the unit on the axis, the series with theirs in the legend.
         with msflex_h5.HistoryFile(self.h5) as history:

@@ -26,7 +26,8 @@ mechanism_coordinate_damper_only.yaml and the other mechanism_*.yaml cases are s
 4. tests/regression/inputs/static_driven_pendulum.yaml: the body of 1 on a hinge whose rotation a
    drive prescribes, theta = 0.5 t: a drive holds its coordinate, so the model (no unknowns at all)
    is no mechanism; the hinge's reaction is F_y = m g t and M_z = m g t L cos(theta) (the drive's
-   moment). A modes analysis of it is one line: it has no unknowns, hence no modes.
+   moment). A modes analysis of it is one line before any file is made: it has no unknowns, hence
+   no modes.
 
 Each is compared with its closed form at every converged step to 1e-8 (Newton stops at a relative
 residual of 1e-10). Before the check counted springs, msflex refused all three as mechanisms; it
@@ -104,8 +105,13 @@ if h is not None:
     check.less("driven hinge: max |theta - 0.5 t|", np.abs(h["hinge.rx"] - theta).max(), 1e-12)
     check.less("driven hinge: max |F_y - m g t|", np.abs(h["hinge.force_y"] - m * g * t).max(), 1e-8)
     check.less("driven hinge: max ||M_z| - m g t L cos(theta)|", np.abs(np.abs(h["hinge.moment_z"]) - m * g * t * L * np.cos(theta)).max(), 1e-8)
-code, _, stderr = mt.run_msflex(args, f"{args.source_dir}/tests/regression/inputs/static_driven_pendulum.yaml", f"{args.work_dir}/driven_modes.h5",
+import os  # noqa: E402
+modes_file = f"{args.work_dir}/driven_modes.h5"
+if os.path.exists(modes_file):
+    os.remove(modes_file)
+code, _, stderr = mt.run_msflex(args, f"{args.source_dir}/tests/regression/inputs/static_driven_pendulum.yaml", modes_file,
                                 extra=["-quiet", "-analysis_type", "modes"], expect_success=False)
+check.true("driven hinge, modes: no result file created", not os.path.exists(modes_file))
 lines = [line for line in stderr.splitlines() if line.startswith("msflex:")]
 check.equal("driven hinge, modes: exit status", code, 1)
 check.true("driven hinge, modes: one line saying it has no unknowns", len(lines) == 1 and "has no unknowns" in lines[0] and "PETSC ERROR" not in stderr)
