@@ -83,6 +83,22 @@ PetscErrorCode Integrator::InitialiseMotion(double t)
   }
   SNESConvergedReason reason;
   PetscCall(assembler.BeginStep(InitialAccelerationProblem(t)));
+  if (midpoint) {
+    // For the reactions alone: one attempt, no hand-over of the LU (the run's solver stays as it
+    // is), and a failure leaves the first row's joint reactions at 0 rather than stop a run that
+    // needs no accelerations. Nothing of the solve is kept: the mid-point schemes' steps start
+    // from positions and velocities alone, the State as it was before it.
+    PetscCall(VecZeroEntries(increments_));
+    PetscCall(SNESSolve(snes_, nullptr, increments_));
+    PetscCall(SNESGetConvergedReason(snes_, &reason));
+    if (reason > 0) {
+      PetscCall(assembler.SetIncrements(increments_));
+      PetscCall(assembler.EvaluateJointReactions(0.0));
+    } else PetscCall(assembler.BeginStep(InitialAccelerationProblem(t))); // the supports' reactions without accelerations, as before
+    if (reaction_probes_) PetscCall(assembler.EvaluateSupportReactions());
+    assembler.DiscardStep();
+    PetscFunctionReturn(PETSC_SUCCESS);
+  }
   // A failure with the banded LU (msflex's block LU or PETSc's) hands the factorisation to MUMPS, which gets a second attempt.
   for (int attempt = 0; attempt < 2; ++attempt) {
     PetscCall(VecZeroEntries(increments_));
@@ -97,13 +113,6 @@ PetscErrorCode Integrator::InitialiseMotion(double t)
   PetscCall(assembler.SetIncrements(increments_));
   // The joints' reactions at t, for the first history row (the rates stay as given).
   if (map_->global_count.joints > 0) PetscCall(assembler.EvaluateJointReactions(0.0));
-  if (midpoint) {
-    // Nothing of the accelerations is kept: the mid-point schemes' steps start from positions and
-    // velocities alone, the State as it was before this solve.
-    if (reaction_probes_) PetscCall(assembler.EvaluateSupportReactions());
-    assembler.DiscardStep();
-    PetscFunctionReturn(PETSC_SUCCESS);
-  }
   // The reactions at t (the trapezoidal work of the first step starts from them).
   PetscCall(assembler.StoreReactions());
   if (reaction_probes_) PetscCall(assembler.EvaluateSupportReactions());
