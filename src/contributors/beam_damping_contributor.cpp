@@ -63,10 +63,15 @@ bool BeamDampingContributor::StartForces(const State &state, size_t k, double *f
   Vec3                        positions[kBeamMaxNodes], strain[kBeamMaxGauss], curvature[kBeamMaxGauss];
   Mat3                        triads[kBeamMaxNodes];
   beams_->StartConfiguration(state, k, positions, triads);
-  if (!Strains(state, k, true, strain, curvature)) return false;
+  // A step of the Newmark family has the start strains from BeginStep; the initial accelerations
+  // (no such step) evaluate them here.
+  const StepEquations &eq    = state.equations;
+  const bool           known = eq.Dynamic() && !eq.Midpoint();
+  if (!known && !Strains(state, k, true, strain, curvature)) return false;
+  const Vec3 *e_n = known ? start_strain_[k].data() : strain, *k_n = known ? start_curvature_[k].data() : curvature;
   for (int gp = 0; gp < ref.num_gauss; ++gp) {
-    shifted.strain0[gp] += strain[gp] - motion.strain[gp].velocity;
-    shifted.curvature0[gp] += curvature[gp] - motion.curvature[gp].velocity;
+    shifted.strain0[gp] += e_n[gp] - motion.strain[gp].velocity;
+    shifted.curvature0[gp] += k_n[gp] - motion.curvature[gp].velocity;
   }
   return BeamInternalForces(shifted, C, positions, triads, force, nullptr, nullptr, nullptr) == BeamKernelStatus::Ok;
 }

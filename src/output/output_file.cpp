@@ -520,7 +520,7 @@ PetscErrorCode OutputFile::Impl::WriteDoubles(hid_t parent, const char *name, co
 {
   PetscFunctionBeginUser;
   PetscCall(WriteDataset(parent, name, H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, dims, data.data()));
-  PetscCall(Annotate(parent, name, DatasetQuantity(group, name, dynamic)));
+  PetscCall(Annotate(parent, name, DatasetQuantity(group, name, analysis)));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
@@ -528,7 +528,7 @@ PetscErrorCode OutputFile::Impl::WriteInts(hid_t parent, const char *name, const
 {
   PetscFunctionBeginUser;
   PetscCall(WriteDataset(parent, name, H5T_STD_I32LE, H5T_NATIVE_INT, dims, data.data()));
-  PetscCall(Annotate(parent, name, DatasetQuantity(group, name, dynamic)));
+  PetscCall(Annotate(parent, name, DatasetQuantity(group, name, analysis)));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
@@ -547,7 +547,7 @@ PetscErrorCode OutputFile::Impl::WriteStrings(hid_t parent, const char *name, co
   PetscCallHDF5(transfer = H5Pcreate(H5P_DATASET_XFER));
   PetscCallHDF5(H5Pset_buffer(transfer, kStringConversionBufferBytes, nullptr, nullptr));
   PetscCall(WriteDataset(parent, name, type, type, dims, pointers.data(), transfer));
-  PetscCall(Annotate(parent, name, DatasetQuantity(group, name, dynamic)));
+  PetscCall(Annotate(parent, name, DatasetQuantity(group, name, analysis)));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
@@ -891,7 +891,7 @@ PetscErrorCode OutputFile::Impl::WriteFixedStrings(hid_t parent, const char *nam
   if (rank != 0) PetscCallHDF5(H5Sselect_none(space)); // rank 0 writes, the others take part
   const char nothing = 0;
   PetscCallHDF5(H5Dwrite(dataset, type, space, space, frame_transfer, packed.empty() || rank != 0 ? &nothing : packed.data()));
-  PetscCall(Annotate(parent, name, DatasetQuantity(group, name, dynamic)));
+  PetscCall(Annotate(parent, name, DatasetQuantity(group, name, analysis)));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
@@ -944,7 +944,7 @@ PetscErrorCode OutputFile::Impl::WriteHistoryBlock()
     PetscCallHDF5(H5Pset_chunk(properties, 2, chunk));
     PetscCallHDF5(H5Pset_alloc_time(properties, H5D_ALLOC_TIME_EARLY)); // see FrameChunk
     PetscCallHDF5(dataset = H5Dcreate2(history, "values", H5T_IEEE_F64LE, file_space, H5P_DEFAULT, properties, H5P_DEFAULT));
-    PetscCall(Annotate(history, "values", DatasetQuantity("history", "values", dynamic)));
+    PetscCall(Annotate(history, "values", DatasetQuantity("history", "values", analysis)));
     std::vector<std::string> units, descriptions;
     TableColumns(nullptr, &units, &descriptions);
     PetscCall(WriteFixedStrings(history, "names", columns, "history"));
@@ -1011,7 +1011,7 @@ std::string OutputFile::Impl::XdmfDataItem(const char *number_type, int precisio
 std::string OutputFile::Impl::XdmfAttribute(const std::string &name, const char *type, const char *center, const char *unit_group, const std::string &unit_name,
                                             const std::string &item) const
 {
-  const std::string unit = DatasetQuantity(unit_group, unit_name, dynamic).unit;
+  const std::string unit = DatasetQuantity(unit_group, unit_name, analysis).unit;
   return "      <Attribute Name=\"" + XmlEscape(NameWithUnit(name, unit)) + "\" AttributeType=\"" + type + "\" Center=\"" + center + "\">\n        " + item +
          "\n      </Attribute>\n";
 }

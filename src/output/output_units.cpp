@@ -244,11 +244,6 @@ Quantity DatasetQuantity(const std::string &group, const std::string &name, Anal
   return {};
 }
 
-Quantity DatasetQuantity(const std::string &group, const std::string &name, bool dynamic)
-{
-  return DatasetQuantity(group, name, dynamic ? AnalysisType::Dynamic : AnalysisType::Static);
-}
-
 Quantity HistoryQuantity(const std::string &name, AnalysisType analysis)
 {
   if (const Entry *special = ByAnalysis("", name, analysis)) return Found(*special, analysis);
@@ -268,8 +263,6 @@ Quantity HistoryQuantity(const std::string &name, AnalysisType analysis)
   }
   return {"", "a series of unknown meaning"};
 }
-
-Quantity HistoryQuantity(const std::string &name, bool dynamic) { return HistoryQuantity(name, dynamic ? AnalysisType::Dynamic : AnalysisType::Static); }
 
 void ProbeColumnNames(const std::string &probe, std::string names[kProbeColumns])
 {

@@ -27,8 +27,6 @@ struct Quantity {
 // pseudo-time (the load factor under load control), 1; in an eigenanalysis (modes, buckling) the
 // mode number, 1. Unknown names give an empty unit and description.
 Quantity DatasetQuantity(const std::string &group, const std::string &name, AnalysisType analysis);
-// The same for a static (`dynamic` false) or dynamic analysis.
-Quantity DatasetQuantity(const std::string &group, const std::string &name, bool dynamic);
 
 // A history series, from its name: the fixed series (time, step, energies, momenta, path following,
 // modes, ...) and the series "<name>.<suffix>" of joints, force elements and probes of kind
@@ -40,8 +38,6 @@ Quantity DatasetQuantity(const std::string &group, const std::string &name, bool
 // (N); a beam probe's ".N1".."M3" (N, N m). Unknown names give an empty unit and a description
 // saying so.
 Quantity HistoryQuantity(const std::string &name, AnalysisType analysis);
-// The same for a static (`dynamic` false) or dynamic analysis.
-Quantity HistoryQuantity(const std::string &name, bool dynamic);
 
 // The history columns of probe `probe`, in the order of its sample (position x y z, displacement
 // x y z, rotation w x y z, rotation angle): "<probe>.position.x", ..., "<probe>.rotation_angle".

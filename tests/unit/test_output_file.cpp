@@ -928,9 +928,9 @@ TEST_F(OutputFileTest, WritesForceElementsAsSegmentsBetweenNodes)
       EXPECT_EQ(ReadInts(file, "/frames/step", &dims), (std::vector<int>{0, 1, 3}));
       for (const char *name : {"force_element_names", "force_element_kinds", "force_element_kind_codes", "force_element_vertices"}) {
         const std::string dataset = std::string("/mesh/") + name;
-        EXPECT_EQ(ReadStringAttribute(file, dataset.c_str(), "unit"), DatasetQuantity("mesh", name, true).unit) << name;
+        EXPECT_EQ(ReadStringAttribute(file, dataset.c_str(), "unit"), DatasetQuantity("mesh", name, AnalysisType::Dynamic).unit) << name;
         EXPECT_FALSE(ReadStringAttribute(file, dataset.c_str(), "description").empty()) << name;
-        EXPECT_EQ(DatasetQuantity("mesh", name, true).description.find("unknown"), std::string::npos) << name;
+        EXPECT_EQ(DatasetQuantity("mesh", name, AnalysisType::Dynamic).description.find("unknown"), std::string::npos) << name;
       }
       EXPECT_GE(H5Fclose(file), 0);
 
