@@ -426,6 +426,7 @@ struct OutputFile::Impl {
   PetscErrorCode WriteAttribute(hid_t location, const char *object, const char *name, hid_t file_type, hid_t memory_type, const void *value);
   PetscErrorCode WriteStringAttribute(hid_t location, const char *object, const char *name, const std::string &value);
   PetscErrorCode CreateCompactGroup(const char *name, H5Id *group);
+  PetscErrorCode WriteZeroFrames(hid_t dataset, hsize_t from, hsize_t to, hsize_t rows, hsize_t columns);
   // The `unit` and `description` attributes of dataset `name` under `parent`.
   PetscErrorCode Annotate(hid_t parent, const char *name, const Quantity &quantity);
   PetscErrorCode CreateStringType(H5Id *type);
@@ -958,6 +959,7 @@ PetscErrorCode OutputFile::Impl::WriteHistoryBlock()
     PetscCallHDF5(properties = H5Pcreate(H5P_DATASET_CREATE));
     PetscCallHDF5(H5Pset_chunk(properties, 2, chunk));
     PetscCallHDF5(H5Pset_alloc_time(properties, H5D_ALLOC_TIME_EARLY)); // see FrameChunk
+    PetscCallHDF5(H5Pset_fill_time(properties, H5D_FILL_TIME_NEVER));   // every row is written whole
     PetscCallHDF5(dataset = H5Dcreate2(history, "values", H5T_IEEE_F64LE, file_space, H5P_DEFAULT, properties, H5P_DEFAULT));
     PetscCall(Annotate(history, "values", DatasetQuantity("history", "values", analysis)));
     std::vector<std::string> units, descriptions;
@@ -1422,6 +1424,30 @@ hsize_t OutputFile::Impl::FramesPerBlock() const
   return std::max<hsize_t>(1, (hsize_t)(kFrameBufferBytes / std::max(bytes, 1.0)));
 }
 
+// Zeros into frames [from, to) of a frame dataset of `rows` x `columns` per frame, written by
+// rank 0 in pieces of at most kFrameBufferBytes (every rank makes the same calls, the others
+// selecting nothing): the frames of a field that they lack, which HDF5 does not fill.
+PetscErrorCode OutputFile::Impl::WriteZeroFrames(hid_t dataset, hsize_t from, hsize_t to, hsize_t rows, hsize_t columns)
+{
+  PetscFunctionBeginUser;
+  if (from >= to || rows == 0 || columns == 0) PetscFunctionReturn(PETSC_SUCCESS);
+  const hsize_t       frame_values = rows * columns;
+  const hsize_t       per_piece    = std::max<hsize_t>(1, (hsize_t)(kFrameBufferBytes / (8.0 * (double)frame_values)));
+  std::vector<double> zeros(rank == 0 ? std::min(per_piece, to - from) * frame_values : 1, 0.0);
+  for (hsize_t start = from; start < to; start += per_piece) {
+    const hsize_t count = std::min(per_piece, to - start), offset[3] = {start, 0, 0}, block[3] = {count, rows, columns};
+    H5Id          file_space, memory_space;
+    PetscCallHDF5(file_space = H5Dget_space(dataset));
+    PetscCallHDF5(memory_space = H5Screate_simple(3, block, nullptr));
+    if (rank != 0) {
+      PetscCallHDF5(H5Sselect_none(file_space));
+      PetscCallHDF5(H5Sselect_none(memory_space));
+    } else PetscCallHDF5(H5Sselect_hyperslab(file_space, H5S_SELECT_SET, offset, nullptr, block, nullptr));
+    PetscCallHDF5(H5Dwrite(dataset, H5T_NATIVE_DOUBLE, memory_space, file_space, frame_transfer, zeros.data()));
+  }
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
 PetscErrorCode OutputFile::Impl::WriteFrameBlock()
 {
   const hsize_t first = frames_written, count = frames_buffered, total = first + count;
@@ -1430,8 +1456,11 @@ PetscErrorCode OutputFile::Impl::WriteFrameBlock()
   PetscFunctionBeginUser;
   if (count == 0) PetscFunctionReturn(PETSC_SUCCESS);
   PetscCallHDF5(group = H5Gopen2(file, "/frames", H5P_DEFAULT));
-  // Opens dataset `name` of /frames extended to `total` frames, creating it (chunked, filled with
-  // 0, with its unit) when it does not exist; `entry` is the shape of one frame.
+  // Opens dataset `name` of /frames extended to `total` frames, creating it (chunked, with its
+  // unit) when it does not exist; `entry` is the shape of one frame. HDF5 writes no fill value
+  // into the chunks it allocates (H5D_FILL_TIME_NEVER): with the chunks allocated early, a fill
+  // value made every extension write the new frames twice, zeros first. Every frame of every
+  // field is therefore written here, zeros where a frame lacks the field (WriteZeroFrames).
   const auto extended = [&](const char *name, hid_t type, const std::vector<hsize_t> &entry, bool exists, H5Id *dataset) -> PetscErrorCode {
     std::vector<hsize_t> dims{total};
     PetscFunctionBeginUser;
@@ -1451,10 +1480,13 @@ PetscErrorCode OutputFile::Impl::WriteFrameBlock()
     PetscCallHDF5(properties = H5Pcreate(H5P_DATASET_CREATE));
     PetscCallHDF5(H5Pset_chunk(properties, (int)chunk.size(), chunk.data()));
     PetscCallHDF5(H5Pset_alloc_time(properties, H5D_ALLOC_TIME_EARLY)); // see FrameChunk
-    // Frames written before the dataset existed (a static stage without velocities) read as 0.
+    PetscCallHDF5(H5Pset_fill_time(properties, H5D_FILL_TIME_NEVER));
+    // The fill value stays 0 for readers (h5py reports it) though HDF5 never writes it.
     if (H5Tequal(type, H5T_IEEE_F64LE) > 0) PetscCallHDF5(H5Pset_fill_value(properties, H5T_NATIVE_DOUBLE, &zero));
     PetscCallHDF5(*dataset = H5Dcreate2(group, name, type, space, H5P_DEFAULT, properties, H5P_DEFAULT));
     PetscCall(Annotate(*dataset, ".", DatasetQuantity("frames", name, analysis)));
+    // Frames written before the dataset existed (a static stage without velocities) read as 0.
+    if (!entry.empty()) PetscCall(WriteZeroFrames(*dataset, 0, first, entry[0], entry[1]));
     PetscFunctionReturn(PETSC_SUCCESS);
   };
   // Rank 0 writes the step, time and contents of every buffered frame.
@@ -1496,7 +1528,10 @@ PetscErrorCode OutputFile::Impl::WriteFrameBlock()
     H5Id dataset;
     PetscCall(extended(field.name, H5T_IEEE_F64LE, {rows, columns}, field_exists[f], &dataset));
     field_exists[f] = true;
-    if (!wanted) continue; // the new frames read as 0
+    if (!wanted) { // the new frames read as 0
+      PetscCall(WriteZeroFrames(dataset, first, total, rows, columns));
+      continue;
+    }
     const std::vector<int> &mine = buffered_rows.Of(field.rows);
     H5Id                    file_space, memory_space;
     PetscCallHDF5(file_space = H5Dget_space(dataset));
