@@ -703,19 +703,19 @@ PetscErrorCode Assembler::EvaluateSupportReactions()
   collect_reactions_ = true;
   PetscCall(AssembleResidual(scratch_residual_, &evaluable));
   collect_reactions_ = false;
-  // Every rank holding a probe's node added its share; the sums of all ranks are the residual.
-  std::vector<double> local(6 * reaction_sums_.size()), global(6 * reaction_sums_.size());
-  for (size_t p = 0; p < reaction_sums_.size(); ++p)
-    for (int i = 0; i < 6; ++i) local[6 * p + i] = reaction_sums_[p](i);
-  PetscCall(MPIU_Allreduce(local.data(), global.data(), (PetscMPIInt)local.size(), MPI_DOUBLE, MPI_SUM, comm_));
+  // Every rank holding a probe's node added its share of the supported directions (a free one's
+  // residual is the out-of-balance, not a reaction); the sums of all ranks are the reaction. The
+  // directions are taken where the node is held (node >= 0): on a rank without it, rank 0 that
+  // writes the history among them, the node is not in the restricted model.
+  std::vector<double> local(6 * reaction_sums_.size(), 0.0), global(6 * reaction_sums_.size());
   for (size_t p = 0; p < reaction_sums_.size(); ++p) {
-    Vec6      reaction = Vec6::Zero();
-    const int node     = model_->probes[p].node;
-    if (model_->probes[p].kind == Probe::Kind::Reaction && node >= 0)
-      for (int d = 0; d < 6; ++d)
-        if (map_->constraints[node][d].kind != Support::Kind::Free) reaction(d) = global[6 * p + d];
-    state_->probe_reactions[p] = reaction;
+    const int node = model_->probes[p].node;
+    if (model_->probes[p].kind != Probe::Kind::Reaction || node < 0) continue;
+    for (int d = 0; d < 6; ++d)
+      if (map_->constraints[node][d].kind != Support::Kind::Free) local[6 * p + d] = reaction_sums_[p](d);
   }
+  PetscCall(MPIU_Allreduce(local.data(), global.data(), (PetscMPIInt)local.size(), MPI_DOUBLE, MPI_SUM, comm_));
+  for (size_t p = 0; p < reaction_sums_.size(); ++p) state_->probe_reactions[p] = Eigen::Map<const Vec6>(&global[6 * p]);
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
