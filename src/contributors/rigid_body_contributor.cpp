@@ -43,8 +43,9 @@ void RigidBodyContributor::BodyForces(const State &state, size_t b, Vec6 *residu
     } else {
       // The centre of mass as a point of the node's frame: the Newmark family's stability for a
       // body turning about a held node (elements/inertia.hpp).
-      RigidOffsetMassInertia(eq.scheme, body.mass, body.offset, R_start, s.displacement_increment, s.rotation_increment, s.translation_motion,
-                             s.rotation_motion, residual, tangent);
+      // The node's acceleration as StateUpdateNode made it: the scheme's, or a prescribed motion's.
+      RigidOffsetMassInertia(eq.scheme, body.mass, body.offset, R_start, s.rotation_increment, s.translation_update.acceleration, s.rotation_motion, residual,
+                             tangent);
     }
     // The kernel differentiates with respect to omega; spins: d omega = H(omega)^{-1} d theta.
     if (tangent) tangent->rightCols<3>() = (tangent->rightCols<3>() * s.rotation_tangent_inverse).eval();

@@ -61,17 +61,16 @@ void OffsetPointMassInertia(const TimeScheme &scheme, double mass, const Vec3 &o
   tangent->block<3, 3>(3, 3) = Skew(arm) * dF_domega - arm_weight * Skew(F) * dr_domega;
 }
 
-void RigidOffsetMassInertia(const TimeScheme &scheme, double mass, const Vec3 &offset, const Mat3 &rotation_start, const Vec3 &u, const Vec3 &omega,
-                            const MotionState &translation, const MotionState &rotation, Vec6 *residual, Mat6 *tangent)
+void RigidOffsetMassInertia(const TimeScheme &scheme, double mass, const Vec3 &offset, const Mat3 &rotation_start, const Vec3 &omega,
+                            const Vec3 &node_acceleration, const MotionState &rotation, Vec6 *residual, Mat6 *tangent)
 {
   const Mat3         R_new = ExpSO3(omega) * rotation_start;
-  const MotionUpdate node  = AdvanceMotion(scheme, translation, u);
   const MotionUpdate spin  = AdvanceMotion(scheme, rotation, rotation_start.transpose() * omega);
   const Vec3        &c = offset, &W = spin.velocity, &Wdot = spin.acceleration;
   const Vec3         Wc = W.cross(c);
   const Vec3         y  = Wdot.cross(c) + W.cross(Wc); // body-frame acceleration of the centre relative to the node
   const Vec3         r  = R_new * c;
-  const Vec3         F  = mass * (node.acceleration + R_new * y);
+  const Vec3         F  = mass * (node_acceleration + R_new * y);
   residual->head<3>()   = F;
   residual->tail<3>()   = r.cross(F);
   if (!tangent) return;

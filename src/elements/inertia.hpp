@@ -61,10 +61,12 @@ void OffsetPointMassInertia(const TimeScheme &scheme, double mass, const Vec3 &o
 // with the Simo & Vu-Quoc update: a body spinning about a held node with its centre of mass away
 // from it keeps the scheme's stability (integrating the centre of mass as an independent Newmark
 // point does not: its trajectory leaves the sphere the joint allows and the energy grows).
-// residual (6) and tangent d/d(u, omega) (6x6); `translation` and `rotation` are the node's
-// start-of-step motions (global translation, material rotation).
-void RigidOffsetMassInertia(const TimeScheme &scheme, double mass, const Vec3 &offset, const Mat3 &rotation_start, const Vec3 &u, const Vec3 &omega,
-                            const MotionState &translation, const MotionState &rotation, Vec6 *residual, Mat6 *tangent);
+// residual (6) and tangent d/d(u, omega) (6x6); `node_acceleration` is the node's translational
+// acceleration at t_{n+1}, the scheme's from its increment u (d a / d u = the scheme's
+// InertiaCoefficient, the tangent's) or a prescribed motion's own; `rotation` is the node's
+// start-of-step material rotational motion.
+void RigidOffsetMassInertia(const TimeScheme &scheme, double mass, const Vec3 &offset, const Mat3 &rotation_start, const Vec3 &omega,
+                            const Vec3 &node_acceleration, const MotionState &rotation, Vec6 *residual, Mat6 *tangent);
 
 // Initial-acceleration problem: rotary inertia of a node with body-frame tensor J, rotation Lambda
 // and body angular velocity W; moment and d moment / d wdot.

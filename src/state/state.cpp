@@ -84,6 +84,11 @@ void StateUpdateNode(const StepEquations &equations, NodeState *s)
   NodeUpdateConfiguration(s, equations.Midpoint());
   if (!equations.Dynamic()) return;
   s->translation_update = AdvanceMotion(equations.scheme, s->translation_motion, s->displacement_increment);
+  for (int d = 0; d < 3; ++d)
+    if (s->prescribed_rates & (1u << d)) {
+      s->translation_update.velocity(d)     = s->prescribed_velocity(d);
+      s->translation_update.acceleration(d) = s->translation_update.pseudo_acceleration(d) = s->prescribed_acceleration(d);
+    }
 }
 
 Vec3 NodeTangentScaledIncrement(const StepEquations &equations, const NodeState &node)
@@ -103,9 +108,12 @@ void StateBeginStep(const Model &model, const DofMap &map, const StepEquations &
   state->equations     = equations;
   const double t_start = equations.t_start, t_end = equations.t_end;
   const bool   accelerations = equations.InitialAcceleration(), velocities = equations.problem == StepProblem::InitialVelocity;
+  // Newmark family: a prescribed translation's end-of-step rates are the motion's own (NodeState).
+  const bool exact_rates = equations.Dynamic() && !equations.Midpoint() && !equations.RateUnknowns();
   for (size_t l = 0; l < state->nodes.size(); ++l) {
-    const int  node = map.local_nodes[l];
-    NodeState &s    = state->nodes[l];
+    const int  node    = map.local_nodes[l];
+    NodeState &s       = state->nodes[l];
+    s.prescribed_rates = 0;
     for (int d = 0; d < 6; ++d) {
       const DofConstraint &c = map.constraints[node][d];
       if (c.kind == Support::Kind::Free) continue;
@@ -115,6 +123,11 @@ void StateBeginStep(const Model &model, const DofMap &map, const StepEquations &
         if (accelerations || velocities) value = motion(t_end, accelerations ? 2 : 1);
         else if (d < 3) value = model.nodes[node].position(d) + motion(t_end, 0) - s.position_start(d);
         else value = motion(t_end, 0) - motion(t_start, 0);
+        if (exact_rates && d < 3) {
+          s.prescribed_rates |= 1u << d;
+          s.prescribed_velocity(d)     = motion(t_end, 1);
+          s.prescribed_acceleration(d) = motion(t_end, 2);
+        }
       }
       if (d < 3) s.displacement_increment(d) = value;
       else s.rotation_increment(d - 3) = value;

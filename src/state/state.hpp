@@ -46,6 +46,14 @@ struct NodeState {
   MotionState translation_motion, rotation_motion;
   // Dynamics at the end of the step, derived from the increments by the time scheme.
   MotionUpdate translation_update;
+  // Newmark family: the end-of-step velocity and acceleration of the translations a support
+  // prescribes (bit d of prescribed_rates), the prescribed motion's own rates, which replace the
+  // scheme's in translation_update. The trapezoidal rule's acceleration of a prescribed
+  // displacement is its second difference, whose error alternates in sign from step to step and
+  // never decays; the reaction (m a) then carried a sawtooth growing with time.
+  unsigned prescribed_rates        = 0;
+  Vec3     prescribed_velocity     = Vec3::Zero();
+  Vec3     prescribed_acceleration = Vec3::Zero();
   // The mid-point schemes' tangent-scaled increment, kept current by StateUpdateNode for them only
   // (their residuals read it at every iterate); other readers call NodeTangentScaledIncrement.
   Vec3 tangent_scaled_increment  = Vec3::Zero();     // alpha = 2 tan(|omega|/2) omega/|omega|

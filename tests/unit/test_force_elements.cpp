@@ -280,14 +280,16 @@ TEST(RigidOffsetMass, NewmarkFamilyTangentMatchesFiniteDifferences)
     rotation.velocity = RandomVector(2.0), rotation.acceleration = RandomVector(1.0), rotation.pseudo_acceleration = RandomVector(1.0);
     Vec6 r;
     Mat6 K, fd;
-    RigidOffsetMassInertia(scheme, 2.5, c, R0, u, omega, translation, rotation, &r, &K);
+    // The node's acceleration from its increment, as StateUpdateNode makes it for a free node.
+    const auto acceleration = [&](const Vec3 &increment) { return AdvanceMotion(scheme, translation, increment).acceleration; };
+    RigidOffsetMassInertia(scheme, 2.5, c, R0, omega, acceleration(u), rotation, &r, &K);
     for (int j = 0; j < 6; ++j) {
       Vec6 rp, rm;
       Vec3 up = u, um = u, wp = omega, wm = omega;
       (j < 3 ? up : wp)(j % 3) += 1e-6;
       (j < 3 ? um : wm)(j % 3) -= 1e-6;
-      RigidOffsetMassInertia(scheme, 2.5, c, R0, up, wp, translation, rotation, &rp, nullptr);
-      RigidOffsetMassInertia(scheme, 2.5, c, R0, um, wm, translation, rotation, &rm, nullptr);
+      RigidOffsetMassInertia(scheme, 2.5, c, R0, wp, acceleration(up), rotation, &rp, nullptr);
+      RigidOffsetMassInertia(scheme, 2.5, c, R0, wm, acceleration(um), rotation, &rm, nullptr);
       fd.col(j) = (rp - rm) / 2e-6;
     }
     EXPECT_LT(RelativeError(K, fd), 1e-6) << TimeSchemeName(kind);
