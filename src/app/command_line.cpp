@@ -3,14 +3,17 @@
 #include "core/errors.hpp"
 #include "model/analysis_types.hpp"
 #include "model/joint_kinds.hpp"
+#include "model/model.hpp"
 #include "schemes/time_scheme.hpp"
 
 #include <petscsnes.h>
 
 #include <algorithm>
 #include <cctype>
+#include <cerrno>
 #include <cstdlib>
 #include <cstring>
+#include <limits>
 #include <strings.h>
 #include <vector>
 
@@ -205,9 +208,16 @@ std::string DescribeBadOptionValue()
     case Kind::Flag:
       if (!text.empty() && !reads(logical, text, &b)) return head + "is not a logical value (true/false, yes/no, 1/0, or no value)";
       break;
-    case Kind::Integer:
+    case Kind::Integer: {
       if (!reads(integer, text, &n)) return head + "is not an integer";
+      // PetscOptionsStringToInt wraps a value past 32 bits (99999999999 read as 1215752191).
+      errno                   = 0;
+      char           *end     = nullptr;
+      const long long decimal = std::strtoll(text.c_str(), &end, 10);
+      if (end && *end == '\0' && (errno == ERANGE || decimal > std::numeric_limits<int>::max() || decimal < std::numeric_limits<int>::min()))
+        return head + "is out of range (integers here lie within +-" + std::to_string(std::numeric_limits<int>::max()) + ")";
       break;
+    }
     case Kind::Real:
       if (!reads(real, text, &r)) return head + "is not a number";
       break;
@@ -310,21 +320,54 @@ PetscErrorCode CheckMsflexOptionsUsed(MPI_Comm comm)
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
-PetscErrorCode CheckSolverOptions(MPI_Comm comm)
+// A factorisation's ordering option (-pc_factor_mat_ordering_type) names a registered ordering:
+// PETSc takes any name and fails inside the first factorisation, with a trace.
+static PetscErrorCode CheckOrderingOption(MPI_Comm comm, const char *prefix)
 {
-  SNES snes;
-  KSP  ksp, path_ksp;
-  PC   pc;
-  Mat  jacobian;
+  char      name[256];
+  PetscBool set;
   PetscFunctionBeginUser;
-  // The defaults of src/integrators/newton.cpp, so that only what the options change is tried.
+  PetscCall(PetscOptionsGetString(nullptr, prefix, "-pc_factor_mat_ordering_type", name, sizeof name, &set));
+  if (!set) PetscFunctionReturn(PETSC_SUCCESS);
+  PetscCall(MatInitializePackage());
+  PetscErrorCode (*ordering)(Mat, MatOrderingType, IS *, IS *) = nullptr;
+  PetscCall(PetscFunctionListFind(MatOrderingList, name, &ordering));
+  PetscCheck(ordering, comm, PETSC_ERR_USER_INPUT,
+             "bad option: -%spc_factor_mat_ordering_type: no ordering named '%s' (natural, nd, 1wd, rcm, qmd, rowlength, ...)", prefix ? prefix : "", name);
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode CheckSolverOptions(MPI_Comm comm, const AnalysisSettings &analysis)
+{
+  SNES      snes;
+  KSP       ksp, path_ksp;
+  PC        pc;
+  Mat       jacobian;
+  PetscReal atol, rtol, stol;
+  PetscInt  max_iterations, max_evaluations;
+  PetscFunctionBeginUser;
+  // The defaults of src/integrators/newton.cpp (NewtonSolverCreate), so that only what the options
+  // change is tried, and -help lists the values the run uses.
   PetscCall(SNESCreate(comm, &snes));
+  PetscCall(SNESSetType(snes, SNESNEWTONLS));
+  PetscCall(SNESSetTolerances(snes, analysis.newton_atol, analysis.newton_rtol, 1e-12, analysis.max_newton_iterations, PETSC_DEFAULT));
   PetscCall(SNESGetKSP(snes, &ksp));
   PetscCall(KSPSetType(ksp, KSPPREONLY));
   PetscCall(KSPGetPC(ksp, &pc));
   PetscCall(PCSetType(pc, PCLU));
   MSFLEX_CALL_READING_OPTIONS(comm, SNESSetFromOptions(snes));
+  // PETSc takes negative tolerances and iteration limits, and fails later ("solver returned
+  // without setting converged reason", a trace) or never converges.
+  PetscCall(SNESGetTolerances(snes, &atol, &rtol, &stol, &max_iterations, &max_evaluations));
   PetscCall(SNESDestroy(&snes));
+  PetscCheck(max_iterations >= 1, comm, PETSC_ERR_USER_INPUT, "bad option: -snes_max_it must be at least 1, got %" PetscInt_FMT, max_iterations);
+  const struct {
+    const char *name;
+    PetscReal   value;
+  } tolerances[] = {{"-snes_atol", atol}, {"-snes_rtol", rtol}, {"-snes_stol", stol}};
+  for (const auto &tolerance : tolerances)
+    PetscCheck(tolerance.value >= 0.0, comm, PETSC_ERR_USER_INPUT, "bad option: %s must not be negative, got %.6g", tolerance.name, (double)tolerance.value);
+  for (const char *prefix : {(const char *)nullptr, "path_"}) PetscCall(CheckOrderingOption(comm, prefix));
   PetscCall(MatCreate(comm, &jacobian));
   PetscCall(MatSetSizes(jacobian, PETSC_DECIDE, PETSC_DECIDE, 1, 1));
   PetscCall(MatSetOptionsPrefix(jacobian, "jacobian_"));

@@ -9,6 +9,8 @@
 
 namespace msflex {
 
+struct AnalysisSettings;
+
 struct OptionInfo {
   const char *name;        // with its dash: "-analysis_end_time"
   const char *argument;    // "" for a flag
@@ -59,9 +61,11 @@ std::string HelpText();
 PetscErrorCode CheckMsflexOptionsUsed(MPI_Comm comm);
 
 // Before anything is written: the values of the solver options that PETSc objects read (-snes_*,
-// -ksp_*, -pc_*, -jacobian_mat_*, -path_ksp_*, -path_pc_*), tried on throw-away objects, so that a
-// bad one is one line and exit 1 before a result file exists. Collective.
-PetscErrorCode CheckSolverOptions(MPI_Comm comm);
+// -ksp_*, -pc_*, -jacobian_mat_*, -path_ksp_*, -path_pc_*), tried on throw-away objects set up
+// with the analysis' Newton tolerances (so that -help lists the values the run uses), so that a
+// bad one (a negative tolerance or iteration limit, an unknown ordering included) is one line and
+// exit 1 before a result file exists. Collective.
+PetscErrorCode CheckSolverOptions(MPI_Comm comm, const AnalysisSettings &analysis);
 
 // The end of a run: one warning line on rank 0 for every option nothing read. Collective.
 PetscErrorCode WarnOptionsLeft(MPI_Comm comm);

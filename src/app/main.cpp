@@ -13,7 +13,10 @@
 #include <petscsys.h>
 
 #include <algorithm>
+#include <cctype>
+#include <cerrno>
 #include <csignal>
+#include <cstdio>
 #include <cstring>
 #include <initializer_list>
 #include <string>
@@ -51,16 +54,60 @@ static std::string RestartFile(int argc, char **argv)
   return "";
 }
 
+// Whether --restart is given without a file after it (last on the line, an empty word, or an
+// option next): a job script's empty $CHECKPOINT would otherwise start a fresh run.
+static bool RestartWithoutFile(int argc, char **argv)
+{
+  for (int i = 1; i < argc; ++i)
+    if (std::strcmp(argv[i], "--restart") == 0 || std::strcmp(argv[i], "-restart") == 0)
+      return i + 1 >= argc || argv[i + 1][0] == '\0' || (argv[i + 1][0] == '-' && !std::isdigit((unsigned char)argv[i + 1][1]));
+  return false;
+}
+
 // A restart runs with the options of the original run (stored in the checkpoint), overridden by
 // those given now; not carried over: the restart option itself, options about one process's
 // report, and -output_overwrite (a restart continues its result file, never replaces it).
-static PetscErrorCode RestoreOptions(const CheckpointRun &run, int argc, char **argv)
+// *stored_type, *stored_control: the run's -analysis_type and -analysis_control ("" when the run
+// took the input's), for the check that the restart continues the same analysis.
+static PetscErrorCode RestoreOptions(const CheckpointRun &run, int argc, char **argv, std::string *stored_type, std::string *stored_control)
 {
   PetscFunctionBeginUser;
   PetscCall(PetscOptionsInsertString(nullptr, run.options.c_str()));
   for (const char *name : {"--restart", "-restart", "-log_view", "-memory_view", "-options_left", "-help", "-output_overwrite"})
     PetscCall(PetscOptionsClearValue(nullptr, name));
+  // From the stored options alone (the database holds this command line's as well).
+  PetscOptions stored_options;
+  PetscCall(PetscOptionsCreate(&stored_options));
+  PetscCall(PetscOptionsInsertString(stored_options, run.options.c_str()));
+  for (auto [name, stored] : {std::pair{"-analysis_type", stored_type}, std::pair{"-analysis_control", stored_control}}) {
+    char      value[64] = "";
+    PetscBool set       = PETSC_FALSE;
+    PetscCall(PetscOptionsGetString(stored_options, nullptr, name, value, sizeof value, &set));
+    *stored = set ? value : "";
+  }
+  PetscCall(PetscOptionsDestroy(&stored_options));
   PetscCall(PetscOptionsInsertArgs(nullptr, argc - 1, argv + 1));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+// A restart continues the analysis its checkpoint holds: another type (a dynamic checkpoint
+// restarted as modes or buckling) or path control would read the checkpoint's state and result
+// file as something they are not. A static analysis under arc length or displacement control
+// cannot be continued at all: its predictor needs the previous step, which no checkpoint keeps.
+static PetscErrorCode CheckRestartAnalysis(MPI_Comm comm, const std::string &restart, const AnalysisSettings &checkpoint, const AnalysisSettings &now)
+{
+  PetscFunctionBeginUser;
+  PetscCheck(checkpoint.type == now.type, comm, PETSC_ERR_USER_INPUT,
+             "a restart continues the checkpoint's analysis: '%s' holds a %s analysis, not %s; start a %s analysis from the input file instead",
+             restart.c_str(), AnalysisTypeName(checkpoint.type), AnalysisTypeName(now.type), AnalysisTypeName(now.type));
+  if (now.type != AnalysisType::Static) PetscFunctionReturn(PETSC_SUCCESS);
+  PetscCheck(checkpoint.control == now.control, comm, PETSC_ERR_USER_INPUT,
+             "a restart continues the checkpoint's path control: '%s' was written under control: %s, not %s", restart.c_str(),
+             PathControlName(checkpoint.control), PathControlName(now.control));
+  PetscCheck(now.control == PathControl::Load, comm, PETSC_ERR_USER_INPUT,
+             "'%s' is a checkpoint of a static analysis under control: %s, which a restart cannot continue (its predictor needs the previous "
+             "step); run it again from the input file",
+             restart.c_str(), PathControlName(now.control));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
@@ -74,12 +121,22 @@ static PetscErrorCode CheckRunFilesOfRun(MPI_Comm comm, const Model &model, cons
   int         continue_output = 0;
   PetscFunctionBeginUser;
   PetscCallMPI(MPI_Comm_rank(comm, &rank));
+  std::string mesh_problem;
   if (rank == 0) {
     options->run_id            = restart.empty() ? NewRunId() : run.run_id;
     options->model_fingerprint = restart.empty() ? ModelFingerprint(model.input_text, options->options_database) : run.model_fingerprint;
+    // The mesh file as it is now: a restart continues only the mesh its run started with (the
+    // input text in the checkpoint names the file, not what it holds).
+    if (!model.mesh_file.empty()) options->mesh_fingerprint = FileFingerprint(model.mesh_file, &mesh_problem);
+    if (mesh_problem.empty() && !restart.empty() && !run.mesh_fingerprint.empty() && options->mesh_fingerprint != run.mesh_fingerprint)
+      mesh_problem = "the mesh file '" + model.mesh_file + "' has changed since the run wrote the checkpoint '" + restart +
+                     "' (its SHA-256 differs); a restart needs the mesh the run started with";
     ResolvedPath output;
     continue_output = !restart.empty() && ResolvePath(options->output_file, &output).empty() && output.exists ? 1 : 0;
   }
+  PetscCallMPI(BroadcastString(comm, &mesh_problem));
+  PetscCheck(mesh_problem.empty(), comm, PETSC_ERR_FILE_UNEXPECTED, "%s", mesh_problem.c_str());
+  PetscCallMPI(BroadcastString(comm, &options->mesh_fingerprint));
   PetscCallMPI(BroadcastString(comm, &options->run_id));
   PetscCallMPI(BroadcastString(comm, &options->model_fingerprint));
   PetscCallMPI(MPI_Bcast(&continue_output, 1, MPI_INT, 0, comm));
@@ -109,17 +166,29 @@ static PetscErrorCode RunMsflex(int argc, char **argv, RunEnd *end)
   MPI_Comm          comm    = PETSC_COMM_WORLD;
   const std::string restart = RestartFile(argc, argv);
   PetscFunctionBeginUser;
+  PetscCheck(!RestartWithoutFile(argc, argv), comm, PETSC_ERR_USER_INPUT,
+             "--restart needs the checkpoint file after it: msflex --restart CHECKPOINT.h5 [options]");
   const std::string stray = StrayArgument(argc, argv, !restart.empty());
   PetscCheck(stray.empty(), comm, PETSC_ERR_USER_INPUT, "unexpected argument '%s'%s", stray.c_str(),
              restart.empty() ? ": msflex takes one input file" : ": a restart takes its input from the checkpoint");
-  Model         model;
-  CheckpointRun run;
+  Model            model;
+  CheckpointRun    run;
+  AnalysisSettings checkpoint_analysis;
+  std::string      stored_type, stored_control;
   if (!restart.empty()) {
     PetscCall(CheckpointReadRun(comm, restart, &run));
-    PetscCall(RestoreOptions(run, argc, argv));
+    PetscCall(RestoreOptions(run, argc, argv, &stored_type, &stored_control));
     InputError error;
     const bool ok = ReadModelString(run.input_text, run.input_file, &model, &error, comm);
     PetscCall(AgreeOnModel(comm, ok, error, " (the input stored in " + restart + ")"));
+    // The analysis as the run had it: the input's, changed by the run's own options.
+    checkpoint_analysis = model.analysis;
+    if (!stored_type.empty())
+      PetscCheck(AnalysisTypeFromName(stored_type, &checkpoint_analysis.type), comm, PETSC_ERR_FILE_UNEXPECTED,
+                 "'%s': its stored option -analysis_type %s names no analysis type", restart.c_str(), stored_type.c_str());
+    if (!stored_control.empty())
+      PetscCheck(PathControlFromName(stored_control, &checkpoint_analysis.control), comm, PETSC_ERR_FILE_UNEXPECTED,
+                 "'%s': its stored option -analysis_control %s names no path control", restart.c_str(), stored_control.c_str());
   } else {
     const std::string nearest = argc >= 2 && std::strncmp(argv[1], "--", 2) == 0 ? NearestLongArgument(argv[1]) : "";
     PetscCheck(nearest.empty(), comm, PETSC_ERR_USER_INPUT, "unknown argument %s; did you mean %s?", argv[1], nearest.c_str());
@@ -145,10 +214,11 @@ static PetscErrorCode RunMsflex(int argc, char **argv, RunEnd *end)
     // "option -x must ..." becomes "bad option: -x must ...".
     SETERRQ(comm, PETSC_ERR_USER_INPUT, "bad option: %s", (message.rfind("option -", 0) == 0 ? message.substr(7) : message).c_str());
   }
+  if (!restart.empty()) PetscCall(CheckRestartAnalysis(comm, restart, checkpoint_analysis, model.analysis));
   // Every msflex option is read by now (-partitioner is in the list): a misspelt one is an error
   // before anything runs.
   PetscCall(CheckMsflexOptionsUsed(comm));
-  PetscCall(CheckSolverOptions(comm));
+  PetscCall(CheckSolverOptions(comm, model.analysis));
   PetscCall(CheckEigenOptions(comm));
   options.restart_file = restart;
   PetscCall(CheckRunFilesOfRun(comm, model, restart, run, argc >= 2 ? argv[1] : "", HasArgument(argc, argv, {"-output_file"}), &options));
@@ -156,9 +226,37 @@ static PetscErrorCode RunMsflex(int argc, char **argv, RunEnd *end)
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
+// An options file (-options_file F, -options_file_yaml F) that cannot be read: PetscInitialize
+// fails on it with a trace before any error handler of msflex's is in place, so it is taken off
+// the command line here and reported once PETSc runs ("" when every one reads).
+static std::string TakeUnreadableOptionsFile(int *argc, char **argv)
+{
+  for (int i = 1; i + 1 < *argc; ++i) {
+    if (std::strcmp(argv[i], "-options_file") != 0 && std::strcmp(argv[i], "-options_file_yaml") != 0) continue;
+    std::FILE *file = std::fopen(argv[i + 1], "r");
+    if (file) {
+      std::fclose(file);
+      continue;
+    }
+    const std::string problem = std::string("cannot read the options file '") + argv[i + 1] + "' (" + argv[i] + "): " + std::strerror(errno);
+    for (int k = i; k + 2 <= *argc; ++k) argv[k] = argv[k + 2];
+    *argc -= 2;
+    return problem;
+  }
+  return "";
+}
+
+// Raised in a function of its own: PETSc aborts every rank on an error raised in main itself.
+static PetscErrorCode ReportOptionsFile(const std::string &problem)
+{
+  PetscFunctionBeginUser;
+  SETERRQ(PETSC_COMM_WORLD, PETSC_ERR_FILE_OPEN, "%s", problem.c_str());
+}
+
 int main(int argc, char **argv)
 {
-  static const std::string help = HelpText();
+  static const std::string help              = HelpText();
+  const std::string        unreadable_option = TakeUnreadableOptionsFile(&argc, argv);
   PetscCall(PetscInitialize(&argc, &argv, nullptr, help.c_str()));
   // A reader that closes the pipe early (msflex --help | head) is no error: PETSc's handler would
   // print a trace and abort. Ignored, the write fails quietly and a run goes on to write its results.
@@ -182,7 +280,8 @@ int main(int argc, char **argv)
   const bool     has_input = (argc >= 2 && argv[1][0] != '-') || !RestartFile(argc, argv).empty();
   PetscErrorCode code      = PETSC_SUCCESS;
   RunEnd         end       = RunEnd::Completed;
-  if (has_input || !help_requested) code = RunMsflex(argc, argv, &end);
+  if (!unreadable_option.empty()) code = ReportOptionsFile(unreadable_option);
+  else if (has_input || !help_requested) code = RunMsflex(argc, argv, &end);
   if (code == PETSC_SUCCESS) code = WarnOptionsLeft(PETSC_COMM_WORLD);
   // User errors, non-convergence and file errors are agreed on by every rank (RunOnRoot,
   // RunCollective) and reported in one line: finish cleanly. Anything else may have left ranks
@@ -192,5 +291,6 @@ int main(int argc, char **argv)
   PetscCall(PetscFinalize());
   // 75 (EX_TEMPFAIL): stopped by a signal after a checkpoint; a job script may resubmit.
   if (code != PETSC_SUCCESS) return 1;
+  if (end == RunEnd::StoppedBySignalWithoutCheckpoint) return 128 + StopSignal();
   return end == RunEnd::StoppedBySignal ? 75 : 0;
 }

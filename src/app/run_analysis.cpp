@@ -121,6 +121,10 @@ struct Analysis {
   bool Static() const { return model.analysis.type == AnalysisType::Static; }
   // Whether the steps have reached the end at (pseudo-)time t (arc length: the load factor).
   bool Finished(double t) const { return Static() ? path.ReachedEnd(t) : t >= model.analysis.end_time * (1.0 - 1e-14); }
+  // Whether a checkpoint of this run could be continued: not a static analysis under arc length or
+  // displacement control, whose predictor needs the previous step (no checkpoint keeps it). Such
+  // a run writes none, and says so.
+  bool Checkpointable() const { return !Static() || model.analysis.control == PathControl::Load; }
 };
 
 struct StepRecord {
@@ -495,6 +499,7 @@ PetscErrorCode WriteCheckpoint(Analysis &a, int step, double t, int last_written
   run.options             = a.options.options_database;
   run.output_file         = a.options.output_file;
   run.run_id              = a.options.run_id;
+  run.mesh_fingerprint    = a.options.mesh_fingerprint;
   PetscCall(PetscLogStagePush(a.stage_output));
   // The result file holds run.history_rows rows, which a restart keeps: on the device with the
   // sidecar before the checkpoint that counts them (a machine that fails after the checkpoint
@@ -521,6 +526,17 @@ PetscErrorCode CheckpointIfDue(Analysis &a, int step, double t, int last_written
   const bool        due = (o.checkpoint_every > 0 && step % o.checkpoint_every == 0) ||
                    (o.checkpoint_wall_time > 0 && WallClock(a.comm) - a.last_checkpoint_wall >= o.checkpoint_wall_time);
   *stop = signal != 0;
+  if (!a.Checkpointable()) {
+    if (*stop)
+      PetscCall(PetscPrintf(a.comm,
+                            "msflex: stopped by %s at step %d, t = %.6g; the results up to here are in %s; no checkpoint: a static analysis under "
+                            "control: %s cannot be continued from one\n",
+                            signal == SIGTERM   ? "SIGTERM"
+                            : signal == SIGUSR1 ? "SIGUSR1"
+                                                : "a signal",
+                            step, t, o.output_file.c_str(), PathControlName(a.model.analysis.control)));
+    PetscFunctionReturn(PETSC_SUCCESS);
+  }
   if (!due && !*stop) PetscFunctionReturn(PETSC_SUCCESS);
   PetscCall(WriteCheckpoint(a, step, t, last_written, controller));
   if (!o.quiet && !*stop) PetscCall(PetscPrintf(a.comm, "checkpoint at step %d, t = %.6g: %s\n", step, t, o.checkpoint_file.c_str()));
@@ -631,6 +647,11 @@ PetscErrorCode RunAnalysis(MPI_Comm comm, Model model, const RunOptions &options
   }
   a.wall_start = a.last_checkpoint_wall = WallClock(comm);
   a.time_start                          = t;
+  if (!a.Checkpointable() && (options.checkpoint_every > 0 || options.checkpoint_wall_time > 0))
+    PetscCall(PetscFPrintf(comm, PETSC_STDERR,
+                           "msflex: warning: a static analysis under control: %s writes no checkpoints (a restart cannot continue it); "
+                           "-checkpoint_every and -checkpoint_wall_time are ignored\n",
+                           PathControlName(analysis.control)));
   // KSPSolve, SNESSolve and the assemblies look up a dozen viewer options in the database at
   // every call (-ksp_view, -snes_converged_reason, ...): 4 % of a small model's step. Where no
   // option asks for a viewer, the steps run with those lookups off.
@@ -657,7 +678,7 @@ PetscErrorCode RunAnalysis(MPI_Comm comm, Model model, const RunOptions &options
         if (stop) {
           PetscCall(CloseOutput(a));
           PetscCall(PrintSummary(a));
-          *end = RunEnd::StoppedBySignal;
+          *end = a.Checkpointable() ? RunEnd::StoppedBySignal : RunEnd::StoppedBySignalWithoutCheckpoint;
           PetscFunctionReturn(PETSC_SUCCESS);
         }
         break;
@@ -673,31 +694,38 @@ PetscErrorCode RunAnalysis(MPI_Comm comm, Model model, const RunOptions &options
           PetscCall(WriteFrame(a, step, t, &strain_energy));
           last_written = step;
         }
-        PetscCall(WriteCheckpoint(a, step, t, last_written, controller));
+        if (a.Checkpointable()) PetscCall(WriteCheckpoint(a, step, t, last_written, controller));
         PetscCall(CloseOutput(a));
         PetscCall(PrintSummary(a));
-        const std::string advice = a.Static() ? a.path.StopAdvice() : std::string();
+        const std::string advice     = a.Static() ? a.path.StopAdvice() : std::string();
+        const std::string checkpoint = a.Checkpointable() ? ", a checkpoint of that state in " + options.checkpoint_file : std::string();
         SETERRQ(comm, PETSC_ERR_NOT_CONVERGED,
-                "%s analysis stopped at t = %.6g after step %d: the step to t = %.6g failed (%s) and halving it would go below min_step = %.6g%s; the "
-                "results up to t = %.6g are in %s, a checkpoint of that state in %s",
-                AnalysisTypeName(analysis.type), t, step, t + dt, why, analysis.min_step, advice.c_str(), t, options.output_file.c_str(),
-                options.checkpoint_file.c_str());
+                "%s analysis stopped at t = %.8g after step %d: the step to t = %.8g failed (%s) and halving it would go below min_step = %.6g%s; the "
+                "results up to t = %.8g are in %s%s",
+                AnalysisTypeName(analysis.type), t, step, t + dt, why, analysis.min_step, advice.c_str(), t, options.output_file.c_str(), checkpoint.c_str());
       }
       dt = controller.Propose(t, target);
     }
   }
   PetscCall(CloseOutput(a));
-  if (!options.quiet && arc_length && a.path.StoppedByMaxSteps())
-    PetscCall(PetscPrintf(comm, "msflex: stopped after max_steps = %d steps at load factor %.6g without reaching end_time = %.6g\n", analysis.max_steps,
-                          a.path.LoadFactor(), analysis.end_time));
+  // The path's planned stop (max_steps is how an arc-length run that may never reach end_time
+  // ends), not an error; said on standard error, -quiet or not, since the run did not complete.
+  const bool stopped_by_max_steps = arc_length && a.path.StoppedByMaxSteps();
+  if (stopped_by_max_steps)
+    PetscCall(PetscFPrintf(comm, PETSC_STDERR,
+                           "msflex: warning: stopped after max_steps = %d steps at load factor %.6g without reaching end_time = %.6g; results in %s\n",
+                           analysis.max_steps, a.path.LoadFactor(), analysis.end_time, options.output_file.c_str()));
   // Under arc-length or displacement control t is the path's parameter, not the load factor.
   const bool path_parameter = a.Static() && analysis.control != PathControl::Load;
-  if (!options.quiet && path_parameter)
+  if (stopped_by_max_steps) {
+  } else if (!options.quiet && path_parameter)
     PetscCall(PetscPrintf(comm, "msflex: completed %d steps to load factor %.6g (path parameter t = %.6g); results in %s\n", step, a.path.LoadFactor(), t,
                           options.output_file.c_str()));
   else if (!options.quiet) PetscCall(PetscPrintf(comm, "msflex: completed %d steps to t = %.6g; results in %s\n", step, t, options.output_file.c_str()));
   PetscCall(PrintSummary(a));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
+
+int StopSignal() { return (int)g_stop_signal; }
 
 } // namespace msflex

@@ -37,10 +37,16 @@ struct RunOptions {
   bool        continue_output = false;
   std::string run_id;
   std::string model_fingerprint;
+  std::string mesh_fingerprint; // FileFingerprint of the mesh file (`mesh:`) when the run started, kept by its checkpoints
 };
 
 // How a run ended when it did not fail.
-enum class RunEnd { Completed, StoppedBySignal };
+// StoppedBySignal: a checkpoint was written (exit 75); StoppedBySignalWithoutCheckpoint: a run no
+// checkpoint can continue (a static analysis under arc length or displacement control) stopped
+// with its results written (exit 128 + the signal, the shell's convention for a signalled stop).
+enum class RunEnd { Completed, StoppedBySignal, StoppedBySignalWithoutCheckpoint };
+// The signal that stopped the run (SIGTERM, SIGUSR1), 0 if none.
+int StopSignal();
 
 // Takes the model: after set-up each rank keeps only its part of it (DofMapRestrictToLocal).
 // `restart`: the run record of a checkpoint to continue from (null: a new run); the model must be

@@ -1,9 +1,11 @@
 #include "core/file_safety.hpp"
 
+#include <cstdio>
 #include <fcntl.h>
 #include <sys/random.h>
 #include <sys/stat.h>
 #include <unistd.h>
+#include <vector>
 
 #include <algorithm>
 #include <cerrno>
@@ -475,6 +477,27 @@ std::string ModelFingerprint(const std::string &input_text, const std::string &o
     for (int k = 0; k < 8; ++k) length[k] = static_cast<uint8_t>(static_cast<uint64_t>(field->size()) >> (8 * k));
     hash.Update(length, sizeof length);
     hash.Update(*field);
+  }
+  return "sha256:" + Sha256::Hex(hash.Finish());
+}
+
+std::string FileFingerprint(const std::string &path, std::string *problem)
+{
+  problem->clear();
+  std::FILE *file = std::fopen(path.c_str(), "rb");
+  if (!file) {
+    *problem = "cannot read '" + path + "': " + std::strerror(errno);
+    return "";
+  }
+  Sha256               hash;
+  std::vector<uint8_t> block(1 << 20);
+  size_t               got;
+  while ((got = std::fread(block.data(), 1, block.size(), file)) > 0) hash.Update(block.data(), got);
+  const bool failed = std::ferror(file) != 0;
+  std::fclose(file);
+  if (failed) {
+    *problem = "cannot read '" + path + "'";
+    return "";
   }
   return "sha256:" + Sha256::Hex(hash.Finish());
 }

@@ -157,6 +157,9 @@ private:
 // the model fingerprint stored in result files and checkpoints (attribute msflex_model). Each
 // field enters with its length, so no two different (text, options) pairs hash the same input.
 std::string ModelFingerprint(const std::string &input_text, const std::string &options);
+// "sha256:<64 hex digits>" of a file's bytes (the mesh file a run read), or "" with *problem set
+// when it cannot be read.
+std::string FileFingerprint(const std::string &path, std::string *problem);
 
 // 32 random hexadecimal digits (getrandom / /dev/urandom): the identity of one result file and of
 // the checkpoints of the run that writes it (attribute msflex_run). Empty when no randomness can
@@ -170,7 +173,7 @@ inline constexpr const char *kFormatAttribute  = "msflex_format"; // kResultForm
 inline constexpr const char *kModelAttribute   = "msflex_model";  // ModelFingerprint(...)
 inline constexpr const char *kRunAttribute     = "msflex_run";    // NewRunId() of the result file
 inline constexpr const char *kResultFormat     = "msflex result 3";
-inline constexpr const char *kCheckpointFormat = "msflex checkpoint 3";
+inline constexpr const char *kCheckpointFormat = "msflex checkpoint 4";
 // The XDMF sidecar carries this element right after <Domain>; a sidecar without it is still
 // recognised by the collection grid msflex names "msflex" or the comment opening the incremental
 // layout (files written before the marker).

@@ -166,6 +166,11 @@ std::string Hdf5StackReason()
   H5Ewalk2(H5E_DEFAULT, H5E_WALK_UPWARD, CollectEntry, &entries);
   H5Eclear2(H5E_DEFAULT);
   if (entries.descriptions.empty()) return "";
+  // A lock held by another process comes with errno EAGAIN ("Resource temporarily unavailable"),
+  // which would not say what is wrong.
+  for (const std::string &description : entries.descriptions)
+    if (Contains(description, "unable to lock file"))
+      return "the file is in use: another process has it open (a running msflex, or a reader such as h5py or ParaView)";
   for (const std::string &description : entries.descriptions) {
     // The POSIX-style drivers record "..., errno = 13, error message = 'Permission denied', ...".
     const size_t at = description.find("errno = ");
@@ -176,7 +181,6 @@ std::string Hdf5StackReason()
   }
   for (const std::string &description : entries.descriptions) {
     if (Contains(description, "file signature not found") || Contains(description, "not an HDF5 file")) return "not an HDF5 file";
-    if (Contains(description, "unable to lock file")) return "the file is locked by another process that has it open";
     if (Contains(description, "file is already open")) return "the file is already open in this process";
     if (Contains(description, "truncated file")) return "the file is truncated (incomplete or damaged)";
   }
@@ -308,9 +312,9 @@ std::string ClassifyExistingFile(const std::string &path, ExistingFile *file)
       file->legacy = true;
     } else if (LinkExists(hdf5, "/run/format")) {
       std::string format;
-      // Formats 1 to 3 as written before the markers: the format goes into the marker.
-      if (ReadBoundedText(hdf5, "/run/format", 64, &format).empty() &&
-          (format == "msflex checkpoint 1" || format == "msflex checkpoint 2" || format == "msflex checkpoint 3")) {
+      // Formats 1 to 3 were written without the markers (a later one that lost them is refused
+      // the same way): the format goes into the marker.
+      if (ReadBoundedText(hdf5, "/run/format", 64, &format).empty() && format.rfind("msflex checkpoint ", 0) == 0) {
         file->kind          = ExistingKind::MsflexCheckpoint;
         file->legacy        = true;
         file->marker.format = format;

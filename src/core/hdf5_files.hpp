@@ -34,7 +34,7 @@ private:
 
 // Why the last HDF5 call failed, from the default error stack, which is then cleared: the
 // operating system's reason when a file driver recorded an errno ("Permission denied"), "not an
-// HDF5 file", "the file is locked by another process", or HDF5's innermost message. Empty when
+// HDF5 file", "the file is in use: another process has it open ...", or HDF5's innermost message. Empty when
 // the stack is empty.
 std::string Hdf5StackReason();
 
@@ -64,7 +64,7 @@ std::string ReadFileMarker(hid_t file, FileMarker *marker);
 enum class ExistingKind {
   Missing,          // nothing
   MsflexResult,     // an msflex result file (marker, or the layout of files written before it)
-  MsflexCheckpoint, // an msflex checkpoint (marker, or /run/format "msflex checkpoint 1" to "3")
+  MsflexCheckpoint, // an msflex checkpoint (marker, or /run/format "msflex checkpoint N": 1 to 3 had no marker)
   MsflexSidecar,    // an XDMF sidecar written by msflex
   Foreign,          // any other file, including HDF5 files of other programs
   NotRegular,       // a directory, device, FIFO or socket

@@ -115,6 +115,51 @@ PetscErrorCode WriteDoubles(const std::string &label, hid_t parent, const char *
 // original one to the last bit.
 constexpr int kNodeStateSize = 31, kJointStateSize = 34, kRigidBodyStateSize = 9, kBeamStrainSize = 36;
 
+// In the file every record carries one more column: RowChecksum of its values and its row number
+// in the whole model. A bit flipped in a value that stays finite and plausible (a position, a
+// velocity) passed every other check and changed the restarted run's results.
+constexpr int kChecksumColumns = 1;
+
+// FNV-1a (64 bit) of the row number and the record's bytes, its top 53 bits as a double (exact).
+double RowChecksum(const double *record, int size, long long row)
+{
+  uint64_t   hash  = 14695981039346656037ull;
+  const auto bytes = [&hash](const void *data, size_t count) {
+    const unsigned char *p = static_cast<const unsigned char *>(data);
+    for (size_t i = 0; i < count; ++i) hash = (hash ^ p[i]) * 1099511628211ull;
+  };
+  bytes(&row, sizeof row);
+  bytes(record, sizeof(double) * (size_t)size);
+  return (double)(hash >> 11);
+}
+
+// The records with their checksum column appended (records of `size` values, numbered `numbers`).
+std::vector<double> WithChecksums(const std::vector<double> &values, const std::vector<int> &numbers, int size)
+{
+  std::vector<double> out;
+  out.reserve(values.size() + numbers.size());
+  for (size_t k = 0; k < numbers.size(); ++k) {
+    const double *record = &values[k * (size_t)size];
+    out.insert(out.end(), record, record + size);
+    out.push_back(RowChecksum(record, size, numbers[k]));
+  }
+  return out;
+}
+
+// The records without their checksum column, each checked; `numbers` are their rows.
+std::string StripChecksums(const std::vector<double> &stored, const std::vector<int> &numbers, int size, const char *table, std::vector<double> *values)
+{
+  values->clear();
+  values->reserve(numbers.size() * (size_t)size);
+  for (size_t k = 0; k < numbers.size(); ++k) {
+    const double *record = &stored[k * (size_t)(size + kChecksumColumns)];
+    if (record[size] != RowChecksum(record, size, numbers[k]))
+      return std::string(table) + " row " + std::to_string(numbers[k]) + " does not match its checksum: the file is damaged";
+    values->insert(values->end(), record, record + size);
+  }
+  return "";
+}
+
 struct StateRecords {
   std::vector<int>    numbers; // in the whole model
   std::vector<double> values;
@@ -245,6 +290,8 @@ PetscErrorCode CheckpointWrite(MPI_Comm comm, const std::string &path, const Che
     PetscCall(WriteText(path, group, "input_text", run.input_text));
     PetscCall(WriteText(path, group, "options", run.options));
     PetscCall(WriteText(path, group, "output_file", run.output_file));
+    // Apart from the texts above, which every checkpoint of this format has: absent is "".
+    if (!run.mesh_fingerprint.empty()) PetscCall(WriteText(path, group, "mesh_fingerprint", run.mesh_fingerprint));
     PetscCallHDF5At(path, H5Fclose(file.Release()));
     temporary_path = temporary.Path();
     PetscFunctionReturn(PETSC_SUCCESS);
@@ -261,11 +308,15 @@ PetscErrorCode CheckpointWrite(MPI_Comm comm, const std::string &path, const Che
     H5Id file;
     PetscFunctionBeginUser;
     PetscCall(OpenFileCollective(comm, temporary_path, &file));
-    PetscCall(WriteRowsCollective(path, file, "nodes", (hsize_t)run.num_nodes, kNodeStateSize, nodes.numbers, nodes.values));
-    PetscCall(WriteRowsCollective(path, file, "joints", (hsize_t)run.num_joints, kJointStateSize, joints.numbers, joints.values));
-    PetscCall(WriteRowsCollective(path, file, "rigid_bodies", (hsize_t)run.num_rigid_bodies, kRigidBodyStateSize, bodies.numbers, bodies.values));
+    PetscCall(WriteRowsCollective(path, file, "nodes", (hsize_t)run.num_nodes, kNodeStateSize + kChecksumColumns, nodes.numbers,
+                                  WithChecksums(nodes.values, nodes.numbers, kNodeStateSize)));
+    PetscCall(WriteRowsCollective(path, file, "joints", (hsize_t)run.num_joints, kJointStateSize + kChecksumColumns, joints.numbers,
+                                  WithChecksums(joints.values, joints.numbers, kJointStateSize)));
+    PetscCall(WriteRowsCollective(path, file, "rigid_bodies", (hsize_t)run.num_rigid_bodies, kRigidBodyStateSize + kChecksumColumns, bodies.numbers,
+                                  WithChecksums(bodies.values, bodies.numbers, kRigidBodyStateSize)));
     if (damped)
-      PetscCall(WriteRowsCollective(path, file, "beam_strains", (hsize_t)map.global_count.elements, kBeamStrainSize, strains.numbers, strains.values));
+      PetscCall(WriteRowsCollective(path, file, "beam_strains", (hsize_t)map.global_count.elements, kBeamStrainSize + kChecksumColumns, strains.numbers,
+                                    WithChecksums(strains.values, strains.numbers, kBeamStrainSize)));
     PetscCallHDF5At(path, H5Fclose(file.Release()));
     PetscFunctionReturn(PETSC_SUCCESS);
   }));
@@ -325,6 +376,11 @@ PetscErrorCode ReadRunRecord(const std::string &path, CheckpointRun *run)
     problem = ReadBoundedText(file, text.name, text.limit, text.text);
     PetscCheck(problem.empty(), PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "'%s': %s", p, problem.c_str());
   }
+  run->mesh_fingerprint.clear();
+  if (H5Lexists(file, "/run/mesh_fingerprint", H5P_DEFAULT) > 0) {
+    problem = ReadBoundedText(file, "/run/mesh_fingerprint", kMaxPathBytes, &run->mesh_fingerprint);
+    PetscCheck(problem.empty(), PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "'%s': %s", p, problem.c_str());
+  }
   run->model_fingerprint = existing.marker.model;
   run->run_id            = existing.marker.run;
   PetscCheck(ModelFingerprint(run->input_text, run->options) == run->model_fingerprint, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED,
@@ -356,28 +412,31 @@ PetscErrorCode ValidateTables(const std::string &path, const CheckpointRun &run)
   const struct {
     const char *name;
     long long   rows;
-    hsize_t     columns;
+    int         size; // the record's values; the file has its checksum as well
   } tables[] = {
       {"/nodes", run.num_nodes, kNodeStateSize}, {"/joints", run.num_joints, kJointStateSize}, {"/rigid_bodies", run.num_rigid_bodies, kRigidBodyStateSize}};
   for (const auto &table : tables) {
-    const std::string problem = CheckTableShape(file, table.name, (hsize_t)table.rows, table.columns);
+    const hsize_t     columns = (hsize_t)(table.size + kChecksumColumns);
+    const std::string problem = CheckTableShape(file, table.name, (hsize_t)table.rows, columns);
     PetscCheck(problem.empty(), PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "'%s': %s", p, problem.c_str());
     H5Id                dataset;
     std::vector<double> block;
     PetscCallHDF5At(path, dataset = H5Dopen2(file, table.name, H5P_DEFAULT));
     for (hsize_t first = 0; first < (hsize_t)table.rows; first += kValidationBlockRows) {
       const hsize_t rows = std::min<hsize_t>(kValidationBlockRows, (hsize_t)table.rows - first);
-      PetscCall(ReadBlock(path, dataset, first, rows, table.columns, &block));
+      PetscCall(ReadBlock(path, dataset, first, rows, columns, &block));
       for (hsize_t r = 0; r < rows; ++r) {
-        const double *record = &block[r * table.columns];
-        for (hsize_t c = 0; c < table.columns; ++c)
+        const double *record = &block[r * columns];
+        for (hsize_t c = 0; c < columns; ++c)
           PetscCheck(std::isfinite(record[c]), PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "'%s': %s row %llu holds a value that is not a finite number", p,
                      table.name, (unsigned long long)(first + r));
-        if (table.columns == (hsize_t)kNodeStateSize) {
+        if (table.size == kNodeStateSize) {
           const double norm = std::sqrt(record[3] * record[3] + record[4] * record[4] + record[5] * record[5] + record[6] * record[6]);
           PetscCheck(std::abs(norm - 1.0) <= kUnitQuaternionTolerance, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED,
                      "'%s': %s row %llu: the rotation is not a unit quaternion (norm %.6f)", p, table.name, (unsigned long long)(first + r), norm);
         }
+        PetscCheck(record[table.size] == RowChecksum(record, table.size, (long long)(first + r)), PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED,
+                   "'%s': %s row %llu does not match its checksum: the file is damaged", p, table.name, (unsigned long long)(first + r));
       }
     }
   }
@@ -400,7 +459,8 @@ PetscErrorCode CheckpointReadRun(MPI_Comm comm, const std::string &path, Checkpo
     const std::string problem = UnpackNumbers(numbers, run);
     PetscCheck(problem.empty(), PETSC_COMM_SELF, PETSC_ERR_PLIB, "the broadcast run record does not validate: %s", problem.c_str());
   }
-  for (std::string *text : {&run->input_file, &run->input_text, &run->options, &run->output_file, &run->run_id, &run->model_fingerprint})
+  for (std::string *text :
+       {&run->input_file, &run->input_text, &run->options, &run->output_file, &run->run_id, &run->model_fingerprint, &run->mesh_fingerprint})
     PetscCallMPI(BroadcastString(comm, text));
   int pivoting_lu = run->pivoting_lu ? 1 : 0;
   PetscCallMPI(MPI_Bcast(&pivoting_lu, 1, MPI_INT, 0, comm));
@@ -437,20 +497,30 @@ PetscErrorCode CheckpointReadState(MPI_Comm comm, const std::string &path, const
     const struct {
       const char *name;
       hsize_t     rows, columns;
-    } tables[] = {{"/nodes", (hsize_t)count.nodes, kNodeStateSize},
-                  {"/joints", (hsize_t)count.joints, kJointStateSize},
-                  {"/rigid_bodies", (hsize_t)count.rigid_bodies, kRigidBodyStateSize}};
+    } tables[] = {{"/nodes", (hsize_t)count.nodes, kNodeStateSize + kChecksumColumns},
+                  {"/joints", (hsize_t)count.joints, kJointStateSize + kChecksumColumns},
+                  {"/rigid_bodies", (hsize_t)count.rigid_bodies, kRigidBodyStateSize + kChecksumColumns}};
     for (const auto &table : tables) {
       const std::string problem = CheckTableShape(file, table.name, table.rows, table.columns);
       PetscCheck(problem.empty(), PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "'%s': %s", path.c_str(), problem.c_str());
     }
-    PetscCall(ReadRows(path, file, "nodes", kNodeStateSize, node_numbers, &nodes));
-    PetscCall(ReadRows(path, file, "joints", kJointStateSize, joint_numbers, &joints));
-    PetscCall(ReadRows(path, file, "rigid_bodies", kRigidBodyStateSize, body_numbers, &bodies));
+    // Each table's rows with their checksums, checked and taken off (the beam strains are not
+    // in CheckpointValidateState's tables: only a model with damped beams has them).
+    const auto read_checked = [&](const char *name, int size, const std::vector<int> &numbers, std::vector<double> *values) -> PetscErrorCode {
+      std::vector<double> stored;
+      PetscFunctionBeginUser;
+      PetscCall(ReadRows(path, file, name, (hsize_t)(size + kChecksumColumns), numbers, &stored));
+      const std::string problem = StripChecksums(stored, numbers, size, name, values);
+      PetscCheck(problem.empty(), PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "'%s': /%s", path.c_str(), problem.c_str());
+      PetscFunctionReturn(PETSC_SUCCESS);
+    };
+    PetscCall(read_checked("nodes", kNodeStateSize, node_numbers, &nodes));
+    PetscCall(read_checked("joints", kJointStateSize, joint_numbers, &joints));
+    PetscCall(read_checked("rigid_bodies", kRigidBodyStateSize, body_numbers, &bodies));
     if (damped) {
-      const std::string problem = CheckTableShape(file, "/beam_strains", (hsize_t)count.elements, kBeamStrainSize);
+      const std::string problem = CheckTableShape(file, "/beam_strains", (hsize_t)count.elements, kBeamStrainSize + kChecksumColumns);
       PetscCheck(problem.empty(), PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "'%s': %s (the model has damped beams)", path.c_str(), problem.c_str());
-      PetscCall(ReadRows(path, file, "beam_strains", kBeamStrainSize, element_numbers, &strains));
+      PetscCall(read_checked("beam_strains", kBeamStrainSize, element_numbers, &strains));
     }
     for (const std::vector<double> *values : {&nodes, &joints, &bodies, &strains})
       PetscCheck(std::all_of(values->begin(), values->end(), [](double v) { return std::isfinite(v); }), PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED,

@@ -36,6 +36,7 @@ struct CheckpointRun {
   std::string output_file;                                         // the result file the run writes
   std::string run_id;                                              // msflex_run of the result file this checkpoint belongs to (core/file_safety.hpp)
   std::string model_fingerprint; // msflex_model: ModelFingerprint(input_text, options), set by CheckpointWrite / CheckpointReadRun
+  std::string mesh_fingerprint;  // FileFingerprint of the mesh file the run read (`mesh:`), "" without one or in older checkpoints
 };
 
 // Writes `run` and the start-of-step state to `path` (through a unique temporary beside it), with

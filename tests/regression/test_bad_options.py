@@ -3,9 +3,12 @@ number, a step larger than max_step, a negative Newton tolerance, and -analysis_
 free-flying dynamic model (which the reader only checked for dynamics), and a factorisation package
 that does not exist (-pc_factor_mat_solver_type foo, found by PETSc only at the first
 factorisation; -st_pc_factor_mat_solver_type foo for an eigenanalysis), a sidecar syntax that does
-not exist (-output_xdmf xdmf4) and a negative -jacobian_dense_below each stop the run with
+not exist (-output_xdmf xdmf4), a negative -jacobian_dense_below, a negative Newton iteration
+limit or tolerance of PETSc's (-snes_max_it, -snes_rtol), an unknown ordering of the LU
+(-pc_factor_mat_ordering_type foo) and an integer past 32 bits each stop the run with
 exit status 1 and one line 'msflex: bad option: ...' naming the option or the model's problem,
-without a PETSc trace-back and without creating a result file."""
+without a PETSc trace-back and without creating a result file; so does an options file that cannot be read (-options_file), in
+one line 'msflex: error: ...' naming it."""
 
 import os
 
@@ -25,7 +28,15 @@ cases = [(bend, ["-analysis_end_time", "abc"], "-analysis_end_time: 'abc' is not
          (spaghetti, ["-analysis_type", "static"], "with -analysis_type static: " + spaghetti + ":"),
          (bend, ["-pc_factor_mat_solver_type", "foo"], "-pc_factor_mat_solver_type foo: no LU factorisation of that name"),
          (bend, ["-output_xdmf", "xdmf4"], "-output_xdmf must be xdmf3 or xdmf2, got 'xdmf4'"),
-         (bend, ["-jacobian_dense_below", "-3"], "-jacobian_dense_below -3: must be >= 0")]
+         (bend, ["-jacobian_dense_below", "-3"], "-jacobian_dense_below -3: must be >= 0"),
+         # PETSc takes these and fails later with a trace (or, for the ordering, inside the first
+         # factorisation, after the result file was made)
+         (bend, ["-snes_max_it", "-1"], "-snes_max_it must be at least 1, got -1"),
+         (bend, ["-snes_rtol", "-1"], "-snes_rtol must not be negative, got -1"),
+         (bend, ["-pc_type", "lu", "-pc_factor_mat_ordering_type", "foo"], "-pc_factor_mat_ordering_type: no ordering named 'foo'"),
+         # an integer past 32 bits, which PETSc's conversion wraps (99999999999 read as 1215752191)
+         (bend, ["-analysis_max_newton_iterations", "99999999999"], "-analysis_max_newton_iterations: '99999999999' is out of range"),
+         (bend, ["-output_every", "2147483648"], "-output_every: '2147483648' is out of range")]
 for source, options, expected in cases:
     for ranks in sorted({1, args.np}):
         output = f"{args.work_dir}/never_written.h5"
@@ -57,6 +68,20 @@ for ranks in sorted({1, args.np}):
     check.equal(f"{label}: message lines", len(lines), 1)
     check.true(f"{label}: the message names the option",
                bool(lines) and "bad option: -st_pc_factor_mat_solver_type foo: no Cholesky factorisation of that name" in lines[0])
+    check.equal(f"{label}: PETSc trace-back lines", stderr.count("PETSC ERROR"), 0)
+    check.true(f"{label}: no result file created", not os.path.exists(output))
+# An options file that cannot be read: PetscInitialize stopped on it with a trace and MPI_Abort.
+for ranks in sorted({1, args.np}):
+    output = f"{args.work_dir}/never_written.h5"
+    if os.path.exists(output):
+        os.remove(output)
+    missing = f"{args.work_dir}/no_such_options.txt"
+    code, _, stderr = mt.run_msflex(args, bend, output, extra=["-options_file", missing], np_ranks=ranks, expect_success=False)
+    lines = [line for line in stderr.splitlines() if line.startswith("msflex:")]
+    label = f"np {ranks} -options_file (missing)"
+    print(f"{label}: exit {code}: {lines[0] if lines else stderr.strip()[:300]}")
+    check.equal(f"{label}: exit status", code, 1)
+    check.true(f"{label}: one line naming the file", len(lines) == 1 and f"cannot read the options file '{missing}'" in lines[0])
     check.equal(f"{label}: PETSc trace-back lines", stderr.count("PETSC ERROR"), 0)
     check.true(f"{label}: no result file created", not os.path.exists(output))
 kept = f"{args.work_dir}/modes_kept.h5"

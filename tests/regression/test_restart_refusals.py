@@ -1,0 +1,111 @@
+"""What a restart must refuse, and the runs no checkpoint can continue (docs/options.md,
+"Checkpoints and restarts"; docs/stability.md).
+
+1. --restart without a checkpoint file after it (last on the line, an empty word, an option
+   next): one line, exit 1; a job script's empty $CHECKPOINT used to start a fresh run.
+2. A restart that changes the analysis: a dynamic checkpoint continued as buckling (the run
+   stopped with a trace, "frame of step 0 after the frame of step 4") and a load-controlled
+   checkpoint continued under arc length: one line, exit 1, the result file untouched.
+3. A static analysis under arc length writes no checkpoint (a restart cannot continue it: its
+   predictor needs the previous step): -checkpoint_every is ignored with a warning, and SIGTERM
+   stops it with its results written, no checkpoint, and exit status 128 + 15 (the shell's
+   convention for a signalled stop), not 75, which tells a job script to resubmit.
+4. A mesh file (`mesh:`) changed after the checkpoint: one line, exit 1 (the restart combined
+   the new geometry with the old state)."""
+
+import os
+import signal
+import subprocess
+import time
+
+import h5py
+
+import msflex_testing as mt
+
+args = mt.parse_arguments(__doc__)
+check = mt.Checker("restart refusals")
+work = args.work_dir
+os.makedirs(work, exist_ok=True)
+
+
+def run(command, cwd=work):
+    result = subprocess.run(command, capture_output=True, text=True, timeout=300, cwd=cwd)
+    return result.returncode, result.stdout, result.stderr
+
+
+def one_line(label, code, stderr, text):
+    lines = [line for line in stderr.splitlines() if line.startswith("msflex:")]
+    print(f"{label}: exit {code}: {lines[0] if lines else stderr.strip()[:300]}")
+    check.equal(f"{label}: exit status", code, 1)
+    check.true(f"{label}: one line saying '{text}'", len(lines) == 1 and text in lines[0])
+    check.equal(f"{label}: PETSc trace-back lines", stderr.count("PETSC ERROR"), 0)
+
+
+# 1. --restart without a file
+bend = f"{args.source_dir}/input/bend45.yaml"
+for words in (["--restart"], [bend, "--restart"], ["--restart", ""], ["--restart", "-analysis_end_time", "2"]):
+    code, _, stderr = run([args.msflex, *words, "-output_file", "never.h5"])
+    one_line(f"msflex {' '.join(repr(w) if not w else w for w in words)}", code, stderr, "--restart needs the checkpoint file after it")
+check.true("no result file from the runs without a checkpoint file", not os.path.exists(f"{work}/never.h5"))
+
+# 2. a restart that changes the analysis
+shaft = f"{args.source_dir}/input/rotating_shaft.yaml"
+code, _, stderr = run([args.msflex, shaft, "-analysis_end_time", "0.004", "-checkpoint_every", "20", "-output_file", "shaft.h5", "-output_overwrite", "-quiet"])
+check.equal("rotating shaft with checkpoints: exit status", code, 0)
+with open(f"{work}/shaft.h5", "rb") as f:
+    before = f.read()
+code, _, stderr = run([args.msflex, "--restart", "shaft.ckpt.h5", "-analysis_end_time", "0.01", "-analysis_type", "buckling"])
+one_line("dynamic checkpoint restarted as buckling", code, stderr, "a restart continues the checkpoint's analysis: 'shaft.ckpt.h5' holds a dynamic analysis, not buckling")
+with open(f"{work}/shaft.h5", "rb") as f:
+    check.true("dynamic checkpoint restarted as buckling: the result file is untouched", f.read() == before)
+arch = f"{args.source_dir}/input/deep_arch.yaml"
+code, _, stderr = run([args.msflex, arch, "-analysis_control", "load", "-analysis_end_time", "0.1", "-checkpoint_every", "1", "-output_file", "arch_load.h5",
+                       "-output_overwrite", "-quiet"])
+check.equal("deep arch under load control with checkpoints: exit status", code, 0)
+code, _, stderr = run([args.msflex, "--restart", "arch_load.ckpt.h5", "-analysis_control", "arc_length"])
+one_line("load-controlled checkpoint restarted under arc length", code, stderr, "was written under control: load, not arc_length")
+
+# 3. arc length: no checkpoint, SIGTERM stops with 143
+for name in ("arch_arc.h5", "arch_arc.ckpt.h5"):
+    if os.path.exists(f"{work}/{name}"):
+        os.remove(f"{work}/{name}")
+process = subprocess.Popen([args.msflex, arch, "-analysis_initial_step", "0.0005", "-analysis_max_step", "0.0005", "-analysis_max_steps", "1000000",
+                            "-checkpoint_every", "5", "-output_file", "arch_arc.h5", "-output_overwrite", "-output_flush_interval", "0"], cwd=work, stdout=subprocess.PIPE,
+                           stderr=subprocess.PIPE, text=True)
+deadline = time.time() + 60
+while time.time() < deadline and process.poll() is None:  # until some steps are written
+    time.sleep(0.2)
+    if os.path.exists(f"{work}/arch_arc.h5"):
+        time.sleep(1.0)
+        break
+process.send_signal(signal.SIGTERM)
+stdout, stderr = process.communicate(timeout=120)
+print(f"arc length, SIGTERM: exit {process.returncode}; {stdout.strip().splitlines()[-1] if stdout.strip() else ''}")
+check.equal("arc length with -checkpoint_every: warning lines", sum(1 for line in stderr.splitlines() if "writes no checkpoints" in line), 1)
+check.equal("arc length, SIGTERM: exit status 128 + SIGTERM", process.returncode, 128 + signal.SIGTERM)
+check.true("arc length, SIGTERM: the stop says why there is no checkpoint", "no checkpoint: a static analysis under control: arc_length" in stdout)
+check.true("arc length, SIGTERM: no checkpoint file", not os.path.exists(f"{work}/arch_arc.ckpt.h5"))
+with h5py.File(f"{work}/arch_arc.h5", "r") as f:
+    rows = f["history/values"].shape[0]
+check.less("arc length, SIGTERM: 1 / the history rows written", 1.0 / rows, 0.5)
+
+# 4. a mesh file changed since the checkpoint
+lattice = f"{work}/lattice.yaml"
+subprocess.run(["python3", f"{args.source_dir}/scripts/make-network", "lattice", "--n", "2", "2", "2", "--elements", "1", "-o", lattice, "--hdf5",
+                f"{work}/lattice_mesh.h5"], check=True, capture_output=True)
+code, _, stderr = run([args.msflex, lattice, "-analysis_end_time", "0.02", "-checkpoint_every", "5", "-output_file", "lattice.h5", "-output_overwrite", "-quiet"])
+check.equal("lattice with a mesh file and checkpoints: exit status", code, 0)
+with h5py.File(f"{work}/lattice_mesh.h5", "r+") as f:
+    coordinates = f["nodes/coordinates"]
+    coordinates[...] = 2.0 * coordinates[()]
+code, _, stderr = run([args.msflex, "--restart", "lattice.ckpt.h5", "-analysis_end_time", "0.03", "-output_file", "lattice_more.h5"])
+one_line("restart after the mesh file changed", code, stderr, "has changed since the run wrote the checkpoint 'lattice.ckpt.h5'")
+with h5py.File(f"{work}/lattice_mesh.h5", "r+") as f:
+    coordinates = f["nodes/coordinates"]
+    coordinates[...] = 0.5 * coordinates[()]
+for name in ("lattice_more.h5", "lattice_more.xmf", "lattice_more.ckpt.h5"):  # from an earlier run of this test
+    if os.path.exists(f"{work}/{name}"):
+        os.remove(f"{work}/{name}")
+code, _, stderr = run([args.msflex, "--restart", "lattice.ckpt.h5", "-analysis_end_time", "0.03", "-output_file", "lattice_more.h5", "-quiet"])
+check.equal("restart with the mesh file as it was: exit status", code, 0)
+check.finish()
