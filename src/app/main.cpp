@@ -158,6 +158,9 @@ static PetscErrorCode CheckRunFilesOfRun(MPI_Comm comm, const Model &model, cons
   files.continue_output = options->continue_output;
   files.run             = restart.empty() ? "" : run.run_id;
   PetscCall(CheckRunFilesCollective(comm, files));
+  // The files are this run's now: what a run killed while it wrote them left beside them goes.
+  if (rank == 0)
+    for (const std::string &path : {options->output_file, SidecarPath(options->output_file), options->checkpoint_file}) (void)RemoveStaleTemporaries(path);
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 

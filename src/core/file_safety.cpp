@@ -1,17 +1,19 @@
 #include "core/file_safety.hpp"
 
-#include <cstdio>
+#include <dirent.h>
 #include <fcntl.h>
 #include <sys/random.h>
 #include <sys/stat.h>
 #include <unistd.h>
-#include <vector>
 
 #include <algorithm>
+#include <cctype>
 #include <cerrno>
 #include <climits>
+#include <cstdio>
 #include <cstring>
 #include <random>
+#include <vector>
 
 namespace msflex {
 
@@ -204,6 +206,29 @@ std::string CheckRunPaths(const std::vector<RunPath> &paths, const std::vector<s
              Quoted(paths[second].path) + "; msflex never writes over another file of the run";
     }
   return "";
+}
+
+int RemoveStaleTemporaries(const std::string &target)
+{
+  const size_t      slash     = target.rfind('/');
+  const std::string directory = slash == std::string::npos ? "." : slash == 0 ? "/" : target.substr(0, slash);
+  const std::string prefix    = (slash == std::string::npos ? target : target.substr(slash + 1)) + ".tmp.";
+  DIR              *listing   = ::opendir(directory.c_str());
+  if (!listing) return 0;
+  int removed = 0;
+  for (const dirent *entry = ::readdir(listing); entry; entry = ::readdir(listing)) {
+    const std::string name = entry->d_name;
+    // TemporaryFile's names only: the target's name, ".tmp." and six letters or digits.
+    if (name.size() != prefix.size() + 6 || name.compare(0, prefix.size(), prefix) != 0) continue;
+    if (!std::all_of(name.begin() + (long)prefix.size(), name.end(), [](char c) { return std::isalnum((unsigned char)c) != 0; })) continue;
+    const std::string path = directory + "/" + name;
+    struct stat       info;
+    // A regular file of this user's, never through a link.
+    if (::lstat(path.c_str(), &info) != 0 || !S_ISREG(info.st_mode) || info.st_uid != ::geteuid()) continue;
+    if (::unlink(path.c_str()) == 0) ++removed;
+  }
+  ::closedir(listing);
+  return removed;
 }
 
 TemporaryFile::~TemporaryFile() { Discard(); }

@@ -83,6 +83,11 @@ std::string CheckRunPaths(const std::vector<RunPath> &paths, const std::vector<s
 // file or the new one, never half of one.
 enum class Durability { Synced, Unsynced };
 
+// Removes what a killed process left of TemporaryFile's files for `target` (`<target>.tmp.XXXXXX`,
+// regular files of this user's): a run that owns `target` (CheckRunFiles passed) calls it, since
+// no other run may write there. Returns how many it removed.
+int RemoveStaleTemporaries(const std::string &target);
+
 // A new file beside `target`, written and then renamed over it (see the header comment).
 // Not copyable; an uncommitted temporary is removed by the destructor.
 class TemporaryFile {

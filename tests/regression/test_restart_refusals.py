@@ -11,7 +11,9 @@
    stops it with its results written, no checkpoint, and exit status 128 + 15 (the shell's
    convention for a signalled stop), not 75, which tells a job script to resubmit.
 4. A mesh file (`mesh:`) changed after the checkpoint: one line, exit 1 (the restart combined
-   the new geometry with the old state)."""
+   the new geometry with the old state).
+5. The temporaries a killed run left beside its result file, sidecar and checkpoint
+   (`<file>.tmp.XXXXXX`) are removed by the next run that owns those files, and nothing else."""
 
 import os
 import signal
@@ -108,4 +110,16 @@ for name in ("lattice_more.h5", "lattice_more.xmf", "lattice_more.ckpt.h5"):  # 
         os.remove(f"{work}/{name}")
 code, _, stderr = run([args.msflex, "--restart", "lattice.ckpt.h5", "-analysis_end_time", "0.03", "-output_file", "lattice_more.h5", "-quiet"])
 check.equal("restart with the mesh file as it was: exit status", code, 0)
+
+# 5. What a killed run left beside its files (a checkpoint killed while written leaves
+#    <checkpoint>.tmp.XXXXXX): the next run that owns those files removes it, and nothing else.
+stale = ["shaft2.h5.tmp.AbC123", "shaft2.xmf.tmp.q1w2e3", "shaft2.ckpt.h5.tmp.ZZZZZZ"]
+kept = ["shaft2.ckpt.h5.tmp.short", "other.h5.tmp.AAAAAA"]
+for name in stale + kept:
+    with open(f"{work}/{name}", "w") as f:
+        f.write("partial")
+code, _, stderr = run([args.msflex, shaft, "-analysis_end_time", "0.001", "-output_file", "shaft2.h5", "-output_overwrite", "-quiet"])
+check.equal("run beside stale temporaries: exit status", code, 0)
+check.equal("stale temporaries of the run's files left", sum(os.path.exists(f"{work}/{name}") for name in stale), 0)
+check.equal("other files kept", sum(os.path.exists(f"{work}/{name}") for name in kept), len(kept))
 check.finish()
