@@ -684,8 +684,9 @@ PetscErrorCode RunAnalysis(MPI_Comm comm, Model model, const RunOptions &options
         break;
       }
       const char *why   = outcome.why.c_str();
-      const bool  retry = controller.Reject(dt);
-      if (!options.quiet) PetscCall(PetscPrintf(comm, "step %5d  t = %-12.6g dt = %-10.4g rejected: %s; halving\n", step + 1, t + dt, dt, why));
+      const bool  retry = controller.Reject(dt) && !outcome.step_size_irrelevant;
+      if (!options.quiet)
+        PetscCall(PetscPrintf(comm, "step %5d  t = %-12.6g dt = %-10.4g rejected: %s%s\n", step + 1, t + dt, dt, why, retry ? "; halving" : ""));
       if (!retry) {
         // Keep what there is: the last converged state as a frame and as a checkpoint (to go on
         // with other settings, e.g. a smaller min_step).
@@ -699,10 +700,11 @@ PetscErrorCode RunAnalysis(MPI_Comm comm, Model model, const RunOptions &options
         PetscCall(PrintSummary(a));
         const std::string advice     = a.Static() ? a.path.StopAdvice() : std::string();
         const std::string checkpoint = a.Checkpointable() ? ", a checkpoint of that state in " + options.checkpoint_file : std::string();
+        const std::string no_halving = outcome.step_size_irrelevant ? std::string("; a shorter step cannot help")
+                                                                    : Format(" and halving it would go below min_step = %.6g", analysis.min_step);
         SETERRQ(comm, PETSC_ERR_NOT_CONVERGED,
-                "%s analysis stopped at t = %.8g after step %d: the step to t = %.8g failed (%s) and halving it would go below min_step = %.6g%s; the "
-                "results up to t = %.8g are in %s%s",
-                AnalysisTypeName(analysis.type), t, step, t + dt, why, analysis.min_step, advice.c_str(), t, options.output_file.c_str(), checkpoint.c_str());
+                "%s analysis stopped at t = %.8g after step %d: the step to t = %.8g failed (%s)%s%s; the results up to t = %.8g are in %s%s",
+                AnalysisTypeName(analysis.type), t, step, t + dt, why, no_halving.c_str(), advice.c_str(), t, options.output_file.c_str(), checkpoint.c_str());
       }
       dt = controller.Propose(t, target);
     }

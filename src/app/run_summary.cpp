@@ -85,8 +85,8 @@ PetscErrorCode RunSummary::Print(MPI_Comm comm, double wall_start, bool dynamic)
   text += Format("  wall time          %.3g s:%s, other %.3g s%s\n", largest[0], stages.c_str(), std::max(0.0, largest[0] - staged),
                  size > 1 ? " (largest over the ranks)" : "");
   text += Format("  CPU time           %.3g s (user + system%s)\n", size > 1 ? cpu_sum : largest[num_stages], size > 1 ? ", all ranks" : "");
-  text += Format("  peak memory        %.1f MB%s\n", largest[num_stages + 1] / 1048576.0,
-                 size > 1 ? Format(" on the largest rank, %.1f MB on all ranks", memory_sum / 1048576.0).c_str() : "");
+  text += Format("  peak memory        %.1f MiB%s\n", largest[num_stages + 1] / 1048576.0,
+                 size > 1 ? Format(" on the largest rank, %.1f MiB on all ranks", memory_sum / 1048576.0).c_str() : "");
   PetscCall(PetscPrintf(comm, "%s", text.c_str()));
   PetscFunctionReturn(PETSC_SUCCESS);
 }

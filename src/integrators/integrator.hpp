@@ -27,6 +27,9 @@ struct StepOutcome {
   // (SNES's reason, e.g. DIVERGED_LINEAR_SOLVE, or max_rotation_increment).
   int         linear_iterations = 0;
   std::string reason;
+  // A failure that a shorter step cannot mend (it depends on the last equilibrium only): the run
+  // stops at once instead of halving down to min_step.
+  bool step_size_irrelevant = false;
 };
 
 class Integrator {

@@ -361,7 +361,8 @@ PetscErrorCode PathFollower::TryDisplacementStep(double t, double dt, StepOutcom
   PetscFunctionBeginUser;
   *outcome = StepOutcome{};
   if (!tangent_ready_) {
-    outcome->why = "the tangent at the last equilibrium cannot be factored (it is singular), so there is no predictor";
+    outcome->why                  = "the tangent at the last equilibrium cannot be factored (it is singular), so there is no predictor";
+    outcome->step_size_irrelevant = true;
     PetscFunctionReturn(PETSC_SUCCESS);
   }
   const double target = model_->analysis.control_value * (t + dt), dc = target - control_value_;
@@ -370,6 +371,7 @@ PetscErrorCode PathFollower::TryDisplacementStep(double t, double dt, StepOutcom
   PetscCall(VecNorm(path_tangent_, NORM_INFINITY, &scale));
   if (!(std::abs(path_c) > 1e-12 * scale)) {
     outcome->why = "the controlled coordinate does not move under the load pattern (a turning point of the controlled coordinate); use arc length";
+    outcome->step_size_irrelevant = true;
     PetscFunctionReturn(PETSC_SUCCESS);
   }
   double dlambda = dc / path_c;

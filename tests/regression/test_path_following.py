@@ -143,6 +143,18 @@ if newton and krylov:
     check.true(f"arc length: Krylov iterations {solves} between the Newton iterations {attempts} and twice them", attempts <= solves <= 2 * attempts)
 check.true("arc length: the corrector's assembly is logged in the Assembly stage", assembly is not None and float(assembly.group(1)) > 0)
 
+# Displacement control of a DOF the load pattern does not move (the apex's ux, by symmetry): a
+# shorter step cannot help, so the run stops after the first attempt instead of halving down to
+# min_step (16 rejected attempts before).
+code, stdout, stderr = mt.run_msflex(args, truss, f"{args.work_dir}/still.h5",
+                                     extra=["-analysis_control", "displacement", "-analysis_control_node", "apex", "-analysis_control_dof", "ux",
+                                            "-analysis_control_value", "0.1"], expect_success=False)
+message = " ".join(line for line in stderr.splitlines() if line.startswith("msflex:"))
+print("unmoved controlled DOF:", message[:400])
+check.equal("unmoved controlled DOF: exit status", code, 1)
+check.equal("unmoved controlled DOF: rejected attempts", stdout.count("rejected:"), 1)
+check.true("unmoved controlled DOF: the message says a shorter step cannot help", "a shorter step cannot help" in message and "arc length" in message)
+
 # Without load: the path stays at the reference state and names no critical point.
 import yaml  # noqa: E402
 with open(truss) as f:
