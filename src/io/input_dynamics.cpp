@@ -21,8 +21,8 @@ Mat3 ReadInertia(const YAML::Node &value, const std::string &body)
 {
   const std::string key = "inertia";
   if (!value.IsSequence() || value.size() != 3)
-    FailAt(value.Mark(), "expected 3 numbers (the diagonal) or a 3x3 list of lists for " + Quote(key) + " of " + body + ", got " +
-                             (value.IsSequence() ? "a list of " + std::to_string(value.size()) : DescribeValue(value)));
+    FailAt(ValueMark(value), "expected 3 numbers (the diagonal) or a 3x3 list of lists for " + Quote(key) + " of " + body + ", got " +
+                                 (value.IsSequence() ? "a list of " + std::to_string(value.size()) : DescribeValue(value)));
   if (!value[0].IsSequence()) return ReadNonNegativeVec3(value, key).asDiagonal();
   Mat3 inertia;
   for (int row = 0; row < 3; ++row) inertia.row(row) = ReadVec3(value[row], key).transpose();
@@ -37,8 +37,8 @@ Mat3 ReadInertia(const YAML::Node &value, const std::string &body)
   const Eigen::SelfAdjointEigenSolver<Mat3> eigen(symmetric, Eigen::EigenvaluesOnly);
   const Vec3                               &eigenvalues = eigen.eigenvalues(); // ascending
   if (eigenvalues(0) < -kInertiaEigenvalueTolerance * eigenvalues.cwiseAbs().maxCoeff())
-    FailAt(value.Mark(), Quote(key) + " of " + body + " is not positive semi-definite: its eigenvalues are " + FormatNumber(eigenvalues(0)) + ", " +
-                             FormatNumber(eigenvalues(1)) + " and " + FormatNumber(eigenvalues(2)));
+    FailAt(ValueMark(value), Quote(key) + " of " + body + " is not positive semi-definite: its eigenvalues are " + FormatNumber(eigenvalues(0)) + ", " +
+                                 FormatNumber(eigenvalues(1)) + " and " + FormatNumber(eigenvalues(2)));
   return symmetric;
 }
 

@@ -23,7 +23,7 @@ constexpr double kEigenvalueTolerance = 1e-12;
 void ReadForceTable(const YAML::Node &value, const std::string &element, SpringLaw &spring)
 {
   const std::vector<YAML::Node> points = ReadNonEmptyList(value, "force_table");
-  if (points.size() < 2) FailAt(value.Mark(), "'force_table' of " + element + " needs at least two [deflection, force] pairs, got 1");
+  if (points.size() < 2) FailAt(ValueMark(value), "'force_table' of " + element + " needs at least two [deflection, force] pairs, got 1");
   for (const YAML::Node &point : points) {
     if (!point.IsSequence() || point.size() != 2)
       FailAt(point.Mark(), "expected a [deflection, force] pair in 'force_table' of " + element + ", got " + DescribeValue(point));
@@ -57,8 +57,8 @@ void ReadSpringLaw(const MappingReader &entry, const std::string &free_key, doub
 Eigen::Matrix<double, 6, 6> ReadBushingMatrix(const YAML::Node &value, const std::string &key, const std::string &element)
 {
   if (!value.IsSequence() || value.size() != 6)
-    FailAt(value.Mark(), "expected 6 numbers (the diagonal) or a 6x6 list of lists for " + Quote(key) + " of " + element + ", got " +
-                             (value.IsSequence() ? "a list of " + std::to_string(value.size()) : DescribeValue(value)));
+    FailAt(ValueMark(value), "expected 6 numbers (the diagonal) or a 6x6 list of lists for " + Quote(key) + " of " + element + ", got " +
+                                 (value.IsSequence() ? "a list of " + std::to_string(value.size()) : DescribeValue(value)));
   Eigen::Matrix<double, 6, 6> matrix = Eigen::Matrix<double, 6, 6>::Zero();
   if (!value[0].IsSequence()) {
     for (int i = 0; i < 6; ++i) matrix(i, i) = ReadNonNegativeNumber(value[i], key);
@@ -80,7 +80,8 @@ Eigen::Matrix<double, 6, 6> ReadBushingMatrix(const YAML::Node &value, const std
   const Eigen::Matrix<double, 6, 6>                                symmetric = 0.5 * (matrix + matrix.transpose());
   const Eigen::SelfAdjointEigenSolver<Eigen::Matrix<double, 6, 6>> eigen(symmetric, Eigen::EigenvaluesOnly);
   if (eigen.eigenvalues()(0) < -kEigenvalueTolerance * eigen.eigenvalues().cwiseAbs().maxCoeff())
-    FailAt(value.Mark(), Quote(key) + " of " + element + " is not positive semi-definite: its smallest eigenvalue is " + FormatNumber(eigen.eigenvalues()(0)));
+    FailAt(ValueMark(value),
+           Quote(key) + " of " + element + " is not positive semi-definite: its smallest eigenvalue is " + FormatNumber(eigen.eigenvalues()(0)));
   return symmetric;
 }
 
@@ -88,7 +89,8 @@ Eigen::Matrix<double, 6, 6> ReadBushingMatrix(const YAML::Node &value, const std
 std::array<int, 2> ReadNodePair(const MappingReader &entry, const ReaderContext &context)
 {
   const YAML::Node &value = entry.Required("nodes");
-  if (!value.IsSequence() || value.size() != 2) FailAt(value.Mark(), "'nodes' of " + entry.Description() + " must list two nodes, got " + DescribeValue(value));
+  if (!value.IsSequence() || value.size() != 2)
+    FailAt(ValueMark(value), "'nodes' of " + entry.Description() + " must list two nodes, got " + DescribeValue(value));
   std::array<int, 2> nodes{{-1, -1}};
   for (int k = 0; k < 2; ++k) {
     const std::string name  = ReadString(value[k], "nodes");

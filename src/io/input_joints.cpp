@@ -115,7 +115,7 @@ void ReadProfile(const YAML::Node &value, const MappingReader &joint_entry, Join
   joint.profile_second.assign(joint.profile_knots.size(), 0.0);
   if (!PeriodicSplineSecondDerivatives(joint.profile_period, static_cast<int>(joint.profile_knots.size()), joint.profile_knots.data(),
                                        joint.profile_values.data(), joint.profile_second.data()))
-    FailAt(value.Mark(), "cannot fit a periodic spline through the 'points' of " + where);
+    FailAt(ValueMark(value), "cannot fit a periodic spline through the 'points' of " + where);
 }
 
 // Everything a joint kind fixes: releases, dependent translation and the keys it allows.
@@ -220,9 +220,9 @@ int ReadJointNode(const MappingReader &entry, const std::string &key, const Read
   const std::string name  = ReadString(value, key);
   if (name != kGround) return context.NodeIndex(entry, key);
   if (key != "master")
-    FailAt(value.Mark(), "the ground cannot be the " + key + " of " + entry.Description() + "; use 'master: ground' and make the node the slave");
+    FailAt(ValueMark(value), "the ground cannot be the " + key + " of " + entry.Description() + "; use 'master: ground' and make the node the slave");
   if (context.names.count(kGround) > 0)
-    FailAt(value.Mark(),
+    FailAt(ValueMark(value),
            "'master: ground' of " + entry.Description() + " means the fixed ground, but a node, beam or set is also called " + Quote(kGround) + "; rename it");
   return -1;
 }
@@ -350,10 +350,10 @@ int NamedJointCoordinate(const Joint &joint, const YAML::Node &value, const std:
     if (names[k] == coordinate) return static_cast<int>(k);
   const bool rotation_name = coordinate == "rx" || coordinate == "ry" || coordinate == "rz";
   if (rotation_name && joint.rotation == Joint::Rotation::Free)
-    FailAt(value.Mark(), "the free rotation of " + joint_kind + " has no angle " + Quote(coordinate) + " for " + where +
-                             "; use a bushing between its master and slave, or a joint with one or two rotation axes");
-  FailAt(value.Mark(), "coordinate " + Quote(coordinate) + " of " + where + " is not released by " + joint_kind + "; " +
-                           (choices.empty() ? "it has no coordinate with a name" : "its coordinates are " + JoinWords(choices)));
+    FailAt(ValueMark(value), "the free rotation of " + joint_kind + " has no angle " + Quote(coordinate) + " for " + where +
+                                 "; use a bushing between its master and slave, or a joint with one or two rotation axes");
+  FailAt(ValueMark(value), "coordinate " + Quote(coordinate) + " of " + where + " is not released by " + joint_kind + "; " +
+                               (choices.empty() ? "it has no coordinate with a name" : "its coordinates are " + JoinWords(choices)));
 }
 
 void AppendJoint(Joint joint, ReaderContext &context)

@@ -130,9 +130,9 @@ int ReaderContext::NodeIndex(const MappingReader &entry, const std::string &key)
   const YAML::Node &value = entry.Required(key);
   const std::string name  = ReadString(value, key);
   const auto        found = names.find(name);
-  if (found == names.end()) FailAt(value.Mark(), "unknown node " + Quote(name) + " for " + Quote(key) + " in " + entry.Description());
+  if (found == names.end()) FailAt(ValueMark(value), "unknown node " + Quote(name) + " for " + Quote(key) + " in " + entry.Description());
   if (found->second.kind != NameKind::Node)
-    FailAt(value.Mark(), Quote(key) + " must name a node, but " + Quote(name) + " is a " + KindName(found->second.kind));
+    FailAt(ValueMark(value), Quote(key) + " must name a node, but " + Quote(name) + " is a " + KindName(found->second.kind));
   return found->second.index;
 }
 
@@ -141,7 +141,7 @@ int ReaderContext::SectionIndex(const MappingReader &entry, const std::string &k
   const YAML::Node &value = entry.Required(key);
   const std::string name  = ReadString(value, key);
   const int         index = IndexByName(model.sections, name);
-  if (index < 0) FailAt(value.Mark(), "unknown section " + Quote(name) + " for " + Quote(key) + " in " + entry.Description());
+  if (index < 0) FailAt(ValueMark(value), "unknown section " + Quote(name) + " for " + Quote(key) + " in " + entry.Description());
   return index;
 }
 
@@ -550,7 +550,7 @@ Probe ReadProbe(const YAML::Node &item, const ReaderContext &context)
     const YAML::Node &value = entry.Required("rigid_body");
     const std::string name  = ReadString(value, "rigid_body");
     const int         body  = IndexByName(model.rigid_bodies, name);
-    if (body < 0) FailAt(value.Mark(), "unknown rigid body " + Quote(name) + " in " + entry.Description() + " (a rigid body is named by its 'name')");
+    if (body < 0) FailAt(ValueMark(value), "unknown rigid body " + Quote(name) + " in " + entry.Description() + " (a rigid body is named by its 'name')");
     probe.node   = model.rigid_bodies[body].node;
     probe.offset = model.rigid_bodies[body].offset;
   } else if (entry.Has("reaction")) {
@@ -570,7 +570,7 @@ Probe ReadProbe(const YAML::Node &item, const ReaderContext &context)
     const std::string name  = ReadString(value, "beam");
     const auto        found = context.names.find(name);
     if (found == context.names.end() || found->second.kind != NameKind::Beam)
-      FailAt(value.Mark(), "unknown beam " + Quote(name) + " in " + entry.Description());
+      FailAt(ValueMark(value), "unknown beam " + Quote(name) + " in " + entry.Description());
     const Beam &beam  = model.beams[found->second.index];
     const int   count = static_cast<int>(beam.elements.size());
     const int   index = entry.Integer("element", 0, 0);

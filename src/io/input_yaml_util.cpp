@@ -175,6 +175,21 @@ std::string FormatNumber(double number)
 
 std::string FormatVec3(const Vec3 &vector) { return "[" + FormatNumber(vector(0)) + ", " + FormatNumber(vector(1)) + ", " + FormatNumber(vector(2)) + "]"; }
 
+namespace {
+// The empty values of the mappings read so far, with the marks of their keys: yaml-cpp marks an
+// empty value where the next token starts, the next line's key or the end of the file, so an
+// error about `end_time:` on the last line was reported one line further down.
+thread_local std::vector<std::pair<YAML::Node, YAML::Mark>> empty_value_keys;
+} // namespace
+
+YAML::Mark ValueMark(const YAML::Node &value)
+{
+  if (value.IsDefined() && value.IsNull())
+    for (const auto &[node, key_mark] : empty_value_keys)
+      if (node.is(value)) return key_mark;
+  return value.Mark();
+}
+
 std::string DescribeValue(const YAML::Node &value)
 {
   if (!value.IsDefined() || value.IsNull()) return "an empty value";
@@ -191,24 +206,24 @@ double ReadNumber(const YAML::Node &value, const std::string &key)
   if (!value.IsScalar() || !YAML::convert<double>::decode(value, number)) {
     // A number beyond the range of a double (1e999) fails to convert like a word would.
     if (value.IsScalar() && IsOutOfRangeNumber(value.Scalar()))
-      FailAt(value.Mark(), Quote(key) + " is out of range (at most about 1.8e308 in magnitude), got " + value.Scalar());
-    FailAt(value.Mark(), "expected a number for " + Quote(key) + ", got " + DescribeValue(value));
+      FailAt(ValueMark(value), Quote(key) + " is out of range (at most about 1.8e308 in magnitude), got " + value.Scalar());
+    FailAt(ValueMark(value), "expected a number for " + Quote(key) + ", got " + DescribeValue(value));
   }
-  if (!std::isfinite(number)) FailAt(value.Mark(), Quote(key) + " must be finite, got " + value.Scalar());
+  if (!std::isfinite(number)) FailAt(ValueMark(value), Quote(key) + " must be finite, got " + value.Scalar());
   return number;
 }
 
 double ReadPositiveNumber(const YAML::Node &value, const std::string &key)
 {
   const double number = ReadNumber(value, key);
-  if (!(number > 0.0)) FailAt(value.Mark(), Quote(key) + " must be positive, got " + value.Scalar());
+  if (!(number > 0.0)) FailAt(ValueMark(value), Quote(key) + " must be positive, got " + value.Scalar());
   return number;
 }
 
 double ReadNonNegativeNumber(const YAML::Node &value, const std::string &key)
 {
   const double number = ReadNumber(value, key);
-  if (number < 0.0) FailAt(value.Mark(), Quote(key) + " must not be negative, got " + value.Scalar());
+  if (number < 0.0) FailAt(ValueMark(value), Quote(key) + " must not be negative, got " + value.Scalar());
   return number;
 }
 
@@ -216,8 +231,8 @@ int ReadInteger(const YAML::Node &value, const std::string &key, int minimum)
 {
   int number = 0;
   if (!value.IsScalar() || !YAML::convert<int>::decode(value, number))
-    FailAt(value.Mark(), "expected an integer for " + Quote(key) + ", got " + DescribeValue(value));
-  if (number < minimum) FailAt(value.Mark(), Quote(key) + " must be at least " + std::to_string(minimum) + ", got " + value.Scalar());
+    FailAt(ValueMark(value), "expected an integer for " + Quote(key) + ", got " + DescribeValue(value));
+  if (number < minimum) FailAt(ValueMark(value), Quote(key) + " must be at least " + std::to_string(minimum) + ", got " + value.Scalar());
   return number;
 }
 
@@ -225,7 +240,7 @@ bool ReadBool(const YAML::Node &value, const std::string &key)
 {
   bool flag = false;
   if (!value.IsScalar() || !YAML::convert<bool>::decode(value, flag))
-    FailAt(value.Mark(), "expected true or false for " + Quote(key) + ", got " + DescribeValue(value));
+    FailAt(ValueMark(value), "expected true or false for " + Quote(key) + ", got " + DescribeValue(value));
   return flag;
 }
 
@@ -240,8 +255,8 @@ std::string OutputNameProblem(const std::string &name)
 
 std::string ReadString(const YAML::Node &value, const std::string &key)
 {
-  if (!value.IsScalar()) FailAt(value.Mark(), "expected a string for " + Quote(key) + ", got " + DescribeValue(value));
-  if (value.Scalar().empty()) FailAt(value.Mark(), Quote(key) + " must not be empty");
+  if (!value.IsScalar()) FailAt(ValueMark(value), "expected a string for " + Quote(key) + ", got " + DescribeValue(value));
+  if (value.Scalar().empty()) FailAt(ValueMark(value), Quote(key) + " must not be empty");
   return value.Scalar();
 }
 
@@ -249,7 +264,7 @@ Vec3 ReadVec3(const YAML::Node &value, const std::string &key)
 {
   if (!value.IsSequence() || value.size() != 3) {
     const std::string got = value.IsSequence() ? "a list of " + std::to_string(value.size()) : DescribeValue(value);
-    FailAt(value.Mark(), "expected a list of 3 numbers for " + Quote(key) + ", got " + got);
+    FailAt(ValueMark(value), "expected a list of 3 numbers for " + Quote(key) + ", got " + got);
   }
   return Vec3(ReadNumber(value[0], key), ReadNumber(value[1], key), ReadNumber(value[2], key));
 }
@@ -283,7 +298,7 @@ int ReadDofName(const YAML::Node &value, const std::string &key)
   const std::string name = ReadString(value, key);
   for (size_t dof = 0; dof < kDofNames.size(); ++dof)
     if (name == kDofNames[dof]) return static_cast<int>(dof);
-  FailAt(value.Mark(), "unknown DOF " + Quote(name) + " in " + Quote(key) + "; expected one of ux, uy, uz, rx, ry, rz");
+  FailAt(ValueMark(value), "unknown DOF " + Quote(name) + " in " + Quote(key) + "; expected one of ux, uy, uz, rx, ry, rz");
 }
 
 const char *DofName(int dof) { return kDofNames.at(static_cast<size_t>(dof)); }
@@ -292,14 +307,14 @@ std::vector<YAML::Node> ReadOptionalList(const YAML::Node *value, const std::str
 {
   // A key left empty (e.g. every entry commented out) means "none", like an absent key.
   if (value == nullptr || value->IsNull()) return {};
-  if (!value->IsSequence()) FailAt(value->Mark(), "expected a list for " + Quote(key) + ", got " + DescribeValue(*value));
+  if (!value->IsSequence()) FailAt(ValueMark(*value), "expected a list for " + Quote(key) + ", got " + DescribeValue(*value));
   return std::vector<YAML::Node>(value->begin(), value->end());
 }
 
 std::vector<YAML::Node> ReadNonEmptyList(const YAML::Node &value, const std::string &key)
 {
   std::vector<YAML::Node> items = ReadOptionalList(&value, key);
-  if (items.empty()) FailAt(value.Mark(), Quote(key) + " must be a non-empty list, got " + DescribeValue(value));
+  if (items.empty()) FailAt(ValueMark(value), Quote(key) + " must be a non-empty list, got " + DescribeValue(value));
   return items;
 }
 
@@ -317,6 +332,7 @@ MappingReader::MappingReader(const YAML::Node &mapping, const std::string &kind)
   for (const auto &pair : mapping) {
     if (!pair.first.IsScalar()) FailAt(pair.first.Mark(), "keys in " + kind + " must be plain names, got " + DescribeValue(pair.first));
     entries_.push_back(Entry{pair.first.Scalar(), pair.first, pair.second});
+    if (pair.second.IsNull()) empty_value_keys.emplace_back(pair.second, pair.first.Mark());
   }
   if (const YAML::Node *name = Find("name"); name != nullptr && name->IsScalar()) description_ = kind + " " + Quote(name->Scalar());
   // yaml-cpp keeps duplicate keys and would silently read the first one. (A hash of the keys seen,

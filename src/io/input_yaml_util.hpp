@@ -38,6 +38,9 @@ std::string FormatNumber(double number);    // shortest readable form, e.g. 0.5 
 std::string FormatVec3(const Vec3 &vector); // [x, y, z] with FormatNumber
 // How a value reads in a message: 'abc', a list, a mapping or an empty value.
 std::string DescribeValue(const YAML::Node &value);
+// Where a value is, for messages: its own mark, or for an empty value that of its key (yaml-cpp
+// marks an empty value where the next token starts).
+YAML::Mark ValueMark(const YAML::Node &value);
 
 // A YAML stream: its first document and where each document's root node starts. Unlike
 // YAML::LoadAll this never loops forever: yaml-cpp 0.7 produces an empty document again and again,
