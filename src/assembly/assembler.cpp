@@ -27,6 +27,10 @@ double BetaOfWorkSums(const double sums[3])
 
 PetscLogEvent event_residual = 0, event_jacobian = 0, event_energy_correction = 0, event_csr_destinations = 0;
 
+// Per joint in EvaluateJointReactions' vector: the slave's residual (6), the rates (6), the drive's
+// generalised force (1).
+constexpr int kJointOutputStride = 13;
+
 // Global row/column indices of an element's DOFs (-1 for constrained DOFs: PETSc ignores them).
 int ElementIndices(const BeamElement &element, const DofMap &map, PetscInt *indices)
 {
@@ -305,7 +309,7 @@ PetscErrorCode Assembler::Setup(MPI_Comm comm, const Model &model, const DofMap 
   // does a two-sided handshake every step even then). The slots each rank adds into are the same
   // at every step, so the off-process pattern of the first assembly is kept.
   PetscCall(VecCreate(comm, &joint_output_));
-  PetscCall(VecSetSizes(joint_output_, 12 * (PetscInt)map.num_owned_joints, 12 * map.global_count.joints));
+  PetscCall(VecSetSizes(joint_output_, kJointOutputStride * (PetscInt)map.num_owned_joints, kJointOutputStride * map.global_count.joints));
   PetscCall(VecSetType(joint_output_, VECSTANDARD));
   PetscCall(VecSetOption(joint_output_, VEC_SUBSET_OFF_PROC_ENTRIES, PETSC_TRUE));
   IS from_is;
@@ -1286,17 +1290,22 @@ PetscErrorCode Assembler::EvaluateJointReactions(double dt)
   PetscFunctionBeginUser;
   PetscCallMPI(MPI_Comm_rank(comm_, &rank));
   PetscCall(CurrentResidualByProducts());
-  // Every rank adds the slave residual it assembled into the joint's slot; the owner adds the rates.
+  // Every rank adds the slave residual it assembled into the joint's slot, and for a driven joint
+  // that residual mapped on the driven coordinate with what the force elements added on its row
+  // (Assembler::StepExternalWork's generalised reaction); the owner adds the rates.
   PetscCall(VecZeroEntries(joint_output_));
-  for (const JointState &J : state_->joints) {
-    const PetscInt first = 12 * (PetscInt)map.joint_slot[J.joint];
-    PetscInt       rows[12];
-    double         values[12];
-    for (int i = 0; i < 12; ++i) rows[i] = first + i;
+  for (size_t j = 0; j < state_->joints.size(); ++j) {
+    const JointState &J     = state_->joints[j];
+    const int         c     = model_->joints[J.joint].driven_coordinate;
+    const PetscInt    first = kJointOutputStride * (PetscInt)map.joint_slot[J.joint];
+    PetscInt          rows[kJointOutputStride];
+    double            values[kJointOutputStride];
+    for (int i = 0; i < kJointOutputStride; ++i) rows[i] = first + i;
     for (int i = 0; i < 6; ++i) values[i] = slave_residual_[J.local_slave](i);
     const bool owner = map.joint_rank[J.joint] == rank;
-    for (int c = 0; c < kJointMaxReleased; ++c) values[6 + c] = owner && dt > 0.0 ? J.increment[c] / dt : 0.0;
-    PetscCall(VecSetValues(joint_output_, 12, rows, values, ADD_VALUES));
+    for (int k = 0; k < kJointMaxReleased; ++k) values[6 + k] = owner && dt > 0.0 ? J.increment[k] / dt : 0.0;
+    values[12] = c >= 0 ? J.rows_map.col(6 + c).dot(slave_residual_[J.local_slave]) + coordinate_residual_[j][c] : 0.0;
+    PetscCall(VecSetValues(joint_output_, kJointOutputStride, rows, values, ADD_VALUES));
   }
   PetscCall(VecAssemblyBegin(joint_output_));
   PetscCall(VecAssemblyEnd(joint_output_));
@@ -1304,8 +1313,9 @@ PetscErrorCode Assembler::EvaluateJointReactions(double dt)
   PetscCall(VecGetArrayRead(joint_output_, &output));
   for (JointState &J : state_->joints) {
     if (map.joint_rank[J.joint] != rank) continue;
-    const PetscScalar *row = output + 12 * (map.joint_slot[J.joint] - map.first_owned_joint_slot);
+    const PetscScalar *row = output + kJointOutputStride * (map.joint_slot[J.joint] - map.first_owned_joint_slot);
     for (int i = 0; i < 6; ++i) J.reaction(i) = row[i];
+    J.drive_force = row[12];
     if (dt > 0.0)
       for (int c = 0; c < kJointMaxReleased; ++c) J.rate[c] = row[6 + c];
   }

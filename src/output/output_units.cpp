@@ -198,6 +198,10 @@ const struct {
     {"joint, bushing or reaction probe", "moment_z", "N m",
      "moment about global z, about the node it acts on (a joint: on its slave; a bushing: on its second node; a reaction probe: the supports' reaction at its "
      "node)"},
+    // Driven joints.
+    {"driven joint", "drive_force", "N or N m",
+     "generalised force its drive exerts on the driven coordinate: N on a translation, N m on a rotation (a screw driven by its angle: the motor's "
+     "torque), positive when it pushes the coordinate forward; its work is in external_work"},
     // Force elements.
     {"coordinate force element", "force", "N or N m",
      "generalised force of its spring, damper and actuator on its joint coordinate: N on a translation (tx, ty, tz), N m on a rotation (rx, ry, rz)"},

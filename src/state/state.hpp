@@ -82,7 +82,12 @@ struct JointState {
   double      released_test[kJointMaxReleased] = {0, 0, 0, 0, 0, 0};
   // Output of an owned joint (Assembler::EvaluateJointReactions): force and moment on the slave,
   // mean rates of the released coordinates over the last step.
-  Vec6                                  reaction = Vec6::Zero();
+  Vec6 reaction = Vec6::Zero();
+  // A driven joint: the generalised force its drive exerts on the driven coordinate (N or N m; the
+  // slave's residual, with the force elements' on the coordinate's own row, mapped on the
+  // coordinate; summed over the ranks), at the scheme's evaluation point, as `reaction`. Set with
+  // it by Assembler::EvaluateJointReactions.
+  double                                drive_force = 0.0;
   std::array<double, kJointMaxReleased> rate{};
   // The generalised reaction on a driven coordinate this rank assembled at the end of the last
   // step (the Newmark family's trapezoidal work of the drive).
