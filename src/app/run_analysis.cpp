@@ -448,6 +448,12 @@ PetscErrorCode RecordStep(Analysis &a, const StepRecord &record, bool write_fram
   if (write_frame) PetscCall(WriteFrame(a, record.step, record.time, &strain_energy, &results));
   PetscCall(WriteHistory(a, record, strain_energy, results, &kinetic_energy, &total_energy));
   PetscCall(PetscLogStagePop());
+  // The state a dynamic run starts from, in energies: initial conditions that turn a joint or some
+  // nodes without their neighbours strain the beams, which shows here before it shows as a slow run.
+  if (a.Dynamic() && record.step == 0 && !a.restart && !a.options.quiet)
+    PetscCall(
+        PetscPrintf(a.comm, "msflex: initial state: kinetic energy %.6g J, strain energy %.6g J%s\n", kinetic_energy, strain_energy,
+                    a.integrator.HasForceElementsOrDamping() ? Format(", spring energy %.6g J", total_energy - kinetic_energy - strain_energy).c_str() : ""));
   const bool   last      = a.Finished(record.time);
   const bool   candidate = !a.options.quiet && record.step > 0 && (record.step % a.options.progress_every == 0 || last);
   const double now       = candidate ? MPI_Wtime() : 0.0;
