@@ -118,6 +118,13 @@ PetscErrorCode Assembler::Setup(MPI_Comm comm, const Model &model, const DofMap 
   roundoff_force_level_        = std::numeric_limits<double>::epsilon() * std::sqrt(1e4 * global_stiffness_squares + global_position_squares);
   const double inertia_squares = inertia ? inertia->LocalInertiaRoundoffSquares(ModelReach(model)) : 0.0;
   PetscCall(MPIU_Allreduce(&inertia_squares, &global_inertia_roundoff_squares_, 1, MPI_DOUBLE, MPI_SUM, comm));
+  // Joints pass their slaves' forces on to the masters as moments, with lever arms up to the
+  // model's reach (a chain of joints: its length): the inertia's rounding reaches the residual
+  // multiplied by them (StagnationLevel).
+  const double local_reach = ModelReach(model);
+  double       reach       = 0.0;
+  PetscCall(MPIU_Allreduce(&local_reach, &reach, 1, MPI_DOUBLE, MPI_MAX, comm));
+  joint_lever_arm_       = map.global_count.joints > 0 ? reach : 0.0;
   double damping_squares = 0.0;
   for (ForceContributor *c : contributors_) damping_squares += c->LocalDampingRoundoffSquares();
   PetscCall(MPIU_Allreduce(&damping_squares, &global_damping_squares_, 1, MPI_DOUBLE, MPI_SUM, comm));
@@ -603,7 +610,11 @@ PetscErrorCode Assembler::BeginStep(const StepEquations &equations)
     // The inertia times the configuration's rounding, eps c sqrt(sum (m R)^2 + |J|^2) with c the
     // scheme's inertia coefficient, which the momenta miss at rest or at a turning point: a bound
     // of the residual's noise there, ten times over (StagnationLevel).
-    stagnation_level_ = 10.0 * std::numeric_limits<double>::epsilon() * equations.scheme.InertiaCoefficient() * std::sqrt(global_inertia_roundoff_squares_);
+    // With joints, a moment of that rounding about a master, whose lever arm reaches as far as the
+    // model does (a chain of 6000 rigid bodies, 6000 m long: a floor of 11 N m at its root, which
+    // the forces alone put at 4e-3).
+    stagnation_level_ = 10.0 * std::numeric_limits<double>::epsilon() * equations.scheme.InertiaCoefficient() * std::sqrt(global_inertia_roundoff_squares_) *
+                        (1.0 + joint_lever_arm_);
     // Damping forces C_d times strain rates, which are the strains' increments (rounded as the
     // strains are) times a rate coefficient: eps times 100 C_d times it, as the stiffness's floor
     // is eps times 100 K (structural damping of tau = 0.01 s at dt = 1 ms raised the floor

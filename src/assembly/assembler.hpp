@@ -41,6 +41,7 @@ struct InitialVelocityReport {
   double   strain_rate_before = 0.0, strain_rate_after = 0.0; // V^T K V of the beams, before and after (W)
   double   slave_change = 0.0;                                // largest change of a slave's given velocity (m/s or rad/s)
   PetscInt iterations   = 0;                                  // of the conjugate gradients
+  bool     solved       = false;                              // false: nothing moves, so no solve was needed
 };
 
 class Assembler : public BlockSink {
@@ -370,6 +371,7 @@ private:
   double            roundoff_force_level_            = 0.0;
   double            global_inertia_roundoff_squares_ = 0.0; // InertiaContributor::LocalInertiaRoundoffSquares, summed
   double            stagnation_level_                = 0.0;
+  double            joint_lever_arm_                 = 0.0; // the model's reach when it has joints (BeginStep's stagnation level), else 0
   double            inertial_roundoff_level_         = 0.0; // of the step (BeginStep; 0 outside dynamics)
   double            damping_roundoff_level_          = 0.0; // of the step: viscous forces on rounded strain rates (BeginStep)
   double            global_damping_squares_          = 0.0; // sum of LocalDampingRoundoffSquares over the ranks

@@ -119,6 +119,10 @@ PetscErrorCode Assembler::AddNodeResidual(Vec residual, int l, const double *g)
   const int                    m        = (int)unknowns.size();
   double                      *values   = expansion_scratch_.data();
   TransposedTimes(expansion_rows_[l].data(), m, g, values);
+  // The force level counts the terms as they enter the residual: through a joint a force becomes a
+  // moment about the master, its lever arm as long as the chain, and the rounding of those terms
+  // is the residual's floor there.
+  for (int i = 0; i < m; ++i) local_force_squares_ += values[i] * values[i];
   PetscCall(AddThroughAnchor(residual, relay_anchor_[l], m, unknowns.data(), values));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
@@ -149,6 +153,7 @@ PetscErrorCode Assembler::FinishRelayForces(Vec residual)
     const Vec6                   g        = relay_force_[s];
     relay_force_[s].setZero();
     TransposedTimes(expansion_rows_[s].data(), m, g.data(), values);
+    for (int i = 0; i < m; ++i) local_force_squares_ += values[i] * values[i]; // as in AddNodeResidual
     PetscCall(AddThroughAnchor(residual, relay_anchor_[s], m, unknowns.data(), values));
   }
   PetscFunctionReturn(PETSC_SUCCESS);

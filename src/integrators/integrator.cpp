@@ -64,9 +64,10 @@ PetscErrorCode Integrator::InitialiseMotion(double t)
     if (!quiet_)
       PetscCall(PetscPrintf(comm_,
                             "msflex: initial velocities: %" PetscInt_FMT " unknown(s) held at given velocities, %" PetscInt_FMT
-                            " chosen for the least strain rate (V^T K V %.3e -> %.3e), %" PetscInt_FMT
+                            " chosen for the least strain rate (V^T K V %.3e -> %.3e%s), %" PetscInt_FMT
                             " at rest; largest change of a given velocity %.3g (slaves: the nearest their joints allow)\n",
-                            report.held, report.chosen, report.strain_rate_before, report.strain_rate_after, report.at_rest, report.slave_change));
+                            report.held, report.chosen, report.strain_rate_before, report.strain_rate_after, report.solved ? "" : ": nothing strains, no solve",
+                            report.at_rest, report.slave_change));
   } else {
     StateSetCoordinateRates(*model_, t, &system_.GetState());
   }

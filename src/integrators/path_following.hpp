@@ -130,6 +130,7 @@ private:
   CriticalPoint              last_critical_;
   std::vector<CriticalPoint> critical_points_;
   double                     c_0_ = NAN, c_ref_ = NAN, arc_scale_ = NAN, psi2_c_ref_ = 0.0;
+  double                     symmetry_tolerance_      = 0.0; // the tangent's symmetry test: < 0 (never symmetric) under follower loads
   double                     previous_load_increment_ = 0.0;
   bool                       have_previous_increment_ = false, tangent_ready_ = false;
   int                        steps_ = 0;
