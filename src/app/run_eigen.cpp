@@ -107,6 +107,12 @@ PetscErrorCode RunEigenAnalysis(MPI_Comm comm, const Model &model, const DofMap 
   EigenPairs              pairs;
   PetscFunctionBeginUser;
   PetscCall(EigenInitialize());
+  // No more modes than unknowns (relays' rows are none): asked for more, the solver returned
+  // what it found after a second solve, without a word.
+  const PetscInt unknowns = map.num_global - 12 * map.num_relays;
+  const int      count    = (int)std::min<PetscInt>(a.eigenvalues, unknowns);
+  if (count < a.eigenvalues && !quiet)
+    PetscCall(PetscPrintf(comm, "msflex: %d modes asked for, but the model has %" PetscInt_FMT " unknowns: computing %d\n", a.eigenvalues, unknowns, count));
   if (a.preload) PetscCall(Preload(comm, model, integrator, quiet, &lambda));
   PetscCall(MatDuplicate(assembler.Jacobian(), MAT_DO_NOT_COPY_VALUES, &K));
   PetscCall(MatDuplicate(assembler.Jacobian(), MAT_DO_NOT_COPY_VALUES, &B));
@@ -118,7 +124,7 @@ PetscErrorCode RunEigenAnalysis(MPI_Comm comm, const Model &model, const DofMap 
   if (!buckling) {
     PetscCall(MassMatrix(system, lambda, B));
     PetscCall(ConvertForCholesky(&K, &B));
-    PetscCall(SolveVibrationModes(K, B, a.eigenvalues, a.shift, &pairs));
+    PetscCall(SolveVibrationModes(K, B, count, a.shift, &pairs));
   } else {
     // The direction of the linear path, u' = K^{-1} q; K must be positive definite.
     TangentFactor  factor;
@@ -145,7 +151,7 @@ PetscErrorCode RunEigenAnalysis(MPI_Comm comm, const Model &model, const DofMap 
     PetscCheck(largest > 0, comm, PETSC_ERR_USER_INPUT, "buckling analysis: the loads do not deform the structure (no loads?)");
     PetscCall(GeometricStiffness(system, model, map, lambda, direction, 1e-4 * length / largest, B));
     PetscCall(ConvertForCholesky(&K, &B));
-    PetscCall(SolveBucklingModes(K, B, a.eigenvalues, &pairs));
+    PetscCall(SolveBucklingModes(K, B, count, &pairs));
     PetscCall(VecDestroy(&residual));
     PetscCall(VecDestroy(&q));
     PetscCall(VecDestroy(&direction));

@@ -133,6 +133,13 @@ PetscErrorCode SettingsFromOptions(MPI_Comm comm, Model *model, RunOptions *opti
              "options -analysis_desired_iterations, -analysis_max_steps and -analysis_eigenvalues must be >= 1, got %" PetscInt_FMT ", %" PetscInt_FMT
              " and %" PetscInt_FMT,
              desired_iterations, max_steps, eigenvalues);
+  // SLEPc's -eps_nev is the number of modes asked for, as analysis.eigenvalues is: given, it
+  // replaces it (the solver's own nev follows it, and the modes written are that many).
+  PetscInt  nev     = 0;
+  PetscBool nev_set = PETSC_FALSE;
+  PetscCall(PetscOptionsGetInt(nullptr, nullptr, "-eps_nev", &nev, &nev_set));
+  PetscCheck(!nev_set || nev >= 1, comm, PETSC_ERR_USER_INPUT, "bad option: -eps_nev must be >= 1, got %" PetscInt_FMT, nev);
+  if (nev_set) eigenvalues = nev;
   a.desired_iterations = (int)desired_iterations;
   a.max_steps          = (int)max_steps;
   a.eigenvalues        = (int)eigenvalues;

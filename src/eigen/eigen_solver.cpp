@@ -8,6 +8,7 @@
 #include <cstring>
 #include <limits>
 #include <numeric>
+#include <string>
 
 namespace msflex {
 
@@ -106,7 +107,24 @@ PetscErrorCode SolveModesAt(Mat K, Mat M, int count, double sigma, EigenPairs *p
     PetscCallMPI(MPI_Allreduce(&mine, &any, 1, MPI_INT, MPI_MAX, PetscObjectComm((PetscObject)K)));
     *failed = any != 0;
   } else {
-    PetscCall(EPSSolve(eps));
+    // A factorisation that fails here (K - sigma M singular, or K itself with -st_type shift on a
+    // model free to move) is the user's choice of shift, not an internal error: one line.
+    PetscCall(PetscPushErrorHandler(PetscReturnErrorHandler, nullptr));
+    const PetscErrorCode code = EPSSolve(eps);
+    PetscCall(PetscPopErrorHandler());
+    int mine = code != PETSC_SUCCESS, any;
+    PetscCallMPI(MPI_Allreduce(&mine, &any, 1, MPI_INT, MPI_MAX, PetscObjectComm((PetscObject)K)));
+    if (any) {
+      STType type;
+      PetscCall(STGetType(st, &type));
+      const std::string st_type = type ? type : "?"; // the name lives in the ST, destroyed next
+      PetscCall(EPSDestroy(&eps));
+      SETERRQ(PetscObjectComm((PetscObject)K), PETSC_ERR_NOT_CONVERGED,
+              "the eigensolver failed at shift %.6g (spectral transformation %s): the matrix it factors (K - shift M, or K itself under -st_type "
+              "shift) is singular, as it is where the model can move freely (rigid-body modes) or at an eigenvalue; keep msflex's shift-and-invert "
+              "(no -st_type) or give an -eps_target (-analysis_shift) away from the eigenvalues, e.g. below zero",
+              sigma, st_type.c_str());
+    }
   }
   if (!failed || !*failed) {
     PetscScalar target;

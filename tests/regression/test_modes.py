@@ -16,7 +16,10 @@ and the eigenvalues of every eigenanalysis on 1 and --np ranks:
    (MUMPS's default ordering and AMD, -st_mat_mumps_icntl_7 0): the rank count may change the
    eigenvalues no more than a different pivot order does. The half-Euler compressed beam, whose
    lowest eigenvalue is halved, is such a case: 1 and 2 ranks differ by about 1.7e-8 there, two
-   orderings on one rank by about 2e-8 (the eigensolver's tolerance, 1e-12, changes nothing)."""
+   orderings on one rank by about 2e-8 (the eigensolver's tolerance, 1e-12, changes nothing);
+ - -eps_nev gives the number of modes written (3 and 20: they were 6 and 12), no more modes than
+   unknowns are computed and the run says so, and -st_type shift on a free beam (K singular) is
+   one line, exit 1."""
 
 import math
 
@@ -126,4 +129,30 @@ if args.np > 1:
             limit = max(1e-8, 4 * spread)
             print(f"{name}: np 1 vs np {args.np} {difference[~rigid_a].max():.3e}; two orderings on one rank {spread:.3e}")
             check.less(f"{name}: max relative eigenvalue difference np 1 vs np {args.np}", difference[~rigid_a].max(), limit)
+
+# -eps_nev is the number of modes (it replaces analysis.eigenvalues); no more modes than unknowns.
+for nev in (3, 20):
+    h = mt.history(run(f"cantilever_nev{nev}", f"{inputs}/cantilever_modes.yaml", ("-eps_nev", str(nev)), ranks=1))
+    check.equal(f"cantilever with -eps_nev {nev}: modes written", len(h["eigenvalue"]), nev)
+tiny = f"{args.work_dir}/two_elements.yaml"
+with open(f"{inputs}/cantilever_modes.yaml") as f:
+    text = f.read()
+import re  # noqa: E402
+with open(tiny, "w") as f:
+    f.write(re.sub(r"elements: *\d+", "elements: 1", text, count=1))
+code, stdout, _ = mt.run_msflex(args, tiny, f"{args.work_dir}/tiny_modes.h5", extra=["-analysis_eigenvalues", "500"], np_ranks=1)
+h = mt.history(f"{args.work_dir}/tiny_modes.h5")
+said = re.search(r"500 modes asked for, but the model has (\d+) unknowns: computing \1", stdout)
+print(f"500 modes of a one-element cantilever: {len(h['eigenvalue'])} written; {said.group(0) if said else 'no line'}")
+check.true("500 modes asked of a one-element cantilever: the run says it computes as many as its 12 unknowns", bool(said) and said.group(1) == "12")
+check.true("500 modes asked of a one-element cantilever: no more modes written than unknowns", 1 <= len(h["eigenvalue"]) <= 12)
+# A spectral transformation that factors a singular matrix (-st_type shift: K itself, on a free
+# beam with its rigid modes) stops with one line instead of MUMPS' trace and exit 76.
+code, _, stderr = mt.run_msflex(args, f"{inputs}/free_free_modes.yaml", f"{args.work_dir}/shift_free.h5", extra=["-st_type", "shift"], np_ranks=1,
+                                expect_success=False)
+lines = [line for line in stderr.splitlines() if line.startswith("msflex:")]
+print("-st_type shift on a free beam:", lines[:1])
+check.equal("-st_type shift on a free beam: exit status", code, 1)
+check.true("-st_type shift on a free beam: one line naming the singular factorisation", len(lines) == 1 and "is singular" in lines[0])
+check.equal("-st_type shift on a free beam: PETSc trace-back lines", stderr.count("PETSC ERROR"), 0)
 check.finish()
