@@ -427,6 +427,7 @@ struct OutputFile::Impl {
   PetscErrorCode WriteStringAttribute(hid_t location, const char *object, const char *name, const std::string &value);
   PetscErrorCode CreateCompactGroup(const char *name, H5Id *group);
   PetscErrorCode WriteZeroFrames(hid_t dataset, hsize_t from, hsize_t to, hsize_t rows, hsize_t columns);
+  PetscErrorCode SelectRootBlock(hid_t file_space, hid_t memory_space, const hsize_t *start, const hsize_t *count) const;
   // The `unit` and `description` attributes of dataset `name` under `parent`.
   PetscErrorCode Annotate(hid_t parent, const char *name, const Quantity &quantity);
   PetscErrorCode CreateStringType(H5Id *type);
@@ -973,10 +974,7 @@ PetscErrorCode OutputFile::Impl::WriteHistoryBlock()
     PetscCallHDF5(file_space = H5Dget_space(dataset));
   }
   PetscCallHDF5(memory_space = H5Screate_simple(2, count, nullptr));
-  if (rank != 0) {
-    PetscCallHDF5(H5Sselect_none(file_space));
-    PetscCallHDF5(H5Sselect_none(memory_space));
-  } else PetscCallHDF5(H5Sselect_hyperslab(file_space, H5S_SELECT_SET, start, nullptr, count, nullptr));
+  PetscCall(SelectRootBlock(file_space, memory_space, start, count));
   const double nothing = 0.0;
   PetscCallHDF5(H5Dwrite(dataset, H5T_NATIVE_DOUBLE, memory_space, file_space, frame_transfer, buffered_values.empty() ? &nothing : buffered_values.data()));
   rows_written += rows_buffered;
@@ -1424,6 +1422,18 @@ hsize_t OutputFile::Impl::FramesPerBlock() const
   return std::max<hsize_t>(1, (hsize_t)(kFrameBufferBytes / std::max(bytes, 1.0)));
 }
 
+// The block [start, start + count) of the file space for rank 0, which writes what every rank's
+// file holds alike; nothing for the other ranks, which take part in the collective write.
+PetscErrorCode OutputFile::Impl::SelectRootBlock(hid_t file_space, hid_t memory_space, const hsize_t *start, const hsize_t *count) const
+{
+  PetscFunctionBeginUser;
+  if (rank != 0) {
+    PetscCallHDF5(H5Sselect_none(file_space));
+    PetscCallHDF5(H5Sselect_none(memory_space));
+  } else PetscCallHDF5(H5Sselect_hyperslab(file_space, H5S_SELECT_SET, start, nullptr, count, nullptr));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
 // Zeros into frames [from, to) of a frame dataset of `rows` x `columns` per frame, written by
 // rank 0 in pieces of at most kFrameBufferBytes (every rank makes the same calls, the others
 // selecting nothing): the frames of a field that they lack, which HDF5 does not fill.
@@ -1439,10 +1449,7 @@ PetscErrorCode OutputFile::Impl::WriteZeroFrames(hid_t dataset, hsize_t from, hs
     H5Id          file_space, memory_space;
     PetscCallHDF5(file_space = H5Dget_space(dataset));
     PetscCallHDF5(memory_space = H5Screate_simple(3, block, nullptr));
-    if (rank != 0) {
-      PetscCallHDF5(H5Sselect_none(file_space));
-      PetscCallHDF5(H5Sselect_none(memory_space));
-    } else PetscCallHDF5(H5Sselect_hyperslab(file_space, H5S_SELECT_SET, offset, nullptr, block, nullptr));
+    PetscCall(SelectRootBlock(file_space, memory_space, offset, block));
     PetscCallHDF5(H5Dwrite(dataset, H5T_NATIVE_DOUBLE, memory_space, file_space, frame_transfer, zeros.data()));
   }
   PetscFunctionReturn(PETSC_SUCCESS);
@@ -1510,10 +1517,7 @@ PetscErrorCode OutputFile::Impl::WriteFrameBlock()
       PetscCall(extended(column.name, column.file_type, {}, first > 0, &dataset));
       PetscCallHDF5(file_space = H5Dget_space(dataset));
       PetscCallHDF5(memory_space = H5Screate_simple(1, &count, nullptr));
-      if (rank != 0) {
-        PetscCallHDF5(H5Sselect_none(file_space));
-        PetscCallHDF5(H5Sselect_none(memory_space));
-      } else PetscCallHDF5(H5Sselect_hyperslab(file_space, H5S_SELECT_SET, &first, nullptr, &count, nullptr));
+      PetscCall(SelectRootBlock(file_space, memory_space, &first, &count));
       PetscCallHDF5(H5Dwrite(dataset, column.memory_type, memory_space, file_space, frame_transfer, column.data));
     }
   }
