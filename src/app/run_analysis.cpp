@@ -520,6 +520,8 @@ PetscErrorCode WriteCheckpoint(Analysis &a, int step, double t, int last_written
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
+const char *StopSignalName(int signal) { return signal == SIGTERM ? "SIGTERM" : signal == SIGUSR1 ? "SIGUSR1" : "a signal"; }
+
 // After a converged step: a checkpoint when one is due (every n steps, every so many seconds) or
 // a stop signal arrived on any rank; *stop tells the step loop to end the run.
 PetscErrorCode CheckpointIfDue(Analysis &a, int step, double t, int last_written, const StepController &controller, bool *stop)
@@ -537,20 +539,14 @@ PetscErrorCode CheckpointIfDue(Analysis &a, int step, double t, int last_written
       PetscCall(PetscPrintf(a.comm,
                             "msflex: stopped by %s at step %d, t = %.6g; the results up to here are in %s; no checkpoint: a static analysis under "
                             "control: %s cannot be continued from one\n",
-                            signal == SIGTERM   ? "SIGTERM"
-                            : signal == SIGUSR1 ? "SIGUSR1"
-                                                : "a signal",
-                            step, t, o.output_file.c_str(), PathControlName(a.model.analysis.control)));
+                            StopSignalName(signal), step, t, o.output_file.c_str(), PathControlName(a.model.analysis.control)));
     PetscFunctionReturn(PETSC_SUCCESS);
   }
   if (!due && !*stop) PetscFunctionReturn(PETSC_SUCCESS);
   PetscCall(WriteCheckpoint(a, step, t, last_written, controller));
   if (!o.quiet && !*stop) PetscCall(PetscPrintf(a.comm, "checkpoint at step %d, t = %.6g: %s\n", step, t, o.checkpoint_file.c_str()));
   if (*stop)
-    PetscCall(PetscPrintf(a.comm, "msflex: stopped by %s at step %d, t = %.6g; checkpoint %s; continue with: msflex --restart %s\n",
-                          signal == SIGTERM   ? "SIGTERM"
-                          : signal == SIGUSR1 ? "SIGUSR1"
-                                              : "a signal",
+    PetscCall(PetscPrintf(a.comm, "msflex: stopped by %s at step %d, t = %.6g; checkpoint %s; continue with: msflex --restart %s\n", StopSignalName(signal),
                           step, t, o.checkpoint_file.c_str(), o.checkpoint_file.c_str()));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
@@ -628,7 +624,7 @@ PetscErrorCode RunAnalysis(MPI_Comm comm, Model model, const RunOptions &options
     if (!options.quiet) PetscCall(PetscPrintf(comm, "msflex: results in %s\n", options.output_file.c_str()));
     PetscFunctionReturn(PETSC_SUCCESS);
   }
-  if (a.Static()) PetscCall(a.path.Start(restart ? restart->time : 0.0, restart != nullptr));
+  if (a.Static()) PetscCall(a.path.Start(restart ? restart->time : 0.0));
   if (!restart) {
     PetscCall(a.integrator.InitialiseConfiguration());
     if (a.Dynamic() && analysis.static_stage) PetscCall(RunStaticStage(a));
@@ -725,11 +721,12 @@ PetscErrorCode RunAnalysis(MPI_Comm comm, Model model, const RunOptions &options
                            analysis.max_steps, a.path.LoadFactor(), analysis.end_time, options.output_file.c_str()));
   // Under arc-length or displacement control t is the path's parameter, not the load factor.
   const bool path_parameter = a.Static() && analysis.control != PathControl::Load;
-  if (stopped_by_max_steps) {
-  } else if (!options.quiet && path_parameter)
-    PetscCall(PetscPrintf(comm, "msflex: completed %d steps to load factor %.6g (path parameter t = %.6g); results in %s\n", step, a.path.LoadFactor(), t,
-                          options.output_file.c_str()));
-  else if (!options.quiet) PetscCall(PetscPrintf(comm, "msflex: completed %d steps to t = %.6g; results in %s\n", step, t, options.output_file.c_str()));
+  if (!options.quiet && !stopped_by_max_steps) {
+    if (path_parameter)
+      PetscCall(PetscPrintf(comm, "msflex: completed %d steps to load factor %.6g (path parameter t = %.6g); results in %s\n", step, a.path.LoadFactor(), t,
+                            options.output_file.c_str()));
+    else PetscCall(PetscPrintf(comm, "msflex: completed %d steps to t = %.6g; results in %s\n", step, t, options.output_file.c_str()));
+  }
   PetscCall(PrintSummary(a));
   PetscFunctionReturn(PETSC_SUCCESS);
 }

@@ -109,7 +109,7 @@ PetscErrorCode RunEigenAnalysis(MPI_Comm comm, const Model &model, const DofMap 
   PetscCall(EigenInitialize());
   // No more modes than unknowns (relays' rows are none): asked for more, the solver returned
   // what it found after a second solve, without a word.
-  const PetscInt unknowns = map.num_global - 12 * map.num_relays;
+  const PetscInt unknowns = map.NumStateUnknowns();
   const int      count    = (int)std::min<PetscInt>(a.eigenvalues, unknowns);
   if (count < a.eigenvalues && !quiet)
     PetscCall(PetscPrintf(comm, "msflex: %d modes asked for, but the model has %" PetscInt_FMT " unknowns: computing %d\n", a.eigenvalues, unknowns, count));

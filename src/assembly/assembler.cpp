@@ -28,8 +28,8 @@ double BetaOfWorkSums(const double sums[3])
 PetscLogEvent event_residual = 0, event_jacobian = 0, event_energy_correction = 0, event_csr_destinations = 0;
 
 // Per joint in EvaluateJointReactions' vector: the slave's residual (6), the rates (6), the drive's
-// generalised force (1).
-constexpr int kJointOutputStride = 13;
+// generalised force (1, at kDriveForceSlot).
+constexpr int kJointOutputStride = 13, kDriveForceSlot = 12;
 
 // Global row/column indices of an element's DOFs (-1 for constrained DOFs: PETSc ignores them).
 int ElementIndices(const BeamElement &element, const DofMap &map, PetscInt *indices)
@@ -116,13 +116,13 @@ PetscErrorCode Assembler::Setup(MPI_Comm comm, const Model &model, const DofMap 
   double global_position_squares, position_squares = LocalPositionRoundoffSquares(model, map);
   PetscCall(MPIU_Allreduce(&position_squares, &global_position_squares, 1, MPI_DOUBLE, MPI_SUM, comm));
   roundoff_force_level_        = std::numeric_limits<double>::epsilon() * std::sqrt(1e4 * global_stiffness_squares + global_position_squares);
-  const double inertia_squares = inertia ? inertia->LocalInertiaRoundoffSquares(ModelReach(model)) : 0.0;
+  const double local_reach     = ModelReach(model);
+  const double inertia_squares = inertia ? inertia->LocalInertiaRoundoffSquares(local_reach) : 0.0;
   PetscCall(MPIU_Allreduce(&inertia_squares, &global_inertia_roundoff_squares_, 1, MPI_DOUBLE, MPI_SUM, comm));
   // Joints pass their slaves' forces on to the masters as moments, with lever arms up to the
   // model's reach (a chain of joints: its length): the inertia's rounding reaches the residual
   // multiplied by them (StagnationLevel).
-  const double local_reach = ModelReach(model);
-  double       reach       = 0.0;
+  double reach = 0.0;
   PetscCall(MPIU_Allreduce(&local_reach, &reach, 1, MPI_DOUBLE, MPI_MAX, comm));
   joint_lever_arm_       = map.global_count.joints > 0 ? reach : 0.0;
   double damping_squares = 0.0;
@@ -1273,7 +1273,7 @@ PetscErrorCode Assembler::StepExternalWork(double *work)
     JointState &J = state_->joints[j];
     const int   c = model_->joints[J.joint].driven_coordinate;
     if (c < 0) continue;
-    const double reaction = J.rows_map.col(6 + c).dot(slave_residual_[J.local_slave]) + coordinate_residual_[j][c];
+    const double reaction = DriveReaction(j);
     local += (midpoint ? reaction : 0.5 * (J.drive_reaction + reaction)) * J.released_test[c];
     if (!midpoint) J.drive_reaction = reaction;
   }
@@ -1286,12 +1286,15 @@ PetscErrorCode Assembler::StoreReactions()
   PetscFunctionBeginUser;
   PetscCall(CurrentResidualByProducts());
   for (size_t l = 0; l < state_->nodes.size(); ++l) state_->nodes[l].prescribed_reaction = prescribed_residual_[l];
-  for (size_t j = 0; j < state_->joints.size(); ++j) {
-    JointState &J    = state_->joints[j];
-    const int   c    = model_->joints[J.joint].driven_coordinate;
-    J.drive_reaction = c >= 0 ? J.rows_map.col(6 + c).dot(slave_residual_[J.local_slave]) + coordinate_residual_[j][c] : 0.0;
-  }
+  for (size_t j = 0; j < state_->joints.size(); ++j) state_->joints[j].drive_reaction = DriveReaction(j);
   PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+double Assembler::DriveReaction(size_t j) const
+{
+  const JointState &J = state_->joints[j];
+  const int         c = model_->joints[J.joint].driven_coordinate;
+  return c >= 0 ? J.rows_map.col(6 + c).dot(slave_residual_[J.local_slave]) + coordinate_residual_[j][c] : 0.0;
 }
 
 PetscErrorCode Assembler::EvaluateJointReactions(double dt)
@@ -1307,7 +1310,6 @@ PetscErrorCode Assembler::EvaluateJointReactions(double dt)
   PetscCall(VecZeroEntries(joint_output_));
   for (size_t j = 0; j < state_->joints.size(); ++j) {
     const JointState &J     = state_->joints[j];
-    const int         c     = model_->joints[J.joint].driven_coordinate;
     const PetscInt    first = kJointOutputStride * (PetscInt)map.joint_slot[J.joint];
     PetscInt          rows[kJointOutputStride];
     double            values[kJointOutputStride];
@@ -1315,7 +1317,7 @@ PetscErrorCode Assembler::EvaluateJointReactions(double dt)
     for (int i = 0; i < 6; ++i) values[i] = slave_residual_[J.local_slave](i);
     const bool owner = map.joint_rank[J.joint] == rank;
     for (int k = 0; k < kJointMaxReleased; ++k) values[6 + k] = owner && dt > 0.0 ? J.increment[k] / dt : 0.0;
-    values[12] = c >= 0 ? J.rows_map.col(6 + c).dot(slave_residual_[J.local_slave]) + coordinate_residual_[j][c] : 0.0;
+    values[kDriveForceSlot] = DriveReaction(j);
     PetscCall(VecSetValues(joint_output_, kJointOutputStride, rows, values, ADD_VALUES));
   }
   PetscCall(VecAssemblyBegin(joint_output_));
@@ -1326,7 +1328,7 @@ PetscErrorCode Assembler::EvaluateJointReactions(double dt)
     if (map.joint_rank[J.joint] != rank) continue;
     const PetscScalar *row = output + kJointOutputStride * (map.joint_slot[J.joint] - map.first_owned_joint_slot);
     for (int i = 0; i < 6; ++i) J.reaction(i) = row[i];
-    J.drive_force = row[12];
+    J.drive_force = row[kDriveForceSlot];
     if (dt > 0.0)
       for (int c = 0; c < kJointMaxReleased; ++c) J.rate[c] = row[6 + c];
   }

@@ -287,6 +287,10 @@ private:
   PetscErrorCode AddJointGeometricStiffness(Mat jacobian);
   // Slave residuals with what each slave passes on to its master along the chains (deepest first).
   void PropagateSlaveResiduals();
+  // The generalised reaction on local joint j's driven coordinate (0 for a joint without a drive):
+  // its slave's residual mapped on the coordinate plus what the force elements added on the
+  // coordinate's row, this rank's share of the current residual's by-products.
+  double DriveReaction(size_t j) const;
   // What a residual at the current unknowns leaves besides the vector: the reactions on prescribed
   // DOFs (prescribed_residual_), the force elements' terms on coordinates (coordinate_residual_) and
   // the slave residuals propagated along the chains. Newton's last residual left them at the

@@ -247,7 +247,7 @@ PetscErrorCode Assembler::ProjectInitialVelocities(double t, InitialVelocityRepo
     PetscCallMPI(MPIU_Allreduce(counts, totals, 2, MPIU_INT, MPI_SUM, comm_));
     report->held    = totals[0];
     report->at_rest = totals[1];
-    report->chosen  = map.num_global - 12 * map.num_relays - totals[0] - totals[1]; // relays' rows are no velocities
+    report->chosen  = map.NumStateUnknowns() - totals[0] - totals[1];
   }
   for (PetscInt row : held) PetscCall(VecSetValue(diagonal, row, 1.0, INSERT_VALUES));
   PetscCall(VecAssemblyBegin(diagonal));
@@ -267,8 +267,7 @@ PetscErrorCode Assembler::ProjectInitialVelocities(double t, InitialVelocityRepo
   PetscReal R_norm;
   PetscCall(VecNorm(R, NORM_INFINITY, &R_norm));
   PetscCall(VecZeroEntries(delta));
-  report->iterations = 0;
-  report->solved     = R_norm > 0.0;
+  report->solved = R_norm > 0.0;
   if (report->solved) {
     // A delta = -R: minimum-norm solution by preconditioned conjugate gradients.
     Mat P;
@@ -335,7 +334,6 @@ PetscErrorCode Assembler::ProjectInitialVelocities(double t, InitialVelocityRepo
       PetscCall(PCShellSetApply(pc, RelayProjectionPreconditioner));
     }
     PetscCall(KSPSetFromOptions(ksp));
-    PetscCall(VecZeroEntries(delta));
     PetscCall(KSPSolve(ksp, R, delta));
     KSPConvergedReason reason;
     PetscCall(KSPGetConvergedReason(ksp, &reason));

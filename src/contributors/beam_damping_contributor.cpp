@@ -66,7 +66,7 @@ bool BeamDampingContributor::StartForces(const State &state, size_t k, double *f
   // A step of the Newmark family has the start strains from BeginStep; the initial accelerations
   // (no such step) evaluate them here.
   const StepEquations &eq    = state.equations;
-  const bool           known = eq.Dynamic() && !eq.Midpoint();
+  const bool           known = eq.NewmarkFamily();
   if (!known && !Strains(state, k, true, strain, curvature)) return false;
   const Vec3 *e_n = known ? start_strain_[k].data() : strain, *k_n = known ? start_curvature_[k].data() : curvature;
   for (int gp = 0; gp < ref.num_gauss; ++gp) {
@@ -135,7 +135,7 @@ void BeamDampingContributor::AddStepDissipation(const State &state, double *diss
 {
   const StepEquations &eq = state.equations;
   if (!eq.Dynamic()) return;
-  const bool trapezoidal = !eq.Midpoint();
+  const bool trapezoidal = eq.NewmarkFamily();
   for (size_t k = 0; k < damped_.size(); ++k) {
     if (!damped_[k]) continue;
     double force[kBeamMaxDofs], start[kBeamMaxDofs];

@@ -21,9 +21,6 @@ SpringCurve CurveOf(const SpringLaw &law)
 
 bool IsDynamic(const Model &model) { return model.analysis.type == AnalysisType::Dynamic; }
 
-// A step of the Newmark family: its work and dissipation take the trapezoidal rule.
-bool Trapezoidal(const StepEquations &equations) { return equations.Dynamic() && !equations.Midpoint(); }
-
 // The spatial angular velocity at the end of the step of the Newmark family, w = Lambda_{n+1} W_{n+1},
 // and d w / d theta = -hat(w) + c_v Lambda_{n+1} Lambda_n^T H(omega)^{-1}.
 void EndAngularVelocity(const TimeScheme &scheme, const NodeState &s, Vec3 *w, Mat3 *jacobian)
@@ -135,7 +132,7 @@ void CoordinateForceContributor::AddStepWork(const State &state, double *work) c
 {
   const StepEquations &eq = state.equations;
   for (const Element &e : elements_) {
-    if (Trapezoidal(eq)) *work += 0.5 * (e.actuator_start + e.actuator) * state.joints[e.joint].increment[e.coordinate];
+    if (eq.NewmarkFamily()) *work += 0.5 * (e.actuator_start + e.actuator) * state.joints[e.joint].increment[e.coordinate];
     else *work += Evaluate(state, e).actuator_work;
   }
 }
@@ -146,7 +143,7 @@ void CoordinateForceContributor::AddStepDissipation(const State &state, double *
   const StepEquations &eq = state.equations;
   for (const Element &e : elements_) {
     const CoordinateForceValues end = Evaluate(state, e);
-    if (!Trapezoidal(eq)) {
+    if (!eq.NewmarkFamily()) {
       *dissipation += end.dissipation;
       continue;
     }
@@ -181,7 +178,7 @@ void CoordinateForceContributor::CommitStep(State *state)
     // (mid-point family), the mean of the start state's and the end's force times the increment
     // (Newmark family).
     const double test = state->joints[e.joint].released_test[e.coordinate];
-    if (Trapezoidal(eq)) {
+    if (eq.NewmarkFamily()) {
       const CoordinateForceValues start = EvaluateStart(*state, e);
       e.power                           = 0.5 * (start.spring_force + start.damper_force + start.actuator_force + e.force) * test / eq.scheme.dt;
     } else {
@@ -342,7 +339,7 @@ double NodePairForceContributor::StepDissipation(const State &state, const Eleme
   Vec12      r;
   DamperWork end;
   if (!Evaluate(state, e, false, &r, nullptr, nullptr, &end)) return 0.0;
-  if (!Trapezoidal(state.equations)) return end.force.dot(end.change);
+  if (!state.equations.NewmarkFamily()) return end.force.dot(end.change);
   DamperWork start;
   if (!Evaluate(state, e, true, &r, nullptr, nullptr, &start)) return end.force.dot(end.change);
   return (0.5 * (start.force + end.force)).dot(end.change);
@@ -378,7 +375,7 @@ void NodePairForceContributor::CommitStep(State *state)
     Vec12            test;
     test << a.displacement_increment, NodeTangentScaledIncrement(eq, a), b.displacement_increment, NodeTangentScaledIncrement(eq, b);
     // Newmark family: the trapezoidal rule, the mean of the start state's residual and the end's.
-    if (Trapezoidal(eq) && Evaluate(*state, e, true, &r_start, nullptr, nullptr, nullptr)) r = 0.5 * (r_start + r);
+    if (eq.NewmarkFamily() && Evaluate(*state, e, true, &r_start, nullptr, nullptr, nullptr)) r = 0.5 * (r_start + r);
     e.power = -r.dot(test) / eq.scheme.dt;
   }
 }

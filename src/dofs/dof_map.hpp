@@ -85,6 +85,8 @@ struct DofMap {
   bool restricted = false; // DofMapRestrictToLocal has run
 
   bool IsRelay(int node) const { return !relay_forces.empty() && relay_forces[node][0] >= 0; }
+  // Unknowns of the state in the whole model: a relay's 12 rows (its own DOFs and its force) are none.
+  PetscInt NumStateUnknowns() const { return num_global - 12 * num_relays; }
   // The unknowns a joint maps its slave from: a relay's relay_unknowns, else its node_unknowns.
   const std::vector<PetscInt> &JointMapUnknowns(int slave) const { return IsRelay(slave) ? relay_unknowns[slave] : node_unknowns[slave]; }
   // The global rows of the owned relays' own DOFs and forces (restricted map): no unknowns of the

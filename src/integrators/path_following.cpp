@@ -118,11 +118,9 @@ PetscErrorCode PathFollower::WeightedDot(Vec a, Vec b, double *dot)
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
-PetscErrorCode PathFollower::Start(double t, bool restarted)
+PetscErrorCode PathFollower::Start(double t)
 {
   PetscFunctionBeginUser;
-  PetscCheck(!restarted || control_ == PathControl::Load, comm_, PETSC_ERR_SUP,
-             "a restart continues load-controlled static analyses only; an analysis with control: %s starts afresh", PathControlName(control_));
   point_   = PathPoint{};
   point_.t = t;
   recent_.clear();

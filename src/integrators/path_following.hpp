@@ -69,8 +69,9 @@ public:
 
   // For the static analysis of `integrator` (its model and map). Collective.
   PetscErrorCode Setup(MPI_Comm comm, Integrator *integrator);
-  // The equilibrium at pseudo-time t (the reference at the start, or a restart's state). Collective.
-  PetscErrorCode Start(double t, bool restarted);
+  // The equilibrium at pseudo-time t (the reference at the start, or a restart's state: load
+  // control only, which the restart's own check ensures). Collective.
+  PetscErrorCode Start(double t);
   // One attempt at the step t -> t + dt under the analysis' control; as Integrator::TryStep. A
   // converged step is linearised and checked for critical points. Collective.
   PetscErrorCode TryStep(double t, double dt, StepOutcome *outcome);

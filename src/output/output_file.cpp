@@ -439,7 +439,6 @@ struct OutputFile::Impl {
   H5Id                    file;
   H5Id                    frame_transfer; // collective with MPI-IO (more than one rank), else the default
   hsize_t                 n_nodes = 0, n_elements = 0, n_segments = 0, n_bodies = 0, n_joints = 0, n_ground = 0, n_force_elements = 0;
-  bool                    dynamic  = false;                // time in s (else the load factor)
   AnalysisType            analysis = AnalysisType::Static; // what time is in /history and /frames (output_units.hpp)
   std::vector<int>        segment_element;                 // rank 0, during Create: element of each 2-node visualisation segment
   std::vector<FrameEntry> frames;                          // in the order written (buffered ones included)
@@ -636,7 +635,6 @@ PetscErrorCode OutputFile::Impl::Create(bool overwrite, const std::string &input
   // Written under a new name beside the target and renamed over it at the end: an old result
   // stays intact until the new file is complete.
   PetscCall(CreateHdf5Temporary(path, &temporary, &file, create_access, creation));
-  dynamic = mesh.analysis_type == "dynamic";
   if (!AnalysisTypeFromName(mesh.analysis_type, &analysis)) analysis = AnalysisType::Static;
   PetscCall(WriteFileMarkerChecked(path, file, marker));
   PetscCall(WriteProvenance(mesh));
@@ -668,7 +666,7 @@ PetscErrorCode OutputFile::Impl::WriteProvenance(const OutputMesh &mesh)
   PetscCall(WriteStringAttribute(file, ".", "options", OptionsText()));
   PetscCall(WriteAttribute(file, ".", "ranks", H5T_STD_I32LE, H5T_NATIVE_INT, &size));
   PetscCall(WriteStringAttribute(file, ".", "start_time", IsoTimeNow()));
-  PetscCall(WriteStringAttribute(file, ".", "analysis_type", dynamic ? "dynamic" : "static"));
+  PetscCall(WriteStringAttribute(file, ".", "analysis_type", analysis == AnalysisType::Dynamic ? "dynamic" : "static"));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
@@ -1640,7 +1638,7 @@ PetscErrorCode OutputFile::Impl::Resume(int last_step, long long history_rows, c
     PetscCheck(H5Lexists(file, group, H5P_DEFAULT) > 0, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "'%s' has no group %s", p, group);
   {
     // The kind of analysis, for the units of the history series still to be created.
-    dynamic             = false;
+    analysis            = AnalysisType::Static;
     const htri_t exists = H5Aexists(file, "analysis_type");
     PetscCallHDF5(exists);
     if (exists) {
@@ -1652,8 +1650,8 @@ PetscErrorCode OutputFile::Impl::Resume(int last_step, long long history_rows, c
                  "output file '%s': the attribute analysis_type is not a fixed-length string", path.c_str());
       std::string text(H5Tget_size(type), '\0');
       PetscCallHDF5(H5Aread(attribute, type, text.data()));
-      dynamic  = std::string(text.c_str()) == "dynamic";
-      analysis = dynamic ? AnalysisType::Dynamic : AnalysisType::Static; // a restart continues no eigenanalysis
+      // A restart continues no eigenanalysis: dynamic or static.
+      analysis = std::string(text.c_str()) == "dynamic" ? AnalysisType::Dynamic : AnalysisType::Static;
     }
   }
   // The frames: /frames/step, time and contents list them in the order written (steps rising).
@@ -1831,7 +1829,6 @@ template <class RootWork> PetscErrorCode OutputFile::OpenWith(MPI_Comm comm, con
     impl_->n_ground         = sizes[5];
     impl_->analysis         = (AnalysisType)sizes[6];
     impl_->n_force_elements = sizes[7];
-    impl_->dynamic          = impl_->analysis == AnalysisType::Dynamic;
     status                  = RunCollective(comm_, [&] { return impl_->OpenParallel(); });
   }
   if (status != PETSC_SUCCESS) {

@@ -31,6 +31,9 @@ struct StepEquations {
   bool RateUnknowns() const { return problem == StepProblem::InitialAcceleration || problem == StepProblem::InitialVelocity; }
   // The mid-point family: forces at the mid-point, loads averaged over the step.
   bool Midpoint() const { return Dynamic() && scheme.Midpoint(); }
+  // A step of the Newmark family (newmark, genalpha): equations at t_{n+1}, and the trapezoidal
+  // rule for the work and dissipation over the step.
+  bool NewmarkFamily() const { return Dynamic() && !scheme.Midpoint(); }
   bool Inertial() const { return problem == StepProblem::Dynamics || problem == StepProblem::InitialAcceleration; }
   // Weights of a load's values at the start and at the end of the step: (1/2, 1/2) for the
   // mid-point family, (0, 1) otherwise (statics and the Newmark family hold at t_{n+1}; the

@@ -109,7 +109,7 @@ void StateBeginStep(const Model &model, const DofMap &map, const StepEquations &
   const double t_start = equations.t_start, t_end = equations.t_end;
   const bool   accelerations = equations.InitialAcceleration(), velocities = equations.problem == StepProblem::InitialVelocity;
   // Newmark family: a prescribed translation's end-of-step rates are the motion's own (NodeState).
-  const bool exact_rates = equations.Dynamic() && !equations.Midpoint() && !equations.RateUnknowns();
+  const bool exact_rates = equations.NewmarkFamily();
   for (size_t l = 0; l < state->nodes.size(); ++l) {
     const int  node    = map.local_nodes[l];
     NodeState &s       = state->nodes[l];
