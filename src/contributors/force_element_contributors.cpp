@@ -25,10 +25,12 @@ bool IsDynamic(const Model &model) { return model.analysis.type == AnalysisType:
 // and d w / d theta = -hat(w) + c_v Lambda_{n+1} Lambda_n^T H(omega)^{-1}.
 void EndAngularVelocity(const TimeScheme &scheme, const NodeState &s, Vec3 *w, Mat3 *jacobian)
 {
-  const Mat3         R_start = QuaternionToMatrix(s.rotation_start);
-  const MotionUpdate spin    = AdvanceMotion(scheme, s.rotation_motion, R_start.transpose() * s.rotation_increment);
-  *w                         = s.rotation * spin.velocity;
-  *jacobian                  = -Skew(*w) + scheme.VelocityCoefficient() * s.rotation * R_start.transpose() * s.rotation_tangent_inverse;
+  const MotionUpdate spin = NodeSpinUpdate(scheme, s);
+  *w                      = s.rotation * spin.velocity;
+  *jacobian               = -Skew(*w);
+  // A prescribed spin does not vary with the node's rotation unknowns.
+  if (!s.prescribed_spin)
+    *jacobian += scheme.VelocityCoefficient() * s.rotation * QuaternionToMatrix(s.rotation_start).transpose() * s.rotation_tangent_inverse;
 }
 
 } // namespace

@@ -14,7 +14,7 @@ void RotationalInertia(const TimeScheme &scheme, const Mat3 &J, const Mat3 &rota
 }
 
 void RotationalInertia(const TimeScheme &scheme, const Mat3 &J, const Mat3 &rotation_start, const RotationIncrement &increment, const MotionState &start,
-                       Vec3 *moment, Mat3 *tangent, MotionUpdate *update)
+                       Vec3 *moment, Mat3 *tangent, MotionUpdate *update, const MotionUpdate *prescribed_spin)
 {
   const Vec3 &omega = increment.omega;
   const Mat3 &R_new = increment.rotation;
@@ -28,14 +28,17 @@ void RotationalInertia(const TimeScheme &scheme, const Mat3 &J, const Mat3 &rota
     if (tangent) *tangent = (-Skew(momentum) * H + R_new * J * (scheme.VelocityCoefficient() * rotation_start.transpose() * dalpha)) / scheme.dt;
     return;
   }
-  *update          = AdvanceMotion(scheme, start, rotation_start.transpose() * omega);
+  *update          = prescribed_spin ? *prescribed_spin : AdvanceMotion(scheme, start, rotation_start.transpose() * omega);
   const Vec3 &W    = update->velocity;
   const Vec3  JW   = J * W;
   const Vec3  body = J * update->acceleration + W.cross(JW);
   *moment          = R_new * body;
   if (tangent) {
-    const Mat3 dbody_dtheta = scheme.InertiaCoefficient() * J + scheme.VelocityCoefficient() * (Skew(W) * J - Skew(JW));
-    *tangent                = -Skew(*moment) * H + R_new * dbody_dtheta * rotation_start.transpose();
+    *tangent = -Skew(*moment) * H;
+    if (!prescribed_spin) {
+      const Mat3 dbody_dtheta = scheme.InertiaCoefficient() * J + scheme.VelocityCoefficient() * (Skew(W) * J - Skew(JW));
+      *tangent += R_new * dbody_dtheta * rotation_start.transpose();
+    }
   }
 }
 
@@ -62,10 +65,10 @@ void OffsetPointMassInertia(const TimeScheme &scheme, double mass, const Vec3 &o
 }
 
 void RigidOffsetMassInertia(const TimeScheme &scheme, double mass, const Vec3 &offset, const Mat3 &rotation_start, const Vec3 &omega,
-                            const Vec3 &node_acceleration, const MotionState &rotation, Vec6 *residual, Mat6 *tangent)
+                            const Vec3 &node_acceleration, const MotionState &rotation, Vec6 *residual, Mat6 *tangent, const MotionUpdate *prescribed_spin)
 {
   const Mat3         R_new = ExpSO3(omega) * rotation_start;
-  const MotionUpdate spin  = AdvanceMotion(scheme, rotation, rotation_start.transpose() * omega);
+  const MotionUpdate spin  = prescribed_spin ? *prescribed_spin : AdvanceMotion(scheme, rotation, rotation_start.transpose() * omega);
   const Vec3        &c = offset, &W = spin.velocity, &Wdot = spin.acceleration;
   const Vec3         Wc = W.cross(c);
   const Vec3         y  = Wdot.cross(c) + W.cross(Wc); // body-frame acceleration of the centre relative to the node
@@ -75,9 +78,10 @@ void RigidOffsetMassInertia(const TimeScheme &scheme, double mass, const Vec3 &o
   residual->tail<3>()   = r.cross(F);
   if (!tangent) return;
   // d(R y) = -hat(R y) H d omega + R dy,  dy = [-hat(c) ca + (-hat(W x c) - hat(W) hat(c)) cv] R_n^T d omega.
-  const Mat3   H  = TangentH(omega);
-  const double ca = scheme.InertiaCoefficient(), cv = scheme.VelocityCoefficient();
-  const Mat3   dy_domega     = (-Skew(c) * ca + (-Skew(Wc) - Skew(W) * Skew(c)) * cv) * rotation_start.transpose();
+  const Mat3 H = TangentH(omega);
+  // A prescribed spin (W, Wdot) does not vary with omega.
+  const double ca = scheme.InertiaCoefficient(), spin_ca = prescribed_spin ? 0.0 : ca, spin_cv = prescribed_spin ? 0.0 : scheme.VelocityCoefficient();
+  const Mat3   dy_domega     = (-Skew(c) * spin_ca + (-Skew(Wc) - Skew(W) * Skew(c)) * spin_cv) * rotation_start.transpose();
   const Mat3   dF_du         = mass * ca * Mat3::Identity();
   const Mat3   dF_domega     = mass * (-Skew(R_new * y) * H + R_new * dy_domega);
   const Mat3   dr_domega     = -Skew(r) * H;

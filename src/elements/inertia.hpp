@@ -30,6 +30,8 @@ using Vec6 = Eigen::Matrix<double, 6, 1>;
 using Mat6 = Eigen::Matrix<double, 6, 6, Eigen::RowMajor>;
 
 // residual: inertial moment (3); tangent: d/d omega (3x3); update: W_{n+1}, Wdot_{n+1}, a_{n+1}.
+// Newmark family with `prescribed_spin`: W_{n+1} and Wdot_{n+1} are that prescribed rotation's own
+// (they do not vary with omega) instead of the scheme's from omega.
 void RotationalInertia(const TimeScheme &scheme, const Mat3 &inertia, const Mat3 &rotation_start, const Vec3 &omega, const MotionState &start, Vec3 *moment,
                        Mat3 *tangent, MotionUpdate *update);
 
@@ -43,7 +45,7 @@ struct RotationIncrement {
   Mat3 scaled_derivative;
 };
 void RotationalInertia(const TimeScheme &scheme, const Mat3 &inertia, const Mat3 &rotation_start, const RotationIncrement &increment, const MotionState &start,
-                       Vec3 *moment, Mat3 *tangent, MotionUpdate *update);
+                       Vec3 *moment, Mat3 *tangent, MotionUpdate *update, const MotionUpdate *prescribed_spin = nullptr);
 
 // residual: (force, moment) on the node (6); tangent: d/d(u, omega) (6x6); update: the point's motion.
 // Mid-point family (the centre of mass moves with its own algorithmic velocity, which the
@@ -64,9 +66,11 @@ void OffsetPointMassInertia(const TimeScheme &scheme, double mass, const Vec3 &o
 // residual (6) and tangent d/d(u, omega) (6x6); `node_acceleration` is the node's translational
 // acceleration at t_{n+1}, the scheme's from its increment u (d a / d u = the scheme's
 // InertiaCoefficient, the tangent's) or a prescribed motion's own; `rotation` is the node's
-// start-of-step material rotational motion.
+// start-of-step material rotational motion; with `prescribed_spin` the node's W and Wdot at t_{n+1}
+// are that prescribed rotation's own (as for RotationalInertia).
 void RigidOffsetMassInertia(const TimeScheme &scheme, double mass, const Vec3 &offset, const Mat3 &rotation_start, const Vec3 &omega,
-                            const Vec3 &node_acceleration, const MotionState &rotation, Vec6 *residual, Mat6 *tangent);
+                            const Vec3 &node_acceleration, const MotionState &rotation, Vec6 *residual, Mat6 *tangent,
+                            const MotionUpdate *prescribed_spin = nullptr);
 
 // Initial-acceleration problem: rotary inertia of a node with body-frame tensor J, rotation Lambda
 // and body angular velocity W; moment and d moment / d wdot.

@@ -91,6 +91,12 @@ void StateUpdateNode(const StepEquations &equations, NodeState *s)
     }
 }
 
+MotionUpdate NodeSpinUpdate(const TimeScheme &scheme, const NodeState &node)
+{
+  if (node.prescribed_spin) return {node.prescribed_body_velocity, node.prescribed_body_acceleration, node.prescribed_body_acceleration};
+  return AdvanceMotion(scheme, node.rotation_motion, QuaternionToMatrix(node.rotation_start).transpose() * node.rotation_increment);
+}
+
 Vec3 NodeTangentScaledIncrement(const StepEquations &equations, const NodeState &node)
 {
   if (equations.Midpoint()) return node.tangent_scaled_increment;
@@ -114,6 +120,12 @@ void StateBeginStep(const Model &model, const DofMap &map, const StepEquations &
     const int  node    = map.local_nodes[l];
     NodeState &s       = state->nodes[l];
     s.prescribed_rates = 0;
+    s.prescribed_spin  = false;
+    // A rotation prescribed about one global axis with the other two fixed is exp(phi(t) e_d)
+    // Lambda_0 whatever the steps: its spatial rates are phi' e_d and phi'' e_d. (Components
+    // prescribed about two or more axes compose step by step, which no closed-form rate follows.)
+    int  prescribed_rotations = 0, fixed_rotations = 0;
+    Vec3 spin_rate = Vec3::Zero(), spin_acceleration = Vec3::Zero();
     for (int d = 0; d < 6; ++d) {
       const DofConstraint &c = map.constraints[node][d];
       if (c.kind == Support::Kind::Free) continue;
@@ -127,12 +139,24 @@ void StateBeginStep(const Model &model, const DofMap &map, const StepEquations &
           s.prescribed_rates |= 1u << d;
           s.prescribed_velocity(d)     = motion(t_end, 1);
           s.prescribed_acceleration(d) = motion(t_end, 2);
+        } else if (exact_rates) {
+          ++prescribed_rotations;
+          spin_rate(d - 3)         = motion(t_end, 1);
+          spin_acceleration(d - 3) = motion(t_end, 2);
         }
+      } else if (d >= 3) {
+        ++fixed_rotations;
       }
       if (d < 3) s.displacement_increment(d) = value;
       else s.rotation_increment(d - 3) = value;
     }
     StateUpdateNode(equations, &s);
+    if (prescribed_rotations == 1 && fixed_rotations == 2) {
+      // Material rates at t_end: W = Lambda^T w, Wdot = Lambda^T wdot (w x w = 0).
+      s.prescribed_spin              = true;
+      s.prescribed_body_velocity     = s.rotation.transpose() * spin_rate;
+      s.prescribed_body_acceleration = s.rotation.transpose() * spin_acceleration;
+    }
   }
   for (JointState &J : state->joints) {
     const Joint &joint = model.joints[J.joint];
@@ -143,6 +167,31 @@ void StateBeginStep(const Model &model, const DofMap &map, const StepEquations &
         accelerations || velocities ? DriveCoordinate(model, joint, t_end, accelerations ? 2 : 1) : DriveCoordinate(model, joint, t_end, 0) - J.start.q[c];
   }
   StateUpdateSlaves(model, state);
+  if (!exact_rates) return;
+  // The slave of a drive to the ground whose joint releases nothing else moves as the drive
+  // prescribes: with the map's column n_q of the coordinate (J.map at q(t_end)),
+  //   (v, w) = n_q q',   (a, wdot) = n_q q'' + d(n_q)/dq q'^2,
+  // where only a dependent translation f(phi) (a cam) bends the path: d(n_q)/dq = f''(phi) a_dep.
+  for (JointState &J : state->joints) {
+    const Joint &joint = model.joints[J.joint];
+    if (J.local_master >= 0 || joint.driven_coordinate < 0 || JointNumCoordinates(J.geometry) != 1) continue;
+    NodeState   &slave = state->nodes[J.local_slave];
+    const double rate = DriveCoordinate(model, joint, t_end, 1), acceleration = DriveCoordinate(model, joint, t_end, 2);
+    const Vec6   column = J.map.col(6);
+    Vec3         a      = acceleration * column.head<3>();
+    if (J.geometry.dependence != JointDependence::None) {
+      double f, df, ddf;
+      JointDependentTranslation(J.geometry, J.start.q[0] + J.increment[0], &f, &df, &ddf);
+      a += ddf * rate * rate * J.geometry.axes.col(J.geometry.dependent_axis);
+    }
+    slave.prescribed_rates             = 0x7;
+    slave.prescribed_velocity          = rate * column.head<3>();
+    slave.prescribed_acceleration      = a;
+    slave.prescribed_spin              = true;
+    slave.prescribed_body_velocity     = slave.rotation.transpose() * (rate * column.tail<3>());
+    slave.prescribed_body_acceleration = slave.rotation.transpose() * (acceleration * column.tail<3>());
+    StateUpdateNode(equations, &slave);
+  }
 }
 
 void StateUpdateSlaves(const Model &model, State *state)
@@ -205,6 +254,15 @@ void StateUpdateSlaves(const Model &model, State *state)
       for (int half = 0; half < 2; ++half)
         J.coordinate_update[half] =
             AdvanceMotion(equations.scheme, J.coordinate_motion[half], Vec3(J.increment[3 * half], J.increment[3 * half + 1], J.increment[3 * half + 2]));
+    // Newmark family: a driven coordinate's end-of-step rates are the drive's own (the scheme's
+    // second difference of a prescribed motion never settles, NodeState::prescribed_rates), for the
+    // force elements on it and the next step's start.
+    if (equations.NewmarkFamily() && joint.driven_coordinate >= 0) {
+      const int     c            = joint.driven_coordinate;
+      MotionUpdate &update       = J.coordinate_update[c / 3];
+      update.velocity(c % 3)     = DriveCoordinate(model, joint, equations.t_end, 1);
+      update.acceleration(c % 3) = update.pseudo_acceleration(c % 3) = DriveCoordinate(model, joint, equations.t_end, 2);
+    }
     // Rows of the mid-point schemes: the conserving map of eq. (21-22), so that the slave's work
     // and momenta carry over exactly; elsewhere N itself.
     J.rows_map = N;
@@ -239,7 +297,7 @@ void StateCommitStep(const Model &model, State *state)
         body.centre_of_mass     = {next.velocity, next.acceleration, next.pseudo_acceleration};
       } else {
         // A point of the node's frame (RigidOffsetMassInertia): its motion follows from the node's.
-        const MotionUpdate spin = AdvanceMotion(scheme, s.rotation_motion, R_start.transpose() * s.rotation_increment);
+        const MotionUpdate spin = NodeSpinUpdate(scheme, s);
         const Vec3        &c = body.offset, &W = spin.velocity;
         body.centre_of_mass.velocity            = s.translation_update.velocity + s.rotation * W.cross(c);
         body.centre_of_mass.acceleration        = s.translation_update.acceleration + s.rotation * (spin.acceleration.cross(c) + W.cross(W.cross(c)));
@@ -250,12 +308,12 @@ void StateCommitStep(const Model &model, State *state)
       for (int half = 0; half < 2; ++half)
         J.coordinate_motion[half] = {J.coordinate_update[half].velocity, J.coordinate_update[half].acceleration, J.coordinate_update[half].pseudo_acceleration};
     for (NodeState &s : state->nodes) {
-      const Mat3 R_start = QuaternionToMatrix(s.rotation_start);
       // Material increment: Theta = R_n^T omega (Newmark family), theta = R_n^T alpha (mid-point).
-      const Vec3         increment = R_start.transpose() * (scheme.Midpoint() ? s.tangent_scaled_increment : s.rotation_increment);
-      const MotionUpdate rotation  = AdvanceMotion(scheme, s.rotation_motion, increment);
-      s.translation_motion         = {s.translation_update.velocity, s.translation_update.acceleration, s.translation_update.pseudo_acceleration};
-      s.rotation_motion            = {rotation.velocity, rotation.acceleration, rotation.pseudo_acceleration};
+      const MotionUpdate rotation =
+          scheme.Midpoint() ? AdvanceMotion(scheme, s.rotation_motion, QuaternionToMatrix(s.rotation_start).transpose() * s.tangent_scaled_increment)
+                            : NodeSpinUpdate(scheme, s);
+      s.translation_motion = {s.translation_update.velocity, s.translation_update.acceleration, s.translation_update.pseudo_acceleration};
+      s.rotation_motion    = {rotation.velocity, rotation.acceleration, rotation.pseudo_acceleration};
     }
   }
   for (NodeState &s : state->nodes) NodeCommit(&s);

@@ -54,6 +54,13 @@ struct NodeState {
   unsigned prescribed_rates        = 0;
   Vec3     prescribed_velocity     = Vec3::Zero();
   Vec3     prescribed_acceleration = Vec3::Zero();
+  // Newmark family: a node whose rotation is prescribed as a whole takes that motion's own
+  // end-of-step material angular velocity W and acceleration Wdot instead of the scheme's
+  // (NodeSpinUpdate), for the reason above: one rotation DOF prescribed with the other two fixed,
+  // or the slave of a drive to the ground whose joint releases nothing else.
+  bool prescribed_spin              = false;
+  Vec3 prescribed_body_velocity     = Vec3::Zero();
+  Vec3 prescribed_body_acceleration = Vec3::Zero();
   // The mid-point schemes' tangent-scaled increment, kept current by StateUpdateNode for them only
   // (their residuals read it at every iterate); other readers call NodeTangentScaledIncrement.
   Vec3 tangent_scaled_increment  = Vec3::Zero();     // alpha = 2 tan(|omega|/2) omega/|omega|
@@ -165,6 +172,10 @@ double StateMaxRotationIncrement(const State &state);
 bool NodeStateFinite(const NodeState &node);
 // The tracked quaternion of a node's current rotation: q(omega) * q_n.
 Quaternion NodeStateCurrentQuaternion(const NodeState &node);
+// Newmark family: the node's end-of-step material rotational motion (W, Wdot and the
+// pseudo-acceleration), the scheme's from its increment (Theta = Lambda_n^T omega) or a wholly
+// prescribed rotation's own (NodeState::prescribed_spin).
+MotionUpdate NodeSpinUpdate(const TimeScheme &scheme, const NodeState &node);
 // alpha = 2 tan(|omega|/2) omega/|omega| of the node's rotation increment under any scheme: the
 // kept value for the mid-point schemes, else evaluated here (the per-step work and power sums of
 // the Newmark family).

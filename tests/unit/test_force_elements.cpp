@@ -293,6 +293,23 @@ TEST(RigidOffsetMass, NewmarkFamilyTangentMatchesFiniteDifferences)
       fd.col(j) = (rp - rm) / 2e-6;
     }
     EXPECT_LT(RelativeError(K, fd), 1e-6) << TimeSchemeName(kind);
+    // A prescribed spin (W, Wdot fixed; NodeSpinUpdate): the same check, W x c and Wdot x c now
+    // constants of omega, and the residual that of those rates.
+    MotionUpdate spin;
+    spin.velocity = RandomVector(2.0), spin.acceleration = spin.pseudo_acceleration = RandomVector(1.0);
+    RigidOffsetMassInertia(scheme, 2.5, c, R0, omega, acceleration(u), rotation, &r, &K, &spin);
+    const Vec3 y = spin.acceleration.cross(c) + spin.velocity.cross(spin.velocity.cross(c));
+    EXPECT_LT((r.head<3>() - 2.5 * (acceleration(u) + ExpSO3(omega) * R0 * y)).norm(), 1e-12 * r.norm()) << TimeSchemeName(kind);
+    for (int j = 0; j < 6; ++j) {
+      Vec6 rp, rm;
+      Vec3 up = u, um = u, wp = omega, wm = omega;
+      (j < 3 ? up : wp)(j % 3) += 1e-6;
+      (j < 3 ? um : wm)(j % 3) -= 1e-6;
+      RigidOffsetMassInertia(scheme, 2.5, c, R0, wp, acceleration(up), rotation, &rp, nullptr, &spin);
+      RigidOffsetMassInertia(scheme, 2.5, c, R0, wm, acceleration(um), rotation, &rm, nullptr, &spin);
+      fd.col(j) = (rp - rm) / 2e-6;
+    }
+    EXPECT_LT(RelativeError(K, fd), 1e-6) << TimeSchemeName(kind) << ", prescribed spin";
   }
 }
 
