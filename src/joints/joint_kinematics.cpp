@@ -243,6 +243,26 @@ void JointMap(const JointGeometry &joint, const JointCoordinates &q, const Mat3 
   }
 }
 
+Eigen::Matrix<double, 6, 1> JointVelocityProductAcceleration(const JointGeometry &joint, const JointCoordinates &q, const Mat3 &R, const Vec3 &w_m,
+                                                             const double *rates)
+{
+  const int        k = JointNumCoordinates(joint), nt = joint.num_translations;
+  const JointTerms terms = EvaluateTerms(joint, q);
+  Vec3             slide = Vec3::Zero(), spin = Vec3::Zero(); // R_m B qdot, R_m Omega qdot
+  for (int c = 0; c < k; ++c) {
+    slide += rates[c] * (R * terms.B.col(c));
+    spin += rates[c] * (R * terms.Omega.col(c));
+  }
+  const Vec3 r           = R * terms.b;
+  Vec3       translation = w_m.cross(w_m.cross(r)) + 2.0 * w_m.cross(slide), rotation = w_m.cross(spin);
+  if (joint.dependence != JointDependence::None) translation += (terms.ddf * rates[nt] * rates[nt]) * (R * joint.axes.col(joint.dependent_axis));
+  if (joint.rotation == JointRotation::TwoAxes)
+    rotation += (rates[nt] * rates[nt + 1]) * (R * joint.axes.col(joint.rotation_axis[0]).cross(terms.Omega.col(nt + 1)));
+  Eigen::Matrix<double, 6, 1> terms_out;
+  terms_out << translation, rotation;
+  return terms_out;
+}
+
 void JointGeometricStiffness(const JointGeometry &joint, const JointCoordinates &q, const Mat3 &R, const Eigen::Matrix<double, 6, 1> &g, JointSquare *G)
 {
   const int        k     = JointNumCoordinates(joint);

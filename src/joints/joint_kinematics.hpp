@@ -101,6 +101,18 @@ Vec3 JointOffset(const JointGeometry &joint, const JointCoordinates &q);
 // N (first 6 + k columns used): slave spin variations from (delta x_m, delta theta_m, delta q).
 void JointMap(const JointGeometry &joint, const JointCoordinates &q, const Mat3 &master_rotation, JointMatrix *N);
 
+// The slave's accelerations that N leaves out, (dN/dt) (v_m, w_m, qdot): with r = R_m b(q) and the
+// relative spin s = R_m Omega(q) qdot (spatial),
+//   a_s = a_m + wdot_m x r + R_m B qddot + [w_m x (w_m x r) + 2 w_m x (R_m B qdot) + R_m a_dep f''(phi) qdot_phi^2]
+//   wdot_s = wdot_m + R_m Omega qddot + [w_m x s + R_m (dOmega/dt) qdot]
+// the brackets returned (translation, then rotation): the centripetal and Coriolis terms, a
+// dependent translation's curvature, and for two axes (dOmega/dt) qdot = qdot_1 qdot_2 a_i x Omega_2.
+// A free rotation's coordinates are zero at the start of a step, where H(q) = I + hat(q)/2 + ...
+// gives (dOmega/dt) qdot = hat(qdot) qdot / 2 = 0; the term is evaluated there (the
+// initial-acceleration problem, its only caller). w_m spatial, qdot the coordinates' rates.
+Eigen::Matrix<double, 6, 1> JointVelocityProductAcceleration(const JointGeometry &joint, const JointCoordinates &q, const Mat3 &master_rotation,
+                                                             const Vec3 &master_angular_velocity, const double *rates);
+
 // d(N^T g)/d(x_m, theta_m, q) at fixed g (first 6 + k rows and columns used).
 void JointGeometricStiffness(const JointGeometry &joint, const JointCoordinates &q, const Mat3 &master_rotation, const Eigen::Matrix<double, 6, 1> &g,
                              JointSquare *G);
