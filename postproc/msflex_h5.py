@@ -32,7 +32,7 @@ series names:
   <probe>.position.x|y|z        probed node's current position
   <probe>.displacement.x|y|z    probed node's displacement
   <probe>.rotation.w|x|y|z      probed node's rotation quaternion
-  <probe>.rotation_angle        probed node's tracked rotation angle (rad)
+  <probe>.rotation_angle        probed node's rotation angle (rad), in [0, 2 pi], not unwrapped
 """
 
 
@@ -225,7 +225,9 @@ class HistoryFile:
         return (dataset[:] if column is None else dataset[:, column]).astype(float)
 
     def read_all(self):
-        """Every series, {name: 1-D float array}, reading the table once."""
+        """Every series, {name: 1-D float array}, reading the table once ({} for a file without rows)."""
+        if not self._series:
+            return {}
         if any(path != "history/values" for path, _ in self._series.values()):
             return {name: self.read(name) for name in self._series}
         table = self._file["history/values"][()].astype(float)

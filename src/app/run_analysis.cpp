@@ -360,11 +360,15 @@ PetscErrorCode WarnEnergyGrowth(Analysis &a)
   PetscFunctionBeginUser;
   const double growth = a.summary.RelativeEnergyGrowth();
   if (!a.Dynamic() || !(growth > kEnergyGrowthWarning)) PetscFunctionReturn(PETSC_SUCCESS);
+  const double      initial = std::fabs(a.summary.InitialTotalEnergy());
+  const std::string scale =
+      initial > 0 ? Format("%.3g J, %.3g times the initial total energy of %.4g J", a.summary.EnergyGrowth(), a.summary.EnergyGrowth() / initial, initial)
+                  : Format("%.3g J, %.3g times the largest total energy", a.summary.EnergyGrowth(), growth);
   PetscCall(PetscFPrintf(a.comm, PETSC_STDERR,
-                         "msflex: warning: the energy balance grew by %.3g times the largest total energy: %s created energy (newmark and genalpha "
+                         "msflex: warning: the energy balance grew by %s: %s created energy (newmark and genalpha "
                          "near rho_infinity = 1 are not energy-stable for rotating bodies and joints; em conserves energy, a smaller "
                          "-analysis_spectral_radius damps it)\n",
-                         growth, TimeSchemeName(a.model.analysis.integrator)));
+                         scale.c_str(), TimeSchemeName(a.model.analysis.integrator)));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 

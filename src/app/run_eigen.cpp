@@ -106,6 +106,7 @@ PetscErrorCode RunEigenAnalysis(MPI_Comm comm, const Model &model, const DofMap 
   Vec                     weights, shape;
   EigenPairs              pairs;
   PetscFunctionBeginUser;
+  // (No follower load here: CheckSymmetricEigenproblem, io/input_reader.cpp.)
   PetscCall(EigenInitialize());
   // No more modes than unknowns (relays' rows are none): asked for more, the solver returned
   // what it found after a second solve, without a word.
@@ -156,6 +157,10 @@ PetscErrorCode RunEigenAnalysis(MPI_Comm comm, const Model &model, const DofMap 
     PetscCall(VecDestroy(&q));
     PetscCall(VecDestroy(&direction));
   }
+  if (!quiet && buckling && (int)pairs.values.size() < count)
+    PetscCall(PetscPrintf(
+        comm, "msflex: %zu buckling loads found of the %d asked for; the other eigenvalues give none (a load factor below zero, or none within round-off)\n",
+        pairs.values.size(), count));
   if (!quiet) {
     PetscCall(PetscPrintf(comm, "msflex: %zu %s%s about the equilibrium at load factor %.6g", pairs.values.size(), buckling ? "buckling modes" : "modes",
                           buckling ? "" : Format(" (shift-and-invert at %.6g, %d solve%s)", pairs.shift, pairs.solves, pairs.solves == 1 ? "" : "s").c_str(),
@@ -168,7 +173,7 @@ PetscErrorCode RunEigenAnalysis(MPI_Comm comm, const Model &model, const DofMap 
     const int    number = (int)k + 1;
     const double value = pairs.values[k], error = pairs.backward_errors[k];
     // A rigid mode (a mechanism's free motion) has lambda at round-off.
-    const bool               rigid  = !buckling && std::abs(value) <= pairs.zero_level;
+    const bool               rigid  = !buckling && std::abs(value) <= pairs.zero_levels[k];
     const double             omega  = !buckling && value > 0 && !rigid ? std::sqrt(value) : 0.0;
     std::vector<std::string> names  = {"time", "step", "mode"};
     std::vector<double>      values = {(double)number, (double)number, (double)number};

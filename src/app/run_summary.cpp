@@ -26,7 +26,7 @@ void RunSummary::Attempt(const StepOutcome &outcome)
 
 void RunSummary::Energy(double energy_balance, double total_energy)
 {
-  if (!have_energy_) balance_first_ = energy_balance;
+  if (!have_energy_) balance_first_ = energy_balance, first_total_ = total_energy;
   have_energy_  = true;
   balance_last_ = energy_balance;
   max_drift_    = std::max(max_drift_, std::fabs(energy_balance - balance_first_));

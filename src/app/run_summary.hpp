@@ -21,6 +21,10 @@ public:
   // The largest growth of energy_balance above its first value, relative to the largest total
   // energy (0 when it never grew): an integrator that creates energy.
   double RelativeEnergyGrowth() const { return max_total_ > 0 ? max_growth_ / max_total_ : 0.0; }
+  // That growth in J, and the total energy of the first row (the scale a reader knows: relative
+  // to the largest total energy, a run whose energy blew up by 1e11 read "grew by 1 times").
+  double EnergyGrowth() const { return max_growth_; }
+  double InitialTotalEnergy() const { return first_total_; }
   // Tangents assembled and factored, and Newton iterations that reused one (modified Newton).
   void Tangents(long long formed, long long reused)
   {
@@ -35,7 +39,7 @@ private:
   long long                  accepted_ = 0, newton_accepted_ = 0, newton_all_ = 0, krylov_all_ = 0, tangents_formed_ = 0, tangents_reused_ = 0;
   std::map<std::string, int> rejected_; // by reason
   bool                       have_energy_   = false;
-  double                     balance_first_ = 0.0, balance_last_ = 0.0, max_drift_ = 0.0, max_total_ = 0.0, max_growth_ = 0.0;
+  double                     balance_first_ = 0.0, balance_last_ = 0.0, max_drift_ = 0.0, max_total_ = 0.0, max_growth_ = 0.0, first_total_ = 0.0;
 };
 
 } // namespace msflex

@@ -127,6 +127,11 @@ PetscErrorCode SettingsFromOptions(MPI_Comm comm, Model *model, RunOptions *opti
     InputError error;
     PetscCheck(CheckStaticModel(*model, &error), comm, PETSC_ERR_USER_INPUT, "with -analysis_type %s: %s", AnalysisTypeName(a.type), error.Format().c_str());
   }
+  if (a.type != input_type || a.preload != input_preload) {
+    InputError error;
+    PetscCheck(CheckEigenanalysisLoads(*model, a.type, a.preload, &error), comm, PETSC_ERR_USER_INPUT, "with -analysis_type %s: %s", AnalysisTypeName(a.type),
+               error.Format().c_str());
+  }
   PetscCheck(std::isfinite(a.arc_length_psi) && a.arc_length_psi >= 0, comm, PETSC_ERR_USER_INPUT, "option -analysis_arc_length_psi must be >= 0, got %.6g",
              a.arc_length_psi);
   PetscCheck(desired_iterations >= 1 && max_steps >= 1 && eigenvalues >= 1, comm, PETSC_ERR_USER_INPUT,

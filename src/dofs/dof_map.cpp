@@ -20,9 +20,13 @@ static PetscErrorCode CollectConstraints(const Model &model, DofMap *map)
         if (support.kind[d] == Support::Kind::Free) continue;
         DofConstraint &slot = map->constraints[node][d];
         if (slot.kind != Support::Kind::Free) {
+          // Fixed twice is fixed (a support of all nodes making a model planar may cover a clamped
+          // node); a prescribed DOF belongs to exactly one support (docs/input.md).
+          if (slot.kind == Support::Kind::Fixed && support.kind[d] == Support::Kind::Fixed) continue;
           const Support &first = model.supports[slot.support];
-          MSFLEX_INPUT_CHECK(false, support.mark, "DOF '%s' of node '%s' is already constrained by the support at line %d", kDofNames[d],
-                             model.nodes[node].name.c_str(), first.mark.line);
+          MSFLEX_INPUT_CHECK(false, support.mark,
+                             "DOF '%s' of node '%s' is already constrained by the support at line %d (a prescribed DOF belongs to one support alone)",
+                             kDofNames[d], model.nodes[node].name.c_str(), first.mark.line);
         }
         slot = {support.kind[d], support.values[d], support.function, (int)s, support.by_rate[d]};
       }

@@ -47,7 +47,8 @@ PetscErrorCode CheckFactorSolverAvailable(EPS eps, Mat matrix)
 }
 
 // The converged pairs (at most `count`), their backward errors and vectors, with value(theta).
-template <class Value> PetscErrorCode CollectPairs(EPS eps, Mat A, int count, Value value, bool keep_positive_only, EigenPairs *pairs)
+template <class Value>
+PetscErrorCode CollectPairs(EPS eps, Mat A, int count, Value value, bool keep_positive_only, EigenPairs *pairs, double positive_above = 0.0)
 {
   PetscInt converged;
   PetscFunctionBeginUser;
@@ -59,7 +60,7 @@ template <class Value> PetscErrorCode CollectPairs(EPS eps, Mat A, int count, Va
     PetscReal   error;
     Vec         x;
     PetscCall(EPSGetEigenvalue(eps, i, &eigenvalue, nullptr));
-    if (keep_positive_only && !(PetscRealPart(eigenvalue) > 0)) continue;
+    if (keep_positive_only && !(PetscRealPart(eigenvalue) > positive_above)) continue;
     PetscCall(MatCreateVecs(A, &x, nullptr));
     PetscCall(EPSGetEigenvector(eps, i, x, nullptr));
     PetscCall(EPSComputeError(eps, i, EPS_ERROR_BACKWARD, &error));
@@ -121,8 +122,9 @@ PetscErrorCode SolveModesAt(Mat K, Mat M, int count, double sigma, EigenPairs *p
       PetscCall(EPSDestroy(&eps));
       SETERRQ(PetscObjectComm((PetscObject)K), PETSC_ERR_NOT_CONVERGED,
               "the eigensolver failed at shift %.6g (spectral transformation %s): the matrix it factors (K - shift M, or K itself under -st_type "
-              "shift) is singular, as it is where the model can move freely (rigid-body modes) or at an eigenvalue; keep msflex's shift-and-invert "
-              "(no -st_type) or give an -eps_target (-analysis_shift) away from the eigenvalues, e.g. below zero",
+              "shift) is singular, as it is where the model can move freely (rigid-body modes) or at an eigenvalue, and at every shift where a "
+              "motion has neither stiffness nor mass (a beam free to turn about its axis without rhoJ: give it rhoJ or restrain it); keep "
+              "msflex's shift-and-invert (no -st_type) or give an -eps_target (-analysis_shift) away from the eigenvalues, e.g. below zero",
               sigma, st_type.c_str());
     }
   }
@@ -235,11 +237,20 @@ PetscErrorCode EigenPairsDestroy(EigenPairs *pairs)
 
 PetscErrorCode SolveVibrationModes(Mat K, Mat M, int count, double shift, EigenPairs *pairs)
 {
-  double largest_ratio;
+  Vec       diagonal;
+  PetscReal largest_diagonal;
   PetscFunctionBeginUser;
   PetscCall(SolveModes(K, M, count, shift, pairs));
-  PetscCall(DiagonalRatio(K, M, &largest_ratio, true));
-  pairs->zero_level = std::max(1e-6 * std::abs(pairs->shift), 1e3 * std::numeric_limits<double>::epsilon() * largest_ratio);
+  PetscCall(MatCreateVecs(K, &diagonal, nullptr));
+  PetscCall(MatGetDiagonal(K, diagonal));
+  PetscCall(VecNorm(diagonal, NORM_INFINITY, &largest_diagonal));
+  PetscCall(VecDestroy(&diagonal));
+  pairs->zero_levels.clear();
+  for (Vec phi : pairs->vectors) {
+    PetscReal length;
+    PetscCall(VecNorm(phi, NORM_2, &length));
+    pairs->zero_levels.push_back(std::max(1e-6 * std::abs(pairs->shift), 1e3 * std::numeric_limits<double>::epsilon() * largest_diagonal * length * length));
+  }
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
@@ -298,8 +309,15 @@ PetscErrorCode SolveBucklingModes(Mat K, Mat K_sigma, int count, EigenPairs *pai
   PetscCall(CheckFactorSolverAvailable(eps, K));
   PetscCall(EPSSolve(eps));
   pairs->solves = 1;
+  // nu at round-off is no buckling load: a K_sigma singular in some direction gives nu = 0 there,
+  // computed as about eps ||K_sigma|| / ||K|| (a clamped column of two linear elements reported
+  // "buckling loads" of 1.8e24); such nu are dropped with the negative ones.
+  PetscReal norm_K, norm_K_sigma;
+  PetscCall(MatNorm(K, NORM_INFINITY, &norm_K));
+  PetscCall(MatNorm(K_sigma, NORM_INFINITY, &norm_K_sigma));
+  const double roundoff = 1e3 * std::numeric_limits<double>::epsilon() * norm_K_sigma / norm_K;
   PetscCall(CollectPairs(
-      eps, K, count, [](double nu) { return 1.0 / nu; }, true, pairs));
+      eps, K, count, [](double nu) { return 1.0 / nu; }, true, pairs, roundoff));
   PetscCall(EPSDestroy(&eps));
   PetscCall(MatDestroy(&minus_K_sigma));
   PetscFunctionReturn(PETSC_SUCCESS);

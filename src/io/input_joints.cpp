@@ -189,8 +189,9 @@ void ReadDrive(const YAML::Node &value, const MappingReader &joint_entry, const 
       FailAt(coordinate_node.Mark(),
              "'translation' drives the dependent translation of a screw or rack_pinion joint, but " + joint_kind + " is neither; " + hint);
     // The translation is coefficient * phi, so the rotation is driven with value / coefficient.
-    index = joint.num_translations;
-    scale = 1.0 / joint.coefficient;
+    index                        = joint.num_translations;
+    scale                        = 1.0 / joint.coefficient;
+    joint.drive_coordinate_scale = joint.coefficient;
   } else {
     for (size_t k = 0; k < names.size(); ++k)
       if (names[k] == coordinate) index = static_cast<int>(k);

@@ -342,4 +342,19 @@ void CheckStaticMechanisms(const Model &model)
   }
 }
 
+// A follower load's stiffness is not symmetric: the symmetric eigenproblems of a buckling analysis
+// and of preloaded modes would give wrong answers (Beck's column, which loses stability only by
+// flutter at 20.05 EI/L^2, came out with a divergence load of 7.97 EI/L^2 and real frequencies
+// past flutter).
+void CheckSymmetricEigenproblem(const Model &model, AnalysisType type, bool preload)
+{
+  const bool buckling = type == AnalysisType::Buckling;
+  if (!buckling && !(type == AnalysisType::Modes && preload)) return;
+  for (const NodalLoad &load : model.nodal_loads)
+    if (load.follower)
+      FailAt(load.mark, std::string("a follower load makes the load stiffness non-symmetric, which the ") + (buckling ? "buckling" : "preloaded modes") +
+                            " analysis, a symmetric eigenproblem, cannot take: its answers would be wrong (a column under a follower force loses "
+                            "stability by flutter, not divergence); a static analysis finds the path and its divergence points, a dynamic one flutter");
+}
+
 } // namespace msflex::input_detail

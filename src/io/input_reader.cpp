@@ -849,6 +849,7 @@ Model ParseModel(const std::string &text, const std::string &file_label, MPI_Com
   ReadOutput(top.Find("output"), context, model.output);
   ReadExpected(top.Find("expected"), context);
   if (NeedsStaticStiffness(model.analysis.type, model.analysis.preload)) CheckStaticMechanisms(model);
+  CheckSymmetricEigenproblem(model, model.analysis.type, model.analysis.preload);
   return std::move(context.model);
 }
 
@@ -868,6 +869,18 @@ std::string InputError::Format() const
   std::string location = file;
   if (line > 0) location += ":" + std::to_string(line) + ":" + std::to_string(column);
   return location + ": error: " + message;
+}
+
+bool CheckEigenanalysisLoads(const Model &model, AnalysisType type, bool preload, InputError *error)
+{
+  using namespace input_detail;
+  try {
+    CheckSymmetricEigenproblem(model, type, preload);
+    return true;
+  } catch (const InputFailure &failure) {
+    *error = InputError{model.input_file, failure.line, failure.column, failure.message};
+  }
+  return false;
 }
 
 bool CheckStaticModel(const Model &model, InputError *error)

@@ -35,6 +35,9 @@ bool ReadModelString(const std::string &text, const std::string &file_label, Mod
 // statics), for a model whose analysis was made static after reading (-analysis_type static).
 // Returns false and fills *error when the model fails it. Never throws.
 bool CheckStaticModel(const Model &model, InputError *error);
+// The check of follower loads against a buckling or preloaded modes analysis, for an analysis type
+// or preload an option changed (the reader checked the input's own).
+bool CheckEigenanalysisLoads(const Model &model, AnalysisType type, bool preload, InputError *error);
 
 // The reader's checks of the analysis settings that refer to the rest of the model (the node DOF
 // or joint coordinate of displacement control), for settings changed after reading (options).

@@ -188,10 +188,14 @@ struct Joint {
   double              profile_period = 0.0; // Table: periodic cubic spline through (knots, values)
   std::vector<double> profile_knots, profile_values, profile_second;
   // A driven released coordinate: q_k(t) = drive_value * function(t) (k indexes translations, then rotations).
-  int        driven_coordinate = -1;
-  double     drive_value       = 0.0;
-  int        drive_function    = -1;    // -1: ramp f(t) = t
-  bool       drive_by_rate     = false; // q'(t) = drive_value * function(t), q(0) = 0
+  int    driven_coordinate = -1;
+  double drive_value       = 0.0;
+  int    drive_function    = -1;    // -1: ramp f(t) = t
+  bool   drive_by_rate     = false; // q'(t) = drive_value * function(t), q(0) = 0
+  // The driven coordinate as the input names it per unit of the released one: 1, or the dependent
+  // translation's coefficient (pitch, radius) when a screw or rack is driven by its translation,
+  // whose drive_force is then the force along it, Q_phi / coefficient.
+  double     drive_coordinate_scale = 1.0;
   SourceMark mark;
 };
 

@@ -97,7 +97,7 @@ const struct {
     {"rotation", "x", "1", "rotation of the probed node, unit quaternion (w, x, y, z)"},
     {"rotation", "y", "1", "rotation of the probed node, unit quaternion (w, x, y, z)"},
     {"rotation", "z", "1", "rotation of the probed node, unit quaternion (w, x, y, z)"},
-    {"rotation_angle", "", "rad", "tracked rotation angle 2 atan2(|q_v|, q_w) of the probed node, in [0, 2 pi]"},
+    {"rotation_angle", "", "rad", "angle of the probed node's rotation, 2 atan2(|q_v|, q_w) of its tracked quaternion, in [0, 2 pi]: not unwrapped"},
 };
 
 // The fixed history series. "TIME" as above.
@@ -201,7 +201,7 @@ const struct {
     // Driven joints.
     {"driven joint", "drive_force", "N or N m",
      "generalised force its drive exerts on the driven coordinate: N on a translation, N m on a rotation (a screw driven by its angle: the motor's "
-     "torque), positive when it pushes the coordinate forward; its work is in external_work"},
+     "torque; by its translation: the force along it), positive when it pushes the coordinate forward; its work is in external_work"},
     // Force elements.
     {"coordinate force element", "force", "N or N m",
      "generalised force of its spring, damper and actuator on its joint coordinate: N on a translation (tx, ty, tz), N m on a rotation (rx, ry, rz)"},

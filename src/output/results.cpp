@@ -422,7 +422,8 @@ PetscErrorCode JointHistory(MPI_Comm comm, const Model &model, const DofMap &map
       add(translation_names[joint.dependent_axis], f - f0);
     }
     for (int i = 0; i < 6; ++i) add(reaction_names[i], J->reaction(i));
-    if (joint.driven_coordinate >= 0) add("drive_force", J->drive_force);
+    // On the coordinate as the drive names it: a screw driven by its translation, the force along it.
+    if (joint.driven_coordinate >= 0) add("drive_force", J->drive_force / joint.drive_coordinate_scale);
   }
   // On rank 0 in the order of the joints in the model, whatever the partition: the history's
   // columns are the same on any number of ranks (a restart may change it).

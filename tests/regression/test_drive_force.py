@@ -13,8 +13,9 @@ theta = 0.5 sin(2 pi t) on a revolute joint needs the torque J_z theta''.
 
 tests/regression/inputs/driven_ground_joints.yaml, newmark and genalpha: a screw, a cam (whose
 path bends: the drive's force has a phi'^2 term) and a revolute carrying a body off its axis,
-each driven from the ground; every drive_force within 1e-9 of its closed form's amplitude at every
-step (measured 2e-16; before: 1.8 to 2.1 times the amplitude)."""
+each driven from the ground, and a screw driven by its translation, whose drive_force is the force
+along it (before: the torque on its angle, pitch times the force); every drive_force within 1e-9 of
+its closed form's amplitude at every step (measured 2e-16; before: 1.8 to 2.1 times the amplitude)."""
 
 import numpy as np
 
@@ -51,6 +52,7 @@ for integrator in ("newmark", "genalpha"):
         "lead": (0.5 + 2.0 * 0.1**2) * acceleration,
         "lobe": 0.2 * acceleration + 1.5 * 0.3**2 * np.sin(phi) * (np.sin(phi) * acceleration + np.cos(phi) * rate**2),
         "crank": (0.1 + 3.0 * 0.2**2) * acceleration,
+        "feed": (1.0 + 0.02 / 0.1**2) * 0.1 * acceleration,  # z'' = p phi'' (phi = z / p)
     }
     for joint, torque in exact.items():
         error = np.abs(h[f"{joint}.drive_force"][1:] - torque).max() / np.abs(torque).max()

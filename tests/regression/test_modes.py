@@ -19,7 +19,11 @@ and the eigenvalues of every eigenanalysis on 1 and --np ranks:
    orderings on one rank by about 2e-8 (the eigensolver's tolerance, 1e-12, changes nothing);
  - -eps_nev gives the number of modes written (3 and 20: they were 6 and 12), no more modes than
    unknowns are computed and the run says so, and -st_type shift on a free beam (K singular) is
-   one line, exit 1."""
+   one line, exit 1;
+ - a clamped 1 mm steel wire 2 m long (slender_wire.yaml, planar): its first bending eigenvalue
+   (1.875104/L)^4 EI/rhoA to 1e-4, and no mode flagged rigid (the level of a mode's round-off is its
+   own, eps max|K_ii| |phi|^2: one level for all modes, 1e3 eps max K_ii/M_ii, flagged the first
+   two, which the wire's tiny rotary inertia put below it); its base is fixed by two supports."""
 
 import math
 
@@ -155,4 +159,12 @@ print("-st_type shift on a free beam:", lines[:1])
 check.equal("-st_type shift on a free beam: exit status", code, 1)
 check.true("-st_type shift on a free beam: one line naming the singular factorisation", len(lines) == 1 and "is singular" in lines[0])
 check.equal("-st_type shift on a free beam: PETSc trace-back lines", stderr.count("PETSC ERROR"), 0)
+
+# The slender wire: real low frequencies are not rigid modes.
+h = mt.history(run("slender_wire", f"{inputs}/slender_wire.yaml", ranks=1))
+rho_A, EI, length = 7850 * 7.85e-7, 1.03e-2, 2.0
+first = (CANTILEVER[0] / length) ** 4 * EI / rho_A
+check.less("slender wire: |first eigenvalue / (beta_1/L)^4 EI/rhoA - 1|", abs(h["eigenvalue"][0] / first - 1.0), 1e-4)
+check.true("slender wire: no mode flagged rigid", bool(np.all(h["rigid_mode"] == 0)))
+check.less("slender wire: |frequency - sqrt(eigenvalue)/(2 pi)| (Hz)", abs(h["frequency"][0] - math.sqrt(h["eigenvalue"][0]) / (2 * math.pi)), 1e-12)
 check.finish()

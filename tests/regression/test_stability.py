@@ -8,7 +8,10 @@
    strong axis's load, to 1e-4;
  - lateral-torsional buckling of the fork-supported strip (lateral_torsional.yaml): bifurcation
    under load control and linearised buckling at M_cr = (pi/L) sqrt(EI_weak GJ), within 5e-3 and
-   1e-4 (pre-buckling curvature effect: < 1e-4 with EI_strong = 1e4 EI_weak).
+   1e-4 (pre-buckling curvature effect: < 1e-4 with EI_strong = 1e4 EI_weak);
+ - a column of two linear elements clamped at both ends (coarse_clamped_column.yaml), whose
+   geometric stiffness is only semi-definite: no buckling load, and the run says so (eigenvalues
+   nu = 1/mu at round-off were reported as load factors of 1.8e24).
 Each on --np ranks."""
 
 import math
@@ -88,4 +91,10 @@ mt.run_msflex(args, f"{inputs}/lateral_torsional.yaml", f"{args.work_dir}/ltb_bu
 buckling = mt.history(f"{args.work_dir}/ltb_buckling.h5")["load_factor"]
 print(f"lateral-torsional: buckling load factor {buckling}")
 check.less("lateral-torsional: linearised buckling relative error", abs(buckling[0] / expected - 1), 1e-4)
+
+_, stdout, _ = mt.run_msflex(args, f"{inputs}/coarse_clamped_column.yaml", f"{args.work_dir}/coarse_column.h5")
+h = mt.history(f"{args.work_dir}/coarse_column.h5")
+reported = h["load_factor"] if "load_factor" in h else []
+check.equal("coarse clamped column: buckling loads reported", len(reported), 0)
+check.true("coarse clamped column: the run says it found none", "0 buckling loads found" in stdout)
 check.finish()
