@@ -321,9 +321,13 @@ std::string JointTreeProblem(const Joint &joint, const ReaderContext &context, b
 {
   const Model &model = context.model;
   *at_slave          = true;
-  if (const int first = context.JointOfSlave(joint.slave); first >= 0)
-    return "node " + Quote(model.nodes[joint.slave].name) + " is already the slave of joint " + Quote(model.joints[first].name) + " at line " +
-           std::to_string(model.joints[first].mark.line) + "; a node can be the slave of only one joint";
+  if (const int first = context.JointOfSlave(joint.slave); first >= 0) {
+    // Joints of a mesh file share the mark of its key: no line of their own to name.
+    const SourceMark &where = model.joints[first].mark;
+    const bool        mesh  = where.line == joint.mark.line && where.column == joint.mark.column && where.file == joint.mark.file;
+    return "node " + Quote(model.nodes[joint.slave].name) + " is already the slave of joint " + Quote(model.joints[first].name) +
+           (mesh ? std::string(" of the mesh file") : " at line " + std::to_string(where.line)) + "; a node can be the slave of only one joint";
+  }
   *at_slave = false;
   if (joint.master < 0 || context.ChainTop(joint.master) != joint.slave) return "";
   // A cycle: name its joints, from the slave's joint down to the new one (the walk happens once).

@@ -59,12 +59,11 @@ TimeScheme MakeTimeScheme(TimeSchemeKind kind, double spectral_radius, double dt
   s.kind = kind;
   s.dt   = dt;
   if (kind == TimeSchemeKind::GeneralizedAlpha) {
-    const double rho  = spectral_radius;
-    s.spectral_radius = rho;
-    s.alpha_m         = (2.0 * rho - 1.0) / (rho + 1.0);
-    s.alpha_f         = rho / (rho + 1.0);
-    s.gamma           = 0.5 + s.alpha_f - s.alpha_m;
-    s.beta            = 0.25 * (s.gamma + 0.5) * (s.gamma + 0.5);
+    const double rho = spectral_radius;
+    s.alpha_m        = (2.0 * rho - 1.0) / (rho + 1.0);
+    s.alpha_f        = rho / (rho + 1.0);
+    s.gamma          = 0.5 + s.alpha_f - s.alpha_m;
+    s.beta           = 0.25 * (s.gamma + 0.5) * (s.gamma + 0.5);
   }
   return s;
 }

@@ -44,10 +44,7 @@ struct TimeScheme {
   double           beta = 0.25, gamma = 0.5, alpha_m = 0.0, alpha_f = 0.0; // Newmark family only
   EnergyCorrection energy_correction = EnergyCorrection::Resultants;       // em only
 
-  // The Newmark family's spectral radius at infinity rho_inf: genalpha's, 1 for newmark (no
-  // numerical dissipation).
-  double spectral_radius = 1.0;
-  bool   Midpoint() const { return IsMidpointScheme(kind); }
+  bool Midpoint() const { return IsMidpointScheme(kind); }
   // d(inertial acceleration)/d(increment): vdot_{n+1} for the Newmark family, (v_{n+1} - v_n)/dt
   // for the mid-point family.
   double InertiaCoefficient() const;

@@ -293,69 +293,28 @@ void StateUpdateSlaves(const Model &model, State *state)
   }
 }
 
-// Newmark family, at the end of a step: a slave's motion from its master's and its coordinates'
-// (the start of the next step), as the kinematics relate them,
-//   (v, w)_s = N (v_m, w_m, qdot),   (a, wdot)_s = N (a_m, wdot_m, qddot) + (dN/dt) (v_m, w_m, qdot),
-// for the true and the pseudo-accelerations alike (JointVelocityProductAcceleration; a free
-// rotation's own term is taken at q = 0, where it vanishes: at the end of a step it is of the
-// order of the step). Within a step the slave's rates follow from its increments by the scheme
-// like any node's (the tangent stays exact); its own recursion from step to step would not: on a
-// curved path (a mass on an offset from a turning master, a drive on a moving master) the
-// trapezoidal rule's error mode -1 is forced at its own frequency, and the slave's acceleration,
-// so the reactions, drifted without bound and without converging in dt.
-// The largest spectral radius at infinity under which the slaves keep their own recursion.
-constexpr double kSlaveRecursionRadius = 0.9;
-
-void DeriveSlaveMotion(State *state, const JointState &J)
-{
-  NodeState  &slave = state->nodes[J.local_slave];
-  const int   k     = JointNumCoordinates(J.geometry);
-  Mat3        R_m   = Mat3::Identity();
-  MotionState translation_m, rotation_m; // the master's, spatial (zero for the ground)
-  if (J.local_master >= 0) {
-    const NodeState &master = state->nodes[J.local_master];
-    R_m                     = master.rotation;
-    translation_m           = master.translation_motion;
-    rotation_m = {R_m * master.rotation_motion.velocity, R_m * master.rotation_motion.acceleration, R_m * master.rotation_motion.pseudo_acceleration};
-  }
-  using Rates    = Eigen::Matrix<double, 6 + kJointMaxReleased, 1>;
-  Rates velocity = Rates::Zero(), acceleration = Rates::Zero(), pseudo = Rates::Zero();
-  velocity.head<6>() << translation_m.velocity, rotation_m.velocity;
-  acceleration.head<6>() << translation_m.acceleration, rotation_m.acceleration;
-  pseudo.head<6>() << translation_m.pseudo_acceleration, rotation_m.pseudo_acceleration;
-  double rates[kJointMaxReleased];
-  for (int c = 0; c < kJointMaxReleased; ++c) {
-    const MotionState &coordinate = J.coordinate_motion[c / 3];
-    rates[c]                      = coordinate.velocity(c % 3);
-    if (c >= k) continue;
-    velocity(6 + c)     = rates[c];
-    acceleration(6 + c) = coordinate.acceleration(c % 3);
-    pseudo(6 + c)       = coordinate.pseudo_acceleration(c % 3);
-  }
-  JointCoordinates q = J.start;
-  for (int c = 0; c < kJointMaxReleased; ++c) q.q[c] += J.increment[c];
-  if (J.geometry.rotation == JointRotation::Free)
-    for (int c = J.geometry.num_translations; c < k; ++c) q.q[c] = 0.0;
-  const Vec6 products = JointVelocityProductAcceleration(J.geometry, q, R_m, rotation_m.velocity, rates);
-  const Vec6 v = J.map * velocity, a = J.map * acceleration + products, a_pseudo = J.map * pseudo + products;
-  const Mat3 R_s_T         = slave.rotation.transpose();
-  slave.translation_motion = {v.head<3>(), a.head<3>(), a_pseudo.head<3>()};
-  slave.rotation_motion    = {R_s_T * v.tail<3>(), R_s_T * a.tail<3>(), R_s_T * a_pseudo.tail<3>()};
-}
-
 void StateCommitStep(const Model &model, State *state)
 {
   const StepEquations &equations = state->equations;
   if (equations.Dynamic()) {
     const TimeScheme &scheme = equations.scheme;
-    if (scheme.Midpoint())
-      for (RigidBodyState &body : state->bodies) {
+    for (RigidBodyState &body : state->bodies) {
+      const NodeState &s       = state->nodes[body.local_node];
+      const Mat3       R_start = QuaternionToMatrix(s.rotation_start);
+      if (scheme.Midpoint()) {
         // The centre of mass moves with its own algorithmic velocity (elements/inertia.hpp).
-        const NodeState   &s    = state->nodes[body.local_node];
-        const Vec3         u_c  = s.displacement_increment + (s.rotation - QuaternionToMatrix(s.rotation_start)) * body.offset;
+        const Vec3         u_c  = s.displacement_increment + (s.rotation - R_start) * body.offset;
         const MotionUpdate next = AdvanceMotion(scheme, body.centre_of_mass, u_c);
         body.centre_of_mass     = {next.velocity, next.acceleration, next.pseudo_acceleration};
+      } else {
+        // A point of the node's frame (RigidOffsetMassInertia): its motion follows from the node's.
+        const MotionUpdate spin = NodeSpinUpdate(scheme, s);
+        const Vec3        &c = body.offset, &W = spin.velocity;
+        body.centre_of_mass.velocity            = s.translation_update.velocity + s.rotation * W.cross(c);
+        body.centre_of_mass.acceleration        = s.translation_update.acceleration + s.rotation * (spin.acceleration.cross(c) + W.cross(W.cross(c)));
+        body.centre_of_mass.pseudo_acceleration = body.centre_of_mass.acceleration;
       }
+    }
     for (JointState &J : state->joints)
       for (int half = 0; half < 2; ++half)
         J.coordinate_motion[half] = {J.coordinate_update[half].velocity, J.coordinate_update[half].acceleration, J.coordinate_update[half].pseudo_acceleration};
@@ -366,26 +325,6 @@ void StateCommitStep(const Model &model, State *state)
                             : NodeSpinUpdate(scheme, s);
       s.translation_motion = {s.translation_update.velocity, s.translation_update.acceleration, s.translation_update.pseudo_acceleration};
       s.rotation_motion    = {rotation.velocity, rotation.acceleration, rotation.pseudo_acceleration};
-    }
-    if (!scheme.Midpoint()) {
-      // The slave's error mode -1 decays by rho_inf per step; forced at its own frequency, its
-      // amplitude grows as 1/(1 - rho_inf): without numerical dissipation (newmark, genalpha at
-      // rho_inf = 1) it never stops growing, and at 0.99 it reached half the drive torque of a
-      // motor on a swinging arm. Below kSlaveRecursionRadius (genalpha's default 0.9 included) the
-      // recursion stays second-order accurate, which the derived motion, reset at every step,
-      // would lower to first order; above it the slaves' motion is derived from their masters'
-      // (within the step their rates are the scheme's from their increments either way).
-      // Masters' joints come first: a master that is itself a slave is derived before its slaves.
-      if (scheme.spectral_radius > kSlaveRecursionRadius)
-        for (const JointState &J : state->joints) DeriveSlaveMotion(state, J);
-      // A rigid body's centre of mass is a point of its node's frame (RigidOffsetMassInertia).
-      for (RigidBodyState &body : state->bodies) {
-        const NodeState &s = state->nodes[body.local_node];
-        const Vec3      &c = body.offset, &W = s.rotation_motion.velocity;
-        body.centre_of_mass.velocity     = s.translation_motion.velocity + s.rotation * W.cross(c);
-        body.centre_of_mass.acceleration = s.translation_motion.acceleration + s.rotation * (s.rotation_motion.acceleration.cross(c) + W.cross(W.cross(c)));
-        body.centre_of_mass.pseudo_acceleration = body.centre_of_mass.acceleration;
-      }
     }
   }
   for (NodeState &s : state->nodes) NodeCommit(&s);
@@ -435,6 +374,15 @@ void StateDiscardStep(const Model &model, State *state)
   for (JointState &J : state->joints)
     for (double &increment : J.increment) increment = 0.0;
   StateUpdateSlaves(model, state);
+  // In the initial-acceleration problem a slave's "increment" holds its velocity products even at
+  // zero unknowns; a discarded solve leaves no increment anywhere (the mid-point schemes discard
+  // theirs, and a slave's would have read as a rotation: a universal joint started at rates
+  // (1, 2) wrote a first frame turned by 2 rad).
+  if (state->equations.RateUnknowns())
+    for (const JointState &J : state->joints) {
+      state->nodes[J.local_slave].displacement_increment.setZero();
+      state->nodes[J.local_slave].rotation_increment.setZero();
+    }
 }
 
 void StateSetInitialVelocities(const Model &model, const DofMap &map, double t, State *state)

@@ -1,11 +1,8 @@
 """The turning arm with a screw joint (input/turning_arm_screw.yaml; the paper's §5.1, Fig. 6):
-with dt = 0.02 Newmark conserves nothing: its total energy wanders by more than 5 % of the
-initial 181.08 J (measured 162-201 J) and Newton fails on many steps, which are halved (measured
-79 rejections); em runs to the end with its total energy constant to 1e-8 relative; mc runs to the
-end too; with the exact tangent no step of em or mc is rejected because the linear solver failed.
-The screw translation equals pitch x angle. (The paper's Newmark run blew up at t = 1.8653;
-msflex's did at t = 3.63 while each slave node kept its own trapezoidal recursion, whose undamped
-error mode the slave's curved path forces: docs/joints.md.)"""
+with dt = 0.02 Newmark's energy grows until the run stops (non-zero exit, the stop message)
+before t = 4 s, having written its results so far; em runs to the end with its total energy
+constant to 1e-8 relative; mc runs to the end too; with the exact tangent no step of em or mc
+is rejected because the linear solver failed. The screw translation equals pitch x angle."""
 
 import numpy as np
 
@@ -16,13 +13,14 @@ check = mt.Checker("turning arm")
 source = f"{args.source_dir}/input/turning_arm_screw.yaml"
 
 output = f"{args.work_dir}/newmark.h5"
-code, stdout, stderr = mt.run_msflex(args, source, output, extra=["-analysis_integrator", "newmark", "-progress_every", "1000000"], expect_success=False)
+code, _, stderr = mt.run_msflex(args, source, output, extra=["-analysis_integrator", "newmark", "-quiet"], expect_success=False)
 h = mt.history(output)
 energy = h["total_energy"]
-rejections = [line for line in stdout.splitlines() if "rejected:" in line]
-print(f"newmark: exit {code}, last converged t = {h['time'][-1]:.4f}, energy {energy[0]:.3f} -> {energy.min():.4g} .. {energy.max():.4g}, {len(rejections)} rejected steps")
-check.less("newmark: the energy wanders (initial / largest deviation from it)", energy[0] / np.abs(energy - energy[0]).max(), 20.0)
-check.true("newmark: Newton fails on steps that are halved", len(rejections) > 0)
+print(f"newmark: exit {code}, last converged t = {h['time'][-1]:.4f}, energy {energy[0]:.3f} -> max {energy.max():.4g}")
+check.true("newmark: exit status 1", code == 1)
+check.less("newmark: stops before t = 4 (last time / 4)", h["time"][-1] / 4.0, 1.0)
+check.less("newmark: energy grows (initial / max energy)", energy[0] / energy.max(), 0.5)
+check.true("newmark: stop message printed", "stopped at t =" in stderr)
 
 for integrator in ("em", "mc"):
     output = f"{args.work_dir}/{integrator}.h5"

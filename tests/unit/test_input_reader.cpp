@@ -1168,7 +1168,7 @@ TEST(InputMesh, BadMeshesNameFileDatasetAndRow)
       {"zero axis", [](MeshSpec &spec) { std::fill_n(spec["/joints/axis"].reals.begin() + 3, 3, 0.0); },
        "mesh.h5: /joints/axis row 1: the axis must not be the zero vector"},
       {"slave twice", [](MeshSpec &spec) { spec["/joints/slave"].integers[3] = 5; },
-       "mesh.h5: /joints/slave row 3: node 'p5' is already the slave of joint 'lead'"},
+       "mesh.h5: /joints/slave row 3: node 'p5' is already the slave of joint 'lead' of the mesh file; a node can be the slave of only one joint"},
       {"not finite", [](MeshSpec &spec) { spec["/nodes/coordinates"].reals[7] = std::nan(""); }, "mesh.h5: /nodes/coordinates row 2: not a finite number"},
       {"duplicate node name", [](MeshSpec &spec) { spec["/nodes/names"].strings[6] = "p1"; },
        "mesh.h5: /nodes/names row 6: node name 'p1' is already used by node row 1 of /nodes"},
