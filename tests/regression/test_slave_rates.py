@@ -38,20 +38,8 @@ def run(name, integrator, dt):
 mass, c, g, I_o = 2.0, 0.5, 9.81, 0.6
 
 
-def pendulum_angle(time):
-    h, state, t = 1e-4, np.array([0.0, 3.0]), 0.0
-    f = lambda s: np.array([s[1], -mass * g * c * np.sin(s[0]) / I_o])
-    while t < time - 1e-12:
-        step = min(h, time - t)
-        k1 = f(state)
-        k2 = f(state + 0.5 * step * k1)
-        k3 = f(state + 0.5 * step * k2)
-        k4 = f(state + step * k3)
-        state, t = state + step / 6.0 * (k1 + 2 * k2 + 2 * k3 + k4), t + step
-    return state[0]
-
-
-def pendulum_reaction_y(times):
+def pendulum_states(times):
+    """(theta, theta') at each of the ascending `times`, by RK4 from (0, 3 rad/s)."""
     h, state, t, out = 1e-4, np.array([0.0, 3.0]), 0.0, []
     f = lambda s: np.array([s[1], -mass * g * c * np.sin(s[0]) / I_o])
     for target in times:
@@ -62,10 +50,18 @@ def pendulum_reaction_y(times):
             k3 = f(state + 0.5 * step * k2)
             k4 = f(state + step * k3)
             state, t = state + step / 6.0 * (k1 + 2 * k2 + 2 * k3 + k4), t + step
-        theta, rate = state
-        acceleration = -mass * g * c * np.sin(theta) / I_o
-        out.append(mass * (c * acceleration * np.sin(theta) + c * rate**2 * np.cos(theta) + g))  # m (a_c - g), y
+        out.append(state)
     return np.array(out)
+
+
+def pendulum_angle(time):
+    return pendulum_states([time])[0, 0]
+
+
+def pendulum_reaction_y(times):
+    theta, rate = pendulum_states(times).T
+    acceleration = -mass * g * c * np.sin(theta) / I_o
+    return mass * (c * acceleration * np.sin(theta) + c * rate**2 * np.cos(theta) + g)  # m (a_c - g), y
 
 
 for integrator in ("newmark", "genalpha", "mc", "em"):
