@@ -1329,8 +1329,9 @@ PetscErrorCode Assembler::EvaluateJointReactions(double dt)
     const PetscScalar *row = output + kJointOutputStride * (map.joint_slot[J.joint] - map.first_owned_joint_slot);
     for (int i = 0; i < 6; ++i) J.reaction(i) = row[i];
     J.drive_force = row[kDriveForceSlot];
-    if (dt > 0.0)
-      for (int c = 0; c < kJointMaxReleased; ++c) J.rate[c] = row[6 + c];
+    // The mean rate over the step; at the initial state (no step: dt = 0) the coordinates' own
+    // rates, which the initial velocities set (they read 0 for a mechanism started moving).
+    for (int c = 0; c < kJointMaxReleased; ++c) J.rate[c] = dt > 0.0 ? row[6 + c] : J.CoordinateRate(c);
   }
   PetscCall(VecRestoreArrayRead(joint_output_, &output));
   PetscFunctionReturn(PETSC_SUCCESS);

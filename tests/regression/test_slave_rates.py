@@ -3,7 +3,7 @@
 1. tests/regression/inputs/welded_pendulum.yaml: a bob welded to a hinge node, started at 3 rad/s.
    - The first row's reaction holds the bob's centripetal force, m g + m c theta'^2 = 28.62 N, to
      1e-9 with every integrator: the initial accelerations include the velocity-product terms
-     (before: 19.62 N).
+     (before: 19.62 N); its hinge.rx_rate is the initial 3 rad/s (it read 0).
    - genalpha: the hinge's force_y against an RK4 solution of the pendulum within 0.01 N of its
      28.6 N peak over 3 s at dt = 1 ms (measured 4e-4 N; before: 9 N from the start).
    - newmark: the angle after 3 s against RK4 is second-order accurate (error ratio 0.25 from dt to
@@ -67,6 +67,7 @@ def pendulum_reaction_y(times):
 for integrator in ("newmark", "genalpha", "mc", "em"):
     h = run("welded_pendulum", integrator, 0.001)
     check.less(f"welded pendulum, {integrator}: |row 0 force_y - (m g + m c theta'^2)| / 28.62", abs(h["hinge.force_y"][0] - 28.62) / 28.62, 1e-9)
+    check.less(f"welded pendulum, {integrator}: |row 0 hinge.rx_rate - 3 rad/s| (the initial rate)", abs(h["hinge.rx_rate"][0] - 3.0), 1e-12)
 h = run("welded_pendulum", "genalpha", 0.001)
 rows = slice(None, None, 10)  # every 10 ms
 error = np.abs(h["hinge.force_y"][rows] - pendulum_reaction_y(h["time"][rows])).max()
