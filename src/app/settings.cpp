@@ -122,14 +122,9 @@ PetscErrorCode SettingsFromOptions(MPI_Comm comm, Model *model, RunOptions *opti
              control);
   a.preload = preload == PETSC_TRUE;
   // The reader checked the input for its own analysis only.
-  const bool made_static = NeedsStaticStiffness(a.type, a.preload) && !NeedsStaticStiffness(input_type, input_preload);
-  if (made_static) {
-    InputError error;
-    PetscCheck(CheckStaticModel(*model, &error), comm, PETSC_ERR_USER_INPUT, "with -analysis_type %s: %s", AnalysisTypeName(a.type), error.Format().c_str());
-  }
   if (a.type != input_type || a.preload != input_preload) {
     InputError error;
-    PetscCheck(CheckEigenanalysisLoads(*model, a.type, a.preload, &error), comm, PETSC_ERR_USER_INPUT, "with -analysis_type %s: %s", AnalysisTypeName(a.type),
+    PetscCheck(CheckModelForAnalysisType(*model, a.type, a.preload, &error), comm, PETSC_ERR_USER_INPUT, "with -analysis_type %s: %s", AnalysisTypeName(a.type),
                error.Format().c_str());
   }
   PetscCheck(std::isfinite(a.arc_length_psi) && a.arc_length_psi >= 0, comm, PETSC_ERR_USER_INPUT, "option -analysis_arc_length_psi must be >= 0, got %.6g",

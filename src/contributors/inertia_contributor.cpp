@@ -101,9 +101,8 @@ void InertiaContributor::AddNode(const State &state, int l, NodeContribution *ou
     Mat3                    moment_tangent;
     MotionUpdate            update;
     const RotationIncrement increment{s.rotation_increment, s.rotation, s.rotation_tangent, s.tangent_scaled_increment, s.tangent_scaled_derivative};
-    const MotionUpdate      prescribed = s.prescribed_spin ? NodeSpinUpdate(eq.scheme, s) : MotionUpdate{};
     RotationalInertia(eq.scheme, J, QuaternionToMatrix(s.rotation_start), increment, s.rotation_motion, &moment, out->want_tangent ? &moment_tangent : nullptr,
-                      &update, s.prescribed_spin ? &prescribed : nullptr);
+                      &update, s.PrescribedSpin());
     for (int i = 0; i < 3; ++i) out->residual[3 + i] += moment(i);
     // The kernel differentiates with respect to omega; spins: d omega = H(omega)^{-1} d theta.
     if (out->want_tangent) out->tangent.block<3, 3>(3, 3) += moment_tangent * s.rotation_tangent_inverse;

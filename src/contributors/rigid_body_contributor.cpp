@@ -45,9 +45,8 @@ void RigidBodyContributor::BodyForces(const State &state, size_t b, Vec6 *residu
       // body turning about a held node (elements/inertia.hpp).
       // The node's acceleration as StateUpdateNode made it: the scheme's, or a prescribed motion's.
       // The node's spin likewise: the scheme's, or a prescribed rotation's (NodeSpinUpdate).
-      const MotionUpdate prescribed = s.prescribed_spin ? NodeSpinUpdate(eq.scheme, s) : MotionUpdate{};
       RigidOffsetMassInertia(eq.scheme, body.mass, body.offset, R_start, s.rotation_increment, s.translation_update.acceleration, s.rotation_motion, residual,
-                             tangent, s.prescribed_spin ? &prescribed : nullptr);
+                             tangent, s.PrescribedSpin());
     }
     // The kernel differentiates with respect to omega; spins: d omega = H(omega)^{-1} d theta.
     if (tangent) tangent->rightCols<3>() = (tangent->rightCols<3>() * s.rotation_tangent_inverse).eval();

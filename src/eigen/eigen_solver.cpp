@@ -140,14 +140,14 @@ PetscErrorCode SolveModesAt(Mat K, Mat M, int count, double sigma, EigenPairs *p
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
-// min (or max) over the DOFs with mass of K_ii / M_ii: the Rayleigh quotient of a unit vector,
-// an upper bound of the lowest eigenvalue (a scale of the largest). Collective.
-PetscErrorCode DiagonalRatio(Mat K, Mat M, double *ratio, bool largest = false)
+// min over the DOFs with mass of K_ii / M_ii: the Rayleigh quotient of a unit vector, an upper
+// bound of the lowest eigenvalue. Collective.
+PetscErrorCode DiagonalRatio(Mat K, Mat M, double *ratio)
 {
   Vec                k, m;
   const PetscScalar *kv, *mv;
   PetscInt           n;
-  double             local = largest ? 0.0 : INFINITY;
+  double             local = INFINITY;
   PetscFunctionBeginUser;
   PetscCall(MatCreateVecs(K, &k, &m));
   PetscCall(MatGetDiagonal(K, k));
@@ -158,13 +158,13 @@ PetscErrorCode DiagonalRatio(Mat K, Mat M, double *ratio, bool largest = false)
   for (PetscInt i = 0; i < n; ++i)
     if (PetscRealPart(mv[i]) > 0 && PetscRealPart(kv[i]) > 0) {
       const double r = PetscRealPart(kv[i]) / PetscRealPart(mv[i]);
-      local          = largest ? std::max(local, r) : std::min(local, r);
+      local          = std::min(local, r);
     }
   PetscCall(VecRestoreArrayRead(k, &kv));
   PetscCall(VecRestoreArrayRead(m, &mv));
   PetscCall(VecDestroy(&k));
   PetscCall(VecDestroy(&m));
-  PetscCall(MPIU_Allreduce(&local, ratio, 1, MPI_DOUBLE, largest ? MPI_MAX : MPI_MIN, PetscObjectComm((PetscObject)K)));
+  PetscCall(MPIU_Allreduce(&local, ratio, 1, MPI_DOUBLE, MPI_MIN, PetscObjectComm((PetscObject)K)));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 

@@ -342,12 +342,13 @@ void CheckStaticMechanisms(const Model &model)
   }
 }
 
-// A follower load's stiffness is not symmetric: the symmetric eigenproblems of a buckling analysis
-// and of preloaded modes would give wrong answers (Beck's column, which loses stability only by
-// flutter at 20.05 EI/L^2, came out with a divergence load of 7.97 EI/L^2 and real frequencies
-// past flutter).
-void CheckSymmetricEigenproblem(const Model &model, AnalysisType type, bool preload)
+void CheckModelForAnalysis(const Model &model, AnalysisType type, bool preload)
 {
+  if (NeedsStaticStiffness(type, preload)) CheckStaticMechanisms(model);
+  // A follower load's stiffness is not symmetric: the symmetric eigenproblems of a buckling
+  // analysis and of preloaded modes would give wrong answers (Beck's column, which loses stability
+  // only by flutter at 20.05 EI/L^2, came out with a divergence load of 7.97 EI/L^2 and real
+  // frequencies past flutter).
   const bool buckling = type == AnalysisType::Buckling;
   if (!buckling && !(type == AnalysisType::Modes && preload)) return;
   for (const NodalLoad &load : model.nodal_loads)

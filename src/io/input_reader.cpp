@@ -848,8 +848,7 @@ Model ParseModel(const std::string &text, const std::string &file_label, MPI_Com
   ReadAnalysis(top.Find("analysis"), context, model.analysis);
   ReadOutput(top.Find("output"), context, model.output);
   ReadExpected(top.Find("expected"), context);
-  if (NeedsStaticStiffness(model.analysis.type, model.analysis.preload)) CheckStaticMechanisms(model);
-  CheckSymmetricEigenproblem(model, model.analysis.type, model.analysis.preload);
+  CheckModelForAnalysis(model, model.analysis.type, model.analysis.preload);
   return std::move(context.model);
 }
 
@@ -871,23 +870,11 @@ std::string InputError::Format() const
   return location + ": error: " + message;
 }
 
-bool CheckEigenanalysisLoads(const Model &model, AnalysisType type, bool preload, InputError *error)
+bool CheckModelForAnalysisType(const Model &model, AnalysisType type, bool preload, InputError *error)
 {
   using namespace input_detail;
   try {
-    CheckSymmetricEigenproblem(model, type, preload);
-    return true;
-  } catch (const InputFailure &failure) {
-    *error = InputError{model.input_file, failure.line, failure.column, failure.message};
-  }
-  return false;
-}
-
-bool CheckStaticModel(const Model &model, InputError *error)
-{
-  using namespace input_detail;
-  try {
-    CheckStaticMechanisms(model);
+    CheckModelForAnalysis(model, type, preload);
     return true;
   } catch (const InputFailure &failure) {
     *error = InputError{model.input_file, failure.line, failure.column, failure.message};

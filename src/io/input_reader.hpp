@@ -31,13 +31,11 @@ bool ReadModelFile(const std::string &path, Model *model, InputError *error, MPI
 // Same, from text; `file_label` is the name used in messages and stored as Model::input_file.
 bool ReadModelString(const std::string &text, const std::string &file_label, Model *model, InputError *error, MPI_Comm comm = MPI_COMM_SELF);
 
-// The reader's statics check (a mechanism free to move as a rigid body cannot be solved in
-// statics), for a model whose analysis was made static after reading (-analysis_type static).
-// Returns false and fills *error when the model fails it. Never throws.
-bool CheckStaticModel(const Model &model, InputError *error);
-// The check of follower loads against a buckling or preloaded modes analysis, for an analysis type
-// or preload an option changed (the reader checked the input's own).
-bool CheckEigenanalysisLoads(const Model &model, AnalysisType type, bool preload, InputError *error);
+// The reader's checks of the model against its analysis type (a mechanism free to move as a rigid
+// body cannot be solved in statics; a follower load has no place in a symmetric eigenproblem), for
+// an analysis type or preload that an option changed after reading (-analysis_type, -analysis_preload).
+// Returns false and fills *error when the model fails them. Never throws.
+bool CheckModelForAnalysisType(const Model &model, AnalysisType type, bool preload, InputError *error);
 
 // The reader's checks of the analysis settings that refer to the rest of the model (the node DOF
 // or joint coordinate of displacement control), for settings changed after reading (options).

@@ -187,8 +187,10 @@ void ReadExpected(const YAML::Node *list, ReaderContext &context);
 // static stiffness matrix singular; elements and joints between nodes connect groups
 // (input_mechanism_check.cpp). Called for static analyses only.
 void CheckStaticMechanisms(const Model &model);
-// No follower load where the analysis solves a symmetric eigenproblem (buckling, preloaded modes).
-void CheckSymmetricEigenproblem(const Model &model, AnalysisType type, bool preload);
+// What an analysis type needs of the model: no mechanism where it needs the static stiffness
+// (CheckStaticMechanisms), no follower load where it solves a symmetric eigenproblem (buckling,
+// preloaded modes).
+void CheckModelForAnalysis(const Model &model, AnalysisType type, bool preload);
 
 // What is wrong with the analysis settings that refer to the rest of the model (the target of
 // displacement control), and the analysis key to blame; an empty message when nothing is

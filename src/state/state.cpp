@@ -93,7 +93,7 @@ void StateUpdateNode(const StepEquations &equations, NodeState *s)
 
 MotionUpdate NodeSpinUpdate(const TimeScheme &scheme, const NodeState &node)
 {
-  if (node.prescribed_spin) return {node.prescribed_body_velocity, node.prescribed_body_acceleration, node.prescribed_body_acceleration};
+  if (node.prescribed_spin) return node.prescribed_spin_motion;
   return AdvanceMotion(scheme, node.rotation_motion, QuaternionToMatrix(node.rotation_start).transpose() * node.rotation_increment);
 }
 
@@ -153,9 +153,9 @@ void StateBeginStep(const Model &model, const DofMap &map, const StepEquations &
     StateUpdateNode(equations, &s);
     if (prescribed_rotations == 1 && fixed_rotations == 2) {
       // Material rates at t_end: W = Lambda^T w, Wdot = Lambda^T wdot (w x w = 0).
-      s.prescribed_spin              = true;
-      s.prescribed_body_velocity     = s.rotation.transpose() * spin_rate;
-      s.prescribed_body_acceleration = s.rotation.transpose() * spin_acceleration;
+      const Vec3 W_dot         = s.rotation.transpose() * spin_acceleration;
+      s.prescribed_spin        = true;
+      s.prescribed_spin_motion = {s.rotation.transpose() * spin_rate, W_dot, W_dot};
     }
   }
   for (JointState &J : state->joints) {
@@ -165,6 +165,7 @@ void StateBeginStep(const Model &model, const DofMap &map, const StepEquations &
     const int c = joint.driven_coordinate;
     J.increment[c] =
         accelerations || velocities ? DriveCoordinate(model, joint, t_end, accelerations ? 2 : 1) : DriveCoordinate(model, joint, t_end, 0) - J.start.q[c];
+    if (exact_rates) J.drive_rate = DriveCoordinate(model, joint, t_end, 1), J.drive_acceleration = DriveCoordinate(model, joint, t_end, 2);
   }
   StateUpdateSlaves(model, state);
   if (!exact_rates) return;
@@ -176,7 +177,7 @@ void StateBeginStep(const Model &model, const DofMap &map, const StepEquations &
     const Joint &joint = model.joints[J.joint];
     if (J.local_master >= 0 || joint.driven_coordinate < 0 || JointNumCoordinates(J.geometry) != 1) continue;
     NodeState   &slave = state->nodes[J.local_slave];
-    const double rate = DriveCoordinate(model, joint, t_end, 1), acceleration = DriveCoordinate(model, joint, t_end, 2);
+    const double rate = J.drive_rate, acceleration = J.drive_acceleration;
     const Vec6   column = J.map.col(6);
     Vec3         a      = acceleration * column.head<3>();
     if (J.geometry.dependence != JointDependence::None) {
@@ -184,12 +185,12 @@ void StateBeginStep(const Model &model, const DofMap &map, const StepEquations &
       JointDependentTranslation(J.geometry, J.start.q[0] + J.increment[0], &f, &df, &ddf);
       a += ddf * rate * rate * J.geometry.axes.col(J.geometry.dependent_axis);
     }
-    slave.prescribed_rates             = 0x7;
-    slave.prescribed_velocity          = rate * column.head<3>();
-    slave.prescribed_acceleration      = a;
-    slave.prescribed_spin              = true;
-    slave.prescribed_body_velocity     = slave.rotation.transpose() * (rate * column.tail<3>());
-    slave.prescribed_body_acceleration = slave.rotation.transpose() * (acceleration * column.tail<3>());
+    slave.prescribed_rates        = 0x7;
+    slave.prescribed_velocity     = rate * column.head<3>();
+    slave.prescribed_acceleration = a;
+    const Vec3 W_dot              = slave.rotation.transpose() * (acceleration * column.tail<3>());
+    slave.prescribed_spin         = true;
+    slave.prescribed_spin_motion  = {slave.rotation.transpose() * (rate * column.tail<3>()), W_dot, W_dot};
     StateUpdateNode(equations, &slave);
   }
 }
@@ -271,8 +272,8 @@ void StateUpdateSlaves(const Model &model, State *state)
     if (equations.NewmarkFamily() && joint.driven_coordinate >= 0) {
       const int     c            = joint.driven_coordinate;
       MotionUpdate &update       = J.coordinate_update[c / 3];
-      update.velocity(c % 3)     = DriveCoordinate(model, joint, equations.t_end, 1);
-      update.acceleration(c % 3) = update.pseudo_acceleration(c % 3) = DriveCoordinate(model, joint, equations.t_end, 2);
+      update.velocity(c % 3)     = J.drive_rate;
+      update.acceleration(c % 3) = update.pseudo_acceleration(c % 3) = J.drive_acceleration;
     }
     // Rows of the mid-point schemes: the conserving map of eq. (21-22), so that the slave's work
     // and momenta carry over exactly; elsewhere N itself.

@@ -58,9 +58,10 @@ struct NodeState {
   // end-of-step material angular velocity W and acceleration Wdot instead of the scheme's
   // (NodeSpinUpdate), for the reason above: one rotation DOF prescribed with the other two fixed,
   // or the slave of a drive to the ground whose joint releases nothing else.
-  bool prescribed_spin              = false;
-  Vec3 prescribed_body_velocity     = Vec3::Zero();
-  Vec3 prescribed_body_acceleration = Vec3::Zero();
+  bool         prescribed_spin = false;
+  MotionUpdate prescribed_spin_motion; // W, Wdot and the pseudo-acceleration (= Wdot) at t_end
+  // The kernels' argument: the prescribed spin, or null for the scheme's.
+  const MotionUpdate *PrescribedSpin() const { return prescribed_spin ? &prescribed_spin_motion : nullptr; }
   // The mid-point schemes' tangent-scaled increment, kept current by StateUpdateNode for them only
   // (their residuals read it at every iterate); other readers call NodeTangentScaledIncrement.
   Vec3 tangent_scaled_increment  = Vec3::Zero();     // alpha = 2 tan(|omega|/2) omega/|omega|
@@ -99,6 +100,9 @@ struct JointState {
   // The generalised reaction on a driven coordinate this rank assembled at the end of the last
   // step (the Newmark family's trapezoidal work of the drive).
   double drive_reaction = 0.0;
+  // Newmark family: the drive's own rate and acceleration at the end of the step being solved,
+  // q'(t_end) and q''(t_end) (StateBeginStep), which replace the scheme's.
+  double drive_rate = 0.0, drive_acceleration = 0.0;
   // Dynamics of the released coordinates (dampers on them): rate, acceleration and the Newmark
   // family's pseudo-acceleration at the start of the step, coordinates 0-2 in [0] and 3-5 in [1],
   // and what the step's increments imply at its end (Newmark family).
