@@ -106,7 +106,7 @@ PetscErrorCode RunEigenAnalysis(MPI_Comm comm, const Model &model, const DofMap 
   Vec                     weights, shape;
   EigenPairs              pairs;
   PetscFunctionBeginUser;
-  // (No follower load here: CheckSymmetricEigenproblem, io/input_reader.cpp.)
+  // (No follower load here: CheckModelForAnalysis, io/input_mechanism_check.cpp.)
   PetscCall(EigenInitialize());
   // No more modes than unknowns (relays' rows are none): asked for more, the solver returned
   // what it found after a second solve, without a word.
