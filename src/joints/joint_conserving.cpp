@@ -100,17 +100,23 @@ ReleasedRotationStep ReleasedRotation(const JointGeometry &joint, const JointCoo
     break;
   }
   case JointRotation::TwoAxes: {
-    // C_{n+1} C_n^T = cay(tau2 b) cay(tau1 a_i), b = exp(phi1_{n+1} hat(a_i)) a_j (b . a_i = 0):
-    // alpha_R = tau1 (a_i + tau2 b x a_i / 2) + tau2 b, and db/dphi1 = a_i x b.
-    r.count       = 2;
-    const Vec3 ai = joint.axes.col(joint.rotation_axis[0]), aj = joint.axes.col(joint.rotation_axis[1]);
-    const Vec3 b = ExpSO3((start.q[nt] + increment[nt]) * ai) * aj, db = ai.cross(b);
+    // C_{n+1} C_n^T = cay(tau2 b_{n+1}) cay(tau1 a_i), b_t = exp(phi1_t hat(a_i)) a_j (b . a_i = 0),
+    // whose tangent-scaled vector is, exactly,
+    //   alpha_R = tau1 a_i + tau2 b_m / cos(dphi1/2),   b_m = exp(phi1_m hat(a_i)) a_j,
+    // phi1_m = phi1_n + dphi1/2 the step's mid-angle (b_{n+1} = cos h b_m + sin h a_i x b_m with
+    // h = dphi1/2, and the component along a_i x b_m, tau2 (sin h - tan h cos h), vanishes). Its
+    // columns W = [a_i, b_m / cos h] are the mid-point map's N = [a_i, b] to O(dt^2), so the
+    // scheme stays second order; the columns taken at the end of the step (a_i + tau2 b_{n+1} x
+    // a_i / 2, b_{n+1}), which give the same alpha_R, tilt the equations by O(dt) along the
+    // reaction a_i x b and made the motion first order. dW_2/dphi1 = (tan h b_m + a_i x b_m) / (2 cos h).
+    r.count         = 2;
+    const Vec3   ai = joint.axes.col(joint.rotation_axis[0]), aj = joint.axes.col(joint.rotation_axis[1]);
+    const double h = 0.5 * increment[nt], secant = 1.0 / std::cos(h);
+    const Vec3   b = ExpSO3((start.q[nt] + h) * ai) * aj;
     for (int c = 0; c < 2; ++c) r.p[c] = 2.0 * std::tan(0.5 * increment[nt + c]), r.dp[c][c] = 1.0 + 0.25 * r.p[c] * r.p[c];
-    r.W[0]     = ai + 0.5 * r.p[1] * b.cross(ai);
-    r.W[1]     = b;
-    r.dW[0][0] = 0.5 * r.p[1] * db.cross(ai);
-    r.dW[0][1] = 0.5 * r.dp[1][1] * b.cross(ai);
-    r.dW[1][0] = db;
+    r.W[0]     = ai;
+    r.W[1]     = secant * b;
+    r.dW[1][0] = 0.5 * secant * (std::tan(h) * b + ai.cross(b));
     break;
   }
   case JointRotation::Free: {

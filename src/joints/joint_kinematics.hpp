@@ -170,8 +170,8 @@ void JointReleasedTestDerivative(const JointGeometry &joint, const double *incre
 //   (alpha_m)      g_m + (r_n + r_{n+1}) x g_f / 2
 //   (translation)  a_c . v
 //   (rotation c)   W_c . y / den  (+ G a_dep . v on the angle of a dependent translation)
-// where alpha_R = W p (W = [a] for one axis, [a_i + tau_2 b x a_i / 2, b], b = exp(phi_1 hat(a_i)) a_j
-// at the end of the step, for two axes, I for a free rotation), and their derivatives are
+// where alpha_R = W p (W = [a] for one axis, [a_i, b_m / cos(dphi_1/2)], b_m = exp(phi_1 hat(a_i)) a_j
+// at the step's mid-angle, for two axes, I for a free rotation), and their derivatives are
 //   d(alpha_m row)     = hat(g_f) hat(r_{n+1}) delta theta_m / 2 - hat(g_f) Lambda_{m,n+1} B delta q / 2
 //   d(translation row) = a_c^T Lambda_{m,n}^T hat(g_f) S(alpha_m) delta theta_m / 2
 //   d(rotation row c)  = [W_c^T dy/d alpha_m / den + (W_c . y) beta^T / (4 den^2)] S(alpha_m) delta theta_m

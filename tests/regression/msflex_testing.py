@@ -242,6 +242,11 @@ class Checker:
         print(f"{'ok  ' if ok else 'FAIL'} {label}: {value:.3e} (limit {limit:.1e})")
         self.failures += 0 if ok else 1
 
+    def greater(self, label, value, limit):
+        ok = bool(np.isfinite(value)) and value > limit
+        print(f"{'ok  ' if ok else 'FAIL'} {label}: {value:.3e} (at least {limit:.1e})")
+        self.failures += 0 if ok else 1
+
     def true(self, label, condition):
         """A yes/no check: passes when condition is True."""
         ok = condition is True or (isinstance(condition, (bool, np.bool_)) and bool(condition))

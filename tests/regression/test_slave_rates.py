@@ -16,7 +16,11 @@
    about both axes: under mc and em, whose steps start from positions and velocities alone, the
    first frame's rotation is the identity to 1e-15 (the initial-acceleration solve they make for
    the first row's reactions is discarded, and with it the slave's velocity products, which read
-   as a rotation of q1' q2' = 2 rad)."""
+   as a rotation of q1' q2' = 2 rad).
+   Over 1 s at dt = 10, 5 and 2.5 ms, mc's and em's angles converge at second order (observed order
+   >= 1.8 from the three runs; measured 2.00): the conserving map's columns for the two axes are
+   centred on the step (docs/joints.md); taken at the end of the step they made the motion first
+   order (observed 1.00)."""
 
 import h5py
 import numpy as np
@@ -121,4 +125,14 @@ for integrator in ("mc", "em"):
     with h5py.File(path, "r") as f:
         first = np.array(f["frames/rotation"][0][0])
     check.less(f"spinning universal joint, {integrator}: |first frame's quaternion - identity|", np.abs(first - np.array([1.0, 0.0, 0.0, 0.0])).max(), 1e-15)
+for integrator in ("mc", "em"):
+    angles = []
+    for dt in (0.01, 0.005, 0.0025):
+        path = f"{args.work_dir}/spinning_universal_{integrator}_{dt}.h5"
+        extra = ["-quiet", "-analysis_integrator", integrator, "-analysis_end_time", "1", "-analysis_initial_step", str(dt), "-analysis_max_step", str(dt)]
+        mt.run_msflex(args, f"{args.source_dir}/tests/regression/inputs/spinning_universal.yaml", path, extra=extra)
+        h = mt.history(path)
+        angles.append(np.array([h["u.rx"][-1], h["u.ry"][-1]]))
+    order = np.log2(np.abs(angles[0] - angles[1]).max() / np.abs(angles[1] - angles[2]).max())
+    check.greater(f"spinning universal joint, {integrator}: observed order of the angles at t = 1 s (dt = 10, 5, 2.5 ms)", order, 1.8)
 check.finish()
