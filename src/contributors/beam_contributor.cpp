@@ -164,10 +164,14 @@ void BeamContributor::AddElement(const State &state, size_t k, ElementContributi
       alpha[a]               = s.tangent_scaled_increment;
       const double node_work = u[a].dot(Vec3(&force[6 * a])) + alpha[a].dot(Vec3(&force[6 * a + 3]));
       work += node_work;
-      out->work_scale += std::abs(node_work);
+      // The rounding of the work is that of |u| |f|, not of u . f: the forces carry rounding of
+      // their magnitude in every direction, and on a beam spinning steadily the increments run
+      // across the tension, where u . f ~ 0.
+      out->work_scale += u[a].norm() * Vec3(&force[6 * a]).norm() + alpha[a].norm() * Vec3(&force[6 * a + 3]).norm();
       if (correction) out->correction_work += u[a].dot(Vec3(&correction[6 * a])) + alpha[a].dot(Vec3(&correction[6 * a + 3]));
     }
     out->work_mismatch += (energy_end - energy_start) - work;
+    out->work_scale += std::abs(energy_start) + std::abs(energy_end); // the difference's rounding
     out->strain_energy += energy_end;
     for (int i = 0; i < nd; ++i) out->residual[i] += force[i];
     if (correction)

@@ -17,8 +17,8 @@ void BeamDampingContributor::Setup(const Model &model, const DofMap &map, const 
     damped_[k]  = model.sections[model.elements[map.local_elements[k]].section].Damped() ? 1 : 0;
     any_damped_ = any_damped_ || damped_[k];
   }
-  start_strain_.assign(map.local_elements.size(), {Vec3::Zero(), Vec3::Zero()});
-  start_curvature_.assign(map.local_elements.size(), {Vec3::Zero(), Vec3::Zero()});
+  for (auto *start : {&start_strain_, &start_curvature_, &start_strain_rate_, &start_curvature_rate_})
+    start->assign(map.local_elements.size(), {Vec3::Zero(), Vec3::Zero()});
 }
 
 double BeamDampingContributor::LocalDampingRoundoffSquares() const
@@ -43,12 +43,47 @@ bool BeamDampingContributor::Strains(const State &state, size_t k, bool start, V
   return BeamStrainRates(beams_->References()[k], positions, triads, zero, zero, strain, curvature, rate, curvature_rate) == BeamKernelStatus::Ok;
 }
 
+// e'(t_n) of the strains at the last three step starts, second order (BDF2 with steps
+// h1 = t_n - t_{n-1}, h0 = t_{n-1} - t_{n-2}, w = h1/h0):
+//   e'_n = [(1 + 2w)/(1 + w) e_n - (1 + w) e_{n-1} + w^2/(1 + w) e_{n-2}] / h1.
+static Vec3 StrainRateFromHistory(const Vec3 &e_n, const Vec3 &e_1, const Vec3 &e_2, double h1, double h0)
+{
+  const double w = h1 / h0;
+  return ((1.0 + 2.0 * w) / (1.0 + w) * e_n - (1.0 + w) * e_1 + w * w / (1.0 + w) * e_2) / h1;
+}
+
 void BeamDampingContributor::BeginStep(const State &state)
 {
   const StepEquations &eq = state.equations;
   if (!any_damped_ || !eq.Dynamic() || eq.Midpoint()) return;
-  for (size_t k = 0; k < damped_.size(); ++k)
-    if (damped_[k]) Strains(state, k, true, start_strain_[k].data(), start_curvature_[k].data());
+  for (size_t k = 0; k < damped_.size(); ++k) {
+    if (!damped_[k]) continue;
+    const BeamStrainMotion &motion    = state.beam_strains[k];
+    const bool              evaluable = Strains(state, k, true, start_strain_[k].data(), start_curvature_[k].data());
+    const bool              history   = evaluable && motion.previous_count >= 2; // else the recursion's rate (Forces reports an element it cannot evaluate)
+    for (int gp = 0; gp < kBeamMaxGauss; ++gp) {
+      start_strain_rate_[k][gp]    = history ? StrainRateFromHistory(start_strain_[k][gp], motion.previous_strain[0][gp], motion.previous_strain[1][gp],
+                                                                     motion.previous_steps[0], motion.previous_steps[1])
+                                             : motion.strain[gp].velocity;
+      start_curvature_rate_[k][gp] = history ? StrainRateFromHistory(start_curvature_[k][gp], motion.previous_curvature[0][gp],
+                                                                     motion.previous_curvature[1][gp], motion.previous_steps[0], motion.previous_steps[1])
+                                             : motion.curvature[gp].velocity;
+    }
+  }
+}
+
+MotionState BeamDampingContributor::StartStrainMotion(const State &state, size_t k, int gp) const
+{
+  MotionState motion = state.beam_strains[k].strain[gp];
+  motion.velocity    = start_strain_rate_[k][gp];
+  return motion;
+}
+
+MotionState BeamDampingContributor::StartCurvatureMotion(const State &state, size_t k, int gp) const
+{
+  MotionState motion = state.beam_strains[k].curvature[gp];
+  motion.velocity    = start_curvature_rate_[k][gp];
+  return motion;
 }
 
 bool BeamDampingContributor::StartForces(const State &state, size_t k, double *force) const
@@ -68,6 +103,9 @@ bool BeamDampingContributor::StartForces(const State &state, size_t k, double *f
   const StepEquations &eq    = state.equations;
   const bool           known = eq.NewmarkFamily();
   if (!known && !Strains(state, k, true, strain, curvature)) return false;
+  // The committed rates, not the step's start rates (BeginStep): this is the force that held the
+  // equations at t_n, so that the trapezoidal sum of the damping's work keeps the Newmark energy
+  // identity (linear regime: T + V + that sum constant to round-off).
   const Vec3 *e_n = known ? start_strain_[k].data() : strain, *k_n = known ? start_curvature_[k].data() : curvature;
   for (int gp = 0; gp < ref.num_gauss; ++gp) {
     shifted.strain0[gp] += e_n[gp] - motion.strain[gp].velocity;
@@ -99,14 +137,13 @@ bool BeamDampingContributor::Forces(const State &state, size_t k, double *force,
   }
   if (eq.InitialAcceleration()) return StartForces(state, k, force);
   // edot_{n+1} = c_v (e_{n+1} - e_n) + edot*: the stress c_v C_d (e - (e_n - edot*/c_v)).
-  const BeamStrainMotion &motion  = state.beam_strains[k];
-  BeamElementReference    shifted = ref;
+  BeamElementReference shifted = ref;
   beams_->Configuration(state, k, positions, triads);
   const double               cv = eq.scheme.VelocityCoefficient();
   const BeamSectionStiffness section{cv * C.axial_shear, cv * C.torsion_bending};
   for (int gp = 0; gp < ref.num_gauss; ++gp) {
-    const Vec3 strain_rate    = AdvanceMotion(eq.scheme, motion.strain[gp], Vec3::Zero()).velocity;
-    const Vec3 curvature_rate = AdvanceMotion(eq.scheme, motion.curvature[gp], Vec3::Zero()).velocity;
+    const Vec3 strain_rate    = AdvanceMotion(eq.scheme, StartStrainMotion(state, k, gp), Vec3::Zero()).velocity;
+    const Vec3 curvature_rate = AdvanceMotion(eq.scheme, StartCurvatureMotion(state, k, gp), Vec3::Zero()).velocity;
     shifted.strain0[gp] += start_strain_[k][gp] - strain_rate / cv;
     shifted.curvature0[gp] += start_curvature_[k][gp] - curvature_rate / cv;
   }
@@ -169,6 +206,7 @@ void BeamDampingContributor::StartMotion(State *state)
     Vec3              strain[kBeamMaxGauss], curvature[kBeamMaxGauss], rate[kBeamMaxGauss], curvature_rate[kBeamMaxGauss];
     Vec3              acceleration[kBeamMaxGauss], curvature_acceleration[kBeamMaxGauss];
     BeamStrainMotion &motion = state->beam_strains[k];
+    motion.previous_count    = 0; // the motion starts here
     if (BeamStrainRates(beams_->References()[k], positions, triads, v, w, strain, curvature, rate, curvature_rate) != BeamKernelStatus::Ok ||
         BeamStrainAccelerations(beams_->References()[k], positions, triads, v, w, a, wdot, acceleration, curvature_acceleration) != BeamKernelStatus::Ok)
       continue;
@@ -189,11 +227,19 @@ void BeamDampingContributor::CommitStep(State *state)
     if (!Strains(*state, k, true, start_strain, start_curvature) || !Strains(*state, k, false, strain, curvature)) continue;
     BeamStrainMotion &motion = state->beam_strains[k];
     for (int gp = 0; gp < beams_->References()[k].num_gauss; ++gp) {
-      const MotionUpdate s = AdvanceMotion(eq.scheme, motion.strain[gp], strain[gp] - start_strain[gp]);
-      const MotionUpdate c = AdvanceMotion(eq.scheme, motion.curvature[gp], curvature[gp] - start_curvature[gp]);
+      // (Midpoint schemes carry no strain motion; the Newmark family starts from the nodes' rates.)
+      const bool         newmark = eq.NewmarkFamily();
+      const MotionUpdate s       = AdvanceMotion(eq.scheme, newmark ? StartStrainMotion(*state, k, gp) : motion.strain[gp], strain[gp] - start_strain[gp]);
+      const MotionUpdate c =
+          AdvanceMotion(eq.scheme, newmark ? StartCurvatureMotion(*state, k, gp) : motion.curvature[gp], curvature[gp] - start_curvature[gp]);
       motion.strain[gp]    = {s.velocity, s.acceleration, s.pseudo_acceleration};
       motion.curvature[gp] = {c.velocity, c.acceleration, c.pseudo_acceleration};
+      // The step's start strains join the history of the next steps' start rates.
+      motion.previous_strain[1][gp] = motion.previous_strain[0][gp], motion.previous_strain[0][gp] = start_strain[gp];
+      motion.previous_curvature[1][gp] = motion.previous_curvature[0][gp], motion.previous_curvature[0][gp] = start_curvature[gp];
     }
+    motion.previous_steps[1] = motion.previous_steps[0], motion.previous_steps[0] = eq.scheme.dt;
+    motion.previous_count = std::min(motion.previous_count + 1, 2);
   }
 }
 

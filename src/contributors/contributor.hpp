@@ -42,7 +42,8 @@ struct ElementContribution {
   double tangent[kBeamMaxDofs * kBeamMaxDofs];
   // Energy-momentum scheme (eq. 18-20): the correction vector, weighted by the global beta, and
   // the element's share of beta's numerator (work mismatch) and denominator (correction work), and
-  // the scale of its internal work (sum of |u.f|) for the round-off test.
+  // the scale of its internal work and energies for the round-off test (the sum of |u| |f| over its
+  // nodes and of |Pi_n| + |Pi_{n+1}|: the magnitudes whose rounding the mismatch carries).
   double correction[kBeamMaxDofs];
   double work_mismatch = 0.0, correction_work = 0.0, work_scale = 0.0;
   // Strain energy of the element in the configuration evaluated (the end of the step; in the

@@ -113,7 +113,8 @@ PetscErrorCode WriteDoubles(const std::string &label, hid_t parent, const char *
 // kept: everything else (current configuration, slave placement, loads, the time scheme's
 // coefficients) follows from them and the time at the next step, so a restarted run repeats the
 // original one to the last bit.
-constexpr int kNodeStateSize = 31, kJointStateSize = 34, kRigidBodyStateSize = 9, kBeamStrainSize = 36;
+constexpr int kNodeStateSize = 31, kJointStateSize = 34, kRigidBodyStateSize = 9,
+              kBeamStrainSize = 63; // 2 Gauss points x (18 motion + 12 previous strains), 2 steps, count
 
 // In the file every record carries one more column: RowChecksum of its values and its row number
 // in the whole model. A bit flipped in a value that stays finite and plausible (a position, a
@@ -221,11 +222,18 @@ void ExportBeamStrains(const State &state, const DofMap &map, StateRecords *reco
 {
   *records = StateRecords{};
   for (size_t k = 0; k < state.beam_strains.size(); ++k) {
-    double record[kBeamStrainSize];
+    double                  record[kBeamStrainSize];
+    const BeamStrainMotion &motion = state.beam_strains[k];
     for (int gp = 0; gp < 2; ++gp) {
-      PutMotion(state.beam_strains[k].strain[gp], record + 18 * gp);
-      PutMotion(state.beam_strains[k].curvature[gp], record + 18 * gp + 9);
+      PutMotion(motion.strain[gp], record + 18 * gp);
+      PutMotion(motion.curvature[gp], record + 18 * gp + 9);
+      for (int age = 0; age < 2; ++age)
+        for (int i = 0; i < 3; ++i) {
+          record[36 + 12 * gp + 6 * age + i]     = motion.previous_strain[age][gp](i);
+          record[36 + 12 * gp + 6 * age + 3 + i] = motion.previous_curvature[age][gp](i);
+        }
     }
+    record[60] = motion.previous_steps[0], record[61] = motion.previous_steps[1], record[62] = motion.previous_count;
     records->numbers.push_back(map.global_elements[map.local_elements[k]]);
     records->values.insert(records->values.end(), record, record + kBeamStrainSize);
   }
@@ -528,11 +536,21 @@ PetscErrorCode CheckpointReadState(MPI_Comm comm, const std::string &path, const
     PetscFunctionReturn(PETSC_SUCCESS);
   }));
   PetscCall(ImportState(nodes, joints, bodies, state));
-  for (size_t k = 0; k < state->beam_strains.size(); ++k)
+  for (size_t k = 0; k < state->beam_strains.size(); ++k) {
+    BeamStrainMotion &motion = state->beam_strains[k];
+    const double     *record = &strains[kBeamStrainSize * k];
     for (int gp = 0; gp < 2; ++gp) {
-      state->beam_strains[k].strain[gp]    = GetMotion(&strains[kBeamStrainSize * k + 18 * gp]);
-      state->beam_strains[k].curvature[gp] = GetMotion(&strains[kBeamStrainSize * k + 18 * gp + 9]);
+      motion.strain[gp]    = GetMotion(record + 18 * gp);
+      motion.curvature[gp] = GetMotion(record + 18 * gp + 9);
+      for (int age = 0; age < 2; ++age)
+        for (int i = 0; i < 3; ++i) {
+          motion.previous_strain[age][gp](i)    = record[36 + 12 * gp + 6 * age + i];
+          motion.previous_curvature[age][gp](i) = record[36 + 12 * gp + 6 * age + 3 + i];
+        }
     }
+    motion.previous_steps[0] = record[60], motion.previous_steps[1] = record[61];
+    motion.previous_count = std::clamp((int)record[62], 0, 2);
+  }
   StateUpdateSlaves(model, state);
   PetscFunctionReturn(PETSC_SUCCESS);
 }

@@ -115,9 +115,14 @@ struct JointState {
 
 // Strains of a damped beam element at its Gauss points (at most two, elements/beam.hpp) as a
 // motion of the Newmark family: the strain rates and their accelerations at the start of the step
-// (structural damping, contributors/beam_damping_contributor.hpp).
+// (structural damping, contributors/beam_damping_contributor.hpp), and the strains at the starts
+// of the two steps before ([0]: e_{n-1}, [1]: e_{n-2}; per Gauss point), those steps' lengths and
+// how many of them are known (0 to 2), from which a step's start rate is taken.
 struct BeamStrainMotion {
   MotionState strain[2], curvature[2];
+  Vec3        previous_strain[2][2], previous_curvature[2][2]; // [age][Gauss point]
+  double      previous_steps[2] = {0.0, 0.0};
+  int         previous_count    = 0;
 };
 
 // A rigid body on an owned node: its translational inertia sits at its centre of mass, which

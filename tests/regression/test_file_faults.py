@@ -324,9 +324,9 @@ CASES = [
     Case("restart_from_result_file", lambda d: (checkpointed_run(d), ["--restart", "out.h5"])[-1], [r"'out\.h5' is an msflex result file, not a checkpoint"]),
     # (3) corrupted checkpoints, each made from a real one: refused, nothing changes
     restart_case("restart_format_other", set_attribute("msflex_format", "msflex checkpoint 7"),
-                 [r"has format 'msflex checkpoint 7'; this msflex reads 'msflex checkpoint 4'"]),
+                 [r"has format 'msflex checkpoint 7'; this msflex reads 'msflex checkpoint 5'"]),
     restart_case("restart_marker_removed", lambda f: [f.attrs.__delitem__(k) for k in list(f.attrs)],
-                 [r"has format 'msflex checkpoint 4' without file markers \(written by an earlier msflex\)"]),
+                 [r"has format 'msflex checkpoint 5' without file markers \(written by an earlier msflex\)"]),
     restart_case("restart_format_1", lambda f: ([f.attrs.__delitem__(k) for k in list(f.attrs)], set_text("run/format", b"msflex checkpoint 1")(f)),
                  [r"has format 'msflex checkpoint 1' without file markers"]),
     restart_case("restart_numbers_missing", delete("run/numbers"), [r"/run/numbers"]),
