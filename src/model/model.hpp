@@ -24,6 +24,10 @@ struct SourceMark {
   int         column = 0;
 };
 
+// Which side of t a derivative is taken from where a function has a kink: After (from the right,
+// the coming motion) or Before (from the left, the motion up to t).
+enum class TimeSide { After, Before };
+
 // A scalar function of (pseudo-)time that multiplies a load or a prescribed motion.
 struct TimeFunction {
   enum class Kind { Constant, Linear, Table, Harmonic, CosineRamp, Polynomial, Sum };
@@ -40,10 +44,12 @@ struct TimeFunction {
   std::vector<double> times, values;
   std::vector<int>    terms;
   SourceMark          mark;
-  // f(t) (order 0), f'(t), f''(t) (order 1, 2; at a kink the derivative from the right, the side
-  // of the coming motion) or its integral from 0 to t (order -1), in closed form. A Sum needs the
-  // other functions: FunctionValue and the like below.
-  double Evaluate(double t, int order = 0) const;
+  // f(t) (order 0), f'(t), f''(t) (order 1, 2) or its integral from 0 to t (order -1), in closed
+  // form. At a kink (a table's points, a ramp's ends) the derivatives are those after t (from the
+  // right: the coming motion, at the start of an analysis) or, with TimeSide::Before, those before
+  // it (from the left: a step's motion up to its end). A Sum needs the other functions:
+  // FunctionValue and the like below.
+  double Evaluate(double t, int order = 0, TimeSide side = TimeSide::After) const;
 };
 
 // Cross-section constants in the section frame (t1 = beam axis, t2, t3 principal axes).
@@ -365,15 +371,16 @@ struct Model {
 // Value at t of the model's function number `function`; -1 is the ramp f(t) = t.
 double FunctionValue(const Model &model, int function, double t);
 // Its first or second derivative (order 1 or 2) at t, in closed form; where a table or a ramp has a
-// kink, the derivative from the right (forward in time, the side of the coming motion).
-double FunctionDerivative(const Model &model, int function, double t, int order);
+// kink, the derivative from the right (forward in time, the side of the coming motion), or with
+// TimeSide::Before from the left (the end of a step).
+double FunctionDerivative(const Model &model, int function, double t, int order, TimeSide side = TimeSide::After);
 // Its integral from 0 to t, in closed form.
 double FunctionIntegral(const Model &model, int function, double t);
 // A driven joint coordinate q(t) (order 0), its rate (1) or acceleration (2): drive_value f(t), or
 // with drive_by_rate drive_value times the integral of f from 0 to t.
-double DriveCoordinate(const Model &model, const Joint &joint, double t, int order);
+double DriveCoordinate(const Model &model, const Joint &joint, double t, int order, TimeSide side = TimeSide::After);
 // The same for a prescribed DOF's motion per unit value: f(t) and its derivatives, or with
 // by_rate the integral of f from 0 and f, f'.
-double PrescribedMotion(const Model &model, int function, bool by_rate, double t, int order);
+double PrescribedMotion(const Model &model, int function, bool by_rate, double t, int order, TimeSide side = TimeSide::After);
 
 } // namespace msflex

@@ -34,15 +34,17 @@ double TableIntegralFromFirst(const TimeFunction &f, double t)
   return integral + (t - T.back()) * V.back();
 }
 
-double Table(const TimeFunction &f, double t, int order)
+double Table(const TimeFunction &f, double t, int order, TimeSide side)
 {
   const std::vector<double> &T = f.times, &V = f.values;
   if (T.empty()) return 0.0;
   if (order == -1) return TableIntegralFromFirst(f, t) - TableIntegralFromFirst(f, 0.0);
   if (order == 2) return 0.0;
-  // The segment [T[i-1], T[i]) holding t; before the first point or from the last one on, f is constant.
-  if (t < T.front() || t >= T.back()) return order == 0 ? (t < T.front() ? V.front() : V.back()) : 0.0;
-  const size_t i     = (size_t)(std::upper_bound(T.begin(), T.end(), t) - T.begin());
+  // The segment holding t, [T[i-1], T[i]) after t or (T[i-1], T[i]] before it; before the first
+  // point or beyond the last one, f is constant.
+  const bool before = side == TimeSide::Before && order > 0;
+  if (before ? t <= T.front() || t > T.back() : t < T.front() || t >= T.back()) return order == 0 ? (t < T.front() ? V.front() : V.back()) : 0.0;
+  const size_t i     = (size_t)((before ? std::lower_bound(T.begin(), T.end(), t) : std::upper_bound(T.begin(), T.end(), t)) - T.begin());
   const double slope = (V[i] - V[i - 1]) / (T[i] - T[i - 1]);
   return order == 1 ? slope : V[i - 1] + slope * (t - T[i - 1]);
 }
@@ -56,13 +58,15 @@ double CosineRampIntegralFromStart(const TimeFunction &f, double u)
   return 0.5 * A * (u - std::sin(k * u) / k);
 }
 
-double CosineRamp(const TimeFunction &f, double t, int order)
+double CosineRamp(const TimeFunction &f, double t, int order, TimeSide side)
 {
   const double u = t - f.start, d = f.duration, A = f.amplitude, k = M_PI / d;
   // From 0, not from the start, which may lie before 0.
   if (order == -1) return CosineRampIntegralFromStart(f, u) - CosineRampIntegralFromStart(f, -f.start);
-  if (u < 0.0) return 0.0;
-  if (u >= d) return order == 0 ? A : 0.0;
+  // The ramp holds [0, d) after t, (0, d] before it (its second derivative jumps at both ends).
+  const bool before = side == TimeSide::Before && order > 0;
+  if (before ? u <= 0.0 : u < 0.0) return 0.0;
+  if (before ? u > d : u >= d) return order == 0 ? A : 0.0;
   switch (order) {
   case 0:
     return 0.5 * A * (1.0 - std::cos(k * u));
@@ -107,19 +111,19 @@ double Polynomial(const TimeFunction &f, double t, int order)
 }
 
 // Function `index` of `functions` (-1: the ramp f(t) = t) at order -1 (integral from 0), 0, 1, 2.
-double FunctionAt(const std::vector<TimeFunction> &functions, int index, double t, int order)
+double FunctionAt(const std::vector<TimeFunction> &functions, int index, double t, int order, TimeSide side = TimeSide::After)
 {
   if (index < 0) return order == -1 ? 0.5 * t * t : order == 0 ? t : order == 1 ? 1.0 : 0.0;
   const TimeFunction &f = functions[index];
-  if (f.kind != TimeFunction::Kind::Sum) return f.Evaluate(t, order);
+  if (f.kind != TimeFunction::Kind::Sum) return f.Evaluate(t, order, side);
   double sum = 0.0;
-  for (const int term : f.terms) sum += FunctionAt(functions, term, t, order); // terms come before (the reader checks)
+  for (const int term : f.terms) sum += FunctionAt(functions, term, t, order, side); // terms come before (the reader checks)
   return sum;
 }
 
 } // namespace
 
-double TimeFunction::Evaluate(double t, int order) const
+double TimeFunction::Evaluate(double t, int order, TimeSide side) const
 {
   switch (kind) {
   case Kind::Constant:
@@ -129,11 +133,11 @@ double TimeFunction::Evaluate(double t, int order) const
   case Kind::Harmonic:
     return Harmonic(*this, t, order);
   case Kind::CosineRamp:
-    return CosineRamp(*this, t, order);
+    return CosineRamp(*this, t, order, side);
   case Kind::Polynomial:
     return Polynomial(*this, t, order);
   case Kind::Table:
-    return Table(*this, t, order);
+    return Table(*this, t, order, side);
   case Kind::Sum:
     break; // needs the other functions: FunctionAt
   }
@@ -142,18 +146,21 @@ double TimeFunction::Evaluate(double t, int order) const
 
 double FunctionValue(const Model &model, int function, double t) { return FunctionAt(model.functions, function, t, 0); }
 
-double FunctionDerivative(const Model &model, int function, double t, int order) { return FunctionAt(model.functions, function, t, order); }
+double FunctionDerivative(const Model &model, int function, double t, int order, TimeSide side)
+{
+  return FunctionAt(model.functions, function, t, order, side);
+}
 
 double FunctionIntegral(const Model &model, int function, double t) { return FunctionAt(model.functions, function, t, -1); }
 
-double PrescribedMotion(const Model &model, int function, bool by_rate, double t, int order)
+double PrescribedMotion(const Model &model, int function, bool by_rate, double t, int order, TimeSide side)
 {
-  return FunctionAt(model.functions, function, t, by_rate ? order - 1 : order);
+  return FunctionAt(model.functions, function, t, by_rate ? order - 1 : order, side);
 }
 
-double DriveCoordinate(const Model &model, const Joint &joint, double t, int order)
+double DriveCoordinate(const Model &model, const Joint &joint, double t, int order, TimeSide side)
 {
-  return joint.drive_value * PrescribedMotion(model, joint.drive_function, joint.drive_by_rate, t, order);
+  return joint.drive_value * PrescribedMotion(model, joint.drive_function, joint.drive_by_rate, t, order, side);
 }
 
 } // namespace msflex

@@ -131,7 +131,12 @@ void StateBeginStep(const Model &model, const DofMap &map, const StepEquations &
       if (c.kind == Support::Kind::Free) continue;
       double value = 0.0;
       if (c.kind == Support::Kind::Prescribed) {
-        const auto motion = [&](double t, int order) { return c.value * PrescribedMotion(model, c.function, c.by_rate, t, order); };
+        // The end-of-step rates are the step's own, from the left of t_end where f has a kink (a
+        // table's point, a ramp's end: the spin-up's table ends at the run's last time, where the
+        // rate from the right was 0 and the last row's root turned at 0 instead of 6 rad/s).
+        const auto motion = [&](double t, int order) {
+          return c.value * PrescribedMotion(model, c.function, c.by_rate, t, order, order > 0 && exact_rates ? TimeSide::Before : TimeSide::After);
+        };
         if (accelerations || velocities) value = motion(t_end, accelerations ? 2 : 1);
         else if (d < 3) value = model.nodes[node].position(d) + motion(t_end, 0) - s.position_start(d);
         else value = motion(t_end, 0) - motion(t_start, 0);
@@ -165,7 +170,9 @@ void StateBeginStep(const Model &model, const DofMap &map, const StepEquations &
     const int c = joint.driven_coordinate;
     J.increment[c] =
         accelerations || velocities ? DriveCoordinate(model, joint, t_end, accelerations ? 2 : 1) : DriveCoordinate(model, joint, t_end, 0) - J.start.q[c];
-    if (exact_rates) J.drive_rate = DriveCoordinate(model, joint, t_end, 1), J.drive_acceleration = DriveCoordinate(model, joint, t_end, 2);
+    if (exact_rates)
+      J.drive_rate         = DriveCoordinate(model, joint, t_end, 1, TimeSide::Before),
+      J.drive_acceleration = DriveCoordinate(model, joint, t_end, 2, TimeSide::Before);
   }
   StateUpdateSlaves(model, state);
   if (!exact_rates) return;

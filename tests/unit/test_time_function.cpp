@@ -137,6 +137,25 @@ TEST(TimeFunction, DerivativesAtAKinkAreFromTheRight)
   EXPECT_NEAR(FunctionIntegral(model, ramp, 4.0), -3.0 * (3.5 - 1.0), 1e-14);
 }
 
+// At the end of a step the derivatives are those of the step's motion (from the left): a table
+// that ends at the run's end keeps its last slope there (it read 0, and spin_up's last row had its
+// root at rest), and a ramp's acceleration holds up to its end.
+TEST(TimeFunction, DerivativesBeforeAKinkAreFromTheLeft)
+{
+  Model      model;
+  InputError error;
+  ASSERT_TRUE(ReadModelString(kModel, "functions.yaml", &model, &error)) << error.Format();
+  const int table = Index(model, "tab"), ramp = Index(model, "late_ramp");
+  EXPECT_DOUBLE_EQ(FunctionDerivative(model, table, 1.0, 1, TimeSide::Before), 2.0);  // the segment [0, 1]
+  EXPECT_DOUBLE_EQ(FunctionDerivative(model, table, 3.0, 1, TimeSide::Before), -2.0); // the segment [1, 3]
+  EXPECT_DOUBLE_EQ(FunctionDerivative(model, table, 0.0, 1, TimeSide::Before), 0.0);  // constant before the first point
+  EXPECT_DOUBLE_EQ(FunctionDerivative(model, table, 2.0, 1, TimeSide::Before), -2.0); // inside a segment both sides agree
+  // The ramp (start 0.5, duration 2): at rest before its start, its deceleration up to its end.
+  EXPECT_DOUBLE_EQ(FunctionDerivative(model, ramp, 0.5, 2, TimeSide::Before), 0.0);
+  EXPECT_NEAR(FunctionDerivative(model, ramp, 2.5, 2, TimeSide::Before), 3.0 * 0.5 * std::pow(M_PI / 2.0, 2), 1e-14);
+  EXPECT_NEAR(FunctionDerivative(model, ramp, 2.5, 1, TimeSide::Before), 0.0, 1e-14);
+}
+
 TEST(TimeFunction, SumAddsItsTerms)
 {
   Model      model;
