@@ -295,7 +295,7 @@ PetscErrorCode WriteHistory(Analysis &a, const StepRecord &record, double strain
     // and the energy the dampers dissipated, with the work taken by the scheme's own quadrature
     // (Assembler::StepExternalWork) and the dampers' dissipation by their own (StepDissipation).
     const double dissipation = work - dissipated - (total - a.initial_energy);
-    a.summary.Energy(total - work + dissipated, total);
+    a.summary.Energy(total - work + dissipated, total, work, dissipated);
     add({"kinetic_energy", "total_energy", "external_work", "energy_balance", "algorithmic_dissipation", "linear_momentum_x", "linear_momentum_y",
          "linear_momentum_z", "angular_momentum_x", "angular_momentum_y", "angular_momentum_z", "energy_correction"},
         {d.kinetic_energy, total, work, total - work + dissipated, dissipation, d.linear_momentum(0), d.linear_momentum(1), d.linear_momentum(2),

@@ -24,8 +24,9 @@ void RunSummary::Attempt(const StepOutcome &outcome)
   }
 }
 
-void RunSummary::Energy(double energy_balance, double total_energy)
+void RunSummary::Energy(double energy_balance, double total_energy, double external_work, double dissipated)
 {
+  max_exchanged_ = std::max({max_exchanged_, std::fabs(external_work), std::fabs(dissipated)});
   if (!have_energy_) balance_first_ = energy_balance, first_total_ = total_energy;
   have_energy_  = true;
   balance_last_ = energy_balance;
@@ -82,6 +83,11 @@ PetscErrorCode RunSummary::Print(MPI_Comm comm, double wall_start, bool dynamic)
     text += Format("  energy drift       %.4g (energy_balance at the end minus at the start), %.3g of the largest total energy; largest |drift| %.3g of it\n",
                    balance_last_ - balance_first_, max_total_ > 0 ? (balance_last_ - balance_first_) / max_total_ : 0.0,
                    max_total_ > 0 ? max_drift_ / max_total_ : 0.0);
+  // A mechanism that passes more energy through than it holds (a slow crank against a load)
+  // reads its drift better against what went through.
+  if (max_exchanged_ > max_total_)
+    text += Format("                     %.3g of the largest external work or dissipation (%.4g J)\n", (balance_last_ - balance_first_) / max_exchanged_,
+                   max_exchanged_);
   text += Format("  wall time          %.3g s:%s, other %.3g s%s\n", largest[0], stages.c_str(), std::max(0.0, largest[0] - staged),
                  size > 1 ? " (largest over the ranks)" : "");
   text += Format("  CPU time           %.3g s (user + system%s)\n", size > 1 ? cpu_sum : largest[num_stages], size > 1 ? ", all ranks" : "");

@@ -16,8 +16,9 @@ class RunSummary {
 public:
   // Every attempt at a step, converged or not.
   void Attempt(const StepOutcome &outcome);
-  // Every history row of a dynamic analysis: energy_balance = total energy - external work.
-  void Energy(double energy_balance, double total_energy);
+  // Every history row of a dynamic analysis: energy_balance = total energy - external work +
+  // dissipated energy, and the energy that went in and out (external work, dissipation).
+  void Energy(double energy_balance, double total_energy, double external_work = 0.0, double dissipated = 0.0);
   // The largest growth of energy_balance above its first value, relative to the largest total
   // energy (0 when it never grew): an integrator that creates energy.
   double RelativeEnergyGrowth() const { return max_total_ > 0 ? max_growth_ / max_total_ : 0.0; }
@@ -40,6 +41,7 @@ private:
   std::map<std::string, int> rejected_; // by reason
   bool                       have_energy_   = false;
   double                     balance_first_ = 0.0, balance_last_ = 0.0, max_drift_ = 0.0, max_total_ = 0.0, max_growth_ = 0.0, first_total_ = 0.0;
+  double                     max_exchanged_ = 0.0; // the largest |external work| or |dissipated energy|
 };
 
 } // namespace msflex
