@@ -69,7 +69,7 @@ PetscErrorCode Integrator::InitialiseMotion(double t)
                             report.held, report.chosen, report.strain_rate_before, report.strain_rate_after, report.solved ? "" : ": nothing strains, no solve",
                             report.at_rest, report.slave_change));
   } else {
-    StateSetCoordinateRates(*model_, t, &system_.GetState());
+    StateSetCoordinateRates(*model_, *map_, t, &system_.GetState());
   }
   system_.StartMotion();
   const bool midpoint = IsMidpointScheme(model_->analysis.integrator);

@@ -105,6 +105,16 @@ Vec3 NodeTangentScaledIncrement(const StepEquations &equations, const NodeState 
   return alpha;
 }
 
+// The rigid bodies' centre-of-mass velocities from their nodes' velocities at the start state.
+static void SetBodyVelocities(State *state)
+{
+  for (RigidBodyState &body : state->bodies) {
+    const NodeState &s           = state->nodes[body.local_node];
+    const Mat3       R           = QuaternionToMatrix(s.rotation_start);
+    body.centre_of_mass.velocity = s.translation_motion.velocity + (R * s.rotation_motion.velocity).cross(R * body.offset);
+  }
+}
+
 // Fixed DOFs keep a zero increment. A prescribed displacement reaches its absolute target
 // X + value f(t_end); a prescribed rotation component turns by value (f(t_end) - f(t_start)) about
 // its global axis. In the initial-acceleration problem the unknowns are accelerations, so a
@@ -429,11 +439,7 @@ void StateSetInitialVelocities(const Model &model, const DofMap &map, double t, 
     slave.translation_motion.velocity = v;
     slave.rotation_motion.velocity    = QuaternionToMatrix(slave.rotation_start).transpose() * w;
   }
-  for (RigidBodyState &body : state->bodies) {
-    const NodeState &s           = state->nodes[body.local_node];
-    const Mat3       R           = QuaternionToMatrix(s.rotation_start);
-    body.centre_of_mass.velocity = s.translation_motion.velocity + (R * s.rotation_motion.velocity).cross(R * body.offset);
-  }
+  SetBodyVelocities(state);
 }
 
 void StateSetInitialConfiguration(const Model &model, const DofMap &map, State *state)
@@ -469,9 +475,19 @@ void StateSetInitialConfiguration(const Model &model, const DofMap &map, State *
   StateCommitStep(model, state);
 }
 
-void StateSetCoordinateRates(const Model &model, double t, State *state)
+void StateSetCoordinateRates(const Model &model, const DofMap &map, double t, State *state)
 {
-  for (JointState &J : state->joints) {
+  // The coordinates given a rate, per local joint.
+  std::vector<std::array<double, kJointMaxReleased>> given(state->joints.size());
+  std::vector<std::array<bool, kJointMaxReleased>>   has_given(state->joints.size());
+  for (auto &flags : has_given) flags.fill(false);
+  for (const CoordinateInitialCondition &ic : model.coordinate_initial_conditions) {
+    const int j = ic.has_rate ? map.joint_to_local[ic.joint] : -1;
+    if (j < 0) continue;
+    given[j][ic.coordinate] = ic.rate, has_given[j][ic.coordinate] = true;
+  }
+  for (size_t j = 0; j < state->joints.size(); ++j) {
+    JointState  &J     = state->joints[j];
     const Joint &joint = model.joints[J.joint];
     const int    k     = JointNumCoordinates(J.geometry);
     // v_s - N_m v_m = N_q qdot (velocities of the slave and the master, spatial).
@@ -489,10 +505,25 @@ void StateSetCoordinateRates(const Model &model, double t, State *state)
       const Eigen::MatrixXd N_q = J.map.block(0, 6, 6, k);
       rates                     = N_q.colPivHouseholderQr().solve(relative);
     }
+    bool set = false;
+    for (int c = 0; c < k; ++c)
+      if (has_given[j][c]) rates(c) = given[j][c], set = true;
+    if (joint.driven_coordinate >= 0) rates(joint.driven_coordinate) = DriveCoordinate(model, joint, t, 1), set = true;
     for (int c = 0; c < kJointMaxReleased; ++c) J.coordinate_motion[c / 3].velocity(c % 3) = c < k ? rates(c) : 0.0;
-    if (joint.driven_coordinate >= 0)
-      J.coordinate_motion[joint.driven_coordinate / 3].velocity(joint.driven_coordinate % 3) = DriveCoordinate(model, joint, t, 1);
+    if (!set) continue;
+    // The slave as the joint moves it: v_s = N_m v_m + N_q qdot.
+    NodeState &moved = state->nodes[J.local_slave];
+    Vec6       v_s   = J.map.block(0, 6, 6, k) * rates;
+    if (J.local_master >= 0) {
+      const NodeState &master = state->nodes[J.local_master];
+      Vec6             v_m;
+      v_m << master.translation_motion.velocity, QuaternionToMatrix(master.rotation_start) * master.rotation_motion.velocity;
+      v_s += J.map.leftCols<6>() * v_m;
+    }
+    moved.translation_motion.velocity = v_s.head<3>();
+    moved.rotation_motion.velocity    = QuaternionToMatrix(moved.rotation_start).transpose() * Vec3(v_s.tail<3>());
   }
+  SetBodyVelocities(state);
 }
 
 bool NodeStateFinite(const NodeState &s)

@@ -126,4 +126,12 @@ for label in ("projected", "projected, 2 ranks"):
     check.less(f"drive start, {label}: |KE_0 - rigid rotation| / rigid rotation", abs(runs[label]["kinetic_energy"][0] - exact) / exact, 1e-9)
     check.less(f"drive start, {label}: largest strain energy / KE_0", runs[label]["strain_energy"].max() / exact, 1e-4)
 check.less("drive start, given: the drive's jerk strains the arm (-largest strain energy / KE_0)", -runs["given"]["strain_energy"].max() / exact, -0.1)
+
+# Coordinate rates start their slaves also with given velocities (they were ignored: rate 0, KE 0).
+for label, options in (("projected", []), ("given", ["-analysis_initial_velocities", "given"])):
+    output = f"{args.work_dir}/coordinate_rates_{label}.h5"
+    mt.run_msflex(args, f"{inputs}/coordinate_rates.yaml", output, extra=["-quiet", *options])
+    h = mt.history(output)
+    check.less(f"coordinate rates, {label}: |KE_0 - 2 J|", abs(h["kinetic_energy"][0] - 2.0), 1e-12)
+    check.less(f"coordinate rates, {label}: |slide.tx_rate(0) - 1| + |hinge.rx_rate(0) - 2|", abs(h["slide.tx_rate"][0] - 1.0) + abs(h["hinge.rx_rate"][0] - 2.0), 1e-12)
 check.finish()

@@ -196,7 +196,7 @@ PetscErrorCode SetupSystem(Model *model, DofMap *map, MatrixPattern pattern, Nod
   PetscFunctionBeginUser;
   PetscCall(system->Setup(PETSC_COMM_WORLD, *model, *map, std::move(pattern), std::move(mass)));
   StateSetInitialVelocities(*model, *map, 0.0, &system->GetState());
-  StateSetCoordinateRates(*model, 0.0, &system->GetState());
+  StateSetCoordinateRates(*model, *map, 0.0, &system->GetState());
   system->StartMotion(); // strain rates of the damped beams
   PetscCall(system->GetAssembler().BeginStep(EquationsOf(problem)));
   PetscFunctionReturn(PETSC_SUCCESS);
