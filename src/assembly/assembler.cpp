@@ -1235,7 +1235,7 @@ PetscErrorCode Assembler::ForceScale(double *scale)
 PetscErrorCode Assembler::MaxRotationIncrement(double *max_rotation)
 {
   PetscFunctionBeginUser;
-  const double local = StateMaxRotationIncrement(*state_);
+  const double local = StateMaxRotationIncrement(*state_, state_->equations.Dynamic());
   PetscCall(MPIU_Allreduce(&local, max_rotation, 1, MPI_DOUBLE, MPI_MAX, comm_));
   PetscFunctionReturn(PETSC_SUCCESS);
 }

@@ -187,7 +187,8 @@ PetscErrorCode Integrator::TryEquations(const StepEquations &equations, double d
   // Why, in words and naming where (element, node, joint), before the increments are dropped.
   outcome->reason = rotation_too_large ? "max_rotation_increment" : SNESConvergedReasons[reason];
   if (rotation_too_large) {
-    outcome->why = Format("a nodal rotation increment of %.4g rad exceeds max_rotation_increment = %.4g rad", max_rotation, analysis.max_rotation_increment);
+    outcome->why = Format("a rotation increment (of a node, or a joint's released angle) of %.4g rad exceeds max_rotation_increment = %.4g rad", max_rotation,
+                          analysis.max_rotation_increment);
   } else {
     PetscCall(NewtonDescribeFailure(snes_, &newton_context_, &outcome->why));
     PetscCall(NewtonForgetFactorization(snes_, &newton_context_));

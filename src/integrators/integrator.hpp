@@ -56,7 +56,7 @@ public:
   // One attempt at a step of the static stage: equilibrium at t with the loads scaled from
   // load_factor to load_factor + step; committed when converged, as TryStep. Collective.
   PetscErrorCode TryStaticStageStep(double t, double load_factor, double step, StepOutcome *outcome);
-  // One attempt at the step t -> t + dt. Converged (and the nodal rotation increments within
+  // One attempt at the step t -> t + dt. Converged (and the rotation increments within
   // max_rotation_increment): the external work is accumulated, the joint reactions are
   // evaluated and the step is committed; otherwise the state is back at t and outcome->why says
   // why. Collective.

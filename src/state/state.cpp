@@ -533,10 +533,27 @@ bool NodeStateFinite(const NodeState &s)
          s.translation_update.velocity.allFinite() && s.translation_update.acceleration.allFinite();
 }
 
-double StateMaxRotationIncrement(const State &state)
+double StateMaxRotationIncrement(const State &state, bool joint_angles)
 {
   double largest = 0.0;
   for (PetscInt l = 0; l < state.num_owned_nodes; ++l) largest = std::max(largest, state.nodes[l].rotation_increment.norm());
+  if (!joint_angles) return largest;
+  for (const JointState &J : state.joints) {
+    const int nt = J.geometry.num_translations;
+    switch (J.geometry.rotation) {
+    case JointRotation::None:
+      break;
+    case JointRotation::OneAxis:
+      largest = std::max(largest, std::abs(J.increment[nt]));
+      break;
+    case JointRotation::TwoAxes:
+      largest = std::max({largest, std::abs(J.increment[nt]), std::abs(J.increment[nt + 1])});
+      break;
+    case JointRotation::Free:
+      largest = std::max(largest, Vec3(J.increment[nt], J.increment[nt + 1], J.increment[nt + 2]).norm());
+      break;
+    }
+  }
   return largest;
 }
 
