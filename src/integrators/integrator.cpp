@@ -79,6 +79,10 @@ PetscErrorCode Integrator::InitialiseMotion(double t)
     if (reaction_probes_) {
       PetscCall(assembler.BeginStep(InitialAccelerationProblem(t)));
       PetscCall(assembler.EvaluateSupportReactions());
+      // That problem's "increments" of prescribed DOFs are their accelerations value f''(t): drop
+      // them, or the first frame shows a prescribed rotation turned by value f''(0) (a cosine ramp
+      // of 0.4 rad: 1.97 rad at t = 0).
+      assembler.DiscardStep();
     }
     PetscFunctionReturn(PETSC_SUCCESS);
   }

@@ -15,8 +15,12 @@ displacement, whose error alternates in sign from step to step and never decays.
    prescribed (phi = A sin(w t)) and its other rotations fixed: such a rotation's end-of-step rates
    are phi' e_z and phi'' e_z as well, and the reaction, the body's inertia (force
    m (phi'' e_z x r - phi'^2 r), moment (J_z + m |c|^2) phi''), holds to 1e-9 of its amplitude at
-   every row with newmark and genalpha (before: 1.5 to 2.4 times the amplitude)."""
+   every row with newmark and genalpha (before: 1.5 to 2.4 times the amplitude).
+4. tests/regression/inputs/ramped_rotation.yaml: that body turned from rest by a cosine ramp: with
+   every integrator the first row's reaction moment is (J_z + m |c|^2) phi''(0) to 1e-9 and the
+   first frame's rotation the identity (mc and em showed it turned by phi''(0) = 1.97 rad)."""
 
+import h5py
 import numpy as np
 
 import msflex_testing as mt
@@ -58,4 +62,15 @@ for integrator in ("newmark", "genalpha"):
     for series, value in expected.items():
         error = np.abs(h[f"R.{series}"] - value).max() / np.abs(value).max()
         check.less(f"spun body, {integrator}: max |R.{series} - closed form| / amplitude", error, 1e-9)
+
+start_moment = (inertia_z + mass * offset**2) * 0.4 * np.pi**2 / 2.0
+for integrator in ("newmark", "genalpha", "mc", "em"):
+    path = f"{args.work_dir}/ramped_rotation_{integrator}.h5"
+    mt.run_msflex(args, f"{args.source_dir}/tests/regression/inputs/ramped_rotation.yaml", path, extra=["-quiet", "-analysis_integrator", integrator])
+    h = mt.history(path)
+    check.less(f"ramped rotation, {integrator}: |R.moment_z(0) - (J_z + m c^2) phi''(0)| / it", abs(h["R.moment_z"][0] - start_moment) / start_moment, 1e-9)
+    with h5py.File(path, "r") as f:
+        first = np.array(f["frames/rotation"][0][0])
+    check.less(f"ramped rotation, {integrator}: |first frame's quaternion - identity|", np.abs(first - np.array([1.0, 0.0, 0.0, 0.0])).max(), 1e-15)
+    check.less(f"ramped rotation, {integrator}: |P.rotation_angle(0)|", abs(h["P.rotation_angle"][0]), 1e-15)
 check.finish()
