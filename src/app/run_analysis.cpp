@@ -672,13 +672,14 @@ PetscErrorCode RunAnalysis(MPI_Comm comm, Model model, const RunOptions &options
       else PetscCall(a.integrator.TryStep(t, dt, &outcome));
       a.summary.Attempt(outcome);
       if (outcome.converged) {
-        t = (t + dt >= target * (1.0 - 1e-14)) ? target : t + dt;
+        const double taken = std::isfinite(outcome.step_taken) ? outcome.step_taken : dt;
+        t                  = (t + taken >= target * (1.0 - 1e-14)) ? target : t + taken;
         ++step;
         controller.Accept(dt, outcome.newton_iterations);
         const bool write_frame = (step % options.output_every == 0) || a.Finished(t) ||
                                  std::find(analysis.output_times.begin(), analysis.output_times.end(), t) != analysis.output_times.end();
         if (write_frame) last_written = step;
-        PetscCall(RecordStep(a, {step, t, dt, outcome.newton_iterations, outcome.residual_norm}, write_frame));
+        PetscCall(RecordStep(a, {step, t, taken, outcome.newton_iterations, outcome.residual_norm}, write_frame));
         bool stop = false;
         PetscCall(CheckpointIfDue(a, step, t, last_written, controller, &stop));
         if (stop) {

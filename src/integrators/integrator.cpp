@@ -129,6 +129,17 @@ PetscErrorCode Integrator::InitialiseMotion(double t)
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
+PetscErrorCode Integrator::CommitConvergedStep(double dt)
+{
+  Assembler &assembler = system_.GetAssembler();
+  PetscFunctionBeginUser;
+  if (map_->global_count.joints > 0) PetscCall(assembler.EvaluateJointReactions(dt));
+  if (reaction_probes_) PetscCall(assembler.EvaluateSupportReactions());
+  system_.CommitStep();
+  StateCommitStep(*model_, &system_.GetState());
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
 PetscErrorCode Integrator::TryStep(double t, double dt, StepOutcome *outcome)
 {
   const AnalysisSettings &analysis = model_->analysis;
@@ -181,10 +192,7 @@ PetscErrorCode Integrator::TryEquations(const StepEquations &equations, double d
       PetscCall(assembler.StepDissipation(&dissipation));
       dissipated_energy_ += dissipation;
     }
-    if (map_->global_count.joints > 0) PetscCall(assembler.EvaluateJointReactions(dt));
-    if (reaction_probes_) PetscCall(assembler.EvaluateSupportReactions());
-    system_.CommitStep();
-    StateCommitStep(*model_, &system_.GetState());
+    PetscCall(CommitConvergedStep(dt));
     outcome->converged = true;
     PetscFunctionReturn(PETSC_SUCCESS);
   }

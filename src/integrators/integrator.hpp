@@ -12,6 +12,7 @@
 
 #include <petscsnes.h>
 
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -30,6 +31,10 @@ struct StepOutcome {
   // A failure that a shorter step cannot mend (it depends on the last equilibrium only): the run
   // stops at once instead of halving down to min_step.
   bool step_size_irrelevant = false;
+  // When converged: the length of the step in the driver's parameter when it is not the step
+  // proposed (an arc-length step that lands on end_time by load control covers that fraction of
+  // its pseudo-time); NaN: the proposed one.
+  double step_taken = std::numeric_limits<double>::quiet_NaN();
 };
 
 class Integrator {
@@ -116,6 +121,10 @@ public:
   // The mechanical system, for what linearises it about the current state (path following,
   // stability, eigenanalysis).
   MechanicalSystem &System() { return system_; }
+  // Commits the converged increments of a step of length dt (the step's own or a path
+  // follower's): the joints' and reaction probes' reactions at them, the contributors' own state
+  // (force elements, damping), then the State. Collective.
+  PetscErrorCode CommitConvergedStep(double dt);
   // The increments of the last converged step (Newton's solution).
   Vec           LastIncrements() const { return increments_; }
   const DofMap &Map() const { return *map_; }

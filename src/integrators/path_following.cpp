@@ -348,7 +348,10 @@ PetscErrorCode PathFollower::TryArcLengthStep(double t, double dt, StepOutcome *
     if (landing.converged) {
       *outcome = landing;
       ++steps_;
-      PetscCall(Linearize(t + dt, end, end - lambda));
+      // The pseudo-time of end_time: the arc step's, in the proportion of its load increment
+      // (the last row read t = 1.2 for a load factor of 1 on a straight path).
+      outcome->step_taken = dt * (end - lambda) / dlambda;
+      PetscCall(Linearize(t + outcome->step_taken, end, end - lambda));
       PetscFunctionReturn(PETSC_SUCCESS);
     }
     PetscCall(integrator_->System().GetAssembler().BeginStep(StaticStep(lambda, lambda + dlambda)));
@@ -407,15 +410,17 @@ PetscErrorCode PathFollower::Commit(double dt, double dlambda, StepOutcome *outc
   PetscCall(assembler.MaxRotationIncrement(&max_rotation));
   if (max_rotation > analysis.max_rotation_increment) {
     outcome->converged = false;
-    outcome->why = Format("a nodal rotation increment of %.4g rad exceeds max_rotation_increment = %.4g rad", max_rotation, analysis.max_rotation_increment);
+    outcome->why =
+        Format("a rotation increment (of a node) of %.4g rad exceeds max_rotation_increment = %.4g rad", max_rotation, analysis.max_rotation_increment);
     assembler.DiscardStep();
     PetscFunctionReturn(PETSC_SUCCESS);
   }
-  if (map_->global_count.joints > 0) PetscCall(assembler.EvaluateJointReactions(dt));
   PetscCall(VecCopy(x_, previous_increment_));
   previous_load_increment_ = dlambda;
   have_previous_increment_ = true;
-  StateCommitStep(*model_, &system.GetState());
+  // As a load-controlled step commits (the reaction probes and the force elements' state were left
+  // at their start: the rows of arc-length and displacement-controlled steps read 0 there).
+  PetscCall(integrator_->CommitConvergedStep(dt));
   ++steps_;
   outcome->converged = true;
   PetscFunctionReturn(PETSC_SUCCESS);

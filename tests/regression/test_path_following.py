@@ -143,6 +143,22 @@ if newton and krylov:
     check.true(f"arc length: Krylov iterations {solves} between the Newton iterations {attempts} and twice them", attempts <= solves <= 2 * attempts)
 check.true("arc length: the corrector's assembly is logged in the Assembly stage", assembly is not None and float(assembly.group(1)) > 0)
 
+# Force elements and reaction probes in every row of a path-followed run, and the landing row's
+# path parameter (tests/regression/inputs/arc_length_springs.yaml).
+for control in ("arc_length", "displacement"):
+    extra = ["-analysis_control", control] + (["-analysis_control_node", "B", "-analysis_control_dof", "uy", "-analysis_control_value", "0.01"]
+                                              if control == "displacement" else [])
+    mt.run_msflex(args, f"{args.source_dir}/tests/regression/inputs/arc_length_springs.yaml", f"{args.work_dir}/springs_{control}.h5", extra=["-quiet"] + extra)
+    h = mt.history(f"{args.work_dir}/springs_{control}.h5")
+    rows = slice(1, None)
+    check.less(f"springs, {control}: max |spr.force + 100 j1.rx| over the rows", np.abs(h["spr.force"][rows] + 100.0 * h["j1.rx"][rows]).max(), 1e-9)
+    check.less(f"springs, {control}: max |sd.tension - 500 (sd.length - 1)|", np.abs(h["sd.tension"][rows] - 500.0 * (h["sd.length"][rows] - 1.0)).max(), 1e-9)
+    check.true(f"springs, {control}: every row after the first has a spring force", bool(np.all(np.abs(h["spr.force"][rows]) > 1e-3)))
+    check.less(f"springs, {control}: max |ra.force_y + sd.tension| / sd.tension (the anchor holds the spring)",
+               np.abs(h["ra.force_y"][rows] + h["sd.tension"][rows]).max() / np.abs(h["sd.tension"][rows]).max(), 1e-3)
+h = mt.history(f"{args.work_dir}/springs_arc_length.h5")
+check.less("springs, arc length: |t - load factor| of the landing row (t ~ load factor on this path)", abs(h["time"][-1] - h["load_factor"][-1]), 1e-3)
+
 # Displacement control of a DOF the load pattern does not move (the apex's ux, by symmetry): a
 # shorter step cannot help, so the run stops after the first attempt instead of halving down to
 # min_step (16 rejected attempts before).
