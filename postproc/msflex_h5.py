@@ -169,7 +169,7 @@ class HistoryFile:
         kind = _text_attribute(self._file, "analysis_type")
         if kind in ("modes", "buckling", "dynamic"):
             return kind
-        if "mode" in self._series and "eigenvalue" in self._series:  # msflex writes "static" for eigenanalyses
+        if "mode" in self._series and "eigenvalue" in self._series:  # files of msflex before it named eigenanalyses
             return "modes" if "frequency" in self._series else "buckling"
         if kind is None:  # older files: dynamics writes kinetic_energy
             return "static" if "kinetic_energy" not in self._series else "dynamic"

@@ -666,7 +666,9 @@ PetscErrorCode OutputFile::Impl::WriteProvenance(const OutputMesh &mesh)
   PetscCall(WriteStringAttribute(file, ".", "options", OptionsText()));
   PetscCall(WriteAttribute(file, ".", "ranks", H5T_STD_I32LE, H5T_NATIVE_INT, &size));
   PetscCall(WriteStringAttribute(file, ".", "start_time", IsoTimeNow()));
-  PetscCall(WriteStringAttribute(file, ".", "analysis_type", analysis == AnalysisType::Dynamic ? "dynamic" : "static"));
+  // The analysis as the input names it (an eigenanalysis wrote "static" before, which readers had
+  // to see through from its series).
+  PetscCall(WriteStringAttribute(file, ".", "analysis_type", AnalysisTypeName(analysis)));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 

@@ -69,6 +69,8 @@ history = mt.history(path)
 compare("cantilever", history["angular_frequency"], bending(CANTILEVER, EI2) + bending(CANTILEVER, EI3), 1e-4)
 with h5py.File(path, "r") as f:
     check.equal("cantilever: frames (equilibrium + 8 modes)", mt.frame_count(f), 9)
+    kind = f.attrs["analysis_type"]
+    check.true(f"cantilever: the file's analysis_type is 'modes' ({kind!r}; it read 'static')", (kind.decode() if isinstance(kind, bytes) else str(kind)) == "modes")
     frame = mt.frame(f, 1)
     check.equal("cantilever: the first mode's frame is step 1", frame["step"], 1)
     shape = frame["displacement"]
