@@ -29,8 +29,8 @@ series names:
   <name>                        every history series, e.g. time (the load factor in statics,
                                 the mode number in modes and buckling analyses),
                                 newton_iterations, residual_norm, step_size, <joint>.rz
-  <probe>.position.x|y|z        probed node's current position
-  <probe>.displacement.x|y|z    probed node's displacement
+  <probe>.position.x|y|z        probed point's current position (node, offset point, centre of mass)
+  <probe>.displacement.x|y|z    probed point's displacement
   <probe>.rotation.w|x|y|z      probed node's rotation quaternion
   <probe>.rotation_angle        probed node's rotation angle (rad), in [0, 2 pi], not unwrapped
 """

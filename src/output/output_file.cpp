@@ -1880,8 +1880,10 @@ PetscErrorCode OutputFile::WriteFrame(const OutputFrame &frame)
   } else rows.nodes.clear(), rows.elements.clear(), rows.bodies.clear(), rows.joints.clear();
   unsigned long long local[4] = {rows.nodes.size(), rows.elements.size(), rows.bodies.size(), rows.joints.size()}, total[4];
   PetscCallMPI(MPI_Allreduce(local, total, 4, MPI_UNSIGNED_LONG_LONG, MPI_SUM, comm_));
-  const hsize_t    totals[4] = {total[0], total[1], total[2], total[3]};
-  Impl::FrameEntry entry{step, time, has_velocities != 0, distributed, total[2] > 0, total[3] > 0};
+  const hsize_t totals[4] = {total[0], total[1], total[2], total[3]};
+  // Section triads only where there are segments to carry them (a model of rigid bodies alone set
+  // the bit of datasets it does not have).
+  Impl::FrameEntry entry{step, time, has_velocities != 0, distributed && impl_->n_segments > 0, total[2] > 0, total[3] > 0};
   entry.index = impl_->frames.size();
   PetscCall(PetscLogEventBegin(write_phase_events.buffer_frame, 0, 0, 0, 0));
   PetscCall(RunCollective(comm_, [&] { return impl_->CheckFrame(frame, step, has_velocities, rows, totals); }));

@@ -87,12 +87,12 @@ const Entry kDatasets[] = {
 const struct {
   const char *quantity, *component, *unit, *description;
 } kProbeSeries[kProbeColumns] = {
-    {"position", "x", "m", "current position of the probed node"},
-    {"position", "y", "m", "current position of the probed node"},
-    {"position", "z", "m", "current position of the probed node"},
-    {"displacement", "x", "m", "displacement of the probed node"},
-    {"displacement", "y", "m", "displacement of the probed node"},
-    {"displacement", "z", "m", "displacement of the probed node"},
+    {"position", "x", "m", "current position of the probed point (node, its offset point or a rigid body's centre of mass)"},
+    {"position", "y", "m", "current position of the probed point (node, its offset point or a rigid body's centre of mass)"},
+    {"position", "z", "m", "current position of the probed point (node, its offset point or a rigid body's centre of mass)"},
+    {"displacement", "x", "m", "displacement of the probed point (node, its offset point or a rigid body's centre of mass)"},
+    {"displacement", "y", "m", "displacement of the probed point (node, its offset point or a rigid body's centre of mass)"},
+    {"displacement", "z", "m", "displacement of the probed point (node, its offset point or a rigid body's centre of mass)"},
     {"rotation", "w", "1", "rotation of the probed node, unit quaternion (w, x, y, z)"},
     {"rotation", "x", "1", "rotation of the probed node, unit quaternion (w, x, y, z)"},
     {"rotation", "y", "1", "rotation of the probed node, unit quaternion (w, x, y, z)"},

@@ -35,7 +35,7 @@ TIP_ROTATION_ANGLE = np.array([0.0, 0.9, 2.1])
 # Units and descriptions as msflex writes them (docs/output.md); time's depend on the analysis.
 UNITS = {"load_factor": ("1", "a load factor"), "newton_iterations": ("1", "Newton iterations of the step"),
          "strain_energy": ("J", "strain energy of the beams")}
-PROBE_UNITS = {"position": ("m", "current position of the probed node"), "displacement": ("m", "displacement of the probed node"),
+PROBE_UNITS = {"position": ("m", "current position of the probed point (node, its offset point or a rigid body's centre of mass)"), "displacement": ("m", "displacement of the probed point (node, its offset point or a rigid body's centre of mass)"),
                "rotation": ("1", "rotation of the probed node, unit quaternion (w, x, y, z)"),
                "rotation_angle": ("rad", "tracked rotation angle of the probed node")}
 
@@ -194,7 +194,7 @@ class PostprocTest(unittest.TestCase):
         self.assertEqual(len(rows), 4 + 3 + 3 + 4 + 1)
         self.assertEqual(rows["time"], ["[1]", "load factor: the pseudo-time"])
         self.assertEqual(rows["strain_energy"], ["[J]", "strain energy of the beams"])
-        self.assertEqual(rows["tip.position.y"], ["[m]", "probe tip: current position of the probed node, y"])
+        self.assertEqual(rows["tip.position.y"], ["[m]", "probe tip: current position of the probed point (node, its offset point or a rigid body's centre of mass), y"])
         self.assertEqual(rows["tip.rotation_angle"], ["[rad]", "probe tip: tracked rotation angle of the probed node"])
         self.assertEqual(rows["tip.rotation.w"], ["[1]", "probe tip: rotation of the probed node, unit quaternion (w, x, y, z), w"])
         # A file of an older msflex (a dataset per series, no units) lists the same series, their

@@ -1120,7 +1120,8 @@ TEST_F(OutputFileTest, EveryDatasetHasAUnitAndADescription)
   EXPECT_EQ(units_of_columns.size(), columns.size());
   ASSERT_EQ(descriptions.size(), columns.size());
   for (size_t k = 0; k < columns.size(); ++k) EXPECT_FALSE(descriptions[k].empty()) << columns[k] << " has no description";
-  EXPECT_EQ(SeriesQuantity(file, "tip.position.y", "descriptions"), "probe tip: current position of the probed node, y");
+  EXPECT_EQ(SeriesQuantity(file, "tip.position.y", "descriptions"),
+            "probe tip: current position of the probed point (node, its offset point or a rigid body's centre of mass), y");
   EXPECT_GE(H5Fclose(file), 0);
 }
 
