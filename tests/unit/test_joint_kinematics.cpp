@@ -405,34 +405,57 @@ TEST(JointKinematics, DependentSecantIsExactAndSmooth)
   }
 }
 
+// The step `direction` scaled by `scale`: the master's translation and rotation (about omega_m)
+// and the released increments.
+Step ScaledStep(const JointGeometry &joint, const Step &direction, const Vec3 &omega_m, double scale)
+{
+  Step s = direction;
+  s.x_m1 = s.x_mn + scale * (direction.x_m1 - direction.x_mn);
+  s.R_m1 = ExpSO3(scale * omega_m) * s.R_mn;
+  for (int i = 0; i < JointNumCoordinates(joint); ++i) s.increment[i] = scale * direction.increment[i];
+  return s;
+}
+
+// Ntilde diag(I, dp/dq) of a step: the conserving map in the columns of N.
+Eigen::MatrixXd ConservingMapInJointColumns(const JointGeometry &joint, const Step &s)
+{
+  const int   k = JointNumCoordinates(joint);
+  Vec3        alpha_m;
+  JointMatrix Nt;
+  double      p[kJointMaxReleased];
+  ConservingMapOf(joint, s, &alpha_m, &Nt, p);
+  JointReleasedMatrix dp_dq;
+  JointReleasedTestDerivative(joint, s.increment, &dp_dq);
+  Eigen::MatrixXd chain = Eigen::MatrixXd::Identity(6 + k, 6 + k);
+  if (k > 0) chain.bottomRightCorner(k, k) = dp_dq.topLeftCorner(k, k);
+  return Nt.leftCols(6 + k) * chain;
+}
+
+// N at the step's end configuration.
+Eigen::MatrixXd JointMapAtEnd(const JointGeometry &joint, const Step &s)
+{
+  const int        k   = JointNumCoordinates(joint);
+  JointCoordinates end = s.start;
+  for (int i = 0; i < k; ++i) end.q[i] += s.increment[i];
+  JointMatrix N;
+  JointMap(joint, end, s.R_m1, &N);
+  return N.leftCols(6 + k);
+}
+
 // As the step vanishes the conserving map tends to N: Ntilde diag(I, dp/dq) = N exactly for an
 // empty step and within O(step) otherwise.
 TEST(JointKinematics, ConservingMapTendsToTheJointMap)
 {
   std::mt19937 gen(23);
   for (const Case &c : Cases()) {
-    const int    k         = JointNumCoordinates(c.joint);
     const Step   direction = RandomStep(c.joint, gen, false);
     const Vec3   omega_m   = LogSO3(direction.R_m1 * direction.R_mn.transpose());
     double       error[3];
     const double scales[3] = {0.0, 1e-3, 1e-4};
     for (int e = 0; e < 3; ++e) {
-      Step s = direction;
-      s.x_m1 = s.x_mn + scales[e] * (direction.x_m1 - direction.x_mn);
-      s.R_m1 = ExpSO3(scales[e] * omega_m) * s.R_mn;
-      for (int i = 0; i < k; ++i) s.increment[i] = scales[e] * direction.increment[i];
-      Vec3        alpha_m;
-      JointMatrix Nt, N;
-      double      p[kJointMaxReleased];
-      ConservingMapOf(c.joint, s, &alpha_m, &Nt, p);
-      JointReleasedMatrix dp_dq;
-      JointReleasedTestDerivative(c.joint, s.increment, &dp_dq);
-      JointCoordinates end = s.start;
-      for (int i = 0; i < k; ++i) end.q[i] += s.increment[i];
-      JointMap(c.joint, end, s.R_m1, &N);
-      Eigen::MatrixXd chain = Eigen::MatrixXd::Identity(6 + k, 6 + k);
-      if (k > 0) chain.bottomRightCorner(k, k) = dp_dq.topLeftCorner(k, k);
-      error[e] = MaxAbs(Nt.leftCols(6 + k) * chain - N.leftCols(6 + k)) / MaxAbs(N.leftCols(6 + k));
+      const Step            s = ScaledStep(c.joint, direction, omega_m, scales[e]);
+      const Eigen::MatrixXd N = JointMapAtEnd(c.joint, s);
+      error[e]                = MaxAbs(ConservingMapInJointColumns(c.joint, s) - N) / MaxAbs(N);
     }
     std::printf("joint %-14s |Ntilde dp/dq - N| / |N|: %.1e (empty step), %.1e (1e-3), %.1e (1e-4)\n", c.name.c_str(), error[0], error[1], error[2]);
     EXPECT_LT(error[0], 1e-14) << c.name;
@@ -455,27 +478,14 @@ TEST(JointKinematics, ConservingMapIsCentredOnTheStep)
     double       error[2];
     const double scales[2] = {1e-2, 1e-3};
     for (int e = 0; e < 2; ++e) {
-      Step s = direction;
-      s.x_m1 = s.x_mn + scales[e] * (direction.x_m1 - direction.x_mn);
-      s.R_m1 = ExpSO3(scales[e] * omega_m) * s.R_mn;
-      for (int i = 0; i < k; ++i) s.increment[i] = scales[e] * direction.increment[i];
-      Vec3        alpha_m;
-      JointMatrix Nt, N_start, N_end;
-      double      p[kJointMaxReleased];
-      ConservingMapOf(c.joint, s, &alpha_m, &Nt, p);
-      JointReleasedMatrix dp_dq;
-      JointReleasedTestDerivative(c.joint, s.increment, &dp_dq);
-      JointCoordinates end = s.start;
-      for (int i = 0; i < k; ++i) end.q[i] += s.increment[i];
+      const Step  s = ScaledStep(c.joint, direction, omega_m, scales[e]);
+      JointMatrix N_start;
       JointMap(c.joint, s.start, s.R_mn, &N_start);
-      JointMap(c.joint, end, s.R_m1, &N_end);
-      Eigen::MatrixXd chain = Eigen::MatrixXd::Identity(6 + k, 6 + k);
-      if (k > 0) chain.bottomRightCorner(k, k) = dp_dq.topLeftCorner(k, k);
       // A free rotation's three columns span every direction whatever they are (the slave's moment
       // equations hold in full): only the master's and the translations' columns are compared.
       const int             columns = c.joint.rotation == JointRotation::Free ? 6 + c.joint.num_translations : 6 + k;
-      const Eigen::MatrixXd mean    = 0.5 * (N_start.leftCols(columns) + N_end.leftCols(columns));
-      error[e]                      = MaxAbs((Nt.leftCols(6 + k) * chain).leftCols(columns) - mean) / MaxAbs(mean);
+      const Eigen::MatrixXd mean    = 0.5 * (N_start.leftCols(columns) + JointMapAtEnd(c.joint, s).leftCols(columns));
+      error[e]                      = MaxAbs(ConservingMapInJointColumns(c.joint, s).leftCols(columns) - mean) / MaxAbs(mean);
     }
     std::printf("joint %-14s |Ntilde dp/dq - (N_n + N_n+1)/2| / |N|: %.1e (1e-2), %.1e (1e-3)\n", c.name.c_str(), error[0], error[1]);
     EXPECT_LT(error[1], 0.02 * error[0] + 1e-14) << c.name; // second order in the step
