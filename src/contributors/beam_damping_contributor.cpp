@@ -43,6 +43,13 @@ bool BeamDampingContributor::Strains(const State &state, size_t k, bool start, V
   return BeamStrainRates(beams_->References()[k], positions, triads, zero, zero, strain, curvature, rate, curvature_rate) == BeamKernelStatus::Ok;
 }
 
+// A committed strain motion with the rate a step starts from (BeginStep).
+static MotionState WithRate(MotionState motion, const Vec3 &rate)
+{
+  motion.velocity = rate;
+  return motion;
+}
+
 // e'(t_n) of the strains at the last three step starts, second order (BDF2 with steps
 // h1 = t_n - t_{n-1}, h0 = t_{n-1} - t_{n-2}, w = h1/h0):
 //   e'_n = [(1 + 2w)/(1 + w) e_n - (1 + w) e_{n-1} + w^2/(1 + w) e_{n-2}] / h1.
@@ -70,20 +77,6 @@ void BeamDampingContributor::BeginStep(const State &state)
                                              : motion.curvature[gp].velocity;
     }
   }
-}
-
-MotionState BeamDampingContributor::StartStrainMotion(const State &state, size_t k, int gp) const
-{
-  MotionState motion = state.beam_strains[k].strain[gp];
-  motion.velocity    = start_strain_rate_[k][gp];
-  return motion;
-}
-
-MotionState BeamDampingContributor::StartCurvatureMotion(const State &state, size_t k, int gp) const
-{
-  MotionState motion = state.beam_strains[k].curvature[gp];
-  motion.velocity    = start_curvature_rate_[k][gp];
-  return motion;
 }
 
 bool BeamDampingContributor::StartForces(const State &state, size_t k, double *force) const
@@ -142,8 +135,8 @@ bool BeamDampingContributor::Forces(const State &state, size_t k, double *force,
   const double               cv = eq.scheme.VelocityCoefficient();
   const BeamSectionStiffness section{cv * C.axial_shear, cv * C.torsion_bending};
   for (int gp = 0; gp < ref.num_gauss; ++gp) {
-    const Vec3 strain_rate    = AdvanceMotion(eq.scheme, StartStrainMotion(state, k, gp), Vec3::Zero()).velocity;
-    const Vec3 curvature_rate = AdvanceMotion(eq.scheme, StartCurvatureMotion(state, k, gp), Vec3::Zero()).velocity;
+    const Vec3 strain_rate    = AdvanceMotion(eq.scheme, WithRate(state.beam_strains[k].strain[gp], start_strain_rate_[k][gp]), Vec3::Zero()).velocity;
+    const Vec3 curvature_rate = AdvanceMotion(eq.scheme, WithRate(state.beam_strains[k].curvature[gp], start_curvature_rate_[k][gp]), Vec3::Zero()).velocity;
     shifted.strain0[gp] += start_strain_[k][gp] - strain_rate / cv;
     shifted.curvature0[gp] += start_curvature_[k][gp] - curvature_rate / cv;
   }
@@ -219,24 +212,24 @@ void BeamDampingContributor::StartMotion(State *state)
 
 void BeamDampingContributor::CommitStep(State *state)
 {
+  // Only the Newmark family carries the strains' motion (the mid-point schemes' damping takes
+  // e_{n+1} - e_n alone); the start strains are BeginStep's.
   const StepEquations &eq = state->equations;
-  if (!any_damped_ || !eq.Dynamic()) return;
+  if (!any_damped_ || !eq.NewmarkFamily()) return;
   for (size_t k = 0; k < damped_.size(); ++k) {
     if (!damped_[k]) continue;
-    Vec3 start_strain[kBeamMaxGauss], start_curvature[kBeamMaxGauss], strain[kBeamMaxGauss], curvature[kBeamMaxGauss];
-    if (!Strains(*state, k, true, start_strain, start_curvature) || !Strains(*state, k, false, strain, curvature)) continue;
+    Vec3 strain[kBeamMaxGauss], curvature[kBeamMaxGauss];
+    if (!Strains(*state, k, false, strain, curvature)) continue;
     BeamStrainMotion &motion = state->beam_strains[k];
     for (int gp = 0; gp < beams_->References()[k].num_gauss; ++gp) {
-      // (Midpoint schemes carry no strain motion; the Newmark family starts from the nodes' rates.)
-      const bool         newmark = eq.NewmarkFamily();
-      const MotionUpdate s       = AdvanceMotion(eq.scheme, newmark ? StartStrainMotion(*state, k, gp) : motion.strain[gp], strain[gp] - start_strain[gp]);
-      const MotionUpdate c =
-          AdvanceMotion(eq.scheme, newmark ? StartCurvatureMotion(*state, k, gp) : motion.curvature[gp], curvature[gp] - start_curvature[gp]);
+      const Vec3        &e_n = start_strain_[k][gp], &k_n = start_curvature_[k][gp];
+      const MotionUpdate s = AdvanceMotion(eq.scheme, WithRate(motion.strain[gp], start_strain_rate_[k][gp]), strain[gp] - e_n);
+      const MotionUpdate c = AdvanceMotion(eq.scheme, WithRate(motion.curvature[gp], start_curvature_rate_[k][gp]), curvature[gp] - k_n);
       motion.strain[gp]    = {s.velocity, s.acceleration, s.pseudo_acceleration};
       motion.curvature[gp] = {c.velocity, c.acceleration, c.pseudo_acceleration};
       // The step's start strains join the history of the next steps' start rates.
-      motion.previous_strain[1][gp] = motion.previous_strain[0][gp], motion.previous_strain[0][gp] = start_strain[gp];
-      motion.previous_curvature[1][gp] = motion.previous_curvature[0][gp], motion.previous_curvature[0][gp] = start_curvature[gp];
+      motion.previous_strain[1][gp] = motion.previous_strain[0][gp], motion.previous_strain[0][gp] = e_n;
+      motion.previous_curvature[1][gp] = motion.previous_curvature[0][gp], motion.previous_curvature[0][gp] = k_n;
     }
     motion.previous_steps[1] = motion.previous_steps[0], motion.previous_steps[0] = eq.scheme.dt;
     motion.previous_count = std::min(motion.previous_count + 1, 2);

@@ -72,11 +72,8 @@ private:
   std::vector<char>                 damped_;  // per local element
   std::vector<BeamSectionStiffness> damping_; // per section: C_d
   // Newmark family, per local element and Gauss point: the strains at the start of the step and
-  // their rates from the nodes' velocities there.
+  // the rates the step starts from (BeginStep).
   std::vector<std::array<Vec3, 2>> start_strain_, start_curvature_, start_strain_rate_, start_curvature_rate_;
-  // The committed strain motion of Gauss point gp with the rate of the step's start (BeginStep).
-  MotionState StartStrainMotion(const State &state, size_t k, int gp) const;
-  MotionState StartCurvatureMotion(const State &state, size_t k, int gp) const;
 };
 
 } // namespace msflex

@@ -4,6 +4,10 @@
 
 #include <Eigen/QR>
 
+#include <array>
+#include <cmath>
+#include <limits>
+
 namespace msflex {
 
 namespace {
@@ -477,15 +481,12 @@ void StateSetInitialConfiguration(const Model &model, const DofMap &map, State *
 
 void StateSetCoordinateRates(const Model &model, const DofMap &map, double t, State *state)
 {
-  // The coordinates given a rate, per local joint.
-  std::vector<std::array<double, kJointMaxReleased>> given(state->joints.size());
-  std::vector<std::array<bool, kJointMaxReleased>>   has_given(state->joints.size());
-  for (auto &flags : has_given) flags.fill(false);
-  for (const CoordinateInitialCondition &ic : model.coordinate_initial_conditions) {
-    const int j = ic.has_rate ? map.joint_to_local[ic.joint] : -1;
-    if (j < 0) continue;
-    given[j][ic.coordinate] = ic.rate, has_given[j][ic.coordinate] = true;
-  }
+  // The coordinates given a rate, per local joint (NaN: none given).
+  std::array<double, kJointMaxReleased> none;
+  none.fill(std::numeric_limits<double>::quiet_NaN());
+  std::vector<std::array<double, kJointMaxReleased>> given(state->joints.size(), none);
+  for (const CoordinateInitialCondition &ic : model.coordinate_initial_conditions)
+    if (const int j = ic.has_rate ? map.joint_to_local[ic.joint] : -1; j >= 0) given[j][ic.coordinate] = ic.rate;
   for (size_t j = 0; j < state->joints.size(); ++j) {
     JointState  &J     = state->joints[j];
     const Joint &joint = model.joints[J.joint];
@@ -507,7 +508,7 @@ void StateSetCoordinateRates(const Model &model, const DofMap &map, double t, St
     }
     bool set = false;
     for (int c = 0; c < k; ++c)
-      if (has_given[j][c]) rates(c) = given[j][c], set = true;
+      if (!std::isnan(given[j][c])) rates(c) = given[j][c], set = true;
     if (joint.driven_coordinate >= 0) rates(joint.driven_coordinate) = DriveCoordinate(model, joint, t, 1), set = true;
     for (int c = 0; c < kJointMaxReleased; ++c) J.coordinate_motion[c / 3].velocity(c % 3) = c < k ? rates(c) : 0.0;
     if (!set) continue;
