@@ -28,6 +28,7 @@ const OptionInfo kOptions[] = {
     {"-analysis_integrator", "NAME", "time integrator of a dynamic analysis: newmark, genalpha, mc or em"},
     {"-analysis_spectral_radius", "R", "rho_infinity of genalpha, in [0, 1]"},
     {"-analysis_em_correction", "resultants|forces", "em's correction vector: resultants (N_d, M_d) or forces (N_d, 0)"},
+    {"-analysis_reactions", "consistent|scheme", "dynamics' reactions: from the accelerations of each converged state, or the scheme's own"},
     {"-analysis_end_time", "T", "final time (dynamics) or load factor (statics)"},
     {"-analysis_initial_step", "DT", "first step size"},
     {"-analysis_min_step", "DT", "smallest step before the run gives up"},

@@ -378,6 +378,7 @@ PetscErrorCode PrintSummary(Analysis &a)
   PetscCall(WarnEnergyGrowth(a));
   if (a.options.quiet) PetscFunctionReturn(PETSC_SUCCESS);
   a.summary.Tangents(a.integrator.TangentsFormed(), a.integrator.TangentsReused());
+  a.summary.ConsistentReactions(a.integrator.ConsistentReactionSolves(), a.integrator.ConsistentReactionFailures());
   PetscCall(a.summary.Print(a.comm, a.run_wall_start, a.Dynamic()));
   PetscFunctionReturn(PETSC_SUCCESS);
 }

@@ -32,12 +32,20 @@ public:
     tangents_formed_ = formed;
     tangents_reused_ = reused;
   }
+  // Dynamics with analysis.reactions consistent: the acceleration solves made for the reactions
+  // and how many of them failed (the scheme's reactions were reported there).
+  void ConsistentReactions(long long solves, long long failures)
+  {
+    reaction_solves_   = solves;
+    reaction_failures_ = failures;
+  }
   // Collective: times and memory are reduced over the ranks. `wall_start`: MPI_Wtime at the start
   // of the run on this rank.
   PetscErrorCode Print(MPI_Comm comm, double wall_start, bool dynamic) const;
 
 private:
-  long long                  accepted_ = 0, newton_accepted_ = 0, newton_all_ = 0, krylov_all_ = 0, tangents_formed_ = 0, tangents_reused_ = 0;
+  long long accepted_ = 0, newton_accepted_ = 0, newton_all_ = 0, krylov_all_ = 0, tangents_formed_ = 0, tangents_reused_ = 0, reaction_solves_ = 0,
+            reaction_failures_ = 0;
   std::map<std::string, int> rejected_; // by reason
   bool                       have_energy_   = false;
   double                     balance_first_ = 0.0, balance_last_ = 0.0, max_drift_ = 0.0, max_total_ = 0.0, max_growth_ = 0.0, first_total_ = 0.0;

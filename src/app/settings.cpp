@@ -42,7 +42,7 @@ PetscErrorCode SettingsFromOptions(MPI_Comm comm, Model *model, RunOptions *opti
   PetscInt               num_output_times = (PetscInt)output_times.size();
   PetscBool              output_times_set = PETSC_FALSE;
   char                   linear_solver[32], direct_solver[32];
-  char                   type[32], integrator[32], em_correction[32], control[32], control_node[256], control_joint[256], control_dof[8] = "";
+  char                   type[32], integrator[32], em_correction[32], reactions[32], control[32], control_node[256], control_joint[256], control_dof[8] = "";
   PetscInt               condensation_depth = a.condensation_depth; // default: the input's (AnalysisSettings)
   PetscInt               desired_iterations = a.desired_iterations, max_steps = a.max_steps, eigenvalues = a.eigenvalues;
   PetscBool              stability = a.stability ? PETSC_TRUE : PETSC_FALSE, preload = a.preload ? PETSC_TRUE : PETSC_FALSE, shift_set = PETSC_FALSE;
@@ -57,6 +57,7 @@ PetscErrorCode SettingsFromOptions(MPI_Comm comm, Model *model, RunOptions *opti
   PetscCall(PetscStrncpy(direct_solver, DirectSolverChoiceName(a.direct_solver), sizeof(direct_solver))); // default: the input's
   PetscCall(PetscStrncpy(initial_velocities, a.project_initial_velocities ? "projected" : "given", sizeof(initial_velocities)));
   PetscCall(PetscStrncpy(em_correction, EnergyCorrectionName(a.em_correction), sizeof(em_correction))); // default: the input's
+  PetscCall(PetscStrncpy(reactions, ReactionPointName(a.reactions), sizeof(reactions)));                // default: the input's
   const std::string type_list = AnalysisTypeNameList(), integrator_list = IntegratorNameList(), control_list = PathControlNameList();
   PetscOptionsBegin(comm, "analysis_", "Analysis settings (defaults: the input's analysis section)", "msflex");
   PetscCall(PetscOptionsString("-type", OptionDescription("-analysis_type"), "", type, type, sizeof(type), nullptr));
@@ -64,6 +65,7 @@ PetscErrorCode SettingsFromOptions(MPI_Comm comm, Model *model, RunOptions *opti
   PetscCall(PetscOptionsReal("-spectral_radius", OptionDescription("-analysis_spectral_radius"), "", a.spectral_radius, &a.spectral_radius, nullptr));
   PetscCall(
       PetscOptionsString("-em_correction", OptionDescription("-analysis_em_correction"), "", em_correction, em_correction, sizeof(em_correction), nullptr));
+  PetscCall(PetscOptionsString("-reactions", OptionDescription("-analysis_reactions"), "", reactions, reactions, sizeof(reactions), nullptr));
   PetscCall(PetscOptionsReal("-end_time", OptionDescription("-analysis_end_time"), "", a.end_time, &a.end_time, nullptr));
   PetscCall(PetscOptionsReal("-initial_step", OptionDescription("-analysis_initial_step"), "", a.initial_step, &a.initial_step, nullptr));
   PetscCall(PetscOptionsReal("-min_step", OptionDescription("-analysis_min_step"), "", a.min_step, &a.min_step, nullptr));
@@ -114,6 +116,8 @@ PetscErrorCode SettingsFromOptions(MPI_Comm comm, Model *model, RunOptions *opti
              integrator_list.c_str(), integrator);
   PetscCheck(EnergyCorrectionFromName(em_correction, &a.em_correction), comm, PETSC_ERR_USER_INPUT,
              "option -analysis_em_correction must be resultants or forces, got '%s'", em_correction);
+  PetscCheck(ReactionPointFromName(reactions, &a.reactions), comm, PETSC_ERR_USER_INPUT, "option -analysis_reactions must be consistent or scheme, got '%s'",
+             reactions);
   PetscCheck(LinearSolverKindFromName(linear_solver, &a.linear_solver), comm, PETSC_ERR_USER_INPUT,
              "option -analysis_linear_solver must be direct or multigrid, got '%s'", linear_solver);
   PetscCheck(DirectSolverChoiceFromName(direct_solver, &a.direct_solver), comm, PETSC_ERR_USER_INPUT,

@@ -7,6 +7,7 @@ namespace msflex {
 Integrator::~Integrator()
 {
   VecDestroy(&increments_);
+  VecDestroy(&accelerations_);
   SNESDestroy(&snes_);
   VecDestroy(&newton_context_.rank_one_solution);
 }
@@ -22,6 +23,7 @@ PetscErrorCode Integrator::Setup(MPI_Comm comm, const Model &model, const DofMap
   // -log_view stages: LinearSolve (each Newton solve but its assembly: factorisation, triangular
   // or Krylov solves), Assembly (pushed by the Newton callbacks).
   PetscCall(PetscLogStageRegister("LinearSolve", &solve_stage_));
+  PetscCall(PetscLogEventRegister("ConsistentReact", SNES_CLASSID, &consistent_reactions_event_));
   PetscCall(system_.Setup(comm, model, map, std::move(pattern), std::move(nodal_mass)));
   newton_context_.assembler      = &system_.GetAssembler();
   newton_context_.assembly_stage = assembly_stage;
@@ -74,8 +76,9 @@ PetscErrorCode Integrator::InitialiseMotion(double t)
   system_.StartMotion();
   const bool midpoint = IsMidpointScheme(model_->analysis.integrator);
   // The mid-point schemes need no initial accelerations, but the first history row's joint
-  // reactions do (they were 0): the problem is solved for them alone when there are joints.
-  if (midpoint && map_->global_count.joints == 0) {
+  // reactions do (they were 0): the problem is solved for them alone when there are joints, or
+  // reaction probes whose reactions are the consistent ones.
+  if (midpoint && map_->global_count.joints == 0 && !ConsistentReactionsWanted()) {
     if (reaction_probes_) {
       PetscCall(assembler.BeginStep(InitialAccelerationProblem(t)));
       PetscCall(assembler.EvaluateSupportReactions());
@@ -133,10 +136,55 @@ PetscErrorCode Integrator::CommitConvergedStep(double dt)
 {
   Assembler &assembler = system_.GetAssembler();
   PetscFunctionBeginUser;
+  const double t_end = system_.GetState().equations.t_end;
   if (map_->global_count.joints > 0) PetscCall(assembler.EvaluateJointReactions(dt));
   if (reaction_probes_) PetscCall(assembler.EvaluateSupportReactions());
   system_.CommitStep();
   StateCommitStep(*model_, &system_.GetState());
+  if (ConsistentReactionsWanted()) PetscCall(ConsistentReactions(t_end));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+bool Integrator::ConsistentReactionsWanted() const
+{
+  if (!dynamic_ || model_->analysis.reactions != ReactionPoint::Consistent) return false;
+  // The Newmark family's equations hold at t_end with the scheme's accelerations: without joints
+  // its reactions are the consistent ones already.
+  return map_->global_count.joints > 0 || (reaction_probes_ && IsMidpointScheme(model_->analysis.integrator));
+}
+
+PetscErrorCode Integrator::ConsistentReactions(double t)
+{
+  Assembler &assembler = system_.GetAssembler();
+  State     &state     = system_.GetState();
+  PetscFunctionBeginUser;
+  PetscCall(PetscLogEventBegin(consistent_reactions_event_, 0, 0, 0, 0));
+  if (!accelerations_) PetscCall(VecDuplicate(increments_, &accelerations_));
+  // The joints' mean rates over the step stay what the history reports.
+  saved_rates_.resize(state.joints.size());
+  for (size_t j = 0; j < state.joints.size(); ++j) saved_rates_[j] = state.joints[j].rate;
+  PetscCall(assembler.BeginStep(InitialAccelerationProblem(t)));
+  PetscCall(VecZeroEntries(accelerations_));
+  PetscCall(SNESSolve(snes_, nullptr, accelerations_));
+  ++consistent_reaction_solves_;
+  SNESConvergedReason reason;
+  PetscCall(SNESGetConvergedReason(snes_, &reason));
+  if (reason > 0) {
+    PetscCall(assembler.SetIncrements(accelerations_));
+    if (map_->global_count.joints > 0) PetscCall(assembler.EvaluateJointReactions(0.0));
+    if (reaction_probes_) PetscCall(assembler.EvaluateSupportReactions());
+    for (size_t j = 0; j < state.joints.size(); ++j) state.joints[j].rate = saved_rates_[j];
+  } else {
+    // The scheme's reactions stay; said once (a run that keeps failing here says it at the end).
+    if (consistent_reaction_failures_++ == 0 && !quiet_)
+      PetscCall(PetscPrintf(comm_,
+                            "msflex: warning: the consistent reactions at t = %.9g could not be solved (%s); the scheme's are reported there and "
+                            "wherever this recurs (analysis.reactions, docs/joints.md)\n",
+                            t, SNESConvergedReasons[reason]));
+  }
+  assembler.DiscardStep();
+  ForgetKeptTangent();
+  PetscCall(PetscLogEventEnd(consistent_reactions_event_, 0, 0, 0, 0));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 

@@ -102,6 +102,9 @@ public:
   long long TangentsReused() const { return newton_context_.tangents_reused; }
   // Newton factors by MUMPS since the banded LU failed (NewtonUsePivotingLU); a restart makes
   // the same choice (UsePivotingLU) so that it repeats the run to the last bit.
+  // analysis.reactions consistent: acceleration solves made for the reactions, and the failed ones.
+  long long      ConsistentReactionSolves() const { return consistent_reaction_solves_; }
+  long long      ConsistentReactionFailures() const { return consistent_reaction_failures_; }
   bool           PivotingLUForced() const { return newton_context_.pivoting_lu_forced; }
   PetscErrorCode UsePivotingLU();
   // The next Newton iteration assembles a new tangent (after a checkpoint, as a restart would).
@@ -148,6 +151,15 @@ private:
   // (said on stdout with `why`, the failure), so that the same step is worth another try.
   PetscErrorCode SwitchToPivotingLU(const char *where, const std::string &why, bool *switched);
   PetscLogStage  solve_stage_ = -1;
+  // The reactions at t_end from the accelerations that satisfy the equations of motion in the
+  // converged state (analysis.reactions: consistent), replacing the scheme's; see
+  // docs/joints.md. After the step is committed; its rates stay. Collective.
+  bool                                               ConsistentReactionsWanted() const;
+  PetscErrorCode                                     ConsistentReactions(double t);
+  PetscLogEvent                                      consistent_reactions_event_ = 0;
+  Vec                                                accelerations_              = nullptr;
+  std::vector<std::array<double, kJointMaxReleased>> saved_rates_;
+  long long                                          consistent_reaction_solves_ = 0, consistent_reaction_failures_ = 0;
 };
 
 } // namespace msflex

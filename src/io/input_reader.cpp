@@ -638,6 +638,7 @@ void ReadAnalysis(const YAML::Node *mapping, const ReaderContext &context, Analy
                              "integrator",
                              "spectral_radius",
                              "em_correction",
+                             "reactions",
                              "end_time",
                              "initial_step",
                              "min_step",
@@ -685,6 +686,11 @@ void ReadAnalysis(const YAML::Node *mapping, const ReaderContext &context, Analy
     const std::string correction = ReadString(*value, "em_correction");
     if (!EnergyCorrectionFromName(correction, &analysis.em_correction))
       FailAt(value->Mark(), "unknown em_correction " + Quote(correction) + " in 'analysis'; expected resultants or forces");
+  }
+  if (const YAML::Node *value = entry.Find("reactions")) {
+    const std::string reactions = ReadString(*value, "reactions");
+    if (!ReactionPointFromName(reactions, &analysis.reactions))
+      FailAt(value->Mark(), "unknown reactions " + Quote(reactions) + " in 'analysis'; expected consistent or scheme");
   }
   analysis.spectral_radius = entry.Number("spectral_radius", analysis.spectral_radius);
   if (analysis.spectral_radius < 0.0 || analysis.spectral_radius > 1.0)

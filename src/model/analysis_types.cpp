@@ -95,4 +95,14 @@ bool DirectSolverChoiceFromName(const std::string &name, DirectSolverChoice *cho
 
 const char *DirectSolverChoiceName(DirectSolverChoice choice) { return choice == DirectSolverChoice::Auto ? "auto" : "mumps"; }
 
+bool ReactionPointFromName(const std::string &name, ReactionPoint *point)
+{
+  if (name == "consistent") *point = ReactionPoint::Consistent;
+  else if (name == "scheme") *point = ReactionPoint::Scheme;
+  else return false;
+  return true;
+}
+
+const char *ReactionPointName(ReactionPoint point) { return point == ReactionPoint::Consistent ? "consistent" : "scheme"; }
+
 } // namespace msflex

@@ -29,6 +29,15 @@ inline bool NeedsStaticStiffness(AnalysisType type, bool preload)
   return type == AnalysisType::Static || type == AnalysisType::Buckling || (type == AnalysisType::Modes && preload);
 }
 
+// Where a dynamic analysis reports reactions (joints' forces and drive forces, reaction probes):
+// from the accelerations that satisfy the equations of motion in each converged state, at its
+// time (Consistent), or from the scheme's own equations (Scheme: the step's mid-point in mc and
+// em, t_end with the scheme's accelerations in the Newmark family); docs/joints.md.
+enum class ReactionPoint { Consistent, Scheme };
+// "consistent" or "scheme"; false for anything else.
+bool        ReactionPointFromName(const std::string &name, ReactionPoint *point);
+const char *ReactionPointName(ReactionPoint point);
+
 // The registry of path-following controls of static analyses (analysis.control): what drives the
 // steps and which quantity is the unknown besides the configuration.
 enum class PathControl { Load, ArcLength, Displacement };

@@ -266,6 +266,7 @@ struct AnalysisSettings {
   TimeSchemeKind   integrator             = TimeSchemeKind::EnergyMomentum; // dynamic only; schemes/time_scheme.hpp
   double           spectral_radius        = 0.9;                            // rho_infinity of genalpha, in [0, 1]
   EnergyCorrection em_correction          = EnergyCorrection::Resultants;   // the correction vector of em (schemes/time_scheme.hpp)
+  ReactionPoint    reactions              = ReactionPoint::Consistent;      // where dynamics reports reactions (docs/joints.md)
   double           end_time               = 1.0;
   double           initial_step           = 0.1;
   double           min_step               = 1e-6;
