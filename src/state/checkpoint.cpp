@@ -8,6 +8,7 @@
 #include <climits>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 
 namespace msflex {
 
@@ -40,11 +41,42 @@ void PackNumbers(const CheckpointRun &run, double *numbers)
   std::copy(values, values + kRunNumbers, numbers);
 }
 
+// FNV-1a (64 bit) of the run record: its numbers, the LU flag and every text (each with its
+// length), the top 53 bits as a double (exact). The state tables have their row checksums; the
+// record's texts of input and options are checked by the model fingerprint, but a bit flipped in
+// a number (the time, the step, the external work) that stays plausible restarted the run at the
+// wrong time without a word.
+double RunRecordChecksum(const CheckpointRun &run)
+{
+  uint64_t   hash  = 14695981039346656037ull;
+  const auto bytes = [&hash](const void *data, size_t count) {
+    const unsigned char *p = static_cast<const unsigned char *>(data);
+    for (size_t i = 0; i < count; ++i) hash = (hash ^ p[i]) * 1099511628211ull;
+  };
+  double numbers[kRunNumbers];
+  PackNumbers(run, numbers);
+  bytes(numbers, sizeof numbers);
+  const double pivoting_lu = run.pivoting_lu ? 1.0 : 0.0;
+  bytes(&pivoting_lu, sizeof pivoting_lu);
+  for (const std::string *text : {&run.input_file, &run.input_text, &run.options, &run.output_file, &run.mesh_fingerprint}) {
+    const uint64_t length = text->size();
+    bytes(&length, sizeof length);
+    bytes(text->data(), text->size());
+  }
+  return (double)(hash >> 11);
+}
+
 // "" when `value` is an integer in [lo, hi], else the one-line problem naming `what`.
 std::string IntegerProblem(const char *what, double value, double lo, double hi)
 {
   if (value == std::floor(value) && value >= lo && value <= hi) return "";
-  return Format("%s %.6g is not an integer in [%.0f, %.0f]", what, value, lo, hi);
+  // The shortest text that reads back as the value: 20 + 1e-14 must not print as "20".
+  std::string text;
+  for (int digits = 6; digits <= 17; ++digits) {
+    text = Format("%.*g", digits, value);
+    if (std::strtod(text.c_str(), nullptr) == value) break;
+  }
+  return Format("%s %s is not an integer in [%.0f, %.0f]", what, text.c_str(), lo, hi);
 }
 
 // Validates the numbers (every entry finite already: ReadExactDoubles) and unpacks them; "" or
@@ -300,6 +332,8 @@ PetscErrorCode CheckpointWrite(MPI_Comm comm, const std::string &path, const Che
     PetscCall(WriteText(path, group, "output_file", run.output_file));
     // Apart from the texts above, which every checkpoint of this format has: absent is "".
     if (!run.mesh_fingerprint.empty()) PetscCall(WriteText(path, group, "mesh_fingerprint", run.mesh_fingerprint));
+    const double checksum = RunRecordChecksum(run);
+    PetscCall(WriteDoubles(path, group, "checksum", &checksum, 1));
     PetscCallHDF5At(path, H5Fclose(file.Release()));
     temporary_path = temporary.Path();
     PetscFunctionReturn(PETSC_SUCCESS);
@@ -393,6 +427,11 @@ PetscErrorCode ReadRunRecord(const std::string &path, CheckpointRun *run)
   run->run_id            = existing.marker.run;
   PetscCheck(ModelFingerprint(run->input_text, run->options) == run->model_fingerprint, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED,
              "'%s' is damaged: its stored input and options do not match its fingerprint", p);
+  // Last, over what was read as it was read (the numbers as unpacked pack back to themselves).
+  problem = ReadExactDoubles(file, "/run/checksum", 1, &numbers);
+  PetscCheck(problem.empty(), PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "'%s': %s", p, problem.c_str());
+  PetscCheck(numbers[0] == RunRecordChecksum(*run), PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED,
+             "'%s' is damaged: its run record (/run: time, step, work, texts) does not match its checksum", p);
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 

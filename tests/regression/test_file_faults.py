@@ -98,6 +98,15 @@ def corrupt(path, edit):
         edit(f)
 
 
+def flip_number_bit(index, bit):
+    def edit(f):
+        numbers = f["run/numbers"][()]
+        raw = numbers.view(np.uint64)
+        raw[index] ^= np.uint64(1 << bit)
+        f["run/numbers"][...] = raw.view(np.float64)
+    return edit
+
+
 def set_number(index, value):
     def edit(f):
         numbers = f["run/numbers"][()]
@@ -206,6 +215,27 @@ def delete(name):
     def edit(f):
         del f[name]
     return edit
+
+
+def rechecksum(edit):
+    """`edit`, then the run record's checksum made to match (RunRecordChecksum in
+    src/state/checkpoint.cpp: FNV-1a 64 of the numbers, the LU flag and each text with its length,
+    its top 53 bits), so that the edit reaches the checks behind it."""
+    def edited(f):
+        edit(f)
+        hash_value = 14695981039346656037
+        def feed(data):
+            nonlocal hash_value
+            for byte in data:
+                hash_value = ((hash_value ^ byte) * 1099511628211) & 0xFFFFFFFFFFFFFFFF
+        feed(np.asarray(f["run/numbers"][()], dtype="<f8").tobytes())
+        feed(np.asarray(f["run/pivoting_lu"][()], dtype="<f8").tobytes())
+        for name in ("input_file", "input_text", "options", "output_file", "mesh_fingerprint"):
+            text = f[f"run/{name}"][()].tobytes() if f"run/{name}" in f else b""
+            feed(len(text).to_bytes(8, "little"))
+            feed(text)
+        f["run/checksum"][...] = np.array([float(hash_value >> 11)])
+    return edited
 
 
 def restart_case(name, edit, fragments, arguments=("-analysis_end_time", "0.08"), result_edit=None):
@@ -324,9 +354,9 @@ CASES = [
     Case("restart_from_result_file", lambda d: (checkpointed_run(d), ["--restart", "out.h5"])[-1], [r"'out\.h5' is an msflex result file, not a checkpoint"]),
     # (3) corrupted checkpoints, each made from a real one: refused, nothing changes
     restart_case("restart_format_other", set_attribute("msflex_format", "msflex checkpoint 7"),
-                 [r"has format 'msflex checkpoint 7'; this msflex reads 'msflex checkpoint 5'"]),
+                 [r"has format 'msflex checkpoint 7'; this msflex reads 'msflex checkpoint 6'"]),
     restart_case("restart_marker_removed", lambda f: [f.attrs.__delitem__(k) for k in list(f.attrs)],
-                 [r"has format 'msflex checkpoint 5' without file markers \(written by an earlier msflex\)"]),
+                 [r"has format 'msflex checkpoint 6' without file markers \(written by an earlier msflex\)"]),
     restart_case("restart_format_1", lambda f: ([f.attrs.__delitem__(k) for k in list(f.attrs)], set_text("run/format", b"msflex checkpoint 1")(f)),
                  [r"has format 'msflex checkpoint 1' without file markers"]),
     restart_case("restart_numbers_missing", delete("run/numbers"), [r"/run/numbers"]),
@@ -338,17 +368,23 @@ CASES = [
     restart_case("restart_pivoting_lu_wrong_length", replace_dataset("run/pivoting_lu", lambda f, n: f.create_dataset(n, data=np.zeros(3))),
                  [r"/run/pivoting_lu has 3 entries, expected 1"]),
     restart_case("restart_step_huge", set_number(0, 1e30), [r"the step 1e\+30 is not an integer"]),
+    restart_case("restart_step_nearly_integer", set_number(0, 4 + 2**-40), [r"the step \d+\.\d{6,} is not an integer"]),
+    # A plausible number changed (a flipped bit in the time, the step size, the work): the run
+    # record's checksum (it restarted at the wrong time).
+    restart_case("restart_time_changed", set_number(1, 0.001), [r"is damaged: its run record \(/run: time, step, work, texts\) does not match its checksum"]),
+    restart_case("restart_work_bit_flipped", flip_number_bit(2, 0), [r"is damaged: its run record .* does not match its checksum"]),
+    restart_case("restart_output_name_changed", set_text("run/output_file", b"other.h5"), [r"does not match its checksum"]),
     restart_case("restart_step_negative", set_number(0, -1), [r"the step -1 is not an integer"]),
     restart_case("restart_step_fraction", set_number(0, 2.5), [r"the step 2\.5 is not an integer"]),
     restart_case("restart_history_rows_inconsistent", set_number(4, 999), [r"history rows 999 do not match step 4 \(expected 5\)"]),
     restart_case("restart_last_written_beyond_step", set_number(3, 7), [r"the last written step 7 is beyond the step 4"]),
     restart_case("restart_controller_step_zero", set_number(5, 0.0), [r"step controller's step 0 is not positive"]),
-    restart_case("restart_node_count_changed", set_number(7, 9), [r"holds 9 nodes, 0 joints and 0 rigid bodies, but the model has 5"]),
+    restart_case("restart_node_count_changed", rechecksum(set_number(7, 9)), [r"holds 9 nodes, 0 joints and 0 rigid bodies, but the model has 5"]),
     restart_case("restart_input_text_huge", replace_dataset("run/input_text", hollow((1 << 40,), "i1")), [r"/run/input_text claims 1099511627776 entries"]),
     restart_case("restart_input_altered", append_text("run/input_text", b"# edited\n"), [r"is damaged: its stored input and options do not match its fingerprint"]),
     restart_case("restart_options_altered", append_text("run/options", b" -analysis_end_time 9"),
                  [r"is damaged: its stored input and options do not match its fingerprint"]),
-    restart_case("restart_input_unreadable", set_text("run/input_text", b"nodes: [1, 2\n", refingerprint=True),
+    restart_case("restart_input_unreadable", rechecksum(set_text("run/input_text", b"nodes: [1, 2\n", refingerprint=True)),
                  [r"model\.yaml:\d+:\d+: error: ", r"\(the input stored in out\.ckpt\.h5\)"]),
     restart_case("restart_nodes_wrong_shape", replace_dataset("nodes", lambda f, n: f.create_dataset(n, data=np.zeros((3, 32)))),
                  [r"/nodes has shape \(3, 32\), expected \(5, 32\)"]),
