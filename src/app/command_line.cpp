@@ -68,6 +68,7 @@ const OptionInfo kOptions[] = {
     {"-output_overwrite", "", "replace an existing result file"},
     {"-output_xdmf", "xdmf3|xdmf2", "syntax of the .xmf sidecar: xdmf3 (ParaView's default readers) or xdmf2 (ParaView's XDMF Reader, VisIt)"},
     {"-output_flush_interval", "S", "seconds of wall time between flushes of the result file (default 10; 0: every frame and row)"},
+    {"-file_read_timeout", "S", "seconds a read of an existing file's text attributes may take before the run stops (a damaged file; default 30)"},
     {"-progress_every", "N", "a progress line every N steps"},
     {"-progress_interval", "S", "at most one progress line per S seconds of wall time (0: no limit)"},
     {"-quiet", "", "no progress lines and no summary"},

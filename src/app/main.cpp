@@ -15,6 +15,7 @@
 #include <algorithm>
 #include <cctype>
 #include <cerrno>
+#include <cmath>
 #include <csignal>
 #include <cstdio>
 #include <cstring>
@@ -174,6 +175,12 @@ static PetscErrorCode RunMsflex(int argc, char **argv, RunEnd *end)
   const std::string stray = StrayArgument(argc, argv, !restart.empty());
   PetscCheck(stray.empty(), comm, PETSC_ERR_USER_INPUT, "unexpected argument '%s'%s", stray.c_str(),
              restart.empty() ? ": msflex takes one input file" : ": a restart takes its input from the checkpoint");
+  // Before any existing file is looked at (a checkpoint, an output path already taken).
+  PetscReal read_timeout = 30.0; // seconds; core/hdf5_files.hpp
+  PetscCall(PetscOptionsGetReal(nullptr, nullptr, "-file_read_timeout", &read_timeout, nullptr));
+  PetscCheck(read_timeout > 0 && std::isfinite(read_timeout), comm, PETSC_ERR_USER_INPUT,
+             "option -file_read_timeout must be a positive number of seconds, got %g", (double)read_timeout);
+  SetVariableStringReadTimeout(read_timeout);
   Model            model;
   CheckpointRun    run;
   AnalysisSettings checkpoint_analysis;

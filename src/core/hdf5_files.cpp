@@ -3,7 +3,9 @@
 #include "core/file_safety.hpp"
 
 #include <fcntl.h>
+#include <signal.h>
 #include <sys/stat.h>
+#include <sys/time.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -66,6 +68,45 @@ bool LinkExists(hid_t parent, const std::string &name)
   }
 }
 
+// The watchdog of a variable-length string read (SetVariableStringReadTimeout): what the handler
+// writes, prepared before the read (a signal handler may only write and exit).
+double variable_string_read_timeout = 30.0;
+char   watchdog_message[4096];
+size_t watchdog_message_length = 0;
+
+extern "C" void VariableStringReadExpired(int)
+{
+  if (write(STDERR_FILENO, watchdog_message, watchdog_message_length) < 0) _exit(1);
+  _exit(1);
+}
+
+// H5Aread of a variable-length string under the watchdog; its result.
+herr_t ReadVariableStringBounded(hid_t attribute, hid_t memory_type, char **text)
+{
+  char     path[2048] = "";
+  const Id file(H5Iget_file_id(attribute));
+  if (file.Valid() && H5Fget_name(file, path, sizeof path) < 0) path[0] = '\0';
+  const int length         = std::snprintf(watchdog_message, sizeof watchdog_message,
+                                           "msflex: error: reading '%s' did not end within %g s: HDF5 loops on a damaged part of it (the heap of its "
+                                                   "variable-length strings); the file is damaged, move it away (-file_read_timeout sets the limit)\n",
+                                           path, variable_string_read_timeout);
+  watchdog_message_length  = length > 0 ? std::min((size_t)length, sizeof watchdog_message - 1) : 0;
+  struct sigaction expired = {}, previous = {};
+  expired.sa_handler = VariableStringReadExpired;
+  sigemptyset(&expired.sa_mask);
+  sigaction(SIGALRM, &expired, &previous);
+  struct itimerval limit = {}, before = {};
+  limit.it_value.tv_sec  = (time_t)variable_string_read_timeout;
+  limit.it_value.tv_usec = (suseconds_t)((variable_string_read_timeout - std::floor(variable_string_read_timeout)) * 1e6);
+  if (limit.it_value.tv_sec == 0 && limit.it_value.tv_usec == 0) limit.it_value.tv_usec = 1;
+  setitimer(ITIMER_REAL, &limit, &before);
+  const herr_t           status = H5Aread(attribute, memory_type, text);
+  const struct itimerval off    = {};
+  setitimer(ITIMER_REAL, &off, nullptr);
+  sigaction(SIGALRM, &previous, nullptr);
+  return status;
+}
+
 // Reads the string attribute `name` of `object` (variable or fixed length, at most 1 MiB).
 std::string ReadStringAttribute(hid_t object, const char *name, std::string *value)
 {
@@ -81,7 +122,7 @@ std::string ReadStringAttribute(hid_t object, const char *name, std::string *val
   if (H5Tis_variable_str(type) > 0) {
     H5Tset_size(memory_type, H5T_VARIABLE);
     char *text = nullptr;
-    if (H5Aread(attribute, memory_type, &text) < 0) return std::string("attribute ") + name + " cannot be read";
+    if (ReadVariableStringBounded(attribute, memory_type, &text) < 0) return std::string("attribute ") + name + " cannot be read";
     if (text != nullptr) {
       *value = text;
       H5free_memory(text);
@@ -90,22 +131,27 @@ std::string ReadStringAttribute(hid_t object, const char *name, std::string *val
   }
   const size_t size = H5Tget_size(type);
   if (size == 0 || size > (1u << 20)) return std::string("attribute ") + name + " is not a short string";
-  H5Tset_size(memory_type, size);
-  std::string buffer(size, '\0');
+  // One byte more than the file's: HDF5 converts into a null-terminated string of the memory
+  // size, so a null-padded string filling the file's size would lose its last character.
+  H5Tset_size(memory_type, size + 1);
+  std::string buffer(size + 1, '\0');
   if (H5Aread(attribute, memory_type, buffer.data()) < 0) return std::string("attribute ") + name + " cannot be read";
   value->assign(buffer.c_str());
   return "";
 }
 
-std::string WriteStringAttribute(hid_t object, const char *name, const std::string &value)
+// A scalar fixed-length UTF-8 string attribute (the markers: WriteFileMarker says why).
+std::string WriteFixedStringAttribute(hid_t object, const char *name, const std::string &value)
 {
   const Id type(H5Tcopy(H5T_C_S1));
-  if (!type.Valid() || H5Tset_size(type, H5T_VARIABLE) < 0 || H5Tset_cset(type, H5T_CSET_UTF8) < 0) return "cannot make a string type";
+  if (!type.Valid() || H5Tset_size(type, std::max<size_t>(value.size(), 1)) < 0 || H5Tset_strpad(type, H5T_STR_NULLPAD) < 0 ||
+      H5Tset_cset(type, H5T_CSET_UTF8) < 0)
+    return "cannot make a string type";
   const Id space(H5Screate(H5S_SCALAR));
   if (H5Aexists(object, name) > 0 && H5Adelete(object, name) < 0) return std::string("cannot replace attribute ") + name;
-  const Id    attribute(H5Acreate2(object, name, type, space, H5P_DEFAULT, H5P_DEFAULT));
-  const char *text = value.c_str();
-  if (!attribute.Valid() || H5Awrite(attribute, type, &text) < 0) return std::string("cannot write attribute ") + name + ": " + Hdf5StackReason();
+  const Id          attribute(H5Acreate2(object, name, type, space, H5P_DEFAULT, H5P_DEFAULT));
+  const std::string padded = value.empty() ? std::string(1, '\0') : value;
+  if (!attribute.Valid() || H5Awrite(attribute, type, padded.data()) < 0) return std::string("cannot write attribute ") + name + ": " + Hdf5StackReason();
   return "";
 }
 
@@ -245,8 +291,13 @@ std::string WriteFileMarker(hid_t file, const FileMarker &marker)
   if (!root.Valid()) return "cannot open the root group: " + Hdf5StackReason();
   for (const auto &[name, value] :
        {std::pair<const char *, const std::string *>{kFormatAttribute, &marker.format}, {kModelAttribute, &marker.model}, {kRunAttribute, &marker.run}})
-    if (std::string problem = WriteStringAttribute(root, name, *value); !problem.empty()) return problem;
+    if (std::string problem = WriteFixedStringAttribute(root, name, *value); !problem.empty()) return problem;
   return "";
+}
+
+void SetVariableStringReadTimeout(double seconds)
+{
+  if (seconds > 0 && std::isfinite(seconds)) variable_string_read_timeout = seconds;
 }
 
 std::string ReadFileMarker(hid_t file, FileMarker *marker)

@@ -55,10 +55,20 @@ struct FileMarker {
   std::string run;    // NewRunId() of the result file (a checkpoint: of the result file it belongs to)
 };
 
-// Writes the marker as variable-length UTF-8 string attributes of "/"; "" or the problem.
+// Writes the marker as fixed-length UTF-8 string attributes of "/"; "" or the problem. Fixed
+// length: a variable-length string lives in the file's global heap, and HDF5 loops for ever on
+// some damaged heaps (a flipped bit in one of its sizes), so a damaged file would hang every run
+// that only wanted to know whose file it is.
 std::string WriteFileMarker(hid_t file, const FileMarker &marker);
-// Reads the marker attributes of "/" (absent ones stay empty); "" or the problem.
+// Reads the marker attributes of "/" (absent ones stay empty; fixed or variable length, the
+// latter as files of earlier msflex versions and other programs have them, under the read
+// timeout below); "" or the problem.
 std::string ReadFileMarker(hid_t file, FileMarker *marker);
+
+// The longest a read of a variable-length string attribute may take (seconds, > 0): past it the
+// process writes one line naming the file and exits with status 1 (the read cannot be
+// interrupted otherwise). Default 30 s; -file_read_timeout.
+void SetVariableStringReadTimeout(double seconds);
 
 // What is at a path that msflex is about to write.
 enum class ExistingKind {

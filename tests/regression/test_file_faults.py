@@ -130,9 +130,9 @@ def hollow(shape, dtype="f8"):
 
 
 class Case:
-    def __init__(self, name, setup, fragments, status=1, may_change=(), verify=None):
+    def __init__(self, name, setup, fragments, status=1, may_change=(), verify=None, serial_only=False):
         self.name, self.setup, self.fragments, self.status = name, setup, fragments, status
-        self.may_change, self.verify = may_change, verify
+        self.may_change, self.verify, self.serial_only = may_change, verify, serial_only
 
 
 def located(file, line):
@@ -271,6 +271,23 @@ def foreign_checkpoint(d):
     return ["--restart", "c.h5"]
 
 
+def damaged_heap_output(d):
+    """An existing output file whose marker is a variable-length string (as files of earlier
+    msflex versions and h5py's have it) with a damaged global heap: its first object's size made
+    larger by 256 bytes, on which HDF5's read loops for ever (as on the bit flips of a user
+    trial)."""
+    path = os.path.join(d, "out.h5")
+    with h5py.File(path, "w") as f:
+        f.attrs["msflex_format"] = "msflex result 3"
+    data = bytearray(open(path, "rb").read())
+    heap = data.find(b"GCOL")
+    if heap < 0:
+        raise RuntimeError("h5py wrote no global heap for a string attribute")
+    data[heap + 25] ^= 0x01  # object 1's size (a 64-bit field at offset 24), second byte
+    open(path, "wb").write(bytes(data))
+    return [model(d), "-output_file", "out.h5", "-file_read_timeout", "1"]
+
+
 def foreign_output_restart(d):
     checkpointed_run(d)
     os.remove(os.path.join(d, "out.h5"))
@@ -367,6 +384,11 @@ CASES = [
                  [r"/run/pivoting_lu is 0\.5, not 0 or 1"]),
     restart_case("restart_pivoting_lu_wrong_length", replace_dataset("run/pivoting_lu", lambda f, n: f.create_dataset(n, data=np.zeros(3))),
                  [r"/run/pivoting_lu has 3 entries, expected 1"]),
+    # A damaged heap of variable-length strings: one line after -file_read_timeout, not a hang.
+    # One rank only: the read cannot be interrupted, so rank 0 (which reads it) writes the line
+    # and exits, and the MPI launcher ends the others (docs/options.md).
+    Case("output_damaged_string_heap", damaged_heap_output,
+         [r"reading '.*out\.h5' did not end within 1 s: HDF5 loops on a damaged part of it"], serial_only=True),
     restart_case("restart_step_huge", set_number(0, 1e30), [r"the step 1e\+30 is not an integer"]),
     restart_case("restart_step_nearly_integer", set_number(0, 4 + 2**-40), [r"the step \d+\.\d{6,} is not an integer"]),
     # A plausible number changed (a flipped bit in the time, the step size, the work): the run
@@ -504,7 +526,7 @@ def run_case(case, ranks):
 os.makedirs(args.work_dir, exist_ok=True)
 selected = CASES if not args.only else [case for case in CASES if case.name in args.only]
 ranks_list = [1] + ([args.np] if args.np > 1 else [])
-runs = [(case, ranks) for case in selected for ranks in ranks_list]
+runs = [(case, ranks) for case in selected for ranks in ranks_list if ranks == 1 or not case.serial_only]
 started = time.monotonic()
 # Cases run side by side (each in its own directory); the results print in the cases' order.
 with concurrent.futures.ThreadPoolExecutor(max_workers=args.jobs) as pool:
