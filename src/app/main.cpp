@@ -18,6 +18,7 @@
 #include <cmath>
 #include <csignal>
 #include <cstdio>
+#include <cstdlib>
 #include <cstring>
 #include <initializer_list>
 #include <string>
@@ -297,6 +298,18 @@ int main(int argc, char **argv)
   // RunCollective) and reported in one line: finish cleanly. Anything else may have left ranks
   // inside a collective call: abort them all.
   if (code != PETSC_SUCCESS && !IsOneLineError(code)) MPI_Abort(PETSC_COMM_WORLD, (int)code);
+  // A result or checkpoint file the file system stopped taking (full disk, quota, size limit):
+  // the one line is out and what was flushed before stays readable, but HDF5's clean-up at
+  // MPI_Finalize crashes on the datasets it could not close; end without it, on every rank.
+  if (code != PETSC_SUCCESS) {
+    int mine = WriteRefused() ? 1 : 0, any = 0;
+    MPI_Allreduce(&mine, &any, 1, MPI_INT, MPI_MAX, PETSC_COMM_WORLD);
+    if (any) {
+      std::fflush(stdout);
+      std::fflush(stderr);
+      std::_Exit(1);
+    }
+  }
   PetscCall(EigenFinalize()); // SLEPc, when the options check or an eigenanalysis started it
   PetscCall(PetscFinalize());
   // 75 (EX_TEMPFAIL): stopped by a signal after a checkpoint; a job script may resubmit.

@@ -1,5 +1,7 @@
 #include "core/hdf5_util.hpp"
 
+#include <cerrno>
+
 #include <algorithm>
 #include <numeric>
 
@@ -31,6 +33,9 @@ std::vector<size_t> FileOrder(const std::vector<int> &rows)
   return order;
 }
 
+// Set when the file system refused data this process wrote (WriteRefused).
+bool write_refused = false;
+
 } // namespace
 
 std::string Hdf5CallProblem(const std::string &label, const char *call)
@@ -46,8 +51,17 @@ std::string Hdf5CallProblem(const std::string &label, const char *call)
   }
   std::string reason = Hdf5StackReason();
   if (reason.empty()) reason = "HDF5 gave no reason";
+  for (int error : {EFBIG, ENOSPC, EDQUOT, EIO})
+    if (reason == ErrnoText(error)) NoteWriteRefused(error);
   return "HDF5 error on '" + label + "': " + reason + (function.empty() ? "" : " (in " + function + ")");
 }
+
+void NoteWriteRefused(int error)
+{
+  if (error == EFBIG || error == ENOSPC || error == EDQUOT || error == EIO) write_refused = true;
+}
+
+bool WriteRefused() { return write_refused; }
 
 PetscErrorCode OpenFileCollective(MPI_Comm comm, const std::string &path, H5Id *file)
 {

@@ -22,6 +22,12 @@ namespace msflex {
 // "HDF5 error on '<label>': <reason> (in H5Dcreate2)" for the failed call whose text is `call`;
 // clears the error stack.
 std::string Hdf5CallProblem(const std::string &label, const char *call);
+// Whether the file system refused data this process wrote (a full disk or quota, a file-size
+// limit, an I/O error: NoteWriteRefused with the errno, which HDF5 calls' failures note
+// themselves). HDF5 then cannot close the result file's datasets: its own clean-up at
+// MPI_Finalize crashed on them (main ends such a run without it).
+void NoteWriteRefused(int error);
+bool WriteRefused();
 
 // Owns one HDF5 identifier of any kind (file, group, dataset, dataspace, type, property list):
 // H5Idec_ref closes whatever it refers to, so early returns on errors leak nothing.

@@ -16,6 +16,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <cerrno>
 #include <charconv>
 #include <cstdio>
 #include <cstring>
@@ -1249,16 +1250,29 @@ PetscErrorCode OutputFile::Impl::AppendXdmf()
   // process leaves lists every frame of the pieces written.
   std::string &text    = xdmf_piece;
   bool         written = true;
+  int          error   = 0;
   while (written && frames_listed < frames.size()) {
     text.clear();
     size_t next = frames_listed;
     while (next < frames.size() && text.size() < kXdmfPieceBytes) AppendXdmfFrameGrids(frames[next++], &text);
     text += kXdmfTail;
-    written = ::pwrite(fd, text.data(), text.size(), (off_t)(xdmf_size - tail_size)) == (ssize_t)text.size();
+    const ssize_t count = ::pwrite(fd, text.data(), text.size(), (off_t)(xdmf_size - tail_size));
+    written             = count == (ssize_t)text.size();
     if (written) xdmf_size += (long long)text.size() - tail_size, frames_listed = next;
+    else {
+      // A short write (a full disk, a file-size limit) leaves half a piece over the old tail: the
+      // tail goes back where it was, so that the sidecar stays the complete XML it was.
+      error = count < 0 ? errno : ENOSPC;
+      if (::pwrite(fd, kXdmfTail, (size_t)tail_size, (off_t)(xdmf_size - tail_size)) == (ssize_t)tail_size) {
+        if (::ftruncate(fd, (off_t)xdmf_size) != 0) error = error ? error : errno;
+      }
+    }
   }
   const int closed = ::close(fd);
-  PetscCheck(written && closed == 0, PETSC_COMM_SELF, PETSC_ERR_FILE_WRITE, "cannot append to XDMF sidecar '%s'", xdmf_path.c_str());
+  if (written && closed != 0) error = errno;
+  if (!written || closed != 0) NoteWriteRefused(error);
+  PetscCheck(written && closed == 0, PETSC_COMM_SELF, PETSC_ERR_FILE_WRITE, "cannot append to XDMF sidecar '%s': %s (it still lists the frames before)",
+             xdmf_path.c_str(), std::strerror(error));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
