@@ -157,13 +157,22 @@ PetscErrorCode RunEigenAnalysis(MPI_Comm comm, const Model &model, const DofMap 
     PetscCall(VecDestroy(&q));
     PetscCall(VecDestroy(&direction));
   }
+  if (!quiet && !buckling && pairs.ran_out)
+    PetscCall(PetscPrintf(comm,
+                          "msflex: %zu modes found of the %d asked for; the other eigenvalues are infinite (motions without mass: rotations without rhoJ)\n",
+                          pairs.values.size(), count));
   if (!quiet && buckling && (int)pairs.values.size() < count)
     PetscCall(PetscPrintf(
         comm, "msflex: %zu buckling loads found of the %d asked for; the other eigenvalues give none (a load factor below zero, or none within round-off)\n",
         pairs.values.size(), count));
   if (!quiet) {
     PetscCall(PetscPrintf(comm, "msflex: %zu %s%s about the equilibrium at load factor %.6g", pairs.values.size(), buckling ? "buckling modes" : "modes",
-                          buckling ? "" : Format(" (shift-and-invert at %.6g, %d solve%s)", pairs.shift, pairs.solves, pairs.solves == 1 ? "" : "s").c_str(),
+                          buckling
+                              ? ""
+                              : Format(" (%s at %.6g, %d solve%s)",
+                                       pairs.transformation == "sinvert" ? "shift-and-invert" : ("spectral transformation " + pairs.transformation).c_str(),
+                                       pairs.shift, pairs.solves, pairs.solves == 1 ? "" : "s")
+                                    .c_str(),
                           lambda));
     PetscCall(PetscPrintf(comm, buckling ? "\n  mode  load factor          backward error\n"
                                          : "\n  mode  eigenvalue (rad/s)^2  frequency (Hz)       backward error\n"));

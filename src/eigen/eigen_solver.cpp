@@ -17,6 +17,12 @@ namespace {
 // Relative residual tolerance of the eigenpairs: the eigenvalues of a symmetric pencil are then
 // accurate to about its square.
 constexpr double kTolerance = 1e-12;
+// A mode is rigid when |lambda| is below this many times its round-off estimate eps max_i K_ii
+// |phi|^2 (EigenPairs::zero_levels). Measured |lambda| / estimate of the rigid modes of a free
+// frame, a free beam, a free chain of joints and a hinged beam: 3e-8 to 0.32; of their elastic
+// modes 5.5e4 and more, and 700 for a portal frame preloaded to 99 % of its buckling load (EA/EI
+// = 1e8), which 1e3 took for rigid.
+constexpr double kRigidRoundoffFactor = 30.0;
 
 // A factorisation of the ST's operator by MUMPS Cholesky (K - sigma M, or K), direct.
 PetscErrorCode UseCholesky(EPS eps)
@@ -79,6 +85,27 @@ PetscErrorCode CollectPairs(EPS eps, Mat A, int count, Value value, bool keep_po
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
+// The first message of an error raised inside SLEPc while CaptureError is the handler: what the
+// one-line report of a failed solve quotes.
+std::string captured_error;
+
+PetscErrorCode CaptureError(MPI_Comm, int, const char *, const char *, PetscErrorCode code, PetscErrorType type, const char *message, void *)
+{
+  if (type == PETSC_ERROR_INITIAL && message && captured_error.empty()) captured_error = message;
+  return code;
+}
+
+// EPSDestroy after a failed solve: SLEPc may refuse, its work space still taken (-st_type cayley
+// did); nothing of the solver is used any more, so that refusal is no error.
+PetscErrorCode DestroyAfterFailure(EPS *eps)
+{
+  PetscFunctionBeginUser;
+  PetscCall(PetscPushErrorHandler(PetscReturnErrorHandler, nullptr));
+  (void)EPSDestroy(eps);
+  PetscCall(PetscPopErrorHandler());
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
 // One shift-and-invert solve of K phi = lambda M phi about sigma. *failed (when not null): the
 // solve raised an error (a singular K - sigma M), which is then no error of the caller.
 PetscErrorCode SolveModesAt(Mat K, Mat M, int count, double sigma, EigenPairs *pairs, bool *failed)
@@ -108,9 +135,10 @@ PetscErrorCode SolveModesAt(Mat K, Mat M, int count, double sigma, EigenPairs *p
     PetscCallMPI(MPI_Allreduce(&mine, &any, 1, MPI_INT, MPI_MAX, PetscObjectComm((PetscObject)K)));
     *failed = any != 0;
   } else {
-    // A factorisation that fails here (K - sigma M singular, or K itself with -st_type shift on a
-    // model free to move) is the user's choice of shift, not an internal error: one line.
-    PetscCall(PetscPushErrorHandler(PetscReturnErrorHandler, nullptr));
+    // A factorisation that fails here (K - sigma M singular, or M itself with -st_type shift on a
+    // model with massless motions) is the user's choice of shift, not an internal error: one line.
+    captured_error.clear();
+    PetscCall(PetscPushErrorHandler(CaptureError, nullptr));
     const PetscErrorCode code = EPSSolve(eps);
     PetscCall(PetscPopErrorHandler());
     int mine = code != PETSC_SUCCESS, any;
@@ -119,15 +147,29 @@ PetscErrorCode SolveModesAt(Mat K, Mat M, int count, double sigma, EigenPairs *p
       STType type;
       PetscCall(STGetType(st, &type));
       const std::string st_type = type ? type : "?"; // the name lives in the ST, destroyed next
-      PetscCall(EPSDestroy(&eps));
+      const std::string why     = captured_error.empty() ? "on another rank" : captured_error;
+      PetscCall(DestroyAfterFailure(&eps));
+      // A factorisation that failed: the matrix is singular there. Anything else SLEPc refused
+      // (a solver that does not support the problem or the transformation): its own words.
+      const bool singular = why.find("ivot") != std::string::npos || why.find("ingular") != std::string::npos || why.find("MUMPS") != std::string::npos ||
+                            why.find("INFOG") != std::string::npos || why.find("factor") != std::string::npos;
+      if (singular)
+        SETERRQ(PetscObjectComm((PetscObject)K), PETSC_ERR_NOT_CONVERGED,
+                "the eigensolver failed at shift %.6g (spectral transformation %s): the matrix it factors is singular: K - shift M, as it is where "
+                "the model can move freely (rigid-body modes) or at an eigenvalue, and at every shift where a motion has neither stiffness nor mass "
+                "(a beam free to turn about its axis without rhoJ: give it rhoJ or restrain it), or M itself under -st_type shift, wherever a motion "
+                "has no mass (rotations without rhoJ); keep msflex's shift-and-invert (no -st_type) or give an -eps_target (-analysis_shift) away from "
+                "the eigenvalues, e.g. below zero",
+                sigma, st_type.c_str());
       SETERRQ(PetscObjectComm((PetscObject)K), PETSC_ERR_NOT_CONVERGED,
-              "the eigensolver failed at shift %.6g (spectral transformation %s): the matrix it factors (K - shift M, or K itself under -st_type "
-              "shift) is singular, as it is where the model can move freely (rigid-body modes) or at an eigenvalue, and at every shift where a "
-              "motion has neither stiffness nor mass (a beam free to turn about its axis without rhoJ: give it rhoJ or restrain it); keep "
-              "msflex's shift-and-invert (no -st_type) or give an -eps_target (-analysis_shift) away from the eigenvalues, e.g. below zero",
-              sigma, st_type.c_str());
+              "the eigensolver failed at shift %.6g (spectral transformation %s): SLEPc: %s; msflex's default (no -st_type, -eps_type) is Krylov-Schur "
+              "with shift-and-invert",
+              sigma, st_type.c_str(), why.c_str());
     }
   }
+  STType type;
+  PetscCall(STGetType(st, &type));
+  pairs->transformation = type ? type : "?";
   if (!failed || !*failed) {
     PetscScalar target;
     PetscCall(EPSGetTarget(eps, &target));
@@ -136,6 +178,35 @@ PetscErrorCode SolveModesAt(Mat K, Mat M, int count, double sigma, EigenPairs *p
         eps, K, count, [](double theta) { return theta; }, false, pairs));
   }
   ++pairs->solves;
+  if (failed && *failed) {
+    PetscCall(DestroyAfterFailure(&eps));
+    PetscFunctionReturn(PETSC_SUCCESS);
+  }
+  // The last solve must deliver what was asked for: a transformation or solver chosen by option
+  // that does not converge (-st_type shift finds the eigenvalues nearest the target slowly, if at
+  // all) ends the run with one line, not with fewer modes or none.
+  if (!failed && (int)pairs->values.size() < count) {
+    EPSConvergedReason reason;
+    PetscInt           iterations;
+    PetscCall(EPSGetConvergedReason(eps, &reason));
+    PetscCall(EPSGetIterationNumber(eps, &iterations));
+    // A Krylov space that ends (breakdown) after some modes has found every finite eigenvalue:
+    // M reaches no more motions (massless rotations), the others are infinite. The caller says so.
+    pairs->ran_out = reason == EPS_DIVERGED_BREAKDOWN && !pairs->values.empty();
+  }
+  if (!failed && (int)pairs->values.size() < count && !pairs->ran_out) {
+    EPSConvergedReason reason;
+    PetscInt           iterations;
+    PetscCall(EPSGetConvergedReason(eps, &reason));
+    PetscCall(EPSGetIterationNumber(eps, &iterations));
+    const std::string transformation = pairs->transformation;
+    const int         found          = (int)pairs->values.size();
+    PetscCall(EPSDestroy(&eps));
+    SETERRQ(PetscObjectComm((PetscObject)K), PETSC_ERR_NOT_CONVERGED,
+            "the eigensolver found %d of the %d modes asked for (%s after %" PetscInt_FMT " iterations, spectral transformation %s at %.6g); msflex's "
+            "default (no -st_type, -eps_type) is shift-and-invert, which finds the modes nearest the shift in a few iterations",
+            found, count, EPSConvergedReasons[reason], iterations, transformation.c_str(), pairs->shift);
+  }
   PetscCall(EPSDestroy(&eps));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
@@ -249,7 +320,8 @@ PetscErrorCode SolveVibrationModes(Mat K, Mat M, int count, double shift, EigenP
   for (Vec phi : pairs->vectors) {
     PetscReal length;
     PetscCall(VecNorm(phi, NORM_2, &length));
-    pairs->zero_levels.push_back(std::max(1e-6 * std::abs(pairs->shift), 1e3 * std::numeric_limits<double>::epsilon() * largest_diagonal * length * length));
+    pairs->zero_levels.push_back(
+        std::max(1e-6 * std::abs(pairs->shift), kRigidRoundoffFactor * std::numeric_limits<double>::epsilon() * largest_diagonal * length * length));
   }
   PetscFunctionReturn(PETSC_SUCCESS);
 }

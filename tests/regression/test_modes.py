@@ -162,6 +162,20 @@ check.equal("-st_type shift on a free beam: exit status", code, 1)
 check.true("-st_type shift on a free beam: one line naming the singular factorisation", len(lines) == 1 and "is singular" in lines[0])
 check.equal("-st_type shift on a free beam: PETSc trace-back lines", stderr.count("PETSC ERROR"), 0)
 
+# Spectral transformations and solvers chosen by option that cannot deliver (on the portal frame,
+# whose every motion has mass): one line each, exit 1, no trace-back (before: -st_type shift on a supported model wrote "0 modes" and exit 0,
+# -st_type cayley ended in a PETSc trace and MPI_Abort, -eps_type lobpcg was said to factor a
+# singular matrix).
+for option, fragment in ((["-st_type", "shift"], "found 0 of the 4 modes asked for"), (["-st_type", "cayley"], "SLEPc: The inner product is not well defined"),
+                         (["-eps_type", "lobpcg"], "SLEPc: This solver supports only smallest real or largest real eigenvalues")):
+    code, _, stderr = mt.run_msflex(args, f"{inputs}/preloaded_portal.yaml", f"{args.work_dir}/option_{option[1]}.h5", extra=option + ["-analysis_preload", "false"],
+                                    np_ranks=1, expect_success=False)
+    lines = [line for line in stderr.splitlines() if line.startswith("msflex:")]
+    print(f"{' '.join(option)}: {lines[:1]}")
+    check.equal(f"{' '.join(option)}: exit status", code, 1)
+    check.true(f"{' '.join(option)}: one line naming why", len(lines) == 1 and fragment in lines[0])
+    check.equal(f"{' '.join(option)}: PETSc trace-back lines", stderr.count("PETSC ERROR"), 0)
+
 # The slender wire: real low frequencies are not rigid modes.
 h = mt.history(run("slender_wire", f"{inputs}/slender_wire.yaml", ranks=1))
 rho_A, EI, length = 7850 * 7.85e-7, 1.03e-2, 2.0
@@ -169,4 +183,18 @@ first = (CANTILEVER[0] / length) ** 4 * EI / rho_A
 check.less("slender wire: |first eigenvalue / (beta_1/L)^4 EI/rhoA - 1|", abs(h["eigenvalue"][0] / first - 1.0), 1e-4)
 check.true("slender wire: no mode flagged rigid", bool(np.all(h["rigid_mode"] == 0)))
 check.less("slender wire: |frequency - sqrt(eigenvalue)/(2 pi)| (Hz)", abs(h["frequency"][0] - math.sqrt(h["eigenvalue"][0]) / (2 * math.pi)), 1e-12)
+
+# The preloaded portal frame: its sway frequency near buckling is elastic, omega^2 = omega_0^2
+# (1 - lambda / lambda_cr), with omega_0^2 from the unloaded frame and lambda_cr from msflex's
+# buckling analysis of the same model.
+portal = f"{inputs}/preloaded_portal.yaml"
+unloaded = mt.history(run("portal_unloaded", portal, ranks=1, extra=["-analysis_preload", "false"]))
+critical = mt.history(run("portal_buckling", portal, ranks=1, extra=["-analysis_type", "buckling", "-analysis_preload", "false"]))["load_factor"][0]
+print(f"portal frame: omega_0^2 = {unloaded['eigenvalue'][0]:.9g}, lambda_cr = {critical:.9g} (closed form 1.82129)")
+check.less("portal frame: |lambda_cr / 1.82129 - 1| (k H tan k H = 6)", abs(critical / 1.82129 - 1), 1e-4)
+for load in (1.0, 1.8, 1.81):
+    h = mt.history(run(f"portal_{load}", portal, ranks=1, extra=["-analysis_end_time", str(load)]))
+    expected = unloaded["eigenvalue"][0] * (1 - load / critical)
+    check.true(f"portal frame at lambda = {load}: the sway mode is not flagged rigid", bool(h["rigid_mode"][0] == 0))
+    check.less(f"portal frame at lambda = {load}: |omega^2 / (omega_0^2 (1 - lambda/lambda_cr)) - 1|", abs(h["eigenvalue"][0] / expected - 1), 2e-2)
 check.finish()
