@@ -96,6 +96,22 @@ check.equal("load control: jumps named", len(jumps), 1)
 if len(jumps):
     check.true("load control: the jump is the first step past the limit point", bool(lam[jumps[0]] > LIMIT > lam[jumps[0] - 1]))
 
+# The Williams toggle under load control, steps of 4: the one step that snaps through (both its
+# ends stable) is named a jump, the first step past the limit point that arc length finds (a
+# deviation of 1.99 from the start's prediction: the threshold 2 missed it).
+toggle = f"{args.source_dir}/tests/regression/inputs/williams_toggle.yaml"
+mt.run_msflex(args, toggle, f"{args.work_dir}/toggle_arc.h5", extra=["-analysis_control", "arc_length"])
+arc = mt.history(f"{args.work_dir}/toggle_arc.h5")
+toggle_limit = arc["critical_load_factor"][arc["critical_point"] == 1][0]
+mt.run_msflex(args, toggle, f"{args.work_dir}/toggle_load.h5")
+history = mt.history(f"{args.work_dir}/toggle_load.h5")
+jumps = np.nonzero(history["critical_point"] == 3)[0]
+print(f"toggle: limit point {toggle_limit:.6g} (arc length); load control names jumps at load factors {history['load_factor'][jumps]}")
+check.equal("toggle, load control in steps of 4: jumps named", len(jumps), 1)
+if len(jumps):
+    check.true("toggle: the jump is the first step past the limit point",
+               bool(history["load_factor"][jumps[0]] > toggle_limit > history["load_factor"][jumps[0] - 1]))
+
 # Load control that cannot jump: it stops at the limit point and says so.
 code, _, stderr = mt.run_msflex(args, truss, f"{args.work_dir}/stop.h5",
                                 extra=["-analysis_control", "load", "-analysis_max_newton_iterations", "6", "-analysis_min_step", "1e-3"],
