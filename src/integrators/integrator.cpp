@@ -1,5 +1,6 @@
 #include "integrators/integrator.hpp"
 
+#include "core/errors.hpp"
 #include "core/format.hpp"
 
 namespace msflex {
@@ -188,6 +189,14 @@ PetscErrorCode Integrator::ConsistentReactions(double t)
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
+PetscErrorCode Integrator::CaptureSolverError(MPI_Comm, int, const char *, const char *, PetscErrorCode code, PetscErrorType type, const char *message,
+                                              void *context)
+{
+  std::string *captured = static_cast<std::string *>(context);
+  if (type == PETSC_ERROR_INITIAL && message && captured->empty()) *captured = message;
+  return code;
+}
+
 PetscErrorCode Integrator::TryStep(double t, double dt, StepOutcome *outcome)
 {
   const AnalysisSettings &analysis = model_->analysis;
@@ -219,7 +228,30 @@ PetscErrorCode Integrator::TryEquations(const StepEquations &equations, double d
   PetscCall(PetscLogStagePush(solve_stage_));
   PetscCall(assembler.BeginStep(equations));
   PetscCall(assembler.PredictIncrements(increments_));
-  PetscCall(SNESSolve(snes_, nullptr, increments_));
+  // An error raised inside the solver (a -snes_type whose inner SVD fails, a PETSc routine that
+  // refuses this system) is a failed attempt like a divergence: the step is halved, and a run
+  // that still fails stops with its results and the reason, not with a trace and MPI_Abort. An
+  // error of msflex's own (a one-line error) goes on as it is.
+  solver_error_.clear();
+  PetscCall(PetscPushErrorHandler(CaptureSolverError, &solver_error_));
+  const PetscErrorCode solve_code = SNESSolve(snes_, nullptr, increments_);
+  PetscCall(PetscPopErrorHandler());
+  int mine = solve_code != PETSC_SUCCESS ? 1 : 0, any = 0;
+  PetscCallMPI(MPI_Allreduce(&mine, &any, 1, MPI_INT, MPI_MAX, comm_));
+  if (solve_code != PETSC_SUCCESS && IsOneLineError(solve_code)) {
+    PetscCall(PetscLogStagePop());
+    SETERRQ(PETSC_COMM_SELF, solve_code, "%s", solver_error_.c_str());
+  }
+  if (any) {
+    PetscCall(PetscLogStagePop());
+    *outcome        = StepOutcome{};
+    outcome->reason = "solver error";
+    outcome->why    = "the nonlinear solver raised an error: " + (solver_error_.empty() ? std::string("on another rank") : solver_error_);
+    PetscCall(NewtonForgetFactorization(snes_, &newton_context_));
+    assembler.DiscardStep();
+    ForgetKeptTangent();
+    PetscFunctionReturn(PETSC_SUCCESS);
+  }
   PetscCall(assembler.SetIncrements(increments_));
   PetscCall(PetscLogStagePop());
   PetscCall(SNESGetConvergedReason(snes_, &reason));

@@ -151,6 +151,10 @@ private:
   // (said on stdout with `why`, the failure), so that the same step is worth another try.
   PetscErrorCode SwitchToPivotingLU(const char *where, const std::string &why, bool *switched);
   PetscLogStage  solve_stage_ = -1;
+  // The first message of an error raised inside SNESSolve (TryEquations), by this handler.
+  static PetscErrorCode CaptureSolverError(MPI_Comm, int, const char *, const char *, PetscErrorCode code, PetscErrorType type, const char *message,
+                                           void *context);
+  std::string           solver_error_;
   // The reactions at t_end from the accelerations that satisfy the equations of motion in the
   // converged state (analysis.reactions: consistent), replacing the scheme's; see
   // docs/joints.md. After the step is committed; its rates stay. Collective.
