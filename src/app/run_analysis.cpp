@@ -21,14 +21,14 @@ namespace msflex {
 
 namespace {
 
-// The signal that asked the run to stop (SIGTERM, SIGUSR1), 0 if none: set by the handler, read
+// The signal that asked the run to stop (SIGTERM, SIGUSR1, SIGINT, SIGHUP), 0 if none: set by the handler, read
 // at the end of every step.
 volatile std::sig_atomic_t g_stop_signal = 0;
 
 extern "C" void RecordStopSignal(int signal) { g_stop_signal = signal; }
 
-// Catches SIGTERM and SIGUSR1 (what batch schedulers send before the wall-time limit) while it
-// lives, so the run can finish its step, checkpoint and stop; the previous handlers (PETSc's)
+// Catches SIGTERM and SIGUSR1 (what batch schedulers send before the wall-time limit), SIGINT and
+// SIGHUP while it lives, so the run can finish its step, checkpoint and stop; the previous handlers (PETSc's)
 // come back afterwards.
 class StopSignalHandlers {
 public:
@@ -40,18 +40,26 @@ public:
     action.sa_flags = SA_RESTART;
     sigaction(SIGTERM, &action, &previous_term_);
     sigaction(SIGUSR1, &action, &previous_usr1_);
+    // SIGINT (Ctrl-C; LSF's bkill sends it first) and SIGHUP (a closed terminal) stop the run the
+    // same way, once: the handler then gives way to the default, so a second Ctrl-C ends a long
+    // step at once. (They printed PETSc's trace and lost what the run had not flushed.)
+    action.sa_flags |= SA_RESETHAND;
+    sigaction(SIGINT, &action, &previous_int_);
+    sigaction(SIGHUP, &action, &previous_hup_);
     g_stop_signal = 0;
   }
   ~StopSignalHandlers()
   {
     sigaction(SIGTERM, &previous_term_, nullptr);
     sigaction(SIGUSR1, &previous_usr1_, nullptr);
+    sigaction(SIGINT, &previous_int_, nullptr);
+    sigaction(SIGHUP, &previous_hup_, nullptr);
   }
   StopSignalHandlers(const StopSignalHandlers &)            = delete;
   StopSignalHandlers &operator=(const StopSignalHandlers &) = delete;
 
 private:
-  struct sigaction previous_term_ = {}, previous_usr1_ = {};
+  struct sigaction previous_term_ = {}, previous_usr1_ = {}, previous_int_ = {}, previous_hup_ = {};
 };
 
 // "42.0 s", "12 min 05 s", "3 h 07 min": wall times for the progress line.
@@ -525,7 +533,10 @@ PetscErrorCode WriteCheckpoint(Analysis &a, int step, double t, int last_written
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
-const char *StopSignalName(int signal) { return signal == SIGTERM ? "SIGTERM" : signal == SIGUSR1 ? "SIGUSR1" : "a signal"; }
+const char *StopSignalName(int signal)
+{
+  return signal == SIGTERM ? "SIGTERM" : signal == SIGUSR1 ? "SIGUSR1" : signal == SIGINT ? "SIGINT" : signal == SIGHUP ? "SIGHUP" : "a signal";
+}
 
 // After a converged step: a checkpoint when one is due (every n steps, every so many seconds) or
 // a stop signal arrived on any rank; *stop tells the step loop to end the run.

@@ -1,5 +1,7 @@
 #include "core/errors.hpp"
 
+#include <string>
+
 namespace msflex {
 
 bool IsOneLineError(PetscErrorCode code)
@@ -53,9 +55,19 @@ PetscErrorCode CheckFactorSolverAvailable(KSP ksp, Mat matrix)
   PetscCall(PCGetOptionsPrefix(pc, &prefix));
   PetscCall(MatGetType(matrix, &matrix_type));
   PetscCall(MatGetFactorAvailable(matrix, package, lu ? MAT_FACTOR_LU : MAT_FACTOR_CHOLESKY, &available));
-  PetscCheck(available, PetscObjectComm((PetscObject)ksp), PETSC_ERR_USER_INPUT,
-             "bad option: -%spc_factor_mat_solver_type %s: no %s factorisation of that name for matrix type %s (mumps always is)", prefix ? prefix : "",
-             package, lu ? "LU" : "Cholesky", matrix_type);
+  if (!available) {
+    // What this matrix type can be factored by instead ("mumps always is" was wrong for a dense
+    // tangent, -jacobian_mat_type dense).
+    std::string others;
+    for (const char *candidate : {MATSOLVERMUMPS, MATSOLVERPETSC, MATSOLVERSUPERLU, MATSOLVERSUPERLU_DIST, MATSOLVERUMFPACK, MATSOLVERKLU, MATSOLVERCHOLMOD}) {
+      PetscBool can = PETSC_FALSE;
+      PetscCall(MatGetFactorAvailable(matrix, candidate, lu ? MAT_FACTOR_LU : MAT_FACTOR_CHOLESKY, &can));
+      if (can) others += (others.empty() ? "" : ", ") + std::string(candidate);
+    }
+    SETERRQ(PetscObjectComm((PetscObject)ksp), PETSC_ERR_USER_INPUT,
+            "bad option: -%spc_factor_mat_solver_type %s: no %s factorisation of that name for matrix type %s (available for it: %s)", prefix ? prefix : "",
+            package, lu ? "LU" : "Cholesky", matrix_type, others.empty() ? "none" : others.c_str());
+  }
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 

@@ -14,7 +14,8 @@
    residual norm, Newton iterations, em's beta — are not results and are left out). And (torque-free
    top) a serial result file continued on 2 ranks beyond its end, so that its datasets grow new
    chunks in collective writes: equal to an uninterrupted serial run to the new end to 1e-8.
-3. SIGTERM (serial) and SIGUSR1 sent to mpirun (2 ranks) during a run: exit status 75, a
+3. SIGTERM and SIGINT (serial; SIGINT printed a PETSc trace and left no checkpoint) and SIGUSR1
+   sent to mpirun (2 ranks) during a run: exit status 75, a
    checkpoint at the step reached, a readable result file holding exactly the steps done; the
    restart then completes the run exactly as the uninterrupted run on as many ranks.
 4. SIGKILL during a run: the result file stays readable and holds whole frames and rows up to the
@@ -200,7 +201,7 @@ def interrupt(ranks, send, label, source, settings, expected):
     against `expected`, the uninterrupted run on as many ranks."""
     output = f"{work}/signal_{ranks}.h5"
     checkpoint = f"{work}/signal_{ranks}.ckpt.h5"
-    for path in (output, checkpoint):
+    for path in (output, checkpoint, output[:-3] + ".xmf"):
         if os.path.exists(path):
             os.remove(path)
     process = subprocess.Popen(command(ranks, source, "-output_file", output, "-progress_every", 1, "-progress_interval", 0, *settings), stdout=subprocess.PIPE,
@@ -226,6 +227,7 @@ def interrupt(ranks, send, label, source, settings, expected):
 label, source, settings = cases[0]
 expected = read_all(f"{work}/floating_chain_reference.h5")
 interrupt(1, lambda p: p.send_signal(signal.SIGTERM), "SIGTERM, serial", source, settings, expected)
+interrupt(1, lambda p: p.send_signal(signal.SIGINT), "SIGINT (Ctrl-C), serial", source, settings, expected)
 reference_np2 = f"{work}/floating_chain_reference_np2.h5"
 run(2, source, "-output_file", reference_np2, "-output_overwrite", "-quiet", *settings)
 interrupt(2, lambda p: p.send_signal(signal.SIGUSR1), "SIGUSR1 to mpirun, 2 ranks", source, settings, read_all(reference_np2))
