@@ -425,6 +425,7 @@ PetscErrorCode NewtonSolverCreate(MPI_Comm comm, const AnalysisSettings &analysi
   PetscCall(SNESLineSearchShellSetUserFunc(linesearch, SafeguardedNewtonStep, context));
   PetscCall(SNESGetKSP(*snes, &ksp));
   const bool multigrid = analysis.linear_solver == LinearSolverKind::Multigrid;
+  context->multigrid   = multigrid;
   PetscCall(KSPSetType(ksp, KSPPREONLY));
   if (newton_operator == NewtonOperator::AssembledWithRankOne) PetscCall(KSPSetPostSolve(ksp, ShermanMorrisonCorrection, context));
   PetscCall(KSPGetPC(ksp, &pc));
@@ -437,7 +438,8 @@ PetscErrorCode NewtonSolverCreate(MPI_Comm comm, const AnalysisSettings &analysi
   const bool relays = context->assembler->Map().num_relays > 0;
   PetscCheck(!multigrid || !relays, comm, PETSC_ERR_USER_INPUT,
              "-analysis_linear_solver multigrid with relay nodes (chains of joints deeper than -analysis_condensation_depth %d): their rows have zero "
-             "diagonals, which multigrid's smoothers divide by; give -analysis_condensation_depth 0",
+             "diagonals, which multigrid's smoothers divide by; give -analysis_condensation_depth 0 (whole condensation; a long chain may still "
+             "defeat multigrid, whose smoothers are made for the nodes' unknowns: then -analysis_linear_solver direct)",
              analysis.condensation_depth);
   if (multigrid) PetscCall(SetMultigridSolver(ksp, pc));
   else if (by_structure && !relays) PetscCall(ChooseDirectSolver(context->assembler->BandedUnderRcm(), tangent, pc));
@@ -680,6 +682,11 @@ PetscErrorCode DescribeLinearSolveFailure(SNES snes, NewtonContext *context, Vec
     *why = "the preconditioner failed (" + detail + ")";
   } else {
     *why = Format("the linear solver did not converge (%s after %" PetscInt_FMT " iterations)", KSPConvergedReasons[ksp_reason], ksp_iterations);
+    // Multigrid's smoothers and coarse spaces are made for the nodes' unknowns; joint coordinates,
+    // above all chains of them at one point, can defeat it (a user trial: 8 revolute joints at a
+    // beam's root, DIVERGED_BREAKDOWN with and without relays). The direct solver has no such limit.
+    if (context->multigrid && context->assembler->Map().global_count.joints > 0)
+      *why += "; the model has joints, whose coordinates multigrid may not handle: try -analysis_linear_solver direct";
   }
   PetscFunctionReturn(PETSC_SUCCESS);
 }

@@ -46,7 +46,8 @@ namespace msflex {
 struct NewtonContext {
   Assembler    *assembler      = nullptr;
   MPI_Comm      comm           = MPI_COMM_NULL;
-  PetscLogStage assembly_stage = -1; // pushed around residual and tangent assembly when registered
+  PetscLogStage assembly_stage = -1;    // pushed around residual and tangent assembly when registered
+  bool          multigrid      = false; // analysis.linear_solver multigrid (failure messages)
   // Left by the msflex line search when not even the shortest step it tries could be evaluated
   // (for NewtonDescribeFailure): what went wrong there and that step's length.
   enum class StepTrouble { None, Unevaluable, NonFinite };
