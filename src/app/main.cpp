@@ -176,6 +176,24 @@ static PetscErrorCode RunMsflex(int argc, char **argv, RunEnd *end)
   const std::string stray = StrayArgument(argc, argv, !restart.empty());
   PetscCheck(stray.empty(), comm, PETSC_ERR_USER_INPUT, "unexpected argument '%s'%s", stray.c_str(),
              restart.empty() ? ": msflex takes one input file" : ": a restart takes its input from the checkpoint");
+  // Every rank must run the same model with the same options: mpirun's MPMD form (`-n 1 msflex
+  // a.yaml -output_file o.h5 : -n 1 msflex a.yaml -output_file p.h5`) deadlocked in the first
+  // collective file open, and two different inputs ran rank 0's model without a word.
+  {
+    char *all = nullptr;
+    PetscCall(PetscOptionsGetAll(nullptr, &all));
+    std::string text = all ? all : "";
+    PetscCall(PetscFree(all));
+    for (int i = 1; i < argc; ++i) text += std::string("\n") + argv[i];
+    unsigned long long hash = 14695981039346656037ull;
+    for (unsigned char c : text) hash = (hash ^ c) * 1099511628211ull;
+    unsigned long long lowest = 0, highest = 0;
+    PetscCallMPI(MPI_Allreduce(&hash, &lowest, 1, MPI_UNSIGNED_LONG_LONG, MPI_MIN, comm));
+    PetscCallMPI(MPI_Allreduce(&hash, &highest, 1, MPI_UNSIGNED_LONG_LONG, MPI_MAX, comm));
+    PetscCheck(lowest == highest, comm, PETSC_ERR_USER_INPUT,
+               "the ranks were started with different arguments or options (mpirun's 'A : B' form?): msflex runs one model with one set of "
+               "options on every rank; give all ranks the same command line");
+  }
   // Before any existing file is looked at (a checkpoint, an output path already taken).
   PetscReal read_timeout = 30.0; // seconds; core/hdf5_files.hpp
   PetscCall(PetscOptionsGetReal(nullptr, nullptr, "-file_read_timeout", &read_timeout, nullptr));

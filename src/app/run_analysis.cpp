@@ -714,11 +714,17 @@ PetscErrorCode RunAnalysis(MPI_Comm comm, Model model, const RunOptions &options
           PetscCall(WriteFrame(a, step, t, &strain_energy));
           last_written = step;
         }
-        if (a.Checkpointable()) PetscCall(WriteCheckpoint(a, step, t, last_written, controller));
+        // A restart that fails before its first step keeps the checkpoint it started from: that
+        // state's checkpoint exists, and a new one would store this run's options with it (a
+        // trial's -pc_type none came back with every later plain --restart).
+        const bool new_state = !restart || step > restart->step;
+        if (a.Checkpointable() && new_state) PetscCall(WriteCheckpoint(a, step, t, last_written, controller));
         PetscCall(CloseOutput(a));
         PetscCall(PrintSummary(a));
         const std::string advice     = a.Static() ? a.path.StopAdvice() : std::string();
-        const std::string checkpoint = a.Checkpointable() ? ", a checkpoint of that state in " + options.checkpoint_file : std::string();
+        const std::string checkpoint = !a.Checkpointable() ? std::string()
+                                       : new_state         ? ", a checkpoint of that state in " + options.checkpoint_file
+                                                           : ", and the checkpoint it started from, " + options.restart_file + ", is as it was";
         const std::string no_halving = outcome.step_size_irrelevant ? std::string("; a shorter step cannot help")
                                                                     : Format(" and halving it would go below min_step = %.6g", analysis.min_step);
         SETERRQ(comm, PETSC_ERR_NOT_CONVERGED,
