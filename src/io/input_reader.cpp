@@ -930,6 +930,13 @@ static bool ReadTextFile(const std::string &path, std::string *text, InputError 
       *error = InputError{path, 0, 0, "cannot read input file " + input_detail::Quote(path)};
       return false;
     }
+    // An HDF5 file (a result file, a checkpoint) given where the YAML input belongs.
+    static const char kHdf5Signature[] = "\x89HDF\r\n\x1a\n";
+    if (text->compare(0, 8, kHdf5Signature, 8) == 0) {
+      *error = InputError{
+          path, 0, 0, input_detail::Quote(path) + " is an HDF5 file, not a YAML input (to continue a run from its checkpoint: msflex --restart CHECKPOINT.h5)"};
+      return false;
+    }
     return true;
   } catch (const std::exception &exception) {
     *error = InputError{path, 0, 0, "cannot read input file " + input_detail::Quote(path) + ": " + exception.what()};

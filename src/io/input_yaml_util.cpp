@@ -98,13 +98,50 @@ void FailAt(const YAML::Mark &mark, const std::string &message)
 
 void FailAt(const SourceMark &mark, const std::string &message) { throw InputFailure{mark.line, mark.column, OneLine(message)}; }
 
+// The length of the valid UTF-8 sequence of two to four bytes at text[at] (0: none there).
+static size_t Utf8SequenceLength(const std::string &text, size_t at)
+{
+  const unsigned char lead = static_cast<unsigned char>(text[at]);
+  size_t              length;
+  unsigned            low = 0x80, high = 0xbf; // the allowed range of the second byte
+  if (lead >= 0xc2 && lead <= 0xdf) length = 2;
+  else if (lead >= 0xe0 && lead <= 0xef) {
+    length = 3;
+    if (lead == 0xe0) low = 0xa0;
+    if (lead == 0xed) high = 0x9f; // no surrogates
+  } else if (lead >= 0xf0 && lead <= 0xf4) {
+    length = 4;
+    if (lead == 0xf0) low = 0x90;
+    if (lead == 0xf4) high = 0x8f;
+  } else return 0;
+  if (at + length > text.size()) return 0;
+  for (size_t k = 1; k < length; ++k) {
+    const unsigned char byte = static_cast<unsigned char>(text[at + k]);
+    if (byte < (k == 1 ? low : 0x80) || byte > (k == 1 ? high : 0xbf)) return 0;
+  }
+  return length;
+}
+
 std::string OneLine(const std::string &message)
 {
   std::string line;
   line.reserve(message.size());
-  for (const char character : message) {
-    const unsigned char byte = static_cast<unsigned char>(character);
-    if (byte >= 0x20 && byte != 0x7f) {
+  for (size_t at = 0; at < message.size(); ++at) {
+    const char          character = message[at];
+    const unsigned char byte      = static_cast<unsigned char>(character);
+    if (byte >= 0x80) {
+      // Valid UTF-8 passes as it is; any other byte (a binary file given as input) is escaped, so
+      // that the message stays text.
+      if (const size_t length = Utf8SequenceLength(message, at); length > 0) {
+        line.append(message, at, length);
+        at += length - 1;
+      } else {
+        static const char digits[] = "0123456789abcdef";
+        line += "\\x";
+        line += digits[byte >> 4];
+        line += digits[byte & 15];
+      }
+    } else if (byte >= 0x20 && byte != 0x7f) {
       line += character;
     } else if (character == '\n') {
       line += "\\n";

@@ -49,7 +49,7 @@ STATUS_PREFIX = "rank-status."
 
 def expectation(path):
     """The '# expect:' text and '# line:' number of a corpus file."""
-    with open(path, encoding="utf-8") as f:
+    with open(path, encoding="utf-8", errors="surrogateescape") as f:  # a corpus file may hold invalid UTF-8 past its header
         first, second = f.readline(), f.readline()
     expect = re.match(r"#\s*expect:\s*(.*?)\s*$", first)
     line = re.match(r"#\s*line:\s*(\d+)\s*$", second)

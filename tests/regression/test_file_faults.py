@@ -364,6 +364,8 @@ CASES = [
     Case("checkpoint_under_a_file", lambda d: [model(d), "-checkpoint_file", "model.yaml/c.h5"],
          [r"cannot create checkpoint file 'model\.yaml/c\.h5': Not a directory"]),
     Case("output_is_device", lambda d: [model(d), "-output_file", "/dev/null"], [r"'/dev/null': it exists and is not a regular file"]),
+    Case("input_is_hdf5", lambda d: (h5py.File(os.path.join(d, "result.h5"), "w").close(), ["result.h5", "-output_file", "out.h5"])[1],
+         [r"'result\.h5' is an HDF5 file, not a YAML input"]),
     Case("restart_missing", lambda d: ["--restart", "none.ckpt.h5"], [r"cannot open 'none\.ckpt\.h5': No such file or directory"]),
     Case("restart_is_directory", lambda d: (os.mkdir(os.path.join(d, "adir")), ["--restart", "adir"])[1], [r"cannot open 'adir': Is a directory"]),
     Case("restart_not_hdf5", lambda d: (write(os.path.join(d, "c.h5"), "text\n"), ["--restart", "c.h5"])[1], [r"cannot open 'c\.h5': not an HDF5 file"]),
