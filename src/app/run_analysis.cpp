@@ -386,7 +386,7 @@ PetscErrorCode PrintSummary(Analysis &a)
   PetscCall(WarnEnergyGrowth(a));
   if (a.options.quiet) PetscFunctionReturn(PETSC_SUCCESS);
   a.summary.Tangents(a.integrator.TangentsFormed(), a.integrator.TangentsReused());
-  a.summary.ConsistentReactions(a.integrator.ConsistentReactionSolves(), a.integrator.ConsistentReactionFailures());
+  a.summary.ConsistentReactions(a.integrator.ConsistentReactionSolves(), a.integrator.ConsistentReactionFailures(), a.integrator.ConsistentReactionSeconds());
   PetscCall(a.summary.Print(a.comm, a.run_wall_start, a.Dynamic()));
   PetscFunctionReturn(PETSC_SUCCESS);
 }

@@ -77,8 +77,8 @@ PetscErrorCode RunSummary::Print(MPI_Comm comm, double wall_start, bool dynamic)
   text += Format("  Newton iterations  %lld in accepted steps, %lld in all attempts\n", newton_accepted_, newton_all_);
   text += Format("  Krylov iterations  %lld in all attempts\n", krylov_all_);
   if (reaction_solves_ > 0)
-    text += Format("  reactions          from the consistent accelerations: %lld solves, %lld failed (-analysis_reactions scheme skips them)\n",
-                   reaction_solves_, reaction_failures_);
+    text += Format("  reactions          from the consistent accelerations: %lld solves in %.3g s, %lld failed (-analysis_reactions scheme skips them)\n",
+                   reaction_solves_, reaction_seconds_, reaction_failures_);
   if (tangents_reused_ > 0)
     text += Format("  tangents           %lld assembled and factored, %lld Newton iterations reused the last one (-analysis_jacobian_reuse)\n",
                    tangents_formed_, tangents_reused_);

@@ -34,10 +34,11 @@ public:
   }
   // Dynamics with analysis.reactions consistent: the acceleration solves made for the reactions
   // and how many of them failed (the scheme's reactions were reported there).
-  void ConsistentReactions(long long solves, long long failures)
+  void ConsistentReactions(long long solves, long long failures, double seconds)
   {
     reaction_solves_   = solves;
     reaction_failures_ = failures;
+    reaction_seconds_  = seconds;
   }
   // Collective: times and memory are reduced over the ranks. `wall_start`: MPI_Wtime at the start
   // of the run on this rank.
@@ -45,7 +46,8 @@ public:
 
 private:
   long long accepted_ = 0, newton_accepted_ = 0, newton_all_ = 0, krylov_all_ = 0, tangents_formed_ = 0, tangents_reused_ = 0, reaction_solves_ = 0,
-            reaction_failures_ = 0;
+            reaction_failures_                 = 0;
+  double                     reaction_seconds_ = 0.0;
   std::map<std::string, int> rejected_; // by reason
   bool                       have_energy_   = false;
   double                     balance_first_ = 0.0, balance_last_ = 0.0, max_drift_ = 0.0, max_total_ = 0.0, max_growth_ = 0.0, first_total_ = 0.0;

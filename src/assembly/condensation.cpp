@@ -111,6 +111,20 @@ PetscErrorCode Assembler::AddNodeResidual(Vec residual, int l, const double *g)
     PetscFunctionReturn(PETSC_SUCCESS);
   }
   slave_residual_[l] += Eigen::Map<const Vec6>(g);
+  // A reaction probe on a master along the chain receives what the slave's residual passes to it
+  // through the joints, N_m^T g (the master block of each joint's rows map), also where the
+  // master's DOFs are all supported and the condensation adds it to no unknown: a body welded
+  // to a clamped base was left out of the base's reaction.
+  if (collect_reactions_) {
+    Vec6 passed = Eigen::Map<const Vec6>(g);
+    for (int node = l; IsSlave(node);) {
+      const JointState &J = state_->joints[state_->node_joint[node]];
+      if (J.local_master < 0) break;
+      passed = (J.rows_map.block<6, 6>(0, 0).transpose() * passed).eval();
+      node   = J.local_master;
+      if (reaction_slot_[node] >= 0) reaction_sums_[reaction_slot_[node]] += passed;
+    }
+  }
   if (map_->IsRelay(l)) {
     relay_force_[l] += Eigen::Map<const Vec6>(g); // passed up by FinishRelayForces
     PetscFunctionReturn(PETSC_SUCCESS);

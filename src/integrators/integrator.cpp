@@ -137,7 +137,8 @@ PetscErrorCode Integrator::CommitConvergedStep(double dt)
 {
   Assembler &assembler = system_.GetAssembler();
   PetscFunctionBeginUser;
-  const double t_end = system_.GetState().equations.t_end;
+  const double t_end      = system_.GetState().equations.t_end;
+  step_energy_correction_ = assembler.EnergyCorrectionFactor();
   if (map_->global_count.joints > 0) PetscCall(assembler.EvaluateJointReactions(dt));
   if (reaction_probes_) PetscCall(assembler.EvaluateSupportReactions());
   system_.CommitStep();
@@ -160,6 +161,7 @@ PetscErrorCode Integrator::ConsistentReactions(double t)
   State     &state     = system_.GetState();
   PetscFunctionBeginUser;
   PetscCall(PetscLogEventBegin(consistent_reactions_event_, 0, 0, 0, 0));
+  const double started = MPI_Wtime();
   if (!accelerations_) PetscCall(VecDuplicate(increments_, &accelerations_));
   // The joints' mean rates over the step stay what the history reports.
   saved_rates_.resize(state.joints.size());
@@ -185,6 +187,7 @@ PetscErrorCode Integrator::ConsistentReactions(double t)
   }
   assembler.DiscardStep();
   ForgetKeptTangent();
+  consistent_reaction_seconds_ += MPI_Wtime() - started;
   PetscCall(PetscLogEventEnd(consistent_reactions_event_, 0, 0, 0, 0));
   PetscFunctionReturn(PETSC_SUCCESS);
 }

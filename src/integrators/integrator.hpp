@@ -92,9 +92,10 @@ public:
   double ExternalWork() const { return external_work_; }
   void   SetExternalWork(double work) { external_work_ = work; }
   // Energy dissipated by the dampers since t = 0 (dynamics).
-  double       DissipatedEnergy() const { return dissipated_energy_; }
-  void         SetDissipatedEnergy(double energy) { dissipated_energy_ = energy; }
-  double       EnergyCorrectionFactor() const { return system_.GetAssembler().EnergyCorrectionFactor(); }
+  double DissipatedEnergy() const { return dissipated_energy_; }
+  void   SetDissipatedEnergy(double energy) { dissipated_energy_ = energy; }
+  // em's beta of the last committed step (the consistent reactions' solve after it has none).
+  double       EnergyCorrectionFactor() const { return step_energy_correction_; }
   const State &GetState() const { return system_.GetState(); }
   // Modified Newton (AnalysisSettings::jacobian_reuse): tangents assembled and factored, and
   // iterations that reused the last one, over the whole run.
@@ -104,6 +105,7 @@ public:
   // the same choice (UsePivotingLU) so that it repeats the run to the last bit.
   // analysis.reactions consistent: acceleration solves made for the reactions, and the failed ones.
   long long      ConsistentReactionSolves() const { return consistent_reaction_solves_; }
+  double         ConsistentReactionSeconds() const { return consistent_reaction_seconds_; }
   long long      ConsistentReactionFailures() const { return consistent_reaction_failures_; }
   bool           PivotingLUForced() const { return newton_context_.pivoting_lu_forced; }
   PetscErrorCode UsePivotingLU();
@@ -164,6 +166,8 @@ private:
   Vec                                                accelerations_              = nullptr;
   std::vector<std::array<double, kJointMaxReleased>> saved_rates_;
   long long                                          consistent_reaction_solves_ = 0, consistent_reaction_failures_ = 0;
+  double                                             consistent_reaction_seconds_ = 0.0; // wall time of those solves, this rank
+  double                                             step_energy_correction_      = 0.0; // em's beta of the last committed step
 };
 
 } // namespace msflex
