@@ -294,6 +294,14 @@ PetscErrorCode Assembler::Setup(MPI_Comm comm, const Model &model, const DofMap 
   relay_rows_ = map.OwnedRelayRows();
   for (PetscInt &row : relay_rows_) row -= map.first_owned;
   prescribed_residual_.assign(state->nodes.size(), Vec6::Zero());
+  // Slaves whose chain of masters reaches a reaction probe or a prescribed DOF (masters first).
+  passes_to_master_.assign(state->nodes.size(), 0);
+  for (const JointState &J : state->joints) {
+    if (J.local_master < 0) continue;
+    bool receives = reaction_slot_[J.local_master] >= 0 || passes_to_master_[J.local_master];
+    for (int d = 0; d < 6; ++d) receives = receives || map.constraints[map.local_nodes[J.local_master]][d].kind == Support::Kind::Prescribed;
+    passes_to_master_[J.local_slave] = receives ? 1 : 0;
+  }
   joint_slots_.assign(state->joints.size(), {-1, -1, -1, -1, -1, -1});
   size_t max_unknowns = 6;
   for (size_t j = 0; j < state->joints.size(); ++j) {

@@ -370,6 +370,9 @@ private:
   // Reaction probes: per local node, its probe's slot (-1: none), and the sums being collected.
   std::vector<int>  reaction_slot_;
   std::vector<Vec6> reaction_sums_;
+  // Per local node: a slave whose chain of masters holds a reaction probe or a prescribed DOF, to
+  // which AddNodeResidual passes its residual (N_m^T g along the chain).
+  std::vector<char> passes_to_master_;
   bool              collect_reactions_ = false;
 
   double            roundoff_force_level_            = 0.0;
