@@ -487,6 +487,13 @@ void StateSetCoordinateRates(const Model &model, const DofMap &map, double t, St
   std::vector<std::array<double, kJointMaxReleased>> given(state->joints.size(), none);
   for (const CoordinateInitialCondition &ic : model.coordinate_initial_conditions)
     if (const int j = ic.has_rate ? map.joint_to_local[ic.joint] : -1; j >= 0) given[j][ic.coordinate] = ic.rate;
+  // Slaves given a velocity of their own (a node initial condition) keep it as far as their joint
+  // allows; the others move with their master as their joint says, also when a joint above them
+  // in the chain has just set the master moving (a bob welded below a hinge started at 3 rad/s
+  // stayed at rest, and the weld was violated at velocity level).
+  std::vector<char> own_velocity(model.nodes.size(), 0);
+  for (const InitialCondition &ic : model.initial_conditions)
+    for (int node : ic.nodes) own_velocity[node] = 1;
   for (size_t j = 0; j < state->joints.size(); ++j) {
     JointState  &J     = state->joints[j];
     const Joint &joint = model.joints[J.joint];
@@ -502,11 +509,12 @@ void StateSetCoordinateRates(const Model &model, const DofMap &map, double t, St
       relative -= J.map.leftCols<6>() * v_m;
     }
     Eigen::VectorXd rates = Eigen::VectorXd::Zero(k);
-    if (k > 0) { // a rigid joint releases nothing
+    const bool      own   = own_velocity[joint.slave] != 0;
+    if (k > 0 && own) { // a rigid joint releases nothing; a slave without a velocity of its own turns with nothing
       const Eigen::MatrixXd N_q = J.map.block(0, 6, 6, k);
       rates                     = N_q.colPivHouseholderQr().solve(relative);
     }
-    bool set = false;
+    bool set = !own;
     for (int c = 0; c < k; ++c)
       if (!std::isnan(given[j][c])) rates(c) = given[j][c], set = true;
     if (joint.driven_coordinate >= 0) rates(joint.driven_coordinate) = DriveCoordinate(model, joint, t, 1), set = true;

@@ -169,10 +169,11 @@ void StateDiscardStep(const Model &model, State *state);
 // joint coordinates at their initial values; slaves follow. Starts the state there (at rest).
 void StateSetInitialConfiguration(const Model &model, const DofMap &map, State *state);
 // The rate of every joint coordinate implied by the slave's and master's velocities (the least-
-// squares solution of N_q qdot = v_s - N_m v_m), for coordinates that are not driven; used when
-// the velocities are given rather than projected. Driven coordinates take their drive's rate, and
-// coordinates given a `rate` in the initial conditions that rate; where either changes what the
-// nodes implied, the slave moves on as the joint says, v_s = N_m v_m + N_q qdot (masters first, so
+// squares solution of N_q qdot = v_s - N_m v_m) where the slave has a velocity of its own (a node
+// initial condition), else 0; used when the velocities are given rather than projected. Driven
+// coordinates take their drive's rate, and coordinates given a `rate` in the initial conditions
+// that rate; where either changes what the nodes implied, and for every slave without a velocity
+// of its own, the slave moves on as the joint says, v_s = N_m v_m + N_q qdot (masters first, so
 // that a chain carries it on).
 void StateSetCoordinateRates(const Model &model, const DofMap &map, double t, State *state);
 // Initial velocities from the model's initial conditions and prescribed motions at time t; a slave

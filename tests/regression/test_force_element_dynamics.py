@@ -134,4 +134,13 @@ for label, options in (("projected", []), ("given", ["-analysis_initial_velociti
     h = mt.history(output)
     check.less(f"coordinate rates, {label}: |KE_0 - 2 J|", abs(h["kinetic_energy"][0] - 2.0), 1e-12)
     check.less(f"coordinate rates, {label}: |slide.tx_rate(0) - 1| + |hinge.rx_rate(0) - 2|", abs(h["slide.tx_rate"][0] - 1.0) + abs(h["hinge.rx_rate"][0] - 2.0), 1e-12)
+# ... and carry on down a chain: a bob welded below the hinge moves with it (given velocities left
+# it at rest: KE_0 = 0, the pendulum never swung, the weld violated at velocity level).
+swings = {}
+for label, options in (("projected", []), ("given", ["-analysis_initial_velocities", "given"])):
+    output = f"{args.work_dir}/welded_pendulum_{label}.h5"
+    mt.run_msflex(args, f"{args.source_dir}/tests/regression/inputs/welded_pendulum.yaml", output, extra=["-quiet", "-analysis_end_time", "0.5", *options])
+    swings[label] = mt.history(output)
+    check.less(f"welded pendulum, {label}: |KE_0 - I_o theta'^2 / 2 = 2.7 J|", abs(swings[label]["kinetic_energy"][0] - 2.7), 1e-12)
+check.less("welded pendulum: max |angle given - angle projected| (rad)", np.abs(swings["given"]["hinge.rx"] - swings["projected"]["hinge.rx"]).max(), 1e-12)
 check.finish()
