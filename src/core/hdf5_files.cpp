@@ -11,8 +11,12 @@
 #include <algorithm>
 #include <cerrno>
 #include <cmath>
+#include <cstdint>
+#include <cstdio>
 #include <cstdlib>
+#include <cstring>
 #include <filesystem>
+#include <vector>
 
 namespace msflex {
 
@@ -331,6 +335,65 @@ const char *ExistingKindName(ExistingKind kind)
   return "unknown";
 }
 
+// The whole file's checksum, appended after HDF5 has closed it (HDF5 reads files with bytes past
+// their end of address space): 8 bytes kFooterMagic, then FNV-1a 64 of every byte before the
+// footer. Checked before HDF5 opens the file at all: a bit flipped in its metadata made HDF5 read
+// out of range and crash in H5Dopen (a trial's sweep of single-bit flips), or loop for ever.
+static constexpr char   kFooterMagic[9] = "MSFLXSUM";
+static constexpr size_t kFooterSize     = 16;
+
+// FNV-1a 64 of the file's first `size` bytes; false when they cannot be read.
+static bool FileChecksum(std::FILE *file, unsigned long long size, uint64_t *hash)
+{
+  std::vector<unsigned char> buffer(1 << 20);
+  *hash = 14695981039346656037ull;
+  if (std::fseek(file, 0, SEEK_SET) != 0) return false;
+  for (unsigned long long done = 0; done < size;) {
+    const size_t chunk = (size_t)std::min<unsigned long long>(buffer.size(), size - done);
+    if (std::fread(buffer.data(), 1, chunk, file) != chunk) return false;
+    for (size_t i = 0; i < chunk; ++i) *hash = (*hash ^ buffer[i]) * 1099511628211ull;
+    done += chunk;
+  }
+  return true;
+}
+
+std::string AppendCheckpointFooter(const std::string &path)
+{
+  std::FILE *file = std::fopen(path.c_str(), "r+b");
+  if (!file) return "cannot reopen '" + path + "' for its checksum: " + ErrnoText(errno);
+  uint64_t   hash = 0;
+  bool       ok   = std::fseek(file, 0, SEEK_END) == 0;
+  const long size = ok ? std::ftell(file) : -1;
+  ok              = ok && size >= 0 && FileChecksum(file, (unsigned long long)size, &hash) && std::fseek(file, 0, SEEK_END) == 0;
+  ok              = ok && std::fwrite(kFooterMagic, 1, 8, file) == 8 && std::fwrite(&hash, 1, 8, file) == 8;
+  const int error = errno;
+  ok              = (std::fclose(file) == 0) && ok;
+  return ok ? "" : "cannot write the checksum of '" + path + "': " + ErrnoText(error);
+}
+
+std::string CheckpointFooterProblem(const std::string &path, bool *has_footer)
+{
+  *has_footer     = false;
+  std::FILE *file = std::fopen(path.c_str(), "rb");
+  if (!file) return "cannot open '" + path + "': " + ErrnoText(errno);
+  std::string problem;
+  char        footer[kFooterSize];
+  const long  size = std::fseek(file, 0, SEEK_END) == 0 ? std::ftell(file) : -1;
+  if (size < (long)kFooterSize || std::fseek(file, size - (long)kFooterSize, SEEK_SET) != 0 || std::fread(footer, 1, kFooterSize, file) != kFooterSize)
+    problem = "'" + path + "' has no checksum at its end: it is not a complete checkpoint of format " + kCheckpointFormat;
+  else if (std::memcmp(footer, kFooterMagic, 8) != 0)
+    problem = "'" + path + "' has no checksum at its end: it is not a complete checkpoint of format " + kCheckpointFormat + " (or its end is damaged)";
+  else {
+    *has_footer = true;
+    uint64_t stored, hash;
+    std::memcpy(&stored, footer + 8, 8);
+    if (!FileChecksum(file, (unsigned long long)size - kFooterSize, &hash)) problem = "cannot read '" + path + "'";
+    else if (hash != stored) problem = "'" + path + "' is damaged: its bytes do not match the checksum at its end";
+  }
+  std::fclose(file);
+  return problem;
+}
+
 std::string ClassifyExistingFile(const std::string &path, ExistingFile *file)
 {
   *file = ExistingFile{};
@@ -344,6 +407,10 @@ std::string ClassifyExistingFile(const std::string &path, ExistingFile *file)
   std::string head;
   if (std::string problem = ReadFileHead(resolved.canonical, 4096, &head); !problem.empty()) return problem;
   file->kind = ExistingKind::Foreign;
+  // A checkpoint whose bytes do not match its checksum is not given to HDF5 (which crashed or
+  // looped on some damaged metadata).
+  bool has_footer = false;
+  if (std::string damage = CheckpointFooterProblem(resolved.canonical, &has_footer); has_footer && !damage.empty()) return damage + "; move it away";
   const Hdf5QuietScope quiet;
   if (H5Fis_hdf5(resolved.canonical.c_str()) <= 0) {
     H5Eclear2(H5E_DEFAULT);

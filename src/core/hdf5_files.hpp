@@ -70,6 +70,15 @@ std::string ReadFileMarker(hid_t file, FileMarker *marker);
 // interrupted otherwise). Default 30 s; -file_read_timeout.
 void SetVariableStringReadTimeout(double seconds);
 
+// The checkpoints' whole-file checksum: appended after HDF5 has closed the file (HDF5 reads files
+// with bytes past their end of address space), 8 bytes "MSFLXSUM" then FNV-1a 64 of every byte
+// before them, and checked before HDF5 opens the file at all: a bit flipped in its metadata made
+// HDF5 read out of range and crash in H5Dopen, or loop for ever (a trial's sweep of single-bit
+// flips). Append: "" or the problem. Problem: *has_footer says whether the file ends with the
+// magic; "" when its checksum matches, else the one-line problem.
+std::string AppendCheckpointFooter(const std::string &path);
+std::string CheckpointFooterProblem(const std::string &path, bool *has_footer);
+
 // What is at a path that msflex is about to write.
 enum class ExistingKind {
   Missing,          // nothing

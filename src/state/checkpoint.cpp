@@ -1,5 +1,6 @@
 #include "state/checkpoint.hpp"
 
+#include "core/file_safety.hpp"
 #include "core/format.hpp"
 #include "core/hdf5_util.hpp"
 #include "core/mpi_util.hpp"
@@ -9,6 +10,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <cstring>
 
 namespace msflex {
 
@@ -365,6 +367,8 @@ PetscErrorCode CheckpointWrite(MPI_Comm comm, const std::string &path, const Che
   // Rank 0: the complete file replaces the previous checkpoint in one rename.
   PetscCall(RunOnRoot(comm, [&]() -> PetscErrorCode {
     PetscFunctionBeginUser;
+    const std::string problem = AppendCheckpointFooter(temporary.Path());
+    PetscCheck(problem.empty(), PETSC_COMM_SELF, PETSC_ERR_FILE_WRITE, "%s", problem.c_str());
     PetscCall(CommitHdf5Temporary(&temporary, Durability::Synced));
     PetscFunctionReturn(PETSC_SUCCESS);
   }));
@@ -379,6 +383,14 @@ PetscErrorCode ReadRunRecord(const std::string &path, CheckpointRun *run)
   const char *p = path.c_str();
   H5Id        file;
   PetscFunctionBeginUser;
+  // The whole file's checksum before HDF5 reads a byte of it, for files that claim to be
+  // checkpoints of this format (others are named by the checks below).
+  bool              has_footer = false;
+  const std::string footer     = CheckpointFooterProblem(path, &has_footer);
+  // A footer whose checksum does not match: damaged, refused before HDF5 sees it. No footer: a
+  // file of another kind or format, which the checks below name (HDF5 reads those), or one of this
+  // format whose end was cut or damaged, refused after them.
+  PetscCheck(!has_footer || footer.empty(), PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s", footer.c_str());
   PetscCall(OpenHdf5File(path, H5F_ACC_RDONLY, H5P_DEFAULT, &file));
   ExistingFile existing;
   std::string  problem = ClassifyExistingFile(path, &existing);
@@ -392,6 +404,7 @@ PetscErrorCode ReadRunRecord(const std::string &path, CheckpointRun *run)
              kCheckpointFormat);
   PetscCheck(existing.marker.format == kCheckpointFormat, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "'%s' has format '%s'; this msflex reads '%s'", p,
              existing.marker.format.c_str(), kCheckpointFormat);
+  PetscCheck(has_footer, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s", footer.c_str());
   PetscCheck(!existing.marker.run.empty() && !existing.marker.model.empty(), PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED,
              "'%s' is damaged: its marker has no run or model fingerprint", p);
   std::vector<double> numbers; // of the validated length only

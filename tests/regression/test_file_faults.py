@@ -93,9 +93,36 @@ def checkpointed_run(directory):
     run_plain(directory, ["model.yaml", "-output_file", "out.h5", "-checkpoint_every", "1", "-quiet"])
 
 
+FOOTER_MAGIC = b"MSFLXSUM"
+
+
+def refooter(path):
+    """The checkpoint's whole-file checksum made to match its bytes again (AppendCheckpointFooter in
+    src/core/hdf5_files.cpp: "MSFLXSUM" and FNV-1a 64 of every byte before it), so that an edit made
+    through h5py reaches the checks behind it; a stale footer left at the end is replaced."""
+    data = bytearray(open(path, "rb").read())
+    if len(data) >= 16 and data[-16:-8] == FOOTER_MAGIC:
+        del data[-16:]
+    value = 14695981039346656037
+    for byte in data:
+        value = ((value ^ byte) * 1099511628211) & 0xFFFFFFFFFFFFFFFF
+    open(path, "wb").write(bytes(data) + FOOTER_MAGIC + value.to_bytes(8, "little"))
+
+
 def corrupt(path, edit):
     with h5py.File(path, "r+") as f:
         edit(f)
+    if path.endswith(".ckpt.h5"):
+        refooter(path)
+
+
+def flip_file_byte(offset, bit):
+    """A raw bit flip in the checkpoint, its checksum left as it was (restart_case's raw_edit)."""
+    def edit(path):
+        data = bytearray(open(path, "rb").read())
+        data[offset] ^= 1 << bit
+        open(path, "wb").write(bytes(data))
+    return edit
 
 
 def flip_number_bit(index, bit):
@@ -238,13 +265,15 @@ def rechecksum(edit):
     return edited
 
 
-def restart_case(name, edit, fragments, arguments=("-analysis_end_time", "0.08"), result_edit=None):
+def restart_case(name, edit, fragments, arguments=("-analysis_end_time", "0.08"), result_edit=None, raw_edit=None):
     """A run checkpointed at every step; `edit` corrupts its checkpoint (or `result_edit` its
     result file); then the restart, which must refuse it and change nothing."""
     def setup(d):
         checkpointed_run(d)
         if edit:
             corrupt(os.path.join(d, "out.ckpt.h5"), edit)
+        if raw_edit:
+            raw_edit(os.path.join(d, "out.ckpt.h5"))
         if result_edit:
             corrupt(os.path.join(d, "out.h5"), result_edit)
         return ["--restart", "out.ckpt.h5"] + list(arguments)
@@ -395,6 +424,10 @@ CASES = [
     restart_case("restart_step_nearly_integer", set_number(0, 4 + 2**-40), [r"the step \d+\.\d{6,} is not an integer"]),
     # A plausible number changed (a flipped bit in the time, the step size, the work): the run
     # record's checksum (it restarted at the wrong time).
+    # A bit flipped in the HDF5 metadata (a user trial's sweep: a flip at byte 7228 made HDF5 read out
+    # of range and crash in H5Dopen): the whole file's checksum refuses it before HDF5 reads it.
+    restart_case("restart_metadata_bit_flipped", None, [r"is damaged: its bytes do not match the checksum at its end"], raw_edit=flip_file_byte(2100, 1)),
+    restart_case("restart_footer_cut", None, [r"has no checksum at its end"], raw_edit=lambda path: open(path, "r+b").truncate(os.path.getsize(path) - 16)),
     restart_case("restart_time_changed", set_number(1, 0.001), [r"is damaged: its run record \(/run: time, step, work, texts\) does not match its checksum"]),
     restart_case("restart_work_bit_flipped", flip_number_bit(2, 0), [r"is damaged: its run record .* does not match its checksum"]),
     restart_case("restart_output_name_changed", set_text("run/output_file", b"other.h5"), [r"does not match its checksum"]),
