@@ -3,6 +3,7 @@
 #include "app/command_line.hpp"
 #include "app/settings.hpp"
 #include "core/errors.hpp"
+#include "core/file_safety.hpp"
 #include "core/hdf5_util.hpp"
 #include "core/mpi_util.hpp"
 #include "eigen/eigen_solver.hpp"
@@ -185,9 +186,8 @@ static PetscErrorCode RunMsflex(int argc, char **argv, RunEnd *end)
     std::string text = all ? all : "";
     PetscCall(PetscFree(all));
     for (int i = 1; i < argc; ++i) text += std::string("\n") + argv[i];
-    unsigned long long hash = 14695981039346656037ull;
-    for (unsigned char c : text) hash = (hash ^ c) * 1099511628211ull;
-    unsigned long long lowest = 0, highest = 0;
+    const unsigned long long hash   = Fnv1a(text.data(), text.size());
+    unsigned long long       lowest = 0, highest = 0;
     PetscCallMPI(MPI_Allreduce(&hash, &lowest, 1, MPI_UNSIGNED_LONG_LONG, MPI_MIN, comm));
     PetscCallMPI(MPI_Allreduce(&hash, &highest, 1, MPI_UNSIGNED_LONG_LONG, MPI_MAX, comm));
     PetscCheck(lowest == highest, comm, PETSC_ERR_USER_INPUT,

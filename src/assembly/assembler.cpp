@@ -1309,7 +1309,7 @@ double Assembler::DriveReaction(size_t j) const
   return c >= 0 ? J.rows_map.col(6 + c).dot(slave_residual_[J.local_slave]) + coordinate_residual_[j][c] : 0.0;
 }
 
-PetscErrorCode Assembler::EvaluateJointReactions(double dt)
+PetscErrorCode Assembler::EvaluateJointReactions(double dt, bool keep_rates)
 {
   const DofMap &map = *map_;
   PetscMPIInt   rank;
@@ -1343,7 +1343,8 @@ PetscErrorCode Assembler::EvaluateJointReactions(double dt)
     J.drive_force = row[kDriveForceSlot];
     // The mean rate over the step; at the initial state (no step: dt = 0) the coordinates' own
     // rates, which the initial velocities set (they read 0 for a mechanism started moving).
-    for (int c = 0; c < kJointMaxReleased; ++c) J.rate[c] = dt > 0.0 ? row[6 + c] : J.CoordinateRate(c);
+    if (!keep_rates)
+      for (int c = 0; c < kJointMaxReleased; ++c) J.rate[c] = dt > 0.0 ? row[6 + c] : J.CoordinateRate(c);
   }
   PetscCall(VecRestoreArrayRead(joint_output_, &output));
   PetscFunctionReturn(PETSC_SUCCESS);

@@ -132,9 +132,9 @@ public:
   // Called at the converged increments (before the step is committed): each local joint's
   // transmitted force and moment (the slave's residual: what the joint exerts on the slave, about
   // the slave node, global axes) and the step's mean rates of its released coordinates, into the
-  // State's joints. With dt = 0 (the initial accelerations) the reactions alone: the rates stay.
-  // Collective.
-  PetscErrorCode EvaluateJointReactions(double dt);
+  // State's joints. With dt = 0 (the initial accelerations) the coordinates' own rates; with
+  // `keep_rates` (the consistent reactions after a step) the rates as they are. Collective.
+  PetscErrorCode EvaluateJointReactions(double dt, bool keep_rates = false);
   // The energy-momentum scheme's beta of the last residual (0 otherwise).
   double EnergyCorrectionFactor() const { return energy_correction_; }
   // This rank's strain energy of the beams at the unknowns of the last residual (each element's

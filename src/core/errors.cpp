@@ -4,6 +4,13 @@
 
 namespace msflex {
 
+PetscErrorCode CaptureFirstErrorMessage(MPI_Comm, int, const char *, const char *, PetscErrorCode code, PetscErrorType type, const char *message, void *context)
+{
+  std::string *captured = static_cast<std::string *>(context);
+  if (type == PETSC_ERROR_INITIAL && message && captured->empty()) *captured = message;
+  return code;
+}
+
 bool IsOneLineError(PetscErrorCode code)
 {
   return code == PETSC_ERR_USER_INPUT || code == PETSC_ERR_NOT_CONVERGED || code == PETSC_ERR_FILE_OPEN || code == PETSC_ERR_FILE_READ ||

@@ -10,6 +10,8 @@
 
 #include <petscksp.h>
 
+#include <string>
+
 // PetscCheck for a model error located by a SourceMark.
 #define MSFLEX_INPUT_CHECK(cond, mark, fmt, ...)                                                                                                               \
   PetscCheck(cond, PETSC_COMM_SELF, PETSC_ERR_USER_INPUT, "%s:%d: error: " fmt, (mark).file.c_str(), (mark).line, ##__VA_ARGS__)
@@ -30,6 +32,11 @@ namespace msflex {
 
 // Raises the error of a failed call made under MSFLEX_CALL_READING_OPTIONS again, with its message.
 PetscErrorCode OptionsError(MPI_Comm comm, PetscErrorCode status);
+// Error handler that keeps the first message of the error raised (into the std::string `context`,
+// when it is empty) and returns the code unprinted: a library call that may fail for reasons the
+// caller reports itself (a Newton solve, an eigensolve) runs under it, and the caller quotes it.
+PetscErrorCode CaptureFirstErrorMessage(MPI_Comm comm, int line, const char *function, const char *file, PetscErrorCode code, PetscErrorType type,
+                                        const char *message, void *context);
 // Whether `code` is one of the errors above that are reported as one line (and end every rank
 // cleanly, exit status 1) rather than with a trace-back and MPI_Abort.
 bool IsOneLineError(PetscErrorCode code);

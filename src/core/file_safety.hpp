@@ -26,6 +26,17 @@
 
 namespace msflex {
 
+// FNV-1a, 64 bit: `hash` carried on over `count` bytes (start from kFnv1aStart). The checksums of
+// checkpoints (state rows, run record, the whole file) and the comparison of the ranks' command
+// lines; a fingerprint that must resist more than bit flips is ModelFingerprint's SHA-256.
+inline constexpr uint64_t kFnv1aStart = 14695981039346656037ull;
+inline uint64_t           Fnv1a(const void *data, size_t count, uint64_t hash = kFnv1aStart)
+{
+  const unsigned char *bytes = static_cast<const unsigned char *>(data);
+  for (size_t i = 0; i < count; ++i) hash = (hash ^ bytes[i]) * 1099511628211ull;
+  return hash;
+}
+
 // strerror(error_number) as a std::string, e.g. "No such file or directory".
 std::string ErrnoText(int error_number);
 

@@ -346,12 +346,12 @@ static constexpr size_t kFooterSize     = 16;
 static bool FileChecksum(std::FILE *file, unsigned long long size, uint64_t *hash)
 {
   std::vector<unsigned char> buffer(1 << 20);
-  *hash = 14695981039346656037ull;
+  *hash = kFnv1aStart;
   if (std::fseek(file, 0, SEEK_SET) != 0) return false;
   for (unsigned long long done = 0; done < size;) {
     const size_t chunk = (size_t)std::min<unsigned long long>(buffer.size(), size - done);
     if (std::fread(buffer.data(), 1, chunk, file) != chunk) return false;
-    for (size_t i = 0; i < chunk; ++i) *hash = (*hash ^ buffer[i]) * 1099511628211ull;
+    *hash = Fnv1a(buffer.data(), chunk, *hash);
     done += chunk;
   }
   return true;
@@ -411,6 +411,7 @@ std::string ClassifyExistingFile(const std::string &path, ExistingFile *file)
   // looped on some damaged metadata).
   bool has_footer = false;
   if (std::string damage = CheckpointFooterProblem(resolved.canonical, &has_footer); has_footer && !damage.empty()) return damage + "; move it away";
+  file->checksummed = has_footer;
   const Hdf5QuietScope quiet;
   if (H5Fis_hdf5(resolved.canonical.c_str()) <= 0) {
     H5Eclear2(H5E_DEFAULT);

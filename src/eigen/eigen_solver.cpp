@@ -85,16 +85,6 @@ PetscErrorCode CollectPairs(EPS eps, Mat A, int count, Value value, bool keep_po
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
-// The first message of an error raised inside SLEPc while CaptureError is the handler: what the
-// one-line report of a failed solve quotes.
-std::string captured_error;
-
-PetscErrorCode CaptureError(MPI_Comm, int, const char *, const char *, PetscErrorCode code, PetscErrorType type, const char *message, void *)
-{
-  if (type == PETSC_ERROR_INITIAL && message && captured_error.empty()) captured_error = message;
-  return code;
-}
-
 // EPSDestroy after a failed solve: SLEPc may refuse, its work space still taken (-st_type cayley
 // did); nothing of the solver is used any more, so that refusal is no error.
 PetscErrorCode DestroyAfterFailure(EPS *eps)
@@ -137,8 +127,8 @@ PetscErrorCode SolveModesAt(Mat K, Mat M, int count, double sigma, EigenPairs *p
   } else {
     // A factorisation that fails here (K - sigma M singular, or M itself with -st_type shift on a
     // model with massless motions) is the user's choice of shift, not an internal error: one line.
-    captured_error.clear();
-    PetscCall(PetscPushErrorHandler(CaptureError, nullptr));
+    std::string captured_error; // what the one-line report of a failed solve quotes
+    PetscCall(PetscPushErrorHandler(CaptureFirstErrorMessage, &captured_error));
     const PetscErrorCode code = EPSSolve(eps);
     PetscCall(PetscPopErrorHandler());
     int mine = code != PETSC_SUCCESS, any;
@@ -193,12 +183,10 @@ PetscErrorCode SolveModesAt(Mat K, Mat M, int count, double sigma, EigenPairs *p
     // A Krylov space that ends (breakdown) after some modes has found every finite eigenvalue:
     // M reaches no more motions (massless rotations), the others are infinite. The caller says so.
     pairs->ran_out = reason == EPS_DIVERGED_BREAKDOWN && !pairs->values.empty();
-  }
-  if (!failed && (int)pairs->values.size() < count && !pairs->ran_out) {
-    EPSConvergedReason reason;
-    PetscInt           iterations;
-    PetscCall(EPSGetConvergedReason(eps, &reason));
-    PetscCall(EPSGetIterationNumber(eps, &iterations));
+    if (pairs->ran_out) {
+      PetscCall(EPSDestroy(&eps));
+      PetscFunctionReturn(PETSC_SUCCESS);
+    }
     const std::string transformation = pairs->transformation;
     const int         found          = (int)pairs->values.size();
     PetscCall(EPSDestroy(&eps));

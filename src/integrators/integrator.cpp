@@ -158,14 +158,10 @@ bool Integrator::ConsistentReactionsWanted() const
 PetscErrorCode Integrator::ConsistentReactions(double t)
 {
   Assembler &assembler = system_.GetAssembler();
-  State     &state     = system_.GetState();
   PetscFunctionBeginUser;
   PetscCall(PetscLogEventBegin(consistent_reactions_event_, 0, 0, 0, 0));
   const double started = MPI_Wtime();
   if (!accelerations_) PetscCall(VecDuplicate(increments_, &accelerations_));
-  // The joints' mean rates over the step stay what the history reports.
-  saved_rates_.resize(state.joints.size());
-  for (size_t j = 0; j < state.joints.size(); ++j) saved_rates_[j] = state.joints[j].rate;
   PetscCall(assembler.BeginStep(InitialAccelerationProblem(t)));
   PetscCall(VecZeroEntries(accelerations_));
   PetscCall(SNESSolve(snes_, nullptr, accelerations_));
@@ -174,9 +170,9 @@ PetscErrorCode Integrator::ConsistentReactions(double t)
   PetscCall(SNESGetConvergedReason(snes_, &reason));
   if (reason > 0) {
     PetscCall(assembler.SetIncrements(accelerations_));
-    if (map_->global_count.joints > 0) PetscCall(assembler.EvaluateJointReactions(0.0));
+    // The joints' mean rates over the step stay what the history reports.
+    if (map_->global_count.joints > 0) PetscCall(assembler.EvaluateJointReactions(0.0, true));
     if (reaction_probes_) PetscCall(assembler.EvaluateSupportReactions());
-    for (size_t j = 0; j < state.joints.size(); ++j) state.joints[j].rate = saved_rates_[j];
   } else {
     // The scheme's reactions stay; said once (a run that keeps failing here says it at the end).
     if (consistent_reaction_failures_++ == 0 && !quiet_)
@@ -190,14 +186,6 @@ PetscErrorCode Integrator::ConsistentReactions(double t)
   consistent_reaction_seconds_ += MPI_Wtime() - started;
   PetscCall(PetscLogEventEnd(consistent_reactions_event_, 0, 0, 0, 0));
   PetscFunctionReturn(PETSC_SUCCESS);
-}
-
-PetscErrorCode Integrator::CaptureSolverError(MPI_Comm, int, const char *, const char *, PetscErrorCode code, PetscErrorType type, const char *message,
-                                              void *context)
-{
-  std::string *captured = static_cast<std::string *>(context);
-  if (type == PETSC_ERROR_INITIAL && message && captured->empty()) *captured = message;
-  return code;
 }
 
 PetscErrorCode Integrator::TryStep(double t, double dt, StepOutcome *outcome)
@@ -236,7 +224,7 @@ PetscErrorCode Integrator::TryEquations(const StepEquations &equations, double d
   // that still fails stops with its results and the reason, not with a trace and MPI_Abort. An
   // error of msflex's own (a one-line error) goes on as it is.
   solver_error_.clear();
-  PetscCall(PetscPushErrorHandler(CaptureSolverError, &solver_error_));
+  PetscCall(PetscPushErrorHandler(CaptureFirstErrorMessage, &solver_error_));
   const PetscErrorCode solve_code = SNESSolve(snes_, nullptr, increments_);
   PetscCall(PetscPopErrorHandler());
   int mine = solve_code != PETSC_SUCCESS ? 1 : 0, any = 0;

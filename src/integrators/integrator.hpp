@@ -153,21 +153,17 @@ private:
   // (said on stdout with `why`, the failure), so that the same step is worth another try.
   PetscErrorCode SwitchToPivotingLU(const char *where, const std::string &why, bool *switched);
   PetscLogStage  solve_stage_ = -1;
-  // The first message of an error raised inside SNESSolve (TryEquations), by this handler.
-  static PetscErrorCode CaptureSolverError(MPI_Comm, int, const char *, const char *, PetscErrorCode code, PetscErrorType type, const char *message,
-                                           void *context);
-  std::string           solver_error_;
+  std::string    solver_error_; // the first message of an error raised inside SNESSolve (TryEquations)
   // The reactions at t_end from the accelerations that satisfy the equations of motion in the
   // converged state (analysis.reactions: consistent), replacing the scheme's; see
   // docs/joints.md. After the step is committed; its rates stay. Collective.
-  bool                                               ConsistentReactionsWanted() const;
-  PetscErrorCode                                     ConsistentReactions(double t);
-  PetscLogEvent                                      consistent_reactions_event_ = 0;
-  Vec                                                accelerations_              = nullptr;
-  std::vector<std::array<double, kJointMaxReleased>> saved_rates_;
-  long long                                          consistent_reaction_solves_ = 0, consistent_reaction_failures_ = 0;
-  double                                             consistent_reaction_seconds_ = 0.0; // wall time of those solves, this rank
-  double                                             step_energy_correction_      = 0.0; // em's beta of the last committed step
+  bool           ConsistentReactionsWanted() const;
+  PetscErrorCode ConsistentReactions(double t);
+  PetscLogEvent  consistent_reactions_event_ = 0;
+  Vec            accelerations_              = nullptr;
+  long long      consistent_reaction_solves_ = 0, consistent_reaction_failures_ = 0;
+  double         consistent_reaction_seconds_ = 0.0; // wall time of those solves, this rank
+  double         step_energy_correction_      = 0.0; // em's beta of the last committed step
 };
 
 } // namespace msflex

@@ -50,20 +50,14 @@ void PackNumbers(const CheckpointRun &run, double *numbers)
 // wrong time without a word.
 double RunRecordChecksum(const CheckpointRun &run)
 {
-  uint64_t   hash  = 14695981039346656037ull;
-  const auto bytes = [&hash](const void *data, size_t count) {
-    const unsigned char *p = static_cast<const unsigned char *>(data);
-    for (size_t i = 0; i < count; ++i) hash = (hash ^ p[i]) * 1099511628211ull;
-  };
   double numbers[kRunNumbers];
   PackNumbers(run, numbers);
-  bytes(numbers, sizeof numbers);
+  uint64_t     hash        = Fnv1a(numbers, sizeof numbers);
   const double pivoting_lu = run.pivoting_lu ? 1.0 : 0.0;
-  bytes(&pivoting_lu, sizeof pivoting_lu);
+  hash                     = Fnv1a(&pivoting_lu, sizeof pivoting_lu, hash);
   for (const std::string *text : {&run.input_file, &run.input_text, &run.options, &run.output_file, &run.mesh_fingerprint}) {
     const uint64_t length = text->size();
-    bytes(&length, sizeof length);
-    bytes(text->data(), text->size());
+    hash                  = Fnv1a(text->data(), text->size(), Fnv1a(&length, sizeof length, hash));
   }
   return (double)(hash >> 11);
 }
@@ -158,13 +152,7 @@ constexpr int kChecksumColumns = 1;
 // FNV-1a (64 bit) of the row number and the record's bytes, its top 53 bits as a double (exact).
 double RowChecksum(const double *record, int size, long long row)
 {
-  uint64_t   hash  = 14695981039346656037ull;
-  const auto bytes = [&hash](const void *data, size_t count) {
-    const unsigned char *p = static_cast<const unsigned char *>(data);
-    for (size_t i = 0; i < count; ++i) hash = (hash ^ p[i]) * 1099511628211ull;
-  };
-  bytes(&row, sizeof row);
-  bytes(record, sizeof(double) * (size_t)size);
+  const uint64_t hash = Fnv1a(record, sizeof(double) * (size_t)size, Fnv1a(&row, sizeof row));
   return (double)(hash >> 11);
 }
 
@@ -383,18 +371,13 @@ PetscErrorCode ReadRunRecord(const std::string &path, CheckpointRun *run)
   const char *p = path.c_str();
   H5Id        file;
   PetscFunctionBeginUser;
-  // The whole file's checksum before HDF5 reads a byte of it, for files that claim to be
-  // checkpoints of this format (others are named by the checks below).
-  bool              has_footer = false;
-  const std::string footer     = CheckpointFooterProblem(path, &has_footer);
-  // A footer whose checksum does not match: damaged, refused before HDF5 sees it. No footer: a
-  // file of another kind or format, which the checks below name (HDF5 reads those), or one of this
-  // format whose end was cut or damaged, refused after them.
-  PetscCheck(!has_footer || footer.empty(), PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s", footer.c_str());
-  PetscCall(OpenHdf5File(path, H5F_ACC_RDONLY, H5P_DEFAULT, &file));
+  // The classification checks the whole file's checksum before HDF5 reads a byte of it: a footer
+  // whose checksum does not match is damage, refused here. No footer: a file of another kind or
+  // format, which the checks below name, or one of this format whose end was cut or damaged.
   ExistingFile existing;
   std::string  problem = ClassifyExistingFile(path, &existing);
   PetscCheck(problem.empty(), PETSC_COMM_SELF, PETSC_ERR_FILE_OPEN, "%s", problem.c_str());
+  PetscCall(OpenHdf5File(path, H5F_ACC_RDONLY, H5P_DEFAULT, &file));
   PetscCheck(existing.kind != ExistingKind::MsflexResult, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED,
              "'%s' is an msflex result file, not a checkpoint; restart from the run's checkpoint (by default <output name>.ckpt.h5)", p);
   PetscCheck(existing.kind == ExistingKind::MsflexCheckpoint, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "'%s' is not an msflex checkpoint: it is %s", p,
@@ -404,7 +387,8 @@ PetscErrorCode ReadRunRecord(const std::string &path, CheckpointRun *run)
              kCheckpointFormat);
   PetscCheck(existing.marker.format == kCheckpointFormat, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "'%s' has format '%s'; this msflex reads '%s'", p,
              existing.marker.format.c_str(), kCheckpointFormat);
-  PetscCheck(has_footer, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s", footer.c_str());
+  PetscCheck(existing.checksummed, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED,
+             "'%s' has no checksum at its end: it is not a complete checkpoint of format %s (or its end is damaged)", p, kCheckpointFormat);
   PetscCheck(!existing.marker.run.empty() && !existing.marker.model.empty(), PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED,
              "'%s' is damaged: its marker has no run or model fingerprint", p);
   std::vector<double> numbers; // of the validated length only
