@@ -4,7 +4,9 @@
 // turned by a large rigid rotation plus nodal perturbations); then the mid-point kernel of the
 // conserving schemes from the reference (start of the step) to that state, as the residual and
 // the tangent assemblies of mc (F_mc, F_corr, K_mc) and em (also K_corr and the end residual)
-// call it. Prints the median and the minimum over rounds of thread CPU time; asserts nothing.
+// call it, and em's residual and tangent visits as its assembly makes them (the start of the step
+// evaluated once, the iterate kept between the two visits). Prints the median and the minimum
+// over rounds of thread CPU time; asserts nothing.
 // Run through scripts/bench-kernel.
 #include "elements/beam.hpp"
 
@@ -64,9 +66,11 @@ double Median(std::vector<double> v)
 
 int main(int argc, char **argv)
 {
-  const int                  rounds = argc > 1 ? std::atoi(argv[1]) : 15, repetitions = 20000;
-  const BeamSectionStiffness section{Vec3(1e4, 3e3, 5e3), Vec3(700, 400, 900)};
-  double                     checksum = 0.0;
+  const int                     rounds = argc > 1 ? std::atoi(argv[1]) : 15, repetitions = 20000;
+  const BeamSectionStiffness    section{Vec3(1e4, 3e3, 5e3), Vec3(700, 400, 900)};
+  double                        checksum = 0.0;
+  static BeamMidpointIterate<2> kept_two;
+  static BeamMidpointIterate<3> kept_three;
   std::printf("%6s %-24s %10s %10s\n", "nodes", "call", "median_us", "min_us");
   // Optional: only one element size and call (for counting instructions): [rounds] [nodes] [0|1 tangent]
   const int only_nodes = argc > 2 ? std::atoi(argv[2]) : 0, only_tangent = argc > 3 ? std::atoi(argv[3]) : -1;
@@ -117,6 +121,42 @@ int main(int argc, char **argv)
         per_call.push_back(1e6 * (stop - start) / repetitions);
       }
       std::printf("%6d %-24s %10.3f %10.3f\n", nn, midpoint_calls[call], Median(per_call), *std::min_element(per_call.begin(), per_call.end()));
+    }
+    // em as its assembly calls it, with the step's start evaluated once (BeginStep): 0 the residual
+    // pass that keeps the iterate, 1 the tangent pass from the kept iterate with beta known, 2 a
+    // residual that no tangent follows (the converged iterate's).
+    BeamMidpointStart start;
+    if (BeamMidpointStartState(ref, reference.positions, reference.triads, &start) != BeamKernelStatus::Ok) return 1;
+    const char *const em_calls[3] = {"em residual, keeping", "em tangent of kept", "em residual alone"};
+    for (int call = 0; call < 3; ++call) {
+      std::vector<double> per_call;
+      for (int round = 0; round < rounds; ++round) {
+        const double start_time = ThreadSeconds();
+        for (int i = 0; i < repetitions; ++i) {
+          deformed.positions[1](0) += 1e-12;
+          if (call == 2) {
+            BeamMidpointInternalForces(ref, section, reference.positions, reference.triads, deformed.positions, deformed.triads, residual, correction, nullptr,
+                                       nullptr, nullptr, &energy_start, &energy, EnergyCorrection::Resultants, nullptr, &start);
+            checksum += residual[0] + correction[1] + energy;
+            continue;
+          }
+          if (nn == 2) {
+            if (call == 0)
+              BeamMidpointResidualKeeping<2>(ref, section, start, deformed.positions, deformed.triads, residual, correction, end_residual, &energy_start,
+                                             &energy, EnergyCorrection::Resultants, &kept_two);
+            else BeamMidpointTangentOfIterate<2>(ref, section, kept_two, EnergyCorrection::Resultants, &beta, tangent, nullptr);
+          } else {
+            if (call == 0)
+              BeamMidpointResidualKeeping<3>(ref, section, start, deformed.positions, deformed.triads, residual, correction, end_residual, &energy_start,
+                                             &energy, EnergyCorrection::Resultants, &kept_three);
+            else BeamMidpointTangentOfIterate<3>(ref, section, kept_three, EnergyCorrection::Resultants, &beta, tangent, nullptr);
+          }
+          checksum += call == 0 ? residual[0] + correction[1] + end_residual[2] + energy : tangent[7];
+        }
+        const double stop = ThreadSeconds();
+        per_call.push_back(1e6 * (stop - start_time) / repetitions);
+      }
+      std::printf("%6d %-24s %10.3f %10.3f\n", nn, em_calls[call], Median(per_call), *std::min_element(per_call.begin(), per_call.end()));
     }
   }
   std::printf("checksum %.6e\n", checksum);
