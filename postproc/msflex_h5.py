@@ -13,8 +13,14 @@ import difflib
 import os
 import sys
 
-import h5py
-import numpy as np
+# A running msflex holds its result file open for writing, and HDF5's file locking (on by default)
+# then refuses every other opening of it ("unable to lock file", errno 11): without the lock the
+# tools read the file's last flush (docs/output.md). Set before HDF5 starts, that is before h5py is
+# imported, and for the processes the tools start (pvpython for render-paraview).
+os.environ["HDF5_USE_FILE_LOCKING"] = "FALSE"
+
+import h5py  # noqa: E402  (after the environment above)
+import numpy as np  # noqa: E402
 
 # Older files: probe datasets and the names of their columns (None: a 1-D dataset, one value per row).
 PROBE_COMPONENTS = {
@@ -64,6 +70,27 @@ def _text_attribute(group, name):
     return None if value is None else _text(value.item() if hasattr(value, "item") else value)
 
 
+def _is_lock_error(error):
+    return "unable to lock file" in str(error).lower()
+
+
+def _lock_message(path):
+    """The one line for a file HDF5 refuses to open because another process holds it locked (these
+    tools open files without locking, so this is an HDF5 library that locks all the same)."""
+    return (f"cannot read {path}: HDF5 could not lock the file, which another program (a running msflex?) holds open"
+            " for writing; this HDF5 library locks files even with HDF5_USE_FILE_LOCKING=FALSE, so wait for the run to end"
+            " or read a copy of the file")
+
+
+def open_hdf5(path):
+    """h5py.File(path, "r") without HDF5 file locking (where h5py can say so; the environment
+    variable set above does it for the others), so that a running msflex's file opens too."""
+    try:
+        return h5py.File(path, "r", locking=False)
+    except TypeError:  # h5py before 3.5: no locking argument
+        return h5py.File(path, "r")
+
+
 def open_result_file(path):
     """The msflex result file `path`, open for reading (an h5py.File); FileError, with a one-line
     message, for a missing file, a file that is not HDF5 (an XDMF sidecar, ...), an msflex
@@ -76,7 +103,7 @@ def open_result_file(path):
     try:
         is_hdf5 = h5py.is_hdf5(path)
     except OSError as error:
-        raise FileError(f"cannot read {path}: {error}") from None
+        raise FileError(_lock_message(path) if _is_lock_error(error) else f"cannot read {path}: {error}") from None
     if not is_hdf5:
         with open(path, "rb") as f:
             head = f.read(4096)
@@ -85,9 +112,9 @@ def open_result_file(path):
             raise FileError(f"{path} is an msflex XDMF sidecar, not a result file; the results are in the HDF5 file beside it ({beside})")
         raise FileError(f"{path} is not an HDF5 file, so not an msflex result file")
     try:
-        f = h5py.File(path, "r")
+        f = open_hdf5(path)
     except OSError as error:
-        raise FileError(f"cannot read {path}: {error}") from None
+        raise FileError(_lock_message(path) if _is_lock_error(error) else f"cannot read {path}: {error}") from None
     try:
         marker = _text_attribute(f, "msflex_format") or ""
         if not marker and isinstance(f.get("run/format"), h5py.Dataset):  # checkpoints written before the marker
@@ -239,6 +266,17 @@ class HistoryFile:
         columns = [self.read(name) for name in names]
         rows = min(len(c) for c in columns)
         return [c[:rows] for c in columns]
+
+
+def check_image_file(path):
+    """UsageError (exit status 2) when matplotlib cannot write an image named `path`: its extension
+    names a format it does not know (to a name without extension matplotlib adds .png)."""
+    from matplotlib.backend_bases import FigureCanvasBase
+    extension = os.path.splitext(path)[1][1:].lower()
+    supported = FigureCanvasBase.get_supported_filetypes()
+    if extension and extension not in supported:
+        raise UsageError(f"cannot write '{path}': unsupported image format '.{extension}'"
+                         f" (supported: {', '.join('.' + e for e in sorted(supported))})")
 
 
 def run_cli(prog, main):

@@ -27,41 +27,6 @@ volatile std::sig_atomic_t g_stop_signal = 0;
 
 extern "C" void RecordStopSignal(int signal) { g_stop_signal = signal; }
 
-// Catches SIGTERM and SIGUSR1 (what batch schedulers send before the wall-time limit), SIGINT and
-// SIGHUP while it lives, so the run can finish its step, checkpoint and stop; the previous handlers (PETSc's)
-// come back afterwards.
-class StopSignalHandlers {
-public:
-  StopSignalHandlers()
-  {
-    struct sigaction action = {};
-    action.sa_handler       = RecordStopSignal;
-    sigemptyset(&action.sa_mask);
-    action.sa_flags = SA_RESTART;
-    sigaction(SIGTERM, &action, &previous_term_);
-    sigaction(SIGUSR1, &action, &previous_usr1_);
-    // SIGINT (Ctrl-C; LSF's bkill sends it first) and SIGHUP (a closed terminal) stop the run the
-    // same way, once: the handler then gives way to the default, so a second Ctrl-C ends a long
-    // step at once. (They printed PETSc's trace and lost what the run had not flushed.)
-    action.sa_flags |= SA_RESETHAND;
-    sigaction(SIGINT, &action, &previous_int_);
-    sigaction(SIGHUP, &action, &previous_hup_);
-    g_stop_signal = 0;
-  }
-  ~StopSignalHandlers()
-  {
-    sigaction(SIGTERM, &previous_term_, nullptr);
-    sigaction(SIGUSR1, &previous_usr1_, nullptr);
-    sigaction(SIGINT, &previous_int_, nullptr);
-    sigaction(SIGHUP, &previous_hup_, nullptr);
-  }
-  StopSignalHandlers(const StopSignalHandlers &)            = delete;
-  StopSignalHandlers &operator=(const StopSignalHandlers &) = delete;
-
-private:
-  struct sigaction previous_term_ = {}, previous_usr1_ = {}, previous_int_ = {}, previous_hup_ = {};
-};
-
 // "42.0 s", "12 min 05 s", "3 h 07 min": wall times for the progress line.
 std::string FormatDuration(double seconds)
 {
@@ -549,7 +514,11 @@ PetscErrorCode CheckpointIfDue(Analysis &a, int step, double t, int last_written
   const RunOptions &o   = a.options;
   const bool        due = (o.checkpoint_every > 0 && step % o.checkpoint_every == 0) ||
                    (o.checkpoint_wall_time > 0 && WallClock(a.comm) - a.last_checkpoint_wall >= o.checkpoint_wall_time);
-  *stop = signal != 0;
+  // A signal during the last step: the run has completed, and it ends as completed (exit 0), or a
+  // job script would resubmit a finished run, whose restart is then refused (nothing left to do).
+  *stop = signal != 0 && !a.Finished(t);
+  if (signal != 0 && !*stop)
+    PetscCall(PetscFPrintf(a.comm, PETSC_STDERR, "msflex: %s arrived during the last step; the run has completed\n", StopSignalName(signal)));
   if (!a.Checkpointable()) {
     if (*stop)
       PetscCall(PetscPrintf(a.comm,
@@ -614,10 +583,34 @@ PetscErrorCode RunStaticStage(Analysis &a)
 
 } // namespace
 
+StopSignalHandlers::StopSignalHandlers()
+{
+  struct sigaction action = {};
+  action.sa_handler       = RecordStopSignal;
+  sigemptyset(&action.sa_mask);
+  action.sa_flags = SA_RESTART;
+  sigaction(SIGTERM, &action, &previous_term_);
+  sigaction(SIGUSR1, &action, &previous_usr1_);
+  // SIGINT (Ctrl-C; LSF's bkill sends it first) and SIGHUP (a closed terminal) stop the run the
+  // same way, once: the handler then gives way to the default, so a second Ctrl-C ends a long
+  // step at once. (They printed PETSc's trace and lost what the run had not flushed.)
+  action.sa_flags |= SA_RESETHAND;
+  sigaction(SIGINT, &action, &previous_int_);
+  sigaction(SIGHUP, &action, &previous_hup_);
+  g_stop_signal = 0;
+}
+
+StopSignalHandlers::~StopSignalHandlers()
+{
+  sigaction(SIGTERM, &previous_term_, nullptr);
+  sigaction(SIGUSR1, &previous_usr1_, nullptr);
+  sigaction(SIGINT, &previous_int_, nullptr);
+  sigaction(SIGHUP, &previous_hup_, nullptr);
+}
+
 PetscErrorCode RunAnalysis(MPI_Comm comm, Model model, const RunOptions &options, const CheckpointRun *restart, RunEnd *end)
 {
-  Analysis                 a(comm, options, restart);
-  const StopSignalHandlers signals;
+  Analysis a(comm, options, restart);
   PetscFunctionBeginUser;
   *end = RunEnd::Completed;
   PetscCall(Setup(a, std::move(model)));

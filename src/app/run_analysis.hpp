@@ -8,6 +8,8 @@
 
 #include <petscsys.h>
 
+#include <csignal>
+
 #include <string>
 
 namespace msflex {
@@ -45,8 +47,24 @@ struct RunOptions {
 // checkpoint can continue (a static analysis under arc length or displacement control) stopped
 // with its results written (exit 128 + the signal, the shell's convention for a signalled stop).
 enum class RunEnd { Completed, StoppedBySignal, StoppedBySignalWithoutCheckpoint };
-// The signal that stopped the run (SIGTERM, SIGUSR1), 0 if none.
+// The signal that stopped the run (SIGTERM, SIGUSR1, SIGINT, SIGHUP), 0 if none.
 int StopSignal();
+
+// Catches SIGTERM and SIGUSR1 (what batch schedulers send before the wall-time limit), SIGINT and
+// SIGHUP while it lives, so that the run finishes its step, checkpoints and stops (a signal before
+// the first step stops the run after it); the previous handlers (PETSc's) come back afterwards.
+// main holds one from just after PetscInitialize: a signal while the model was read killed the run
+// with status 143 and no word, a restart included.
+class StopSignalHandlers {
+public:
+  StopSignalHandlers();
+  ~StopSignalHandlers();
+  StopSignalHandlers(const StopSignalHandlers &)            = delete;
+  StopSignalHandlers &operator=(const StopSignalHandlers &) = delete;
+
+private:
+  struct sigaction previous_term_ = {}, previous_usr1_ = {}, previous_int_ = {}, previous_hup_ = {};
+};
 
 // Takes the model: after set-up each rank keeps only its part of it (DofMapRestrictToLocal).
 // `restart`: the run record of a checkpoint to continue from (null: a new run); the model must be

@@ -189,6 +189,12 @@ PetscErrorCode SettingsFromOptions(MPI_Comm comm, Model *model, RunOptions *opti
   for (const auto &p : positive)
     PetscCheck(std::isfinite(p.value) && p.value > 0, comm, PETSC_ERR_USER_INPUT, "option %s must be positive, got %.6g", p.name, p.value);
   PetscCheck(a.growth_factor >= 1.0, comm, PETSC_ERR_USER_INPUT, "option -analysis_growth_factor must be >= 1, got %.6g", a.growth_factor);
+  // A restart continues with the checkpoint's step (kept within the new min and max steps), not
+  // with initial_step: a restart narrowing max_step below the input's initial_step was refused.
+  if (!options->restart_file.empty()) {
+    PetscCheck(a.min_step <= a.max_step, comm, PETSC_ERR_USER_INPUT, "min_step %.6g is larger than max_step %.6g", a.min_step, a.max_step);
+    a.initial_step = std::min(std::max(a.initial_step, a.min_step), a.max_step);
+  }
   PetscCheck(a.min_step <= a.initial_step, comm, PETSC_ERR_USER_INPUT, "min_step %.6g is larger than initial_step %.6g", a.min_step, a.initial_step);
   PetscCheck(a.initial_step <= a.max_step, comm, PETSC_ERR_USER_INPUT, "initial_step %.6g is larger than max_step %.6g", a.initial_step, a.max_step);
   PetscCheck(std::isfinite(a.newton_atol) && a.newton_atol >= 0, comm, PETSC_ERR_USER_INPUT, "option -analysis_newton_atol must be >= 0, got %.6g",

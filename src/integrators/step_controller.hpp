@@ -5,6 +5,8 @@
 
 #include "model/model.hpp"
 
+#include <algorithm>
+
 namespace msflex {
 
 struct StepControllerSettings {
@@ -36,7 +38,9 @@ public:
   // The state a checkpoint keeps, and its restoration.
   double CurrentStep() const { return step_; }
   int    EasyRun() const { return easy_run_; }
-  void   Restore(double step, int easy_run) { step_ = step, easy_run_ = easy_run; }
+  // A restart may narrow [min_step, max_step]: the restored step is kept within them (bitwise the
+  // checkpoint's when they are unchanged: every step the controller proposes lies within them).
+  void Restore(double step, int easy_run) { step_ = std::min(std::max(step, settings_.min_step), settings_.max_step), easy_run_ = easy_run; }
 
 private:
   StepControllerSettings settings_;

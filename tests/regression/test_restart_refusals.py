@@ -12,6 +12,10 @@
    convention for a signalled stop), not 75, which tells a job script to resubmit.
 4. A mesh file (`mesh:`) changed after the checkpoint: one line, exit 1 (the restart combined
    the new geometry with the old state).
+   Also refused: a change of integrator that the new one cannot continue (to newmark or genalpha
+   from another integrator or spectral radius; mc and em continue any), and two checkpoints;
+   allowed: a restart with a max_step below the input's initial_step, whose steps then keep it.
+   A stop signal during the last step ends the run as completed (exit 0), not 75.
 5. The temporaries a killed run left beside its result file, sidecar and checkpoint
    (`<file>.tmp.XXXXXX`) are removed by the next run that owns those files, and nothing else."""
 
@@ -60,12 +64,61 @@ code, _, stderr = run([args.msflex, "--restart", "shaft.ckpt.h5", "-analysis_end
 one_line("dynamic checkpoint restarted as buckling", code, stderr, "a restart continues the checkpoint's analysis: 'shaft.ckpt.h5' holds a dynamic analysis, not buckling")
 with open(f"{work}/shaft.h5", "rb") as f:
     check.true("dynamic checkpoint restarted as buckling: the result file is untouched", f.read() == before)
+# ... or its integrator where the new one would continue accelerations it does not hold (em ->
+# newmark jumped the energy balance by a tenth of the energy in one step); the mid-point schemes
+# need velocities alone and continue any checkpoint
+for words, text in ((["-analysis_integrator", "newmark"], "'shaft.ckpt.h5' was written by genalpha (spectral radius 0); newmark continues only its own accelerations"),
+                    (["-analysis_spectral_radius", "0.5"], "genalpha (spectral radius 0.5) continues only its own accelerations"),
+                    (["--restart", "shaft.ckpt.h5"], "--restart given 2 times")):
+    code, _, stderr = run([args.msflex, "--restart", "shaft.ckpt.h5", "-analysis_end_time", "0.01", *words])
+    one_line(f"dynamic checkpoint restarted with {' '.join(words)}", code, stderr, text)
+with open(f"{work}/shaft.h5", "rb") as f:
+    check.true("refused restarts: the result file is untouched", f.read() == before)
+with open(f"{work}/shaft.ckpt.h5", "rb") as f:
+    checkpoint_bytes = f.read()
+code, _, stderr = run([args.msflex, "--restart", "shaft.ckpt.h5", "-analysis_end_time", "0.0045", "-analysis_integrator", "em", "-output_file", "shaft_em.h5"])
+check.equal(f"genalpha checkpoint continued by em: exit status ({stderr.strip()[-200:]})", code, 0)
+# A restart narrowing the steps: the checkpoint's step is kept within the new max_step (it went
+# on at 20 times the new max_step for two steps), and the input's initial_step above it is no error.
+with open(f"{work}/shaft.ckpt.h5", "wb") as f:
+    f.write(checkpoint_bytes)
+code, _, stderr = run([args.msflex, "--restart", "shaft.ckpt.h5", "-analysis_end_time", "0.0045", "-analysis_max_step", "2.5e-5", "-output_file", "shaft_narrow.h5"])
+check.equal(f"restart with max_step 2.5e-5 below the input's initial_step 1e-4: exit status ({stderr.strip()[-200:]})", code, 0)
+if code == 0:
+    narrowed = mt.history(f"{work}/shaft_narrow.h5")
+    after = narrowed["time"] > 0.004 * (1 - 1e-12)
+    check.less("restart with max_step 2.5e-5: largest step after the checkpoint (s)", float(narrowed["step_size"][after].max()), 2.5e-5 * (1 + 1e-12))
+
 arch = f"{args.source_dir}/input/deep_arch.yaml"
 code, _, stderr = run([args.msflex, arch, "-analysis_control", "load", "-analysis_end_time", "0.1", "-checkpoint_every", "1", "-output_file", "arch_load.h5",
                        "-output_overwrite", "-quiet"])
 check.equal("deep arch under load control with checkpoints: exit status", code, 0)
 code, _, stderr = run([args.msflex, "--restart", "arch_load.ckpt.h5", "-analysis_control", "arc_length"])
 one_line("load-controlled checkpoint restarted under arc length", code, stderr, "was written under control: load, not arc_length")
+
+# A stop signal during the last step: the run has completed and ends so (exit 0); it stopped with
+# exit 75, and the job script's restart was then refused (nothing left to do). One step of a long
+# cantilever, the signal once the run has begun.
+with open(f"{work}/one_step.yaml", "w") as f:
+    f.write("""sections: [{name: s, EA: 1.0e7, GA2: 4.0e6, GA3: 4.0e6, GJ: 1.0e4, EI2: 1.0e4, EI3: 1.0e4, rhoA: 1.0, rhoJ: [1.0e-3, 5.0e-4, 5.0e-4]}]
+nodes: {root: [0, 0, 0], tip: [1, 0, 0]}
+beams: [{name: arm, section: s, from: root, to: tip, elements: 40000}]
+supports: [{nodes: root, fix: all}]
+functions: [{name: one, type: constant, value: 1.0}]
+loads: [{nodes: tip, force: [0, 1000, 0], function: one}]
+analysis: {type: dynamic, integrator: em, end_time: 0.01, initial_step: 0.01, max_step: 0.01}
+""")
+process = subprocess.Popen([args.msflex, "one_step.yaml", "-output_file", "one_step.h5", "-output_overwrite"], cwd=work, stdout=subprocess.PIPE,
+                           stderr=subprocess.PIPE, text=True)
+for line in process.stdout:
+    if line.startswith("msflex: dynamic analysis"):
+        break
+process.send_signal(signal.SIGTERM)
+remaining, errors = process.communicate(timeout=300)
+print(f"SIGTERM during the only step: exit {process.returncode}: {errors.strip()[-300:]}")
+check.equal("SIGTERM during the last step: exit status (completed)", process.returncode, 0)
+check.true("SIGTERM during the last step: said on standard error", "SIGTERM arrived during the last step; the run has completed" in errors)
+check.less("SIGTERM during the last step: |last history time - end time|", abs(float(mt.history(f"{work}/one_step.h5")["time"][-1]) - 0.01), 1e-15)
 
 # 3. arc length: no checkpoint, SIGTERM stops with 143
 for name in ("arch_arc.h5", "arch_arc.ckpt.h5"):
