@@ -360,7 +360,7 @@ struct OutputFile::Impl {
   // not yet listed appended over its tail.
   PetscErrorCode WriteXdmfWhole();
   PetscErrorCode AppendXdmf();
-  std::string    XdmfHead() const;
+  std::string    XdmfHead(bool with_frames) const;
   std::string    XdmfSharedPart(GridKind kind) const;
   std::string    XdmfSharedParts() const;
   std::string    XdmfDataItem(const char *number_type, int precision, hsize_t rows, int columns, const std::string &dataset) const;
@@ -990,7 +990,7 @@ PetscErrorCode OutputFile::Impl::WriteHistoryBlock()
 // at the end of the file, to which every flush appends the new frames' grids before writing the
 // closing tail again. ParaView's XDMF readers resolve the XIncludes (libxml2); its "XDMF Reader"
 // shows the collections as blocks named after them.
-std::string OutputFile::Impl::XdmfHead() const
+std::string OutputFile::Impl::XdmfHead(bool with_frames) const
 {
   std::ostringstream xml;
   xml << "<?xml version=\"1.0\" ?>\n"
@@ -1003,10 +1003,15 @@ std::string OutputFile::Impl::XdmfHead() const
   // from the start: later frames are appended whatever they hold.
   for (int kind = 0; kind < kGridKinds; ++kind) {
     if (!HasGridKind((GridKind)kind)) continue;
-    // An XInclude that finds nothing is an error without its (empty) fallback.
-    xml << "    <Grid Name=\"" << kGridNames[kind] << "\" GridType=\"Collection\" CollectionType=\"Temporal\">\n"
-        << "      <xi:include xpointer=\"xpointer(/Xdmf/Information[@Name='frames']/Grid[@Name='" << kGridNames[kind] << "'])\"><xi:fallback/></xi:include>\n"
-        << "    </Grid>\n";
+    // An XInclude that finds nothing is an error without its (empty) fallback, and even with it
+    // ParaView's Xdmf3 reader aborts on it ("Invalid xpointer encountered", SIGABRT): a sidecar
+    // that lists no frame yet (a run before its first flush) has empty collections, and the
+    // first flush with frames writes it whole (AppendXdmf).
+    xml << "    <Grid Name=\"" << kGridNames[kind] << "\" GridType=\"Collection\" CollectionType=\"Temporal\">\n";
+    if (with_frames)
+      xml << "      <xi:include xpointer=\"xpointer(/Xdmf/Information[@Name='frames']/Grid[@Name='" << kGridNames[kind]
+          << "'])\"><xi:fallback/></xi:include>\n";
+    xml << "    </Grid>\n";
   }
   xml << "  </Domain>\n" << XdmfSharedParts();
   xml << "  <Information Name=\"frames\" Value=\"the grids of every frame, gathered into the collections above\">\n";
@@ -1214,7 +1219,7 @@ PetscErrorCode OutputFile::Impl::WriteXdmfWhole()
   std::string text;
 
   PetscFunctionBeginUser;
-  text = XdmfHead();
+  text = XdmfHead(frames_listed > 0);
   for (size_t f = 0; f < frames_listed; ++f) {
     AppendXdmfFrameGrids(frames[f], &text);
     if (f == 0) text.reserve(text.size() * (frames_listed + 1)); // one allocation for all frames
@@ -1240,7 +1245,8 @@ PetscErrorCode OutputFile::Impl::AppendXdmf()
   // Never through a link: a sidecar replaced by a symbolic link since the last flush is rewritten
   // whole (atomically, beside it) instead of writing into whatever the link names.
   const int fd = ::open(xdmf_path.c_str(), O_WRONLY | O_NOFOLLOW);
-  if (fd < 0 || fstat(fd, &status) != 0 || (long long)status.st_size != xdmf_size || xdmf_size < tail_size) {
+  // (A sidecar that listed no frame has no XIncludes: rewritten whole with them, once.)
+  if (fd < 0 || fstat(fd, &status) != 0 || (long long)status.st_size != xdmf_size || xdmf_size < tail_size || frames_listed == 0) {
     if (fd >= 0) ::close(fd);
     frames_listed = frames.size();
     PetscCall(WriteXdmfWhole());
