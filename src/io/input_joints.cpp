@@ -87,6 +87,9 @@ double ReadNonZeroNumber(const MappingReader &entry, const std::string &key)
 {
   const double number = entry.Number(key);
   if (number == 0.0) FailAt(entry.Required(key).Mark(), Quote(key) + " of " + entry.Description() + " must not be zero");
+  // A subnormal pitch (1e-320) passed as non-zero and the run began with kinetic energy NaN.
+  if (std::fpclassify(number) == FP_SUBNORMAL)
+    FailAt(entry.Required(key).Mark(), Quote(key) + " of " + entry.Description() + " is too close to zero to compute with (a subnormal number)");
   return number;
 }
 
@@ -265,6 +268,7 @@ std::string JointParameterProblem(JointKind kind, double parameter)
 {
   if (!std::isfinite(parameter)) return "must be a finite number";
   if ((kind == JointKind::Screw || kind == JointKind::RackPinion) && parameter == 0.0) return "must not be zero";
+  if (std::fpclassify(parameter) == FP_SUBNORMAL) return "is too close to zero to compute with (a subnormal number)";
   if (kind == JointKind::Cam && !(parameter > 0.0)) return "must be positive";
   return "";
 }

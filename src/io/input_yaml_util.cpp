@@ -254,6 +254,7 @@ double ReadPositiveNumber(const YAML::Node &value, const std::string &key)
 {
   const double number = ReadNumber(value, key);
   if (!(number > 0.0)) FailAt(ValueMark(value), Quote(key) + " must be positive, got " + value.Scalar());
+  if (std::fpclassify(number) == FP_SUBNORMAL) FailAt(ValueMark(value), Quote(key) + " is too close to zero to compute with, got " + value.Scalar());
   return number;
 }
 
