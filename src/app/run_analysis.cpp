@@ -207,6 +207,9 @@ PetscErrorCode Setup(Analysis &a, Model whole)
   if (a.options.continue_output) {
     PetscCall(a.output.Reopen(a.comm, a.options.output_file, a.restart->last_written, a.restart->history_rows, a.options.run_id));
     a.history_rows = a.restart->history_rows;
+    // The summary's energy figures cover the whole file: its rows so far first.
+    const std::vector<double> &rows = a.output.ResumedEnergyRows();
+    for (size_t r = 0; r + 3 < rows.size(); r += 4) a.summary.Energy(rows[r], rows[r + 1], rows[r + 2], rows[r + 3]);
   } else {
     PetscCall(a.output.Open(a.comm, a.options.output_file, a.options.output_overwrite, input_file, a.input_text, mesh, a.options.model_fingerprint,
                             a.options.run_id));

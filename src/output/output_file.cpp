@@ -471,6 +471,7 @@ struct OutputFile::Impl {
   // restarted file holds (rank 0, from Resume: the run must write the same); rows in the file and
   // rows in the buffer (the same on every rank); the buffered rows (rank 0): rows x columns.
   std::vector<std::string> history_names, probe_names, columns, stored_columns;
+  std::vector<double>      resumed_energy; // rank 0, from Resume: ResumedEnergyRows
   bool                     names_known  = false;
   hsize_t                  rows_written = 0, rows_buffered = 0;
   std::vector<double>      buffered_values;
@@ -1754,6 +1755,30 @@ PetscErrorCode OutputFile::Impl::Resume(int last_step, long long history_rows, c
     field_exists[f] = std::find(frame_datasets.begin(), frame_datasets.end(), kFrameFields[f].name) != frame_datasets.end();
   if (has_table) PetscCall(TruncateRows(file, "/history/values", rows));
   rows_written = rows;
+  // The energy series of the rows kept, for the run's summary (ResumedEnergyRows).
+  resumed_energy.clear();
+  const auto column_of = [&](const char *name) -> long {
+    const auto found = std::find(stored_columns.begin(), stored_columns.end(), name);
+    return found == stored_columns.end() ? -1 : (long)(found - stored_columns.begin());
+  };
+  if (has_table && rows > 0 && column_of("energy_balance") >= 0 && column_of("total_energy") >= 0) {
+    H5Id values, file_space, memory_space;
+    PetscCallHDF5(values = H5Dopen2(file, "/history/values", H5P_DEFAULT));
+    PetscCallHDF5(file_space = H5Dget_space(values));
+    const hsize_t count[2] = {rows, 1};
+    PetscCallHDF5(memory_space = H5Screate_simple(2, count, nullptr));
+    resumed_energy.assign(4 * rows, 0.0);
+    std::vector<double> column(rows);
+    const char *const   names[4] = {"energy_balance", "total_energy", "external_work", "dissipated_energy"};
+    for (int k = 0; k < 4; ++k) {
+      const long c = column_of(names[k]);
+      if (c < 0) continue;
+      const hsize_t start[2] = {0, (hsize_t)c};
+      PetscCallHDF5(H5Sselect_hyperslab(file_space, H5S_SELECT_SET, start, nullptr, count, nullptr));
+      PetscCallHDF5(H5Dread(values, H5T_NATIVE_DOUBLE, memory_space, file_space, H5P_DEFAULT, column.data()));
+      for (hsize_t r = 0; r < rows; ++r) resumed_energy[4 * r + k] = column[r];
+    }
+  }
   history_names.clear(); // taken from the next row, which must have the stored columns
   probe_names.clear();
   PetscCallHDF5(H5Fflush(file, H5F_SCOPE_LOCAL));
@@ -1997,6 +2022,12 @@ PetscErrorCode OutputFile::Flush()
 }
 
 long long OutputFile::HistoryRows() const { return impl_ ? (long long)(impl_->rows_written + impl_->rows_buffered) : 0; }
+
+const std::vector<double> &OutputFile::ResumedEnergyRows() const
+{
+  static const std::vector<double> none;
+  return impl_ ? impl_->resumed_energy : none;
+}
 
 PetscErrorCode OutputFile::Close()
 {

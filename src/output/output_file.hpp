@@ -167,6 +167,11 @@ public:
   void SetXdmfFlavour(XdmfFlavour flavour) { xdmf_flavour_ = flavour; }
   // Number of history rows written so far, including the buffered ones.
   long long HistoryRows() const;
+  // After Reopen, rank 0: the rows the file kept of energy_balance, total_energy, external_work and
+  // dissipated_energy, four numbers per row (0 for a series the file lacks; empty without the first
+  // two), so that a restarted run's summary covers the whole file (it covered the restarted part:
+  // "initial total energy" was the restart's). Empty on other ranks.
+  const std::vector<double> &ResumedEnergyRows() const;
 
   const std::string &Path() const { return path_; }
 
