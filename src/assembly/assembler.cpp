@@ -58,10 +58,11 @@ double ModelReach(const Model &model)
   return reach;
 }
 
+// Per unit reach: sum_e (|C_N| / h_e)^2, the rounding eps R of the coordinates in the strains.
 double LocalPositionRoundoffSquares(const Model &model, const DofMap &map)
 {
   if (model.nodes.empty()) return 0.0;
-  const double reach   = ModelReach(model);
+  const double reach   = 1.0;
   double       squares = 0.0;
   for (const int e : map.local_elements) {
     const BeamElement &element = model.elements[e];
@@ -117,18 +118,24 @@ PetscErrorCode Assembler::Setup(MPI_Comm comm, const Model &model, const DofMap 
 
   double global_stiffness_squares, stiffness_squares = beams->LocalStiffnessSquares();
   PetscCall(MPIU_Allreduce(&stiffness_squares, &global_stiffness_squares, 1, MPI_DOUBLE, MPI_SUM, comm));
-  double global_position_squares, position_squares = LocalPositionRoundoffSquares(model, map);
-  PetscCall(MPIU_Allreduce(&position_squares, &global_position_squares, 1, MPI_DOUBLE, MPI_SUM, comm));
-  roundoff_force_level_        = std::numeric_limits<double>::epsilon() * std::sqrt(1e4 * global_stiffness_squares + global_position_squares);
-  const double local_reach     = ModelReach(model);
-  const double inertia_squares = inertia ? inertia->LocalInertiaRoundoffSquares(local_reach) : 0.0;
-  PetscCall(MPIU_Allreduce(&inertia_squares, &global_inertia_roundoff_squares_, 1, MPI_DOUBLE, MPI_SUM, comm));
+  const double local_sums[4] = {LocalPositionRoundoffSquares(model, map), inertia ? inertia->LocalInertiaRoundoffSquares(1.0) : 0.0,
+                                inertia ? inertia->LocalInertiaRoundoffSquares(0.0) : 0.0, 0.0};
+  double       sums[4];
+  PetscCall(MPIU_Allreduce(local_sums, sums, 4, MPI_DOUBLE, MPI_SUM, comm));
+  stiffness_roundoff_squares_          = global_stiffness_squares;
+  position_roundoff_squares_per_reach_ = sums[0];
+  inertia_roundoff_squares_fixed_      = sums[2];
+  inertia_roundoff_squares_per_reach_  = std::max(0.0, sums[1] - sums[2]);
+  const double local_reach             = ModelReach(model);
   // Joints pass their slaves' forces on to the masters as moments, with lever arms up to the
   // model's reach (a chain of joints: its length): the inertia's rounding reaches the residual
   // multiplied by them (StagnationLevel).
   double reach = 0.0;
   PetscCall(MPIU_Allreduce(&local_reach, &reach, 1, MPI_DOUBLE, MPI_MAX, comm));
-  joint_lever_arm_       = map.global_count.joints > 0 ? reach : 0.0;
+  has_joints_  = map.global_count.joints > 0;
+  setup_reach_ = reach;
+  reach_       = -1.0;
+  SetRoundoffReach(reach);
   double damping_squares = 0.0;
   for (ForceContributor *c : contributors_) damping_squares += c->LocalDampingRoundoffSquares();
   PetscCall(MPIU_Allreduce(&damping_squares, &global_damping_squares_, 1, MPI_DOUBLE, MPI_SUM, comm));
@@ -605,10 +612,27 @@ void Assembler::DiscardStep()
   ForgetIncrements();
 }
 
+void Assembler::SetRoundoffReach(double reach)
+{
+  if (reach == reach_) return;
+  reach_ = reach;
+  roundoff_force_level_ =
+      std::numeric_limits<double>::epsilon() * std::sqrt(1e4 * stiffness_roundoff_squares_ + reach * reach * position_roundoff_squares_per_reach_);
+  global_inertia_roundoff_squares_ = inertia_roundoff_squares_per_reach_ * reach * reach + inertia_roundoff_squares_fixed_;
+  joint_lever_arm_                 = has_joints_ ? reach : 0.0;
+}
+
 PetscErrorCode Assembler::BeginStep(const StepEquations &equations)
 {
   PetscFunctionBeginUser;
   StateBeginStep(*model_, *map_, equations, state_);
+  {
+    // The reach of the configuration the step starts from, where it exceeds the reference's.
+    double local_reach = 0.0, reach;
+    for (const NodeState &s : state_->nodes) local_reach = std::max(local_reach, s.position.cwiseAbs().maxCoeff());
+    PetscCall(MPIU_Allreduce(&local_reach, &reach, 1, MPI_DOUBLE, MPI_MAX, comm_));
+    SetRoundoffReach(std::max(setup_reach_, reach));
+  }
   ForgetIncrements();
   UpdateExpansions();
   for (ForceContributor *c : contributors_) c->BeginStep(*state_);

@@ -375,14 +375,23 @@ private:
   std::vector<char> passes_to_master_;
   bool              collect_reactions_ = false;
 
-  double            roundoff_force_level_            = 0.0;
-  double            global_inertia_roundoff_squares_ = 0.0; // InertiaContributor::LocalInertiaRoundoffSquares, summed
-  double            stagnation_level_                = 0.0;
-  double            joint_lever_arm_                 = 0.0; // the model's reach when it has joints (BeginStep's stagnation level), else 0
-  double            inertial_roundoff_level_         = 0.0; // of the step (BeginStep; 0 outside dynamics)
-  double            damping_roundoff_level_          = 0.0; // of the step: viscous forces on rounded strain rates (BeginStep)
-  double            global_damping_squares_          = 0.0; // sum of LocalDampingRoundoffSquares over the ranks
-  double            local_force_squares_             = 0.0; // sum of squares of every node vector added in the last residual
+  double roundoff_force_level_            = 0.0;
+  double global_inertia_roundoff_squares_ = 0.0; // InertiaContributor::LocalInertiaRoundoffSquares, summed
+  double stagnation_level_                = 0.0;
+  double joint_lever_arm_                 = 0.0; // the model's reach when it has joints (BeginStep's stagnation level), else 0
+  // The floors' parts that scale with the reach R (the largest |coordinate| of a node): rounding of
+  // positions, eps R, in the strains and the inertia. Set up with the reference's reach; a model
+  // that travels far (a slider 1 km along its prismatic joint) raises them at BeginStep: Newton
+  // was asked for residuals below the rounding of coordinates there, and stalled.
+  double            stiffness_roundoff_squares_ = 0.0, position_roundoff_squares_per_reach_ = 0.0; // global sums, the latter at R = 1
+  double            inertia_roundoff_squares_per_reach_ = 0.0, inertia_roundoff_squares_fixed_ = 0.0;
+  double            setup_reach_ = 0.0, reach_ = 0.0;
+  bool              has_joints_ = false;
+  void              SetRoundoffReach(double reach);
+  double            inertial_roundoff_level_ = 0.0;  // of the step (BeginStep; 0 outside dynamics)
+  double            damping_roundoff_level_  = 0.0;  // of the step: viscous forces on rounded strain rates (BeginStep)
+  double            global_damping_squares_  = 0.0;  // sum of LocalDampingRoundoffSquares over the ranks
+  double            local_force_squares_     = 0.0;  // sum of squares of every node vector added in the last residual
   std::vector<Vec6> prescribed_residual_;            // per local node: the last residual's entries on prescribed DOFs (the reactions this rank assembled)
   bool              mass_matrix_only_       = false; // AssembleMassMatrix: no equations for massless groups
   double            energy_correction_      = 0.0;   // em's beta of the last residual

@@ -13,7 +13,8 @@
 //    on a heavily loaded structure does not ask for a residual below round-off; and when |R| is
 //    below the round-off floor of the internal forces, eps sqrt(sum_e (100 |C|)^2 + (|C_N| R/h_e)^2)
 //    (Assembler::RoundoffForceLevel: the stiffness, and the rounding of nodal coordinates of
-//    magnitude R over element lengths h_e, which grows like N^1.5), so iterations per step do not
+//    magnitude R (the reference's or, when larger, the step's start's) over element lengths h_e,
+//    which grows like N^1.5), so iterations per step do not
 //    grow with the element count; in dynamics also 100 eps times the momenta over dt at the
 //    start of the step (an inertial residual is their difference, and the predictor can leave
 //    a step's first residual at their round-off). PETSc's step-size test (stol) stops Newton only while |R| is
