@@ -73,7 +73,8 @@ static bool RestartWithoutFile(int argc, char **argv)
 // report, and -output_overwrite (a restart continues its result file, never replaces it).
 // *stored_type, *stored_control: the run's -analysis_type and -analysis_control ("" when the run
 // took the input's), for the check that the restart continues the same analysis.
-static PetscErrorCode RestoreOptions(const CheckpointRun &run, int argc, char **argv, std::string *stored_type, std::string *stored_control)
+static PetscErrorCode RestoreOptions(const CheckpointRun &run, int argc, char **argv, std::string *stored_type, std::string *stored_control,
+                                     std::string *stored_integrator, std::string *stored_spectral_radius)
 {
   PetscFunctionBeginUser;
   PetscCall(PetscOptionsInsertString(nullptr, run.options.c_str()));
@@ -83,7 +84,8 @@ static PetscErrorCode RestoreOptions(const CheckpointRun &run, int argc, char **
   PetscOptions stored_options;
   PetscCall(PetscOptionsCreate(&stored_options));
   PetscCall(PetscOptionsInsertString(stored_options, run.options.c_str()));
-  for (auto [name, stored] : {std::pair{"-analysis_type", stored_type}, std::pair{"-analysis_control", stored_control}}) {
+  for (auto [name, stored] : {std::pair{"-analysis_type", stored_type}, std::pair{"-analysis_control", stored_control},
+                              std::pair{"-analysis_integrator", stored_integrator}, std::pair{"-analysis_spectral_radius", stored_spectral_radius}}) {
     char      value[64] = "";
     PetscBool set       = PETSC_FALSE;
     PetscCall(PetscOptionsGetString(stored_options, nullptr, name, value, sizeof value, &set));
@@ -225,10 +227,10 @@ static PetscErrorCode RunMsflex(int argc, char **argv, RunEnd *end)
   Model            model;
   CheckpointRun    run;
   AnalysisSettings checkpoint_analysis;
-  std::string      stored_type, stored_control;
+  std::string      stored_type, stored_control, stored_integrator, stored_spectral_radius;
   if (!restart.empty()) {
     PetscCall(CheckpointReadRun(comm, restart, &run));
-    PetscCall(RestoreOptions(run, argc, argv, &stored_type, &stored_control));
+    PetscCall(RestoreOptions(run, argc, argv, &stored_type, &stored_control, &stored_integrator, &stored_spectral_radius));
     InputError error;
     const bool ok = ReadModelString(run.input_text, run.input_file, &model, &error, comm);
     PetscCall(AgreeOnModel(comm, ok, error, " (the input stored in " + restart + ")"));
@@ -240,6 +242,16 @@ static PetscErrorCode RunMsflex(int argc, char **argv, RunEnd *end)
     if (!stored_control.empty())
       PetscCheck(PathControlFromName(stored_control, &checkpoint_analysis.control), comm, PETSC_ERR_FILE_UNEXPECTED,
                  "'%s': its stored option -analysis_control %s names no path control", restart.c_str(), stored_control.c_str());
+    if (!stored_integrator.empty())
+      PetscCheck(TimeSchemeKindFromName(stored_integrator, &checkpoint_analysis.integrator), comm, PETSC_ERR_FILE_UNEXPECTED,
+                 "'%s': its stored option -analysis_integrator %s names no integrator", restart.c_str(), stored_integrator.c_str());
+    if (!stored_spectral_radius.empty()) {
+      char        *end    = nullptr;
+      const double radius = std::strtod(stored_spectral_radius.c_str(), &end);
+      PetscCheck(end && *end == '\0' && std::isfinite(radius), comm, PETSC_ERR_FILE_UNEXPECTED,
+                 "'%s': its stored option -analysis_spectral_radius %s is not a number", restart.c_str(), stored_spectral_radius.c_str());
+      checkpoint_analysis.spectral_radius = radius;
+    }
   } else {
     const std::string nearest = argc >= 2 && std::strncmp(argv[1], "--", 2) == 0 ? NearestLongArgument(argv[1]) : "";
     PetscCheck(nearest.empty(), comm, PETSC_ERR_USER_INPUT, "unknown argument %s; did you mean %s?", argv[1], nearest.c_str());

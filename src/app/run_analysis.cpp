@@ -632,6 +632,7 @@ PetscErrorCode RunAnalysis(MPI_Comm comm, Model model, const RunOptions &options
   a.integrator.SetQuiet(options.quiet);
   if (IsEigenAnalysis(analysis.type)) {
     PetscCall(RunEigenAnalysis(comm, a.model, a.map, a.integrator, a.output, options.quiet));
+    a.output.SetRunEnd("completed");
     PetscCall(CloseOutput(a));
     if (!options.quiet) PetscCall(PetscPrintf(comm, "msflex: results in %s\n", options.output_file.c_str()));
     PetscFunctionReturn(PETSC_SUCCESS);
@@ -691,6 +692,8 @@ PetscErrorCode RunAnalysis(MPI_Comm comm, Model model, const RunOptions &options
         bool stop = false;
         PetscCall(CheckpointIfDue(a, step, t, last_written, controller, &stop));
         if (stop) {
+          a.output.SetRunEnd(Format("stopped by %s at step %d, t = %.8g; %s", StopSignalName(StopSignal()), step, t,
+                                    a.Checkpointable() ? ("checkpoint " + options.checkpoint_file).c_str() : "no checkpoint"));
           PetscCall(CloseOutput(a));
           PetscCall(PrintSummary(a));
           *end = a.Checkpointable() ? RunEnd::StoppedBySignal : RunEnd::StoppedBySignalWithoutCheckpoint;
@@ -715,6 +718,7 @@ PetscErrorCode RunAnalysis(MPI_Comm comm, Model model, const RunOptions &options
         // trial's -pc_type none came back with every later plain --restart).
         const bool new_state = !restart || step > restart->step;
         if (a.Checkpointable() && new_state) PetscCall(WriteCheckpoint(a, step, t, last_written, controller));
+        a.output.SetRunEnd(Format("stopped at t = %.8g after step %d: the step to t = %.8g failed (%s)", t, step, t + dt, why));
         PetscCall(CloseOutput(a));
         PetscCall(PrintSummary(a));
         const std::string advice     = a.Static() ? a.path.StopAdvice() : std::string();
@@ -730,10 +734,12 @@ PetscErrorCode RunAnalysis(MPI_Comm comm, Model model, const RunOptions &options
       dt = controller.Propose(t, target);
     }
   }
-  PetscCall(CloseOutput(a));
   // The path's planned stop (max_steps is how an arc-length run that may never reach end_time
   // ends), not an error; said on standard error, -quiet or not, since the run did not complete.
   const bool stopped_by_max_steps = arc_length && a.path.StoppedByMaxSteps();
+  a.output.SetRunEnd(stopped_by_max_steps ? Format("stopped after max_steps = %d steps at load factor %.8g", analysis.max_steps, a.path.LoadFactor())
+                                          : Format("completed at t = %.8g after step %d", t, step));
+  PetscCall(CloseOutput(a));
   if (stopped_by_max_steps)
     PetscCall(PetscFPrintf(comm, PETSC_STDERR,
                            "msflex: warning: stopped after max_steps = %d steps at load factor %.6g without reaching end_time = %.6g; results in %s\n",

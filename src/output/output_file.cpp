@@ -1,5 +1,6 @@
 #include "output/output_file.hpp"
 
+#include "core/format.hpp"
 #include "core/hdf5_util.hpp"
 #include "core/mpi_util.hpp"
 #include "output/output_units.hpp"
@@ -426,6 +427,8 @@ struct OutputFile::Impl {
   // Attaches scalar attribute `name` to the object at `object` (relative to `location`).
   PetscErrorCode WriteAttribute(hid_t location, const char *object, const char *name, hid_t file_type, hid_t memory_type, const void *value);
   PetscErrorCode WriteStringAttribute(hid_t location, const char *object, const char *name, const std::string &value);
+  // Writes root attribute `name` over an existing one.
+  PetscErrorCode ReplaceStringAttribute(hid_t location, const char *name, const std::string &value);
   PetscErrorCode CreateCompactGroup(const char *name, H5Id *group);
   PetscErrorCode WriteZeroFrames(hid_t dataset, hsize_t from, hsize_t to, hsize_t rows, hsize_t columns);
   PetscErrorCode SelectRootBlock(hid_t file_space, hid_t memory_space, const hsize_t *start, const hsize_t *count) const;
@@ -472,6 +475,7 @@ struct OutputFile::Impl {
   // rows in the buffer (the same on every rank); the buffered rows (rank 0): rows x columns.
   std::vector<std::string> history_names, probe_names, columns, stored_columns;
   std::vector<double>      resumed_energy; // rank 0, from Resume: ResumedEnergyRows
+  std::string              run_end;        // SetRunEnd: the root attribute run_end written at Close
   bool                     names_known  = false;
   hsize_t                  rows_written = 0, rows_buffered = 0;
   std::vector<double>      buffered_values;
@@ -668,6 +672,9 @@ PetscErrorCode OutputFile::Impl::WriteProvenance(const OutputMesh &mesh)
   PetscCall(WriteStringAttribute(file, ".", "options", OptionsText()));
   PetscCall(WriteAttribute(file, ".", "ranks", H5T_STD_I32LE, H5T_NATIVE_INT, &size));
   PetscCall(WriteStringAttribute(file, ".", "start_time", IsoTimeNow()));
+  // How the run ended (OutputFile::SetRunEnd, written at Close); "running" until then, so that the
+  // file of a run killed outright says it did not end.
+  PetscCall(WriteStringAttribute(file, ".", "run_end", "running"));
   // The analysis as the input names it (an eigenanalysis wrote "static" before, which readers had
   // to see through from its series).
   PetscCall(WriteStringAttribute(file, ".", "analysis_type", AnalysisTypeName(analysis)));
@@ -1748,7 +1755,23 @@ PetscErrorCode OutputFile::Impl::Resume(int last_step, long long history_rows, c
     PetscCheck(stored_columns.size() == dims[1], PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "'%s': /history/names names %zu columns, /history/values has %llu",
                p, stored_columns.size(), (unsigned long long)dims[1]);
   }
-  // (2) Changes: frames written after the checkpoint go, the table is cut to its rows.
+  // (2) Changes: frames written after the checkpoint go, the table is cut to its rows; the
+  // restart is recorded (restart_1, restart_2, ...: when, on how many ranks, the command line and
+  // the options), and the run is running again.
+  {
+    PetscMPIInt size;
+    PetscCallMPI(MPI_Comm_size(comm, &size));
+    int number = 1;
+    for (;; ++number) {
+      const htri_t exists = H5Aexists(file, Format("restart_%d", number).c_str());
+      PetscCallHDF5(exists);
+      if (!exists) break;
+    }
+    PetscCall(WriteStringAttribute(
+        file, ".", Format("restart_%d", number).c_str(),
+        Format("%s on %d rank(s) at step %d: %s; options: %s", IsoTimeNow().c_str(), (int)size, last_step, CommandLine().c_str(), OptionsText().c_str())));
+    PetscCall(ReplaceStringAttribute(file, "run_end", "running"));
+  }
   for (const std::string &name : frame_datasets) PetscCall(TruncateRows(frames_group, name, kept));
   frames_written = kept;
   for (int f = 0; f < kFrameFieldCount; ++f)
@@ -1805,9 +1828,21 @@ PetscErrorCode OutputFile::Impl::LoadSegmentTable()
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
+PetscErrorCode OutputFile::Impl::ReplaceStringAttribute(hid_t location, const char *name, const std::string &value)
+{
+  PetscFunctionBeginUser;
+  const htri_t exists = H5Aexists(location, name);
+  PetscCallHDF5(exists);
+  if (exists) PetscCallHDF5(H5Adelete(location, name));
+  PetscCall(WriteStringAttribute(location, ".", name, value));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
 PetscErrorCode OutputFile::Impl::Close()
 {
   PetscFunctionBeginUser;
+  // (Collective on a file open on several ranks: every rank holds the same text.)
+  if (!run_end.empty()) PetscCall(ReplaceStringAttribute(file, "run_end", run_end));
   PetscCallHDF5(H5Fclose(file.Release()));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
@@ -2022,6 +2057,11 @@ PetscErrorCode OutputFile::Flush()
 }
 
 long long OutputFile::HistoryRows() const { return impl_ ? (long long)(impl_->rows_written + impl_->rows_buffered) : 0; }
+
+void OutputFile::SetRunEnd(const std::string &how)
+{
+  if (impl_) impl_->run_end = how;
+}
 
 const std::vector<double> &OutputFile::ResumedEnergyRows() const
 {

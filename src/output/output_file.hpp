@@ -172,6 +172,10 @@ public:
   // two), so that a restarted run's summary covers the whole file (it covered the restarted part:
   // "initial total energy" was the restart's). Empty on other ranks.
   const std::vector<double> &ResumedEnergyRows() const;
+  // How the run ended, for the root attribute run_end that Close writes ("running" from Open or
+  // Reopen until then): "completed ...", "stopped by SIGTERM ...", "stopped at t = ...: ...". The
+  // same text on every rank.
+  void SetRunEnd(const std::string &how);
 
   const std::string &Path() const { return path_; }
 

@@ -21,6 +21,7 @@
    (`<file>.tmp.XXXXXX`) are removed by the next run that owns those files, and nothing else."""
 
 import os
+import re
 import signal
 import subprocess
 import time
@@ -122,6 +123,8 @@ remaining, errors = process.communicate(timeout=300)
 print(f"SIGTERM during the only step: exit {process.returncode}: {errors.strip()[-300:]}")
 check.equal("SIGTERM during the last step: exit status (completed)", process.returncode, 0)
 check.true("SIGTERM during the last step: said on standard error", "SIGTERM arrived during the last step; the run has completed" in errors)
+with h5py.File(f"{work}/one_step.h5", "r") as f:
+    check.true("SIGTERM during the last step: run_end says completed", f.attrs["run_end"].decode().startswith("completed at t = 0.01"))
 check.less("SIGTERM during the last step: |last history time - end time|", abs(float(mt.history(f"{work}/one_step.h5")["time"][-1]) - 0.01), 1e-15)
 
 # After a restart into its result file, the summary's energy figures and the energy warning cover
@@ -135,6 +138,15 @@ code, stdout, stderr = run([args.msflex, "--restart", "spin.ckpt.h5", "-quiet", 
 restart_lines = [line.strip() for line in (stdout + stderr).splitlines() if "energy drift" in line or "energy balance grew" in line]
 print("energy lines, whole run:", full_lines, "\nafter the restart:", restart_lines)
 check.true("restart: the energy drift and warning lines equal the uninterrupted run's", len(full_lines) == 2 and restart_lines == full_lines)
+# ... and the file records the restart and how the run ended (its attributes were the first run's
+# alone, and a finished run could not be told from one stopped by a failure)
+with h5py.File(f"{work}/spin.h5", "r") as f:
+    attributes = {name: (value.decode() if isinstance(value, bytes) else str(value)) for name, value in f.attrs.items()}
+print("restarted file:", {name: attributes.get(name, "")[:120] for name in ("run_end", "restart_1", "restart_2")})
+check.true("restart: restart_1 records the restart (ranks, step, command line)",
+           re.search(r"on 1 rank\(s\) at step 400: .*--restart spin.ckpt.h5", attributes.get("restart_1", "")) is not None)
+check.true("restart: no restart_2", "restart_2" not in attributes)
+check.true("restart: run_end says completed", attributes.get("run_end", "").startswith("completed at t = "))
 
 # 3. arc length: no checkpoint, SIGTERM stops with 143
 for name in ("arch_arc.h5", "arch_arc.ckpt.h5"):
