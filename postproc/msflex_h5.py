@@ -11,16 +11,28 @@ and `description` attributes (or none); they are read as well.
 
 import difflib
 import os
+import re
 import sys
 
 # A running msflex holds its result file open for writing, and HDF5's file locking (on by default)
 # then refuses every other opening of it ("unable to lock file", errno 11): without the lock the
-# tools read the file's last flush (docs/output.md). Set before HDF5 starts, that is before h5py is
-# imported, and for the processes the tools start (pvpython for render-paraview).
+# tools read the file's last flush (docs/output.md). HDF5 reads HDF5_USE_FILE_LOCKING when it
+# starts, that is when h5py is imported; open_hdf5 also says locking=False (h5py 3.5 and later).
+_LOCKING = os.environ.get("HDF5_USE_FILE_LOCKING")
 os.environ["HDF5_USE_FILE_LOCKING"] = "FALSE"
 
 import h5py  # noqa: E402  (after the environment above)
 import numpy as np  # noqa: E402
+
+# Where h5py takes locking=False, the environment is given back as it was: the programs started by
+# a script that imports this module (msflex, run by the regression tests) keep HDF5's locking, which
+# tells msflex that another process has its output file open. (render-paraview sets the variable
+# itself, for the pvpython it starts.)
+if tuple(int(v) for v in re.findall(r"\d+", h5py.version.version)[:2]) >= (3, 5):
+    if _LOCKING is None:
+        del os.environ["HDF5_USE_FILE_LOCKING"]
+    else:
+        os.environ["HDF5_USE_FILE_LOCKING"] = _LOCKING
 
 # Older files: probe datasets and the names of their columns (None: a 1-D dataset, one value per row).
 PROBE_COMPONENTS = {
@@ -88,6 +100,12 @@ def open_hdf5(path):
     try:
         return h5py.File(path, "r", locking=False)
     except TypeError:  # h5py before 3.5: no locking argument
+        return h5py.File(path, "r")
+    except OSError as error:
+        # The file is open already in this process with HDF5's locking (a script that holds it
+        # with h5py.File and asks this module too): HDF5 wants the same flag for both.
+        if "locking flag values don't match" not in str(error):
+            raise
         return h5py.File(path, "r")
 
 

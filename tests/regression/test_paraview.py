@@ -30,7 +30,11 @@ ground, from both sidecars) and checks that each has the requested size and is n
 green and blue pixels into the second and the joint axes (magenta), body (orange) and ground
 (brown) show in the third; the bushing mount's force element (cyan) from both sidecars, and not with
 --no-force-elements; and a movie of the driven screw (--movie, every 4th frame): the PNG
-series and an .mp4 file made by ffmpeg."""
+series and an .mp4 file made by ffmpeg. Last the errors, one line each: a missing file (named as
+given), a sidecar without frames of either syntax (exit 1), an unknown --colormap and a --range
+with MIN >= MAX (exit 2); input/rack_pinion.yaml's default colour range is over the nodes its
+beams draw (not the pinion's node), with --nodes over all; and its result renders while another
+process holds it open for writing with HDF5 file locking."""
 
 import os
 import shutil
@@ -279,10 +283,114 @@ print(f"movie: {len(pngs)} PNGs of {n_frames} frames, {mp4_bytes} bytes of mp4")
 check.equal("movie: PNGs", len(pngs), expected_pngs)
 check.true(f"movie: an .mp4 file of more than 1000 bytes ({mp4_bytes})", mp4_bytes > 1000)
 
-# A missing file fails at once, with one line, before ParaView starts.
-result = subprocess.run([sys.executable, render_paraview, os.path.join(args.work_dir, "missing.xmf"), "-o", png],
-                        capture_output=True, text=True, timeout=60)
-print(f"missing file: exit status {result.returncode}, stderr: {result.stderr.strip()}")
-check.equal("missing file: exit status", result.returncode, 1)
-check.equal("missing file: stderr lines", len(result.stderr.splitlines()), 1)
+# A missing file fails at once, with one line naming the file given (not the sidecar beside a
+# missing .h5, no raw [Errno 2]), before ParaView starts.
+for missing in ("missing.xmf", "missing.ckpt.h5"):
+    result = subprocess.run([sys.executable, render_paraview, os.path.join(args.work_dir, missing), "-o", png],
+                            capture_output=True, text=True, timeout=60)
+    print(f"{missing}: exit status {result.returncode}, stderr: {result.stderr.strip()}")
+    check.equal(f"{missing}: exit status", result.returncode, 1)
+    check.equal(f"{missing}: stderr lines", len(result.stderr.splitlines()), 1)
+    check.true(f"{missing}: the message names the file given, and no errno",
+               os.path.join(args.work_dir, missing) + "'" in result.stderr and "Errno" not in result.stderr
+               and (missing.endswith(".xmf") or ".xmf" not in result.stderr))
+
+
+def render_refused(what, command, status, message=None):
+    """render-paraview `command` (its arguments) exits with `status` and the one line `message`
+    (or any one line, or with status 2 any argparse usage error, when None)."""
+    result = subprocess.run([sys.executable, render_paraview, *command], capture_output=True, text=True, timeout=300)
+    print(f"{what}: exit status {result.returncode}, stderr: {result.stderr.strip().splitlines()[-1:] }")
+    check.equal(f"{what}: exit status", result.returncode, status)
+    if message is not None:
+        check.true(f"{what}: the one line on stderr", result.stderr == f"render-paraview: error: {message}\n")
+    else:
+        lines = result.stderr.strip().splitlines()
+        check.true(f"{what}: no traceback, an error line last", "Traceback" not in result.stderr
+                   and bool(lines) and lines[-1].startswith("render-paraview: error: "))
+    return result
+
+
+# A sidecar that lists no frames (a run killed before its first flush), of either syntax: the same
+# line (an xdmf2 sidecar without frames has no HDF data item at all).
+for flavour in ("xdmf3", "xdmf2"):
+    with open(os.path.splitext(results["spaghetti", flavour])[0] + ".xmf", encoding="utf-8") as f:
+        text = f.read()
+    start = text.index(">", text.index('<Information Name="frames"')) + 1
+    empty = os.path.join(args.work_dir, f"no_frames_{flavour}.xmf")
+    with open(empty, "w", encoding="utf-8") as f:
+        f.write(text[:start] + "\n  " + text[text.rindex("</Information>"):])
+    render_refused(f"{flavour} sidecar without frames", [empty, "-o", png], 1,
+                   f"'{empty}' lists no frames: its run stopped before writing the first (or has not flushed it yet), so there is nothing to render")
+
+# Arguments ParaView would ignore: an unknown colour map (ApplyPreset returns True for it in 5.11),
+# a colour range whose MIN is not below MAX.
+result = render_refused("--colormap Nope", [xmf, "-o", png, "--xvfb", "--colormap", "Nope"], 2)
+check.true("--colormap Nope: one line naming the preset", len(result.stderr.splitlines()) == 1 and "no colour map preset 'Nope'" in result.stderr)
+for low, high in (("1", "0"), ("0.5", "0.5")):
+    render_refused(f"--range {low} {high}", [xmf, "-o", png, "--range", low, high], 2)
+
+# The default colour range is over the nodes the beams draw: input/rack_pinion.yaml's beams grid
+# also holds the pinion's node (a rigid body's), which moves 0.8 m while the rack's nodes move
+# 0.038 m at most; --nodes draws every node, and its range is over all.
+rack = os.path.join(args.work_dir, "rack_pinion.h5")
+mt.run_msflex(args, f"{args.source_dir}/input/rack_pinion.yaml", rack, extra=["-quiet", "-output_every", "40"])
+RANGE_PROBE = """
+import importlib.machinery, importlib.util, os, sys
+loader = importlib.machinery.SourceFileLoader("render_paraview", sys.argv[1])
+spec = importlib.util.spec_from_loader("render_paraview", loader)
+rp = importlib.util.module_from_spec(spec)
+loader.exec_module(rp)
+from paraview import simple
+xmf, _ = rp.result_files(sys.argv[2])
+reader, parts = rp.open_result(simple, os.path.abspath(xmf))
+times = [float(t) for t in reader.TimestepValues]
+beams = parts["beams"]
+beams.UpdatePipeline(times[-1])
+colour = rp.colour_array(beams, "displacement")
+for nodes in (False, True):
+    print("range", int(nodes), *rp.scan(reader, beams, [times[-1]], colour, nodes)[1])
+"""
+probe = os.path.join(args.work_dir, "range_probe.py")
+with open(probe, "w") as f:
+    f.write(RANGE_PROBE)
+result = subprocess.run([pvpython, probe, render_paraview, os.path.splitext(rack)[0] + ".xmf"], capture_output=True, text=True, timeout=300)
+ranges = {int(line.split()[1]): [float(v) for v in line.split()[2:]] for line in result.stdout.splitlines() if line.startswith("range ")}
+if len(ranges) != 2:
+    sys.stderr.write(result.stdout + result.stderr[-4000:])
+with h5py.File(rack, "r") as f:
+    magnitude = np.linalg.norm(f["frames/displacement"][-1], axis=1)
+    drawn = magnitude[np.unique(f["mesh/segments"][()])]
+print(f"rack_pinion: default colour range {ranges.get(0)}, with --nodes {ranges.get(1)}; |displacement| of the beams' nodes "
+      f"{drawn.min():.6g} .. {drawn.max():.6g}, of all nodes .. {magnitude.max():.6g}")
+check.true("rack_pinion: the pinion's node moves further than the rack's (the check means something)", magnitude.max() > 2 * drawn.max())
+check.less("rack_pinion: default colour range vs |displacement| over the beams' nodes, max difference",
+           float(np.abs(np.subtract(ranges.get(0, [np.inf] * 2), [drawn.min(), drawn.max()])).max()), 1e-12)
+check.less("rack_pinion: --nodes colour range vs |displacement| over all nodes, max difference",
+           float(np.abs(np.subtract(ranges.get(1, [np.inf] * 2), [magnitude.min(), magnitude.max()])).max()), 1e-12)
+
+# A result file that a running msflex holds open for writing (with HDF5 file locking, as msflex's
+# HDF5 has it by default): render-paraview and ParaView read it all the same (it sets
+# HDF5_USE_FILE_LOCKING=FALSE), not "unable to lock file".
+environment = {k: v for k, v in os.environ.items() if k != "HDF5_USE_FILE_LOCKING"}
+holder = subprocess.Popen([sys.executable, "-c", "import sys, h5py\nf = h5py.File(sys.argv[1], 'a', locking=True)\n"
+                           "print('open', flush=True)\nsys.stdin.read()\n", rack],
+                          stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True, env=environment)
+try:
+    check.true("locked file: the holder has it open", holder.stdout.readline().strip() == "open")
+    # Given the .h5, render-paraview reads it with h5py first; given the .xmf, ParaView alone (5.11
+    # aborted, SIGABRT, with locking on).
+    for given in (rack, os.path.splitext(rack)[0] + ".xmf"):
+        name = os.path.basename(given)
+        locked_png = os.path.join(args.work_dir, f"locked_{name}.png")
+        if os.path.exists(locked_png):
+            os.remove(locked_png)
+        result = subprocess.run([sys.executable, render_paraview, given, "-o", locked_png, "--xvfb", "--size", "320", "240"],
+                                capture_output=True, text=True, timeout=300, env=environment)
+        print(f"locked file, {name}: exit status {result.returncode}, stderr: {result.stderr.strip()[-300:]}")
+        check.equal(f"locked file, {name}: render-paraview exit status", result.returncode, 0)
+        check.true(f"locked file, {name}: no lock error", "lock" not in result.stderr)
+        check.true(f"locked file, {name}: the image is written", os.path.isfile(locked_png))
+finally:
+    holder.communicate("")
 check.finish()

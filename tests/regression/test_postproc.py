@@ -6,7 +6,11 @@ dynamic analysis, and one of an older msflex: a dataset per series, without unit
 points; the energies and momenta of a damped mechanism): the listing, CSV, the axis labels with
 units ("load factor" for a static analysis's time, "mode" for an eigenanalysis'), the energy
 balance and momentum panels, and the errors: one line on stderr and exit status 1 for a file
-without history rows, a checkpoint and files that are no result files. (tests/regression/
+without history rows, a checkpoint and files that are no result files; exit status 2 and one
+line for an image format matplotlib cannot write; msflex-history's arguments (SERIES optional,
+each column once); a file another process holds open for writing with HDF5 file locking read all
+the same; plot-rack-pinion's drive work by the trapezoid rule and its energy error against the
+file's external_work. (tests/regression/
 test_output_units.py does the same on the files msflex writes.) Run: python3 tests/regression/test_postproc.py"""
 
 import csv
@@ -450,6 +454,106 @@ class PostprocTest(unittest.TestCase):
         result = run("plot-energy-momentum", self.h5, "-o", png)
         self.assertEqual(result.returncode, 2)
         self.assertIn("it holds a static analysis, not a dynamic one", result.stderr)
+
+    def test_plot_history_refuses_an_unknown_image_format(self):
+        # matplotlib's own message was a traceback; exit 2, one line naming the format and the known ones.
+        target = os.path.join(self.directory.name, "plot.xyz")
+        for script, arguments in (("plot-history", [self.h5, "time", "-o", target]),
+                                  ("plot-energy-momentum", [self.h5, "-o", target]),
+                                  ("plot-rack-pinion", [self.h5, "-o", target])):
+            result = run(script, *arguments)
+            self.assertEqual(result.returncode, 2, result.stderr)
+            self.assertEqual(len(result.stderr.splitlines()), 1, result.stderr)
+            self.assertIn("'.xyz'", result.stderr)
+            self.assertIn(".png", result.stderr)
+            self.assertNotIn("Traceback", result.stderr)
+            self.assertFalse(os.path.exists(target))
+
+    def test_history_arguments(self):
+        # SERIES is optional: only FILE is missing.
+        result = run("msflex-history")
+        self.assertEqual(result.returncode, 2)
+        self.assertIn("the following arguments are required: FILE", result.stderr)
+        self.assertNotIn("SERIES", result.stderr.splitlines()[-1])
+        # Each column once, time first, whether or not it is asked for.
+        for series, header in ((["time"], ["time"]), (["load_factor", "time", "load_factor"], ["time", "load_factor"])):
+            result = run("msflex-history", self.h5, *series)
+            self.assertEqual(result.returncode, 0, result.stderr)
+            rows = list(csv.reader(io.StringIO(result.stdout)))
+            self.assertEqual(rows[0], header)
+            self.assertEqual([len(row) for row in rows], [len(header)] * (len(TIME) + 1))
+
+    def test_reads_a_file_that_another_process_holds_open_for_writing(self):
+        # msflex holds its result file open for writing while it runs; HDF5's file locking (on by
+        # default) made every tool fail with "unable to lock file" ([Errno 11]) instead of reading the
+        # last flush. The writer here locks; the tools run without HDF5_USE_FILE_LOCKING set.
+        environment = {k: v for k, v in os.environ.items() if k != "HDF5_USE_FILE_LOCKING"}
+        holder = subprocess.Popen([sys.executable, "-c", "import sys, h5py\n"
+                                   "f = h5py.File(sys.argv[1], 'a', locking=True)\nprint('open', flush=True)\nsys.stdin.read()\n", self.h5],
+                                  stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True, env=environment)
+        try:
+            self.assertEqual(holder.stdout.readline().strip(), "open")
+            result = subprocess.run([sys.executable, os.path.join(POSTPROC, "msflex-history"), self.h5, "load_factor"],
+                                    capture_output=True, text=True, env=environment)
+            self.assertEqual(result.returncode, 0, result.stderr)
+            self.assertEqual(len(result.stdout.splitlines()), len(TIME) + 1)
+            png = os.path.join(self.directory.name, "plot.png")
+            result = subprocess.run([sys.executable, os.path.join(POSTPROC, "plot-history"), self.h5, "load_factor", "-o", png],
+                                    capture_output=True, text=True, env=environment)
+            self.assertEqual(result.returncode, 0, result.stderr)
+        finally:
+            holder.communicate("")
+        # Where HDF5 locks all the same, the one line says that the file is locked.
+        sys.path.insert(0, POSTPROC)
+        import msflex_h5
+
+        def locked(*args, **kwargs):
+            raise OSError(11, "Unable to synchronously open file (unable to lock file, errno = 11, error message = 'Resource temporarily unavailable')")
+        original = msflex_h5.h5py.File
+        msflex_h5.h5py.File = locked
+        try:
+            with self.assertRaises(msflex_h5.FileError) as caught:
+                msflex_h5.open_result_file(self.h5)
+        finally:
+            msflex_h5.h5py.File = original
+        self.assertIn("could not lock", str(caught.exception))
+        self.assertIn("a running msflex", str(caught.exception))
+        self.assertEqual(len(str(caught.exception).splitlines()), 1)
+
+    def test_rack_pinion_drive_work(self):
+        # The drive work W = integral of (a1.M + b a2.F) dphi over the history rows: with a moment
+        # linear in phi, W = phi^2 / 2 exactly by the trapezoid rule (a right-endpoint rectangle
+        # rule, as plot-rack-pinion had, errs by sum phi_i dphi / 2: 0.64 J on input/rack_pinion.yaml).
+        # Where the file has external_work, the energy error is total - external_work.
+        sys.path.insert(0, POSTPROC)
+        import types
+        module = script_module("plot-rack-pinion")
+        time = np.linspace(0.0, 1.0, 21)
+        phi = 3.0 * time ** 2
+        exact = 0.5 * phi ** 2
+        np.testing.assert_allclose(module.drive_work(phi, phi), exact, rtol=0, atol=1e-12)
+        path = os.path.join(self.directory.name, "rack_pinion.h5")
+        zero = 0 * time
+        for with_work in (True, False):
+            columns = {"time": time, "gear.rx": phi, "total_energy": exact, "gear.force_x": zero, "gear.force_y": zero, "gear.force_z": zero,
+                       "gear.moment_x": zero, "gear.moment_y": zero, "gear.moment_z": phi,
+                       "contact.position.x": zero + 1, "contact.position.y": zero, "contact.position.z": zero,
+                       "contact.rotation.w": zero + 1, "contact.rotation.x": zero, "contact.rotation.y": zero, "contact.rotation.z": zero,
+                       "pinion.position.x": 1 + 0.1 * phi, "pinion.position.y": zero + 0.1, "pinion.position.z": zero}
+            if with_work:
+                columns["external_work"] = exact
+            with h5py.File(path, "w") as f:
+                f.attrs["msflex_format"] = "msflex result 3"
+                f.attrs["analysis_type"] = np.bytes_(b"dynamic")
+                write_table(f, columns)
+            arguments = types.SimpleNamespace(file=path, radius=0.1, joint="gear", contact="contact", pinion="pinion")
+            bottom = module.plot(arguments).axes[2]  # (a), (b), (c), then the twin axes of (a)
+            lines = {line.get_label(): line for line in bottom.get_lines()}
+            np.testing.assert_allclose(lines["drive work W (trapezoid rule)"].get_ydata(), exact, rtol=0, atol=1e-12)
+            error = [line for label, line in lines.items() if label.startswith("total −")]
+            self.assertEqual(len(error), 1, list(lines))
+            self.assertIn("external work (file)" if with_work else "total − W", error[0].get_label())
+            self.assertLess(np.abs(error[0].get_ydata()).max(), 1e-12)
 
 
 if __name__ == "__main__":
