@@ -1,4 +1,5 @@
 #include "app/run_analysis.hpp"
+#include "core/stop_signal.hpp"
 
 #include "app/run_eigen.hpp"
 #include "app/run_summary.hpp"
@@ -20,12 +21,6 @@
 namespace msflex {
 
 namespace {
-
-// The signal that asked the run to stop (SIGTERM, SIGUSR1, SIGINT, SIGHUP), 0 if none: set by the handler, read
-// at the end of every step.
-volatile std::sig_atomic_t g_stop_signal = 0;
-
-extern "C" void RecordStopSignal(int signal) { g_stop_signal = signal; }
 
 // "42.0 s", "12 min 05 s", "3 h 07 min": wall times for the progress line.
 std::string FormatDuration(double seconds)
@@ -510,7 +505,7 @@ const char *StopSignalName(int signal)
 // a stop signal arrived on any rank; *stop tells the step loop to end the run.
 PetscErrorCode CheckpointIfDue(Analysis &a, int step, double t, int last_written, const StepController &controller, bool *stop)
 {
-  const int mine = (int)g_stop_signal;
+  const int mine = StopSignalReceived();
   int       signal;
   PetscFunctionBeginUser;
   PetscCallMPI(MPI_Allreduce(&mine, &signal, 1, MPI_INT, MPI_MAX, a.comm));
@@ -600,7 +595,7 @@ StopSignalHandlers::StopSignalHandlers()
   action.sa_flags |= SA_RESETHAND;
   sigaction(SIGINT, &action, &previous_int_);
   sigaction(SIGHUP, &action, &previous_hup_);
-  g_stop_signal = 0;
+  ClearStopSignal();
 }
 
 StopSignalHandlers::~StopSignalHandlers()
@@ -631,10 +626,25 @@ PetscErrorCode RunAnalysis(MPI_Comm comm, Model model, const RunOptions &options
                           a.map.global_count.joints, a.map.num_global, relays.c_str(), options.output_file.c_str()));
   a.integrator.SetQuiet(options.quiet);
   if (IsEigenAnalysis(analysis.type)) {
-    PetscCall(RunEigenAnalysis(comm, a.model, a.map, a.integrator, a.output, options.quiet));
-    a.output.SetRunEnd("completed");
+    bool stopped = false;
+    PetscCall(RunEigenAnalysis(comm, a.model, a.map, a.integrator, a.output, options.quiet, &stopped));
+    // A stop signal ends the eigensolver with the modes it has, written; no checkpoint can continue
+    // it (exit 128 + the signal, as an arc-length run's).
+    const std::string how = stopped ? Format("stopped by %s with the modes converged by then", StopSignalName(StopSignal())) : std::string("completed");
+    a.output.SetRunEnd(how);
     PetscCall(CloseOutput(a));
-    if (!options.quiet) PetscCall(PetscPrintf(comm, "msflex: results in %s\n", options.output_file.c_str()));
+    if (stopped) {
+      PetscCall(PetscFPrintf(comm, PETSC_STDERR, "msflex: %s; results in %s; no checkpoint: a modes or buckling analysis is run again from its input\n",
+                             how.c_str(), options.output_file.c_str()));
+      *end = RunEnd::StoppedBySignalWithoutCheckpoint;
+    } else {
+      // The solver checks for a signal between its outer iterations: one that came in the last
+      // (often the only one) finds the modes complete.
+      if (StopSignal() != 0)
+        PetscCall(PetscFPrintf(comm, PETSC_STDERR, "msflex: %s arrived during the eigensolver's last iteration; the analysis has completed\n",
+                               StopSignalName(StopSignal())));
+      if (!options.quiet) PetscCall(PetscPrintf(comm, "msflex: results in %s\n", options.output_file.c_str()));
+    }
     PetscFunctionReturn(PETSC_SUCCESS);
   }
   if (a.Static()) PetscCall(a.path.Start(restart ? restart->time : 0.0));
@@ -756,6 +766,6 @@ PetscErrorCode RunAnalysis(MPI_Comm comm, Model model, const RunOptions &options
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
-int StopSignal() { return (int)g_stop_signal; }
+int StopSignal() { return StopSignalReceived(); }
 
 } // namespace msflex

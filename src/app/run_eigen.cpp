@@ -95,7 +95,8 @@ static PetscErrorCode ConvertForCholesky(Mat *K, Mat *B)
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
-PetscErrorCode RunEigenAnalysis(MPI_Comm comm, const Model &model, const DofMap &map, Integrator &integrator, OutputFile &output, bool quiet)
+PetscErrorCode RunEigenAnalysis(MPI_Comm comm, const Model &model, const DofMap &map, Integrator &integrator, OutputFile &output, bool quiet,
+                                bool *stopped_by_signal)
 {
   const AnalysisSettings &a         = model.analysis;
   const bool              buckling  = a.type == AnalysisType::Buckling;
@@ -157,11 +158,12 @@ PetscErrorCode RunEigenAnalysis(MPI_Comm comm, const Model &model, const DofMap 
     PetscCall(VecDestroy(&q));
     PetscCall(VecDestroy(&direction));
   }
+  *stopped_by_signal = pairs.stopped_by_signal;
   if (!quiet && !buckling && pairs.ran_out)
     PetscCall(PetscPrintf(comm,
                           "msflex: %zu modes found of the %d asked for; the other eigenvalues are infinite (motions without mass: rotations without rhoJ)\n",
                           pairs.values.size(), count));
-  if (!quiet && buckling && (int)pairs.values.size() < count)
+  if (!quiet && buckling && (int)pairs.values.size() < count && !pairs.stopped_by_signal)
     PetscCall(PetscPrintf(
         comm, "msflex: %zu buckling loads found of the %d asked for; the other eigenvalues give none (a load factor below zero, or none within round-off)\n",
         pairs.values.size(), count));

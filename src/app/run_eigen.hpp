@@ -20,6 +20,9 @@
 
 namespace msflex {
 
-PetscErrorCode RunEigenAnalysis(MPI_Comm comm, const Model &model, const DofMap &map, Integrator &integrator, OutputFile &output, bool quiet);
+// *stopped_by_signal: a stop signal ended the eigensolver early; the modes converged by then are
+// written.
+PetscErrorCode RunEigenAnalysis(MPI_Comm comm, const Model &model, const DofMap &map, Integrator &integrator, OutputFile &output, bool quiet,
+                                bool *stopped_by_signal);
 
 } // namespace msflex

@@ -1,5 +1,6 @@
 #include "eigen/eigen_solver.hpp"
 #include "core/errors.hpp"
+#include "core/stop_signal.hpp"
 
 #include <slepceps.h>
 
@@ -87,6 +88,27 @@ PetscErrorCode CollectPairs(EPS eps, Mat A, int count, Value value, bool keep_po
 
 // EPSDestroy after a failed solve: SLEPc may refuse, its work space still taken (-st_type cayley
 // did); nothing of the solver is used any more, so that refusal is no error.
+// SLEPc's own test, and a stop on a stop signal (SIGTERM, ... on any rank): the solve then ends
+// with the pairs converged so far (EPS_CONVERGED_USER), which the analysis writes before it stops
+// (a modal analysis of a large model ran on to the end through a scheduler's warning signal).
+PetscErrorCode StopOnSignal(EPS eps, PetscInt its, PetscInt max_it, PetscInt nconv, PetscInt nev, EPSConvergedReason *reason, void *context)
+{
+  PetscFunctionBeginUser;
+  PetscCall(EPSStoppingBasic(eps, its, max_it, nconv, nev, reason, context));
+  if (*reason != EPS_CONVERGED_ITERATING) PetscFunctionReturn(PETSC_SUCCESS);
+  const int mine = StopSignalReceived();
+  int       any;
+  PetscCallMPI(MPI_Allreduce(&mine, &any, 1, MPI_INT, MPI_MAX, PetscObjectComm((PetscObject)eps)));
+  if (any) *reason = EPS_CONVERGED_USER;
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+void NoteStop(EPS eps, EigenPairs *pairs)
+{
+  EPSConvergedReason reason;
+  if (EPSGetConvergedReason(eps, &reason) == PETSC_SUCCESS && reason == EPS_CONVERGED_USER) pairs->stopped_by_signal = true;
+}
+
 PetscErrorCode DestroyAfterFailure(EPS *eps)
 {
   PetscFunctionBeginUser;
@@ -115,6 +137,7 @@ PetscErrorCode SolveModesAt(Mat K, Mat M, int count, double sigma, EigenPairs *p
   PetscCall(STSetType(st, STSINVERT));
   PetscCall(UseCholesky(eps));
   MSFLEX_CALL_READING_OPTIONS(PetscObjectComm((PetscObject)eps), EPSSetFromOptions(eps));
+  PetscCall(EPSSetStoppingTestFunction(eps, StopOnSignal, nullptr, nullptr));
   PetscCall(CheckFactorSolverAvailable(eps, K));
   PetscErrorCode code = PETSC_SUCCESS;
   if (failed) {
@@ -166,6 +189,7 @@ PetscErrorCode SolveModesAt(Mat K, Mat M, int count, double sigma, EigenPairs *p
     pairs->shift = PetscRealPart(target);
     PetscCall(CollectPairs(
         eps, K, count, [](double theta) { return theta; }, false, pairs));
+    NoteStop(eps, pairs);
   }
   ++pairs->solves;
   if (failed && *failed) {
@@ -175,7 +199,7 @@ PetscErrorCode SolveModesAt(Mat K, Mat M, int count, double sigma, EigenPairs *p
   // The last solve must deliver what was asked for: a transformation or solver chosen by option
   // that does not converge (-st_type shift finds the eigenvalues nearest the target slowly, if at
   // all) ends the run with one line, not with fewer modes or none.
-  if (!failed && (int)pairs->values.size() < count) {
+  if (!failed && (int)pairs->values.size() < count && !pairs->stopped_by_signal) {
     EPSConvergedReason reason;
     PetscInt           iterations;
     PetscCall(EPSGetConvergedReason(eps, &reason));
@@ -291,6 +315,7 @@ PetscErrorCode EigenPairsDestroy(EigenPairs *pairs)
   pairs->vectors.clear();
   pairs->values.clear();
   pairs->backward_errors.clear();
+  pairs->stopped_by_signal = false;
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
@@ -329,6 +354,7 @@ PetscErrorCode SolveModes(Mat K, Mat M, int count, double shift, EigenPairs *pai
   // First at sigma = 0, which is the best shift unless K is singular.
   bool failed = false;
   PetscCall(SolveModesAt(K, M, count, 0.0, pairs, &failed));
+  if (pairs->stopped_by_signal) PetscFunctionReturn(PETSC_SUCCESS);
   double largest = 0.0, worst_error = 0.0;
   for (size_t k = 0; k < pairs->values.size(); ++k)
     largest = std::max(largest, std::abs(pairs->values[k])), worst_error = std::max(worst_error, pairs->backward_errors[k]);
@@ -366,8 +392,10 @@ PetscErrorCode SolveBucklingModes(Mat K, Mat K_sigma, int count, EigenPairs *pai
   PetscCall(EPSSetWhichEigenpairs(eps, EPS_LARGEST_REAL));
   PetscCall(UseCholesky(eps));
   MSFLEX_CALL_READING_OPTIONS(PetscObjectComm((PetscObject)eps), EPSSetFromOptions(eps));
+  PetscCall(EPSSetStoppingTestFunction(eps, StopOnSignal, nullptr, nullptr));
   PetscCall(CheckFactorSolverAvailable(eps, K));
   PetscCall(EPSSolve(eps));
+  NoteStop(eps, pairs);
   pairs->solves = 1;
   // nu at round-off is no buckling load: a K_sigma singular in some direction gives nu = 0 there,
   // computed as about eps ||K_sigma|| / ||K|| (a clamped column of two linear elements reported

@@ -38,9 +38,10 @@ struct EigenPairs {
   // makes that ratio huge, for rigid ones; a factor 1e3 here took the sway mode of a portal frame
   // near buckling for one.)
   std::vector<double> zero_levels;
-  int                 solves = 0;      // 1, or 2 when a first solve only estimated the spectrum
-  std::string         transformation;  // the spectral transformation of the final solve (sinvert, or what -st_type chose)
-  bool                ran_out = false; // modes: fewer found than asked, the others infinite (motions without mass)
+  int                 solves = 0;                // 1, or 2 when a first solve only estimated the spectrum
+  std::string         transformation;            // the spectral transformation of the final solve (sinvert, or what -st_type chose)
+  bool                ran_out           = false; // modes: fewer found than asked, the others infinite (motions without mass)
+  bool                stopped_by_signal = false; // the solve ended early on a stop signal, with the pairs converged by then
 };
 
 // SLEPc is initialised on first use, PETSc being initialised already; EigenFinalize ends it.

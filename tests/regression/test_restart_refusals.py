@@ -16,7 +16,8 @@
    from another integrator or spectral radius; mc and em continue any), and two checkpoints;
    allowed: a restart with a max_step below the input's initial_step, whose steps then keep it.
    A stop signal during the last step ends the run as completed (exit 0), not 75. After a restart
-   the summary's energy figures cover the whole result file.
+   the summary's energy figures cover the whole result file. A stop signal during an eigenanalysis
+   writes the modes converged by then and exits with 143.
 5. The temporaries a killed run left beside its result file, sidecar and checkpoint
    (`<file>.tmp.XXXXXX`) are removed by the next run that owns those files, and nothing else."""
 
@@ -147,6 +148,27 @@ check.true("restart: restart_1 records the restart (ranks, step, command line)",
            re.search(r"on 1 rank\(s\) at step 400: .*--restart spin.ckpt.h5", attributes.get("restart_1", "")) is not None)
 check.true("restart: no restart_2", "restart_2" not in attributes)
 check.true("restart: run_end says completed", attributes.get("run_end", "").startswith("completed at t = "))
+
+# A stop signal during an eigenanalysis: the solver ends with the modes it has, which are written,
+# and the run stops with 128 + 15 (no checkpoint continues it); it ran on to the end, exit 0.
+with open(f"{args.source_dir}/input/hinged_beam_modes.yaml") as f:
+    modes_input = f.read().split("expected:")[0].replace("elements: 48", "elements: 2000").replace("eigenvalues: 8", "eigenvalues: 200")
+with open(f"{work}/many_modes.yaml", "w") as f:
+    f.write(modes_input)
+# (-eps_mpd 16: many outer iterations of the solver, between which it looks for a signal.)
+process = subprocess.Popen([args.msflex, "many_modes.yaml", "-output_file", "many_modes.h5", "-output_overwrite", "-eps_mpd", "16"], cwd=work, stdout=subprocess.PIPE,
+                           stderr=subprocess.PIPE, text=True)
+for line in process.stdout:
+    if line.startswith("msflex: modes analysis"):
+        break
+process.send_signal(signal.SIGTERM)
+remaining, errors = process.communicate(timeout=300)
+print(f"SIGTERM during the eigensolve: exit {process.returncode}: {errors.strip()[-300:]}")
+check.equal("SIGTERM during the eigensolve: exit status 128 + 15", process.returncode, 143)
+check.true("SIGTERM during the eigensolve: said in one line", "stopped by SIGTERM with the modes converged by then" in errors)
+with h5py.File(f"{work}/many_modes.h5", "r") as f:
+    check.true("SIGTERM during the eigensolve: run_end says so", f.attrs["run_end"].decode().startswith("stopped by SIGTERM"))
+    check.true(f"SIGTERM during the eigensolve: fewer than 200 modes written ({mt.frame_count(f) - 1})", mt.frame_count(f) - 1 < 200)
 
 # 3. arc length: no checkpoint, SIGTERM stops with 143
 for name in ("arch_arc.h5", "arch_arc.ckpt.h5"):
