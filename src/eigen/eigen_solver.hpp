@@ -31,9 +31,9 @@ struct EigenPairs {
   std::vector<Vec>    vectors;         // owned by the caller (EigenPairsDestroy); B-normalised
   double              shift = 0.0;     // the shift of the final solve (modes)
   // Modes, per pair: the magnitude below which its eigenvalue is zero within round-off, a rigid
-  // mode: max(1e-6 |shift|, 30 eps max_i |K_ii| |phi|^2) with phi M-normalised. A backward-stable
+  // mode: max(1e-6 |shift|, 3 eps max_i |K_ii| |phi|^2) with phi M-normalised. A backward-stable
   // solve perturbs K by about eps ||K||, which moves lambda = phi^T K phi by eps ||K|| |phi|^2: the
-  // level of the mode's own round-off (30: eigen_solver.cpp says why). (One level for all modes,
+  // level of the mode's own round-off (3: eigen_solver.cpp says why). (One level for all modes,
   // 1e3 eps max_i K_ii / M_ii, took the bending modes of a slender wire, whose tiny rotary inertia
   // makes that ratio huge, for rigid ones; a factor 1e3 here took the sway mode of a portal frame
   // near buckling for one.)
