@@ -114,15 +114,21 @@ functions: [{name: one, type: constant, value: 1.0}]
 loads: [{nodes: tip, force: [0, 1000, 0], function: one}]
 analysis: {type: dynamic, integrator: em, end_time: 0.01, initial_step: 0.01, max_step: 0.01}
 """)
-process = subprocess.Popen([args.msflex, "one_step.yaml", "-output_file", "one_step.h5", "-output_overwrite"], cwd=work, stdout=subprocess.PIPE,
-                           stderr=subprocess.PIPE, text=True)
-for line in process.stdout:
-    if line.startswith("msflex: dynamic analysis"):
-        break
-process.send_signal(signal.SIGTERM)
-remaining, errors = process.communicate(timeout=300)
-print(f"SIGTERM during the only step: exit {process.returncode}: {errors.strip()[-300:]}")
-check.equal("SIGTERM during the last step: exit status (completed)", process.returncode, 0)
+def terminate_once_begun(words, banner, label):
+    """Runs msflex with `words` in work, sends SIGTERM once the line starting with `banner` is out
+    (the analysis has begun), and returns the exit status and standard error."""
+    process = subprocess.Popen([args.msflex, *words], cwd=work, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    for line in process.stdout:
+        if line.startswith(banner):
+            break
+    process.send_signal(signal.SIGTERM)
+    _, errors = process.communicate(timeout=300)
+    print(f"{label}: exit {process.returncode}: {errors.strip()[-300:]}")
+    return process.returncode, errors
+
+
+code, errors = terminate_once_begun(["one_step.yaml", "-output_file", "one_step.h5", "-output_overwrite"], "msflex: dynamic analysis", "SIGTERM during the only step")
+check.equal("SIGTERM during the last step: exit status (completed)", code, 0)
 check.true("SIGTERM during the last step: said on standard error", "SIGTERM arrived during the last step; the run has completed" in errors)
 with h5py.File(f"{work}/one_step.h5", "r") as f:
     check.true("SIGTERM during the last step: run_end says completed", f.attrs["run_end"].decode().startswith("completed at t = 0.01"))
@@ -156,15 +162,9 @@ with open(f"{args.source_dir}/input/hinged_beam_modes.yaml") as f:
 with open(f"{work}/many_modes.yaml", "w") as f:
     f.write(modes_input)
 # (-eps_mpd 16: many outer iterations of the solver, between which it looks for a signal.)
-process = subprocess.Popen([args.msflex, "many_modes.yaml", "-output_file", "many_modes.h5", "-output_overwrite", "-eps_mpd", "16"], cwd=work, stdout=subprocess.PIPE,
-                           stderr=subprocess.PIPE, text=True)
-for line in process.stdout:
-    if line.startswith("msflex: modes analysis"):
-        break
-process.send_signal(signal.SIGTERM)
-remaining, errors = process.communicate(timeout=300)
-print(f"SIGTERM during the eigensolve: exit {process.returncode}: {errors.strip()[-300:]}")
-check.equal("SIGTERM during the eigensolve: exit status 128 + 15", process.returncode, 143)
+code, errors = terminate_once_begun(["many_modes.yaml", "-output_file", "many_modes.h5", "-output_overwrite", "-eps_mpd", "16"], "msflex: modes analysis",
+                                    "SIGTERM during the eigensolve")
+check.equal("SIGTERM during the eigensolve: exit status 128 + 15", code, 143)
 check.true("SIGTERM during the eigensolve: said in one line", "stopped by SIGTERM with the modes converged by then" in errors)
 with h5py.File(f"{work}/many_modes.h5", "r") as f:
     check.true("SIGTERM during the eigensolve: run_end says so", f.attrs["run_end"].decode().startswith("stopped by SIGTERM"))
