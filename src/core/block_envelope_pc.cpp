@@ -131,7 +131,12 @@ PetscErrorCode BlockLUApply(PC pc, Vec b, Vec x)
     Mat       P;
     PetscReal b_norm, r_norm;
     PetscCall(PCGetOperators(pc, nullptr, &P));
-    if (!context->residual) {
+    PetscInt size = -1, work_size = -1;
+    PetscCall(VecGetSize(b, &size));
+    if (context->residual) PetscCall(VecGetSize(context->residual, &work_size));
+    if (work_size != size) { // first use, or a matrix of another size since
+      PetscCall(VecDestroy(&context->residual));
+      PetscCall(VecDestroy(&context->correction));
       PetscCall(VecDuplicate(b, &context->residual));
       PetscCall(VecDuplicate(b, &context->correction));
     }
