@@ -520,6 +520,25 @@ class PostprocTest(unittest.TestCase):
         self.assertIn("a running msflex", str(caught.exception))
         self.assertEqual(len(str(caught.exception).splitlines()), 1)
 
+    def test_render_paraview_names_what_a_frame_time_is(self):
+        # The title of a rendered frame said "t = ..." for static and eigenanalysis frames too:
+        # "load factor" (load control: time = load factor), "path parameter" (they differ: arc
+        # length), "mode", and "t" in dynamics.
+        module = script_module("render-paraview")
+        expectations = []
+        for analysis, load_factor, expected in (("static", TIME, "load factor"), ("static", LOAD_FACTOR, "path parameter"), ("dynamic", None, "t")):
+            path = os.path.join(self.directory.name, f"label_{analysis}_{expected.replace(' ', '_')}.h5")
+            write_result_file(path, analysis)
+            if load_factor is not None:
+                with h5py.File(path, "r+") as f:
+                    names = [name.decode() for name in f["history/names"][:]]
+                    f["history/values"][:, names.index("load_factor")] = load_factor
+            expectations.append((path, expected))
+        for path, expected in expectations:
+            os.environ.pop(module.FRAME_LABEL, None)
+            self.assertEqual(module.frame_label(path), expected)
+        os.environ.pop(module.FRAME_LABEL, None)
+
     def test_rack_pinion_drive_work(self):
         # The drive work W = integral of (a1.M + b a2.F) dphi over the history rows: with a moment
         # linear in phi, W = phi^2 / 2 exactly by the trapezoid rule (a right-endpoint rectangle
