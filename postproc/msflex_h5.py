@@ -94,6 +94,11 @@ def _lock_message(path):
             " or read a copy of the file")
 
 
+def _read_error(path, error):
+    """The one line for an OSError of h5py opening `path`."""
+    return _lock_message(path) if _is_lock_error(error) else f"cannot read {path}: {error}"
+
+
 def open_hdf5(path):
     """h5py.File(path, "r") without HDF5 file locking (where h5py can say so; the environment
     variable set above does it for the others), so that a running msflex's file opens too."""
@@ -121,7 +126,7 @@ def open_result_file(path):
     try:
         is_hdf5 = h5py.is_hdf5(path)
     except OSError as error:
-        raise FileError(_lock_message(path) if _is_lock_error(error) else f"cannot read {path}: {error}") from None
+        raise FileError(_read_error(path, error)) from None
     if not is_hdf5:
         with open(path, "rb") as f:
             head = f.read(4096)
@@ -132,7 +137,7 @@ def open_result_file(path):
     try:
         f = open_hdf5(path)
     except OSError as error:
-        raise FileError(_lock_message(path) if _is_lock_error(error) else f"cannot read {path}: {error}") from None
+        raise FileError(_read_error(path, error)) from None
     try:
         marker = _text_attribute(f, "msflex_format") or ""
         if not marker and isinstance(f.get("run/format"), h5py.Dataset):  # checkpoints written before the marker

@@ -7,6 +7,7 @@
 #include "core/format.hpp"
 #include "core/hdf5_util.hpp"
 #include "core/mpi_util.hpp"
+#include "core/stop_signal.hpp"
 #include "eigen/eigen_solver.hpp"
 #include "io/input_reader.hpp"
 #include "state/checkpoint.hpp"
@@ -51,10 +52,12 @@ static bool HasArgument(int argc, char **argv, std::initializer_list<const char 
 }
 
 // The checkpoint named by --restart (or -restart), or empty.
+static bool IsRestartWord(const char *word) { return std::strcmp(word, "--restart") == 0 || std::strcmp(word, "-restart") == 0; }
+
 static std::string RestartFile(int argc, char **argv)
 {
   for (int i = 1; i + 1 < argc; ++i)
-    if (std::strcmp(argv[i], "--restart") == 0 || std::strcmp(argv[i], "-restart") == 0) return argv[i + 1];
+    if (IsRestartWord(argv[i])) return argv[i + 1];
   return "";
 }
 
@@ -63,8 +66,7 @@ static std::string RestartFile(int argc, char **argv)
 static bool RestartWithoutFile(int argc, char **argv)
 {
   for (int i = 1; i < argc; ++i)
-    if (std::strcmp(argv[i], "--restart") == 0 || std::strcmp(argv[i], "-restart") == 0)
-      return i + 1 >= argc || argv[i + 1][0] == '\0' || (argv[i + 1][0] == '-' && !std::isdigit((unsigned char)argv[i + 1][1]));
+    if (IsRestartWord(argv[i])) return i + 1 >= argc || argv[i + 1][0] == '\0' || (argv[i + 1][0] == '-' && !std::isdigit((unsigned char)argv[i + 1][1]));
   return false;
 }
 
@@ -196,7 +198,7 @@ static PetscErrorCode RunMsflex(int argc, char **argv, RunEnd *end)
              "--restart needs the checkpoint file after it: msflex --restart CHECKPOINT.h5 [options]");
   // Two checkpoints on one command line: the second was ignored without a word.
   int restarts = 0;
-  for (int i = 1; i < argc; ++i) restarts += std::strcmp(argv[i], "--restart") == 0 || std::strcmp(argv[i], "-restart") == 0;
+  for (int i = 1; i < argc; ++i) restarts += IsRestartWord(argv[i]);
   PetscCheck(restarts <= 1, comm, PETSC_ERR_USER_INPUT, "--restart given %d times: a run continues one checkpoint", restarts);
   const std::string stray = StrayArgument(argc, argv, !restart.empty());
   PetscCheck(stray.empty(), comm, PETSC_ERR_USER_INPUT, "unexpected argument '%s'%s", stray.c_str(),
@@ -366,6 +368,6 @@ int main(int argc, char **argv)
   PetscCall(PetscFinalize());
   // 75 (EX_TEMPFAIL): stopped by a signal after a checkpoint; a job script may resubmit.
   if (code != PETSC_SUCCESS) return 1;
-  if (end == RunEnd::StoppedBySignalWithoutCheckpoint) return 128 + StopSignal();
+  if (end == RunEnd::StoppedBySignalWithoutCheckpoint) return 128 + StopSignalReceived();
   return end == RunEnd::StoppedBySignal ? 75 : 0;
 }

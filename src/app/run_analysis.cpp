@@ -630,7 +630,7 @@ PetscErrorCode RunAnalysis(MPI_Comm comm, Model model, const RunOptions &options
     PetscCall(RunEigenAnalysis(comm, a.model, a.map, a.integrator, a.output, options.quiet, &stopped));
     // A stop signal ends the eigensolver with the modes it has, written; no checkpoint can continue
     // it (exit 128 + the signal, as an arc-length run's).
-    const std::string how = stopped ? Format("stopped by %s with the modes converged by then", StopSignalName(StopSignal())) : std::string("completed");
+    const std::string how = stopped ? Format("stopped by %s with the modes converged by then", StopSignalName(StopSignalReceived())) : std::string("completed");
     a.output.SetRunEnd(how);
     PetscCall(CloseOutput(a));
     if (stopped) {
@@ -640,9 +640,9 @@ PetscErrorCode RunAnalysis(MPI_Comm comm, Model model, const RunOptions &options
     } else {
       // The solver checks for a signal between its outer iterations: one that came in the last
       // (often the only one) finds the modes complete.
-      if (StopSignal() != 0)
+      if (StopSignalReceived() != 0)
         PetscCall(PetscFPrintf(comm, PETSC_STDERR, "msflex: %s arrived during the eigensolver's last iteration; the analysis has completed\n",
-                               StopSignalName(StopSignal())));
+                               StopSignalName(StopSignalReceived())));
       if (!options.quiet) PetscCall(PetscPrintf(comm, "msflex: results in %s\n", options.output_file.c_str()));
     }
     PetscFunctionReturn(PETSC_SUCCESS);
@@ -702,7 +702,7 @@ PetscErrorCode RunAnalysis(MPI_Comm comm, Model model, const RunOptions &options
         bool stop = false;
         PetscCall(CheckpointIfDue(a, step, t, last_written, controller, &stop));
         if (stop) {
-          a.output.SetRunEnd(Format("stopped by %s at step %d, t = %.8g; %s", StopSignalName(StopSignal()), step, t,
+          a.output.SetRunEnd(Format("stopped by %s at step %d, t = %.8g; %s", StopSignalName(StopSignalReceived()), step, t,
                                     a.Checkpointable() ? ("checkpoint " + options.checkpoint_file).c_str() : "no checkpoint"));
           PetscCall(CloseOutput(a));
           PetscCall(PrintSummary(a));
@@ -765,7 +765,5 @@ PetscErrorCode RunAnalysis(MPI_Comm comm, Model model, const RunOptions &options
   PetscCall(PrintSummary(a));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
-
-int StopSignal() { return StopSignalReceived(); }
 
 } // namespace msflex

@@ -47,9 +47,6 @@ struct RunOptions {
 // checkpoint can continue (a static analysis under arc length or displacement control) stopped
 // with its results written (exit 128 + the signal, the shell's convention for a signalled stop).
 enum class RunEnd { Completed, StoppedBySignal, StoppedBySignalWithoutCheckpoint };
-// The signal that stopped the run (SIGTERM, SIGUSR1, SIGINT, SIGHUP), 0 if none.
-int StopSignal();
-
 // Catches SIGTERM and SIGUSR1 (what batch schedulers send before the wall-time limit), SIGINT and
 // SIGHUP while it lives, so that the run finishes its step, checkpoints and stops (a signal before
 // the first step stops the run after it); the previous handlers (PETSc's) come back afterwards.

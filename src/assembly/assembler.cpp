@@ -118,10 +118,11 @@ PetscErrorCode Assembler::Setup(MPI_Comm comm, const Model &model, const DofMap 
 
   double global_stiffness_squares, stiffness_squares = beams->LocalStiffnessSquares();
   PetscCall(MPIU_Allreduce(&stiffness_squares, &global_stiffness_squares, 1, MPI_DOUBLE, MPI_SUM, comm));
-  const double local_sums[4] = {LocalPositionRoundoffSquares(model, map), inertia ? inertia->LocalInertiaRoundoffSquares(1.0) : 0.0,
-                                inertia ? inertia->LocalInertiaRoundoffSquares(0.0) : 0.0, 0.0};
-  double       sums[4];
-  PetscCall(MPIU_Allreduce(local_sums, sums, 4, MPI_DOUBLE, MPI_SUM, comm));
+  // Per unit reach: the positions' part, and the inertia's at R = 1 and R = 0 (its part without R).
+  const double local_sums[3] = {LocalPositionRoundoffSquares(model, map), inertia ? inertia->LocalInertiaRoundoffSquares(1.0) : 0.0,
+                                inertia ? inertia->LocalInertiaRoundoffSquares(0.0) : 0.0};
+  double       sums[3];
+  PetscCall(MPIU_Allreduce(local_sums, sums, 3, MPI_DOUBLE, MPI_SUM, comm));
   stiffness_roundoff_squares_          = global_stiffness_squares;
   position_roundoff_squares_per_reach_ = sums[0];
   inertia_roundoff_squares_fixed_      = sums[2];
@@ -206,7 +207,7 @@ PetscErrorCode Assembler::Setup(MPI_Comm comm, const Model &model, const DofMap 
   PetscCheck(!is_dense || ranks == 1, comm, PETSC_ERR_USER_INPUT,
              "bad option: -jacobian_mat_type dense runs on one rank only (no parallel dense LU): use aij or baij");
   // Banded under RCM (one rank, sparse, the solver chosen by structure): a banded LU factors it
-  // (newton.cpp ChooseDirectSolver).
+  // (ChooseDirectSolver, core/block_envelope_pc.hpp).
   banded_under_rcm_ = false;
   if (ranks == 1 && !is_dense && analysis.direct_solver == DirectSolverChoice::Auto && !multigrid) {
     double mean_square;

@@ -168,7 +168,7 @@ public:
 
   Mat Jacobian() const { return jacobian_; }
   // Whether the tangent is banded under RCM (one rank, mean squared envelope up to
-  // kBandedEnvelope^2: tangent_structure.hpp), which picks a banded LU (newton.cpp ChooseDirectSolver).
+  // kBandedEnvelope^2: tangent_structure.hpp), which picks a banded LU (ChooseDirectSolver, core/block_envelope_pc.hpp).
   bool BandedUnderRcm() const { return banded_under_rcm_; }
   // Zeroes the relay nodes' own and force entries of an owned vector (a Newton step: they are not
   // increments of the state, and its norms are those of the condensed unknowns).

@@ -301,20 +301,12 @@ PetscErrorCode Assembler::ProjectInitialVelocities(double t, InitialVelocityRepo
     if (map.num_relays == 0) {
       PetscCall(MatShift(P, 1e-8 * largest_diagonal));
       PetscCall(KSPSetOperators(ksp, jacobian_, P));
-      // A banded tangent in node blocks: msflex's block LU where it suits, as Newton's (the Main
-      // stage of a 1000-element chain, mostly this projection: 25-34 ms with MUMPS, 10-13 with it);
-      // else MUMPS, or the dense LU for a dense tangent.
-      bool block_lu = false;
-      if (banded_under_rcm_) PetscCall(BlockLUSuits(P, "velocity_projection_", &block_lu));
-      if (block_lu) PetscCall(PCSetBlockLU(pc));
-      // Banded otherwise (joint coordinates outside the node blocks: AIJ): PETSc's LU in RCM order,
-      // as Newton's; the shifted matrix is positive definite, so no pivoting is missed (MUMPS took
-      // 0.77 s and 179 MiB to choose one hinge rate of a 40,000-element beam).
-      else if (banded_under_rcm_) {
-        PetscCall(PCSetType(pc, PCLU));
-        PetscCall(PCFactorSetMatSolverType(pc, MATSOLVERPETSC));
-        PetscCall(PCFactorSetMatOrderingType(pc, MATORDERINGRCM));
-      } else PetscCall(SetDirectSolver(pc, P));
+      // As Newton's tangent (ChooseDirectSolver): a banded one by msflex's block LU or PETSc's LU in
+      // RCM order (the Main stage of a 1000-element chain, mostly this projection: 25-34 ms with
+      // MUMPS, 10-13 with the block LU; with joint coordinates, AIJ, MUMPS took 0.77 s and 179 MiB
+      // to choose one hinge rate of a 40,000-element beam), else MUMPS or the dense LU. The shifted
+      // matrix is positive definite, so the banded LUs miss no pivoting.
+      PetscCall(ChooseDirectSolver(banded_under_rcm_, P, pc));
     } else {
       PetscCall(VecDuplicate(solution_template_, &shifted));
       PetscCall(VecSet(shifted, 1e-8 * largest_diagonal));

@@ -3,6 +3,7 @@
 // changes), the values are refactored at every set-up.
 #include "core/block_envelope_pc.hpp"
 #include "core/block_envelope_lu.hpp"
+#include "core/dense_lu.hpp"
 #include "core/rcm_order.hpp"
 #include "core/shell_pc.hpp"
 
@@ -109,6 +110,52 @@ PetscErrorCode BlockLUSetUp(PC pc)
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
+// The accuracy check after a solve x = LU^{-1} b (kRefineAbove, kFailAbove above): r = b - P x,
+// refinement where the factorisation's first check found it inaccurate, and the PC's failure
+// where the solve stays above kFailAbove.
+PetscErrorCode CheckAndRefine(PC pc, BlockLU *context, Vec b, Vec x)
+{
+  Mat       P;
+  PetscReal b_norm, r_norm;
+  PetscInt  size = -1, work_size = -1;
+  PetscFunctionBeginUser;
+  PetscCall(PCGetOperators(pc, nullptr, &P));
+  PetscCall(VecGetSize(b, &size));
+  if (context->residual) PetscCall(VecGetSize(context->residual, &work_size));
+  if (work_size != size) { // first use, or a matrix of another size since
+    PetscCall(VecDestroy(&context->residual));
+    PetscCall(VecDestroy(&context->correction));
+    PetscCall(VecDuplicate(b, &context->residual));
+    PetscCall(VecDuplicate(b, &context->correction));
+  }
+  const auto residual_norm = [&](PetscReal *norm) -> PetscErrorCode {
+    PetscFunctionBeginUser;
+    PetscCall(MatMult(P, x, context->residual));
+    PetscCall(VecAYPX(context->residual, -1.0, b));
+    PetscCall(VecNorm(context->residual, NORM_2, norm));
+    PetscFunctionReturn(PETSC_SUCCESS);
+  };
+  PetscCall(VecNorm(b, NORM_2, &b_norm));
+  PetscCall(residual_norm(&r_norm));
+  if (!context->checked) context->refine = b_norm > 0 && r_norm > kRefineAbove * b_norm;
+  context->checked = true;
+  for (int k = 0; context->refine && k < kMaxRefinements && r_norm > kRefineAbove * b_norm; ++k) {
+    const PetscScalar *r_values;
+    PetscScalar       *d_values;
+    PetscCall(VecGetArrayRead(context->residual, &r_values));
+    PetscCall(VecGetArray(context->correction, &d_values));
+    context->lu.Solve(r_values, d_values);
+    PetscCall(VecRestoreArray(context->correction, &d_values));
+    PetscCall(VecRestoreArrayRead(context->residual, &r_values));
+    PetscCall(VecAXPY(x, 1.0, context->correction));
+    const PetscReal before = r_norm;
+    PetscCall(residual_norm(&r_norm));
+    if (!(r_norm < 0.5 * before)) break; // no longer helps
+  }
+  if (!(r_norm <= kFailAbove * b_norm)) PetscCall(PCSetFailedReason(pc, PC_SUBPC_ERROR));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
 PetscErrorCode BlockLUApply(PC pc, Vec b, Vec x)
 {
   BlockLU           *context;
@@ -127,46 +174,7 @@ PetscErrorCode BlockLUApply(PC pc, Vec b, Vec x)
   context->lu.Solve(b_values, x_values);
   PetscCall(VecRestoreArray(x, &x_values));
   PetscCall(VecRestoreArrayRead(b, &b_values));
-  if (!context->checked || context->refine) {
-    Mat       P;
-    PetscReal b_norm, r_norm;
-    PetscCall(PCGetOperators(pc, nullptr, &P));
-    PetscInt size = -1, work_size = -1;
-    PetscCall(VecGetSize(b, &size));
-    if (context->residual) PetscCall(VecGetSize(context->residual, &work_size));
-    if (work_size != size) { // first use, or a matrix of another size since
-      PetscCall(VecDestroy(&context->residual));
-      PetscCall(VecDestroy(&context->correction));
-      PetscCall(VecDuplicate(b, &context->residual));
-      PetscCall(VecDuplicate(b, &context->correction));
-    }
-    PetscCall(VecNorm(b, NORM_2, &b_norm));
-    // r = b - P x
-    auto residual_norm = [&](PetscReal *norm) -> PetscErrorCode {
-      PetscFunctionBeginUser;
-      PetscCall(MatMult(P, x, context->residual));
-      PetscCall(VecAYPX(context->residual, -1.0, b));
-      PetscCall(VecNorm(context->residual, NORM_2, norm));
-      PetscFunctionReturn(PETSC_SUCCESS);
-    };
-    PetscCall(residual_norm(&r_norm));
-    if (!context->checked) context->refine = b_norm > 0 && r_norm > kRefineAbove * b_norm;
-    context->checked = true;
-    for (int k = 0; context->refine && k < kMaxRefinements && r_norm > kRefineAbove * b_norm; ++k) {
-      const PetscScalar *r_values;
-      PetscScalar       *d_values;
-      PetscCall(VecGetArrayRead(context->residual, &r_values));
-      PetscCall(VecGetArray(context->correction, &d_values));
-      context->lu.Solve(r_values, d_values);
-      PetscCall(VecRestoreArray(context->correction, &d_values));
-      PetscCall(VecRestoreArrayRead(context->residual, &r_values));
-      PetscCall(VecAXPY(x, 1.0, context->correction));
-      PetscReal before = r_norm;
-      PetscCall(residual_norm(&r_norm));
-      if (!(r_norm < 0.5 * before)) break; // no longer helps
-    }
-    if (!(r_norm <= kFailAbove * b_norm)) PetscCall(PCSetFailedReason(pc, PC_SUBPC_ERROR));
-  }
+  if (!context->checked || context->refine) PetscCall(CheckAndRefine(pc, context, b, x));
   PetscCall(PetscLogEventEnd(context->solve_event, pc, b, x, 0));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
@@ -275,6 +283,28 @@ PetscErrorCode BlockLUDescribeFailure(PC pc, bool *is_block_lu, std::string *det
   if (context->zero_pivot > 0)
     *detail = "zero pivot in the diagonal block of unknowns " + std::to_string(kEnvelopeBlock * (context->zero_pivot - 1)) + ".." +
               std::to_string(kEnvelopeBlock * context->zero_pivot - 1) + " of the block LU";
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode ChooseDirectSolver(bool banded, Mat tangent, PC pc)
+{
+  PetscFunctionBeginUser;
+  // Stored by node blocks (SEQBAIJ, 6) with an envelope close to the LU's fill: msflex's block
+  // LU, unless an option names PETSc's PC or its factorisation settings.
+  bool block_lu = false;
+  if (banded) {
+    const char *prefix;
+    PetscCall(PCGetOptionsPrefix(pc, &prefix));
+    PetscCall(BlockLUSuits(tangent, prefix, &block_lu));
+  }
+  if (block_lu) PetscCall(PCSetBlockLU(pc));
+  else if (banded) { // never a dense tangent (Assembler::Setup)
+    PetscCall(PCSetType(pc, PCLU));
+    PetscCall(PCFactorSetMatSolverType(pc, MATSOLVERPETSC));
+    PetscCall(PCFactorSetMatOrderingType(pc, MATORDERINGRCM));
+  } else {
+    PetscCall(SetDirectSolver(pc, tangent)); // MUMPS, or the dense LU for a dense tangent
+  }
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 

@@ -41,4 +41,16 @@ PetscErrorCode PCIsBlockLU(PC pc, bool *is_block_lu);
 // (`detail`).
 PetscErrorCode BlockLUDescribeFailure(PC pc, bool *is_block_lu, std::string *detail);
 
+// The direct solver that fits (docs/solvers.md, measured in docs/performance.md): on one rank, a
+// tangent that is banded under RCM (chains, trees, slender frames: Assembler::BandedUnderRcm, given as `banded`) is
+// factored fastest by a banded LU in RCM order without the multifrontal set-up (8-10x faster than
+// MUMPS on a 1000-element chain): msflex's block LU when it is stored by node blocks and its
+// envelope holds little more than the LU's fill (core/block_envelope_pc.hpp: about half the time of
+// PETSc's BAIJ LU on chains, frames and strips), else PETSc's own LU;
+// everything else (3D networks, whose fronts BLAS-3 handles, and every parallel run) by MUMPS, a
+// dense tangent by LAPACK.
+// Newton's tangent and the projection of the initial velocities choose so; options given with the
+// PC's prefix (-pc_type, -pc_factor_*) replace the choice.
+PetscErrorCode ChooseDirectSolver(bool banded, Mat tangent, PC pc);
+
 } // namespace msflex

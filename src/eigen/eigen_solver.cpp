@@ -88,8 +88,6 @@ PetscErrorCode CollectPairs(EPS eps, Mat A, int count, Value value, bool keep_po
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
-// EPSDestroy after a failed solve: SLEPc may refuse, its work space still taken (-st_type cayley
-// did); nothing of the solver is used any more, so that refusal is no error.
 // SLEPc's own test, and a stop on a stop signal (SIGTERM, ... on any rank): the solve then ends
 // with the pairs converged so far (EPS_CONVERGED_USER), which the analysis writes before it stops
 // (a modal analysis of a large model ran on to the end through a scheduler's warning signal).
@@ -105,12 +103,15 @@ PetscErrorCode StopOnSignal(EPS eps, PetscInt its, PetscInt max_it, PetscInt nco
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
+// Whether the solve ended on StopOnSignal, into pairs->stopped_by_signal.
 void NoteStop(EPS eps, EigenPairs *pairs)
 {
   EPSConvergedReason reason;
   if (EPSGetConvergedReason(eps, &reason) == PETSC_SUCCESS && reason == EPS_CONVERGED_USER) pairs->stopped_by_signal = true;
 }
 
+// EPSDestroy after a failed solve: SLEPc may refuse, its work space still taken (-st_type cayley
+// did); nothing of the solver is used any more, so that refusal is no error.
 PetscErrorCode DestroyAfterFailure(EPS *eps)
 {
   PetscFunctionBeginUser;

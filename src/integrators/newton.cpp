@@ -290,36 +290,6 @@ PetscErrorCode ShermanMorrisonCorrection(KSP ksp, Vec rhs, Vec x, void *ctx)
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
-// The direct solver that fits (docs/solvers.md, measured in docs/performance.md): on one rank, a
-// tangent that is banded under RCM (chains, trees, slender frames: Assembler::BandedUnderRcm) is
-// factored fastest by a banded LU in RCM order without the multifrontal set-up (8-10x faster than
-// MUMPS on a 1000-element chain): msflex's block LU when it is stored by node blocks and its
-// envelope holds little more than the LU's fill (core/block_envelope_pc.hpp: about half the time of
-// PETSc's BAIJ LU on chains, frames and strips), else PETSc's own LU;
-// everything else (3D networks, whose fronts BLAS-3 handles, and every parallel run) by MUMPS, a
-// dense tangent by LAPACK.
-PetscErrorCode ChooseDirectSolver(bool banded, Mat tangent, PC pc)
-{
-  PetscFunctionBeginUser;
-  // Stored by node blocks (SEQBAIJ, 6) with an envelope close to the LU's fill: msflex's block
-  // LU, unless an option names PETSc's PC or its factorisation settings.
-  bool block_lu = false;
-  if (banded) {
-    const char *prefix;
-    PetscCall(PCGetOptionsPrefix(pc, &prefix));
-    PetscCall(BlockLUSuits(tangent, prefix, &block_lu));
-  }
-  if (block_lu) PetscCall(PCSetBlockLU(pc));
-  else if (banded) { // never a dense tangent (Assembler::Setup)
-    PetscCall(PCSetType(pc, PCLU));
-    PetscCall(PCFactorSetMatSolverType(pc, MATSOLVERPETSC));
-    PetscCall(PCFactorSetMatOrderingType(pc, MATORDERINGRCM));
-  } else {
-    PetscCall(SetDirectSolver(pc, tangent)); // MUMPS, or the dense LU for a dense tangent
-  }
-  PetscFunctionReturn(PETSC_SUCCESS);
-}
-
 // Whether the PC still factors by PETSc's LU as ChooseDirectSolver set it: no option named
 // another package or preconditioner (-pc_type, -pc_factor_mat_solver_type, read after it).
 PetscErrorCode BandedLUByStructure(PC pc, bool *answer)
