@@ -7,6 +7,7 @@
 #include "core/rcm_order.hpp"
 #include "core/shell_pc.hpp"
 
+#include <cstring>
 #include <string>
 #include <vector>
 
@@ -305,6 +306,36 @@ PetscErrorCode ChooseDirectSolver(bool banded, Mat tangent, PC pc)
   } else {
     PetscCall(SetDirectSolver(pc, tangent)); // MUMPS, or the dense LU for a dense tangent
   }
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode BandedLUByStructure(PC pc, bool *answer)
+{
+  PetscBool     lu, package_named, pc_named;
+  MatSolverType package = nullptr;
+  const char   *prefix;
+  PetscFunctionBeginUser;
+  PetscCall(PetscObjectTypeCompare((PetscObject)pc, PCLU, &lu));
+  if (lu) PetscCall(PCFactorGetMatSolverType(pc, &package));
+  PetscCall(PCGetOptionsPrefix(pc, &prefix));
+  PetscCall(PetscOptionsHasName(nullptr, prefix, "-pc_factor_mat_solver_type", &package_named));
+  PetscCall(PetscOptionsHasName(nullptr, prefix, "-pc_type", &pc_named));
+  bool block_lu;
+  PetscCall(PCIsBlockLU(pc, &block_lu));
+  *answer = block_lu || (lu && package && !strcmp(package, MATSOLVERPETSC) && !package_named && !pc_named);
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode PCUseMumps(PC pc)
+{
+  PetscFunctionBeginUser;
+  // Without its factor (PCReset) the PC takes another package; its user gives it the operators
+  // again before the next solve.
+  PetscCall(PCReset(pc));
+  PetscCall(PCSetType(pc, PCLU)); // from msflex's block LU, or already
+  PetscCall(PCFactorSetMatSolverType(pc, MATSOLVERMUMPS));
+  // MUMPS orders for itself; ND is PCLU's own default, so -ksp_view shows no stale RCM.
+  PetscCall(PCFactorSetMatOrderingType(pc, MATORDERINGND));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 

@@ -52,5 +52,12 @@ PetscErrorCode BlockLUDescribeFailure(PC pc, bool *is_block_lu, std::string *det
 // Newton's tangent and the projection of the initial velocities choose so; options given with the
 // PC's prefix (-pc_type, -pc_factor_*) replace the choice.
 PetscErrorCode ChooseDirectSolver(bool banded, Mat tangent, PC pc);
+// Whether the PC still factors by the banded LU that ChooseDirectSolver set (msflex's block LU, or
+// PETSc's LU), no option given with its prefix (-pc_type, -pc_factor_mat_solver_type, read after
+// the choice) having named another.
+PetscErrorCode BandedLUByStructure(PC pc, bool *answer);
+// From the PC's next set-up on, MUMPS factors (LU in its own ordering): where a banded LU, which
+// does not pivot between nodes, failed. The factors held are dropped.
+PetscErrorCode PCUseMumps(PC pc);
 
 } // namespace msflex

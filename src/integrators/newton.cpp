@@ -290,25 +290,6 @@ PetscErrorCode ShermanMorrisonCorrection(KSP ksp, Vec rhs, Vec x, void *ctx)
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
-// Whether the PC still factors by PETSc's LU as ChooseDirectSolver set it: no option named
-// another package or preconditioner (-pc_type, -pc_factor_mat_solver_type, read after it).
-PetscErrorCode BandedLUByStructure(PC pc, bool *answer)
-{
-  PetscBool     lu, package_named, pc_named;
-  MatSolverType package = nullptr;
-  const char   *prefix;
-  PetscFunctionBeginUser;
-  PetscCall(PetscObjectTypeCompare((PetscObject)pc, PCLU, &lu));
-  if (lu) PetscCall(PCFactorGetMatSolverType(pc, &package));
-  PetscCall(PCGetOptionsPrefix(pc, &prefix));
-  PetscCall(PetscOptionsHasName(nullptr, prefix, "-pc_factor_mat_solver_type", &package_named));
-  PetscCall(PetscOptionsHasName(nullptr, prefix, "-pc_type", &pc_named));
-  bool block_lu;
-  PetscCall(PCIsBlockLU(pc, &block_lu));
-  *answer = block_lu || (lu && package && !strcmp(package, MATSOLVERPETSC) && !package_named && !pc_named);
-  PetscFunctionReturn(PETSC_SUCCESS);
-}
-
 // analysis.linear_solver multigrid (docs/solvers.md, "Large networks in statics"): GMRES
 // preconditioned by smoothed-aggregation algebraic multigrid, which builds its coarse spaces from
 // the six rigid-body modes of every node that the Assembler attaches as the tangent's near-null
@@ -874,15 +855,10 @@ PetscErrorCode NewtonUsePivotingLU(SNES snes, NewtonContext *context, bool *swit
   PetscFunctionBeginUser;
   *switched = context->banded_lu_by_structure;
   if (!*switched) PetscFunctionReturn(PETSC_SUCCESS);
-  // The PC is PCLU (banded_lu_by_structure says so); without its factor (PCReset) it takes
-  // another package, and Newton gives it the operators again at its next iteration.
   PetscCall(NewtonForgetFactorization(snes, context));
   PetscCall(SNESGetKSP(snes, &ksp));
   PetscCall(KSPGetPC(ksp, &pc));
-  PetscCall(PCSetType(pc, PCLU)); // from msflex's block LU, or already
-  PetscCall(PCFactorSetMatSolverType(pc, MATSOLVERMUMPS));
-  // MUMPS orders for itself; ND is PCLU's own default, so -ksp_view shows no stale RCM.
-  PetscCall(PCFactorSetMatOrderingType(pc, MATORDERINGND));
+  PetscCall(PCUseMumps(pc)); // Newton gives it the operators again at its next iteration
   context->banded_lu_by_structure = false;
   context->pivoting_lu_forced     = true;
   PetscFunctionReturn(PETSC_SUCCESS);

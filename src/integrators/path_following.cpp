@@ -1,4 +1,5 @@
 #include "integrators/path_following.hpp"
+#include "core/block_envelope_pc.hpp"
 #include "core/dense_lu.hpp"
 #include "core/errors.hpp"
 
@@ -76,14 +77,21 @@ PetscErrorCode PathFollower::Setup(MPI_Comm comm, Integrator *integrator)
   double length;
   PetscCall(ModelLength(comm, *model_, *map_, &length));
   PetscCall(UnknownWeights(comm, *model_, *map_, integrator->GetState(), length, weights_));
-  // The corrector's linear solver: as Newton's, MUMPS LU, or msflex's dense LU for a dense tangent
-  // (options -path_ksp_*, -path_pc_*).
+  // The corrector's linear solver, chosen as Newton's (options -path_ksp_*, -path_pc_*): by the
+  // tangent's structure a banded LU on one rank (PETSc's LU in RCM order: the tangent stays AIJ for
+  // the stability account's Cholesky), whose failure hands the corrector and Newton to MUMPS
+  // (UsePivotingLU); else MUMPS, or msflex's dense LU for a dense tangent. Relay nodes' zero
+  // diagonals need a pivoting LU.
   PetscCall(KSPCreate(comm, &ksp_));
   PetscCall(KSPSetOptionsPrefix(ksp_, "path_"));
   PetscCall(KSPSetType(ksp_, KSPPREONLY));
   PetscCall(KSPGetPC(ksp_, &pc));
-  PetscCall(SetDirectSolver(pc, assembler.Jacobian()));
+  const bool by_structure = model_->analysis.direct_solver == DirectSolverChoice::Auto && map_->num_relays == 0;
+  if (by_structure) PetscCall(ChooseDirectSolver(assembler.BandedUnderRcm(), assembler.Jacobian(), pc));
+  else PetscCall(SetDirectSolver(pc, assembler.Jacobian()));
   MSFLEX_CALL_READING_OPTIONS(PetscObjectComm((PetscObject)ksp_), KSPSetFromOptions(ksp_));
+  banded_lu_ = false;
+  if (by_structure) PetscCall(BandedLUByStructure(pc, &banded_lu_));
   if (map_->num_relays > 0) {
     PetscCall(PrepareRelayDirectSolver(pc, assembler.Jacobian(), "-path_pc_factor_mat_solver_type", model_->analysis.condensation_depth));
     factor_.SetRelays(map_->num_relays);
@@ -431,6 +439,21 @@ PetscErrorCode PathFollower::Commit(double dt, double dlambda, StepOutcome *outc
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
+PetscErrorCode PathFollower::UsePivotingLU(const char *where, const char *why)
+{
+  PC pc;
+  PetscFunctionBeginUser;
+  PetscCall(KSPGetPC(ksp_, &pc));
+  PetscCall(PCUseMumps(pc));
+  banded_lu_ = false;
+  // Newton's too, which the checkpoint records: a restart factors as this run does.
+  PetscCall(integrator_->UsePivotingLU());
+  if (where)
+    PetscCall(PetscPrintf(
+        comm_, "msflex: a linear solve of %s failed with the banded LU, which does not pivot between nodes (%s); MUMPS factors from here on\n", where, why));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
 PetscErrorCode PathFollower::Correct(double dl, double displacement_target, double *dlambda, StepOutcome *outcome)
 {
   MechanicalSystem       &system    = integrator_->System();
@@ -444,6 +467,9 @@ PetscErrorCode PathFollower::Correct(double dl, double displacement_target, doub
   double                  force_scale;
   PetscFunctionBeginUser;
   outcome->converged = false;
+  // Newton's banded LU handed over to MUMPS (here, or before the checkpoint this run continues):
+  // so does the corrector's, as the run it continues did.
+  if (banded_lu_ && integrator_->PivotingLUForced()) PetscCall(UsePivotingLU(nullptr, nullptr));
   PetscCall(StaticResidual(system, lambda, lambda + *dlambda, x_, residual_, &ok, &force_scale));
   if (!ok) {
     std::string where;
@@ -490,15 +516,21 @@ PetscErrorCode PathFollower::Correct(double dl, double displacement_target, doub
     PetscCall(KSPSetOperators(ksp_, assembler.Jacobian(), assembler.Jacobian()));
     PetscCall(VecAXPBY(work_, -1.0, 0.0, residual_));
     PetscInt iterations_R, iterations_F;
-    PetscCall(PetscLogStagePush(integrator_->SolveStage()));
-    PetscCall(KSPSolve(ksp_, work_, dx_R_));
-    PetscCall(KSPGetConvergedReason(ksp_, &reason_R));
-    PetscCall(KSPGetIterationNumber(ksp_, &iterations_R));
-    PetscCall(KSPSolve(ksp_, q_, dx_F_));
-    PetscCall(KSPGetConvergedReason(ksp_, &reason_F));
-    PetscCall(KSPGetIterationNumber(ksp_, &iterations_F));
-    PetscCall(PetscLogStagePop());
-    outcome->linear_iterations += (int)(iterations_R + iterations_F); // the summary's Krylov count: two solves per iteration
+    for (int attempt = 0; attempt < 2; ++attempt) {
+      PetscCall(PetscLogStagePush(integrator_->SolveStage()));
+      PetscCall(KSPSolve(ksp_, work_, dx_R_));
+      PetscCall(KSPGetConvergedReason(ksp_, &reason_R));
+      PetscCall(KSPGetIterationNumber(ksp_, &iterations_R));
+      PetscCall(KSPSolve(ksp_, q_, dx_F_));
+      PetscCall(KSPGetConvergedReason(ksp_, &reason_F));
+      PetscCall(KSPGetIterationNumber(ksp_, &iterations_F));
+      PetscCall(PetscLogStagePop());
+      outcome->linear_iterations += (int)(iterations_R + iterations_F); // the summary's Krylov count: two solves per iteration
+      if ((reason_R >= 0 && reason_F >= 0) || !banded_lu_) break;
+      // The banded LU does not pivot between nodes: MUMPS gets the same tangent.
+      PetscCall(UsePivotingLU(Format("the %s corrector's iteration %d", name, iteration + 1).c_str(), KSPConvergedReasons[reason_R < 0 ? reason_R : reason_F]));
+      PetscCall(KSPSetOperators(ksp_, assembler.Jacobian(), assembler.Jacobian()));
+    }
     PetscCall(assembler.ZeroRelayEntries(dx_R_));
     PetscCall(assembler.ZeroRelayEntries(dx_F_));
     if (reason_R < 0 || reason_F < 0) {

@@ -112,6 +112,9 @@ private:
   // After a converged corrector: the rotation check, joint reactions and the commit.
   PetscErrorCode Commit(double dt, double dlambda, StepOutcome *outcome);
   PetscErrorCode WeightedDot(Vec a, Vec b, double *dot);
+  // The corrector's banded LU failed at `where` (null: Newton's did) and MUMPS factors from here on,
+  // Newton's tangent too.
+  PetscErrorCode UsePivotingLU(const char *where, const char *why);
 
   MPI_Comm      comm_       = MPI_COMM_NULL;
   Integrator   *integrator_ = nullptr;
@@ -122,7 +125,8 @@ private:
 
   Mat           tangent_ = nullptr; // K at the last equilibrium (the factors refer to it)
   TangentFactor factor_;
-  KSP           ksp_ = nullptr; // the corrector's linear solver (prefix path_)
+  KSP           ksp_       = nullptr; // the corrector's linear solver (prefix path_)
+  bool          banded_lu_ = false;   // it factors by a banded LU chosen by structure (no pivoting between nodes)
   Vec           x_ = nullptr, residual_ = nullptr, q_ = nullptr, dx_R_ = nullptr, dx_F_ = nullptr, dx_ = nullptr, trial_ = nullptr, work_ = nullptr;
   Vec           weights_ = nullptr, scale_ = nullptr, mode_ = nullptr, path_tangent_ = nullptr, previous_increment_ = nullptr, previous_tangent_ = nullptr;
 
