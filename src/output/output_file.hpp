@@ -53,8 +53,9 @@ struct OutputMesh {
   std::vector<int>         body_node;
   std::vector<double>      body_mass, body_inertia, body_offset, body_principal_moments, body_principal_axes, body_semi_axes;
   // Ground markers (empty when there are none): one per joint to the ground (at the slave's
-  // reference position, the joint's axes) and per fully fixed support node (at the node, the
-  // global axes): name (joint or node), kind ("joint" or "support"), position (x 3), axes a1, a2,
+  // reference position, the joint's axes), per fully fixed support node (at the node, the global
+  // axes) and per pinned node (translations fixed; BuildOutputMesh): name (joint or node), kind
+  // ("joint", "support" or "pin"), position (x 3), axes a1, a2,
   // a3 (x 9, one after the other).
   std::vector<std::string> ground_names, ground_kinds;
   std::vector<double>      ground_position, ground_axes;

@@ -80,7 +80,11 @@ static void AddRigidBodiesToMesh(const Model &model, OutputMesh *mesh)
 }
 
 // The ground markers: each joint to the ground (at its slave's reference position, the joint
-// axes) and each node whose six DOFs are fixed (the global axes).
+// axes), each node whose six DOFs are fixed ("support", the global axes), and each node whose
+// three translations are fixed and some rotation not ("pin": a hinge, a ball or a driven shaft's
+// bearing, which stays where it is; a1 along its one free or prescribed rotation's global axis
+// when it has one, a2 and a3 the next two axes in cyclic order, else the global axes). A node with
+// a free or prescribed translation moves and gets no fixed marker.
 static void AddGroundToMesh(const Model &model, OutputMesh *mesh)
 {
   const auto add = [&](const std::string &name, const char *kind, const Vec3 &position, const Mat3 &axes) {
@@ -97,8 +101,18 @@ static void AddGroundToMesh(const Model &model, OutputMesh *mesh)
     for (const int node : support.nodes)
       for (int k = 0; k < 6; ++k)
         if (support.kind[k] == Support::Kind::Fixed) fixed_dofs[node] |= 1 << k;
-  for (size_t n = 0; n < model.nodes.size(); ++n)
+  for (size_t n = 0; n < model.nodes.size(); ++n) {
     if (fixed_dofs[n] == 0x3f) add(model.nodes[n].name, "support", model.nodes[n].position, Mat3::Identity());
+    else if ((fixed_dofs[n] & 0x7) == 0x7) {
+      const int rotations = fixed_dofs[n] >> 3, moving = 7 & ~rotations; // bit k: rotation about global axis k not fixed
+      Mat3      axes = Mat3::Identity();
+      if (moving == 1 || moving == 2 || moving == 4) {
+        const int k = moving == 1 ? 0 : moving == 2 ? 1 : 2;
+        for (int c = 0; c < 3; ++c) axes.col(c) = Mat3::Identity().col((k + c) % 3);
+      }
+      add(model.nodes[n].name, "pin", model.nodes[n].position, axes);
+    }
+  }
 }
 
 // The force elements, each drawn as a segment between nodes: a two-node element's nodes; a

@@ -15,7 +15,7 @@
 namespace msflex {
 
 // The mesh, with the rigid bodies (their principal axes: RigidBodyPrincipalAxes) and the ground
-// markers (joints to the ground, fully fixed nodes). From the whole model.
+// markers (joints to the ground, fully fixed and pinned nodes). From the whole model.
 void BuildOutputMesh(const Model &model, OutputMesh *mesh);
 
 struct BodyPrincipalAxes {

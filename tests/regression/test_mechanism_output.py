@@ -176,6 +176,17 @@ with h5py.File(arm, "r") as f:
                np.abs(mesh["ground_position"][0]).max() + sum(np.abs(mesh[f"ground_a{k + 1}"][0] - np.eye(3)[k]).max() for k in range(3)), 1e-15)
     check.true("turning arm: no rigid bodies", "body_names" not in mesh)
 check_frames("turning_arm", arm)
+
+# Pinned nodes (translations fixed, a rotation free) are ground markers too: the deep arch's hinge
+# (rz free: a1 = z) beside its clamp.
+arch = run("deep_arch", 0.05)
+with h5py.File(arch, "r") as f:
+    mesh = f["mesh"]
+    check.true("deep arch: ground markers, the clamp and the hinge",
+               strings(mesh["ground_names"]) == ["clamped", "hinged"] and strings(mesh["ground_kinds"]) == ["support", "pin"])
+    check.less("deep arch: the hinge's a1, a2, a3 = z, x, y",
+               sum(np.abs(mesh[f"ground_a{k + 1}"][1] - np.eye(3)[(2 + k) % 3]).max() for k in range(3)), 1e-15)
+    check.less("deep arch: the hinge at its node", np.abs(mesh["ground_position"][1] - [95.37169507482269, -30.070579950427295, 0]).max(), 1e-12)
 check_units_and_provenance("turning_arm", arm, "turning_arm_screw.yaml")
 
 mechanism = run("joint_mechanism", 0.2, "tests/regression/inputs")
