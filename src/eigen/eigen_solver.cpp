@@ -26,6 +26,11 @@ constexpr double kTolerance = 1e-12;
 // of 8000 and 16,000 quadratic elements (assembly rounding moves its eigenvalue by 20 and 58 of
 // 7727), which 30 took for rigid.
 constexpr double kRigidRoundoffFactor = 3.0;
+// A K singular to the last bit (a motion of no stiffness at all) is factored at the shift
+// -kRoundoffShift eps ||K|| / ||M|| instead of 0: far enough below zero that the factorisation of
+// K + |shift| M sees a pivot of the motion's mass, near enough that no eigenvalue which double
+// precision resolves from zero moves (SolveModes).
+constexpr double kRoundoffShift = 1e3;
 
 // A factorisation of the ST's operator by MUMPS Cholesky (K - sigma M, or K), direct.
 PetscErrorCode UseCholesky(EPS eps)
@@ -121,6 +126,39 @@ PetscErrorCode DestroyAfterFailure(EPS *eps)
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
+// SLEPc's backward error ||K x - lambda M x|| / ((||K|| + |lambda| ||M||) ||x||) measures a mode
+// below the shift's magnitude against nothing but K: of a rigid mode of a model with little or no
+// stiffness (a mechanism of rigid bodies) it is O(1), or 0/0. There |lambda| is replaced by the
+// shift's, the scale at which the solve resolves eigenvalues: the same as SLEPc's for every mode
+// with |lambda| >= |shift|, as the elastic modes are.
+PetscErrorCode RigidModeErrors(Mat K, Mat M, EigenPairs *pairs)
+{
+  const double scale = std::abs(pairs->shift);
+  PetscReal    norm_K, norm_M;
+  Vec          residual = nullptr, mass_times = nullptr;
+  PetscFunctionBeginUser;
+  for (size_t k = 0; k < pairs->values.size(); ++k) {
+    const double lambda = pairs->values[k];
+    if (std::abs(lambda) >= scale && std::isfinite(pairs->backward_errors[k])) continue;
+    if (!residual) {
+      PetscCall(MatNorm(K, NORM_INFINITY, &norm_K));
+      PetscCall(MatNorm(M, NORM_INFINITY, &norm_M));
+      PetscCall(MatCreateVecs(K, &residual, &mass_times));
+    }
+    PetscReal residual_norm, length;
+    PetscCall(MatMult(K, pairs->vectors[k], residual));
+    PetscCall(MatMult(M, pairs->vectors[k], mass_times));
+    PetscCall(VecAXPY(residual, -lambda, mass_times));
+    PetscCall(VecNorm(residual, NORM_2, &residual_norm));
+    PetscCall(VecNorm(pairs->vectors[k], NORM_2, &length));
+    const double denominator  = (norm_K + std::max(std::abs(lambda), scale) * norm_M) * length;
+    pairs->backward_errors[k] = denominator > 0 ? residual_norm / denominator : 0.0;
+  }
+  PetscCall(VecDestroy(&residual));
+  PetscCall(VecDestroy(&mass_times));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
 // One shift-and-invert solve of K phi = lambda M phi about sigma. *failed (when not null): the
 // solve raised an error (a singular K - sigma M), which is then no error of the caller.
 PetscErrorCode SolveModesAt(Mat K, Mat M, int count, double sigma, EigenPairs *pairs, bool *failed)
@@ -192,6 +230,7 @@ PetscErrorCode SolveModesAt(Mat K, Mat M, int count, double sigma, EigenPairs *p
     pairs->shift = PetscRealPart(target);
     PetscCall(CollectPairs(
         eps, K, count, [](double theta) { return theta; }, false, pairs));
+    PetscCall(RigidModeErrors(K, M, pairs));
     NoteStop(eps, pairs);
   }
   ++pairs->solves;
@@ -358,16 +397,36 @@ PetscErrorCode SolveModes(Mat K, Mat M, int count, double shift, EigenPairs *pai
   bool failed = false;
   PetscCall(SolveModesAt(K, M, count, 0.0, pairs, &failed));
   if (pairs->stopped_by_signal) PetscFunctionReturn(PETSC_SUCCESS);
+  // A K singular to the last bit fails there: a motion with no stiffness at all (a free rigid body,
+  // a wheel on a joint without a spring), which no round-off couples to anything stiff. A shift just
+  // below zero at K's round-off level relative to M (kRoundoffShift eps ||K|| / ||M||) regularises
+  // it without moving any eigenvalue that double precision resolves; with no stiffness at all
+  // (||K|| = 0: every mode rigid) a unit shift does, every eigenvalue being 0.
+  double roundoff_shift = 0.0;
+  if (failed) {
+    PetscReal norm_K, norm_M;
+    PetscCall(MatNorm(K, NORM_INFINITY, &norm_K));
+    PetscCall(MatNorm(M, NORM_INFINITY, &norm_M));
+    PetscCheck(norm_M > 0, PetscObjectComm((PetscObject)K), PETSC_ERR_USER_INPUT,
+               "no eigenvalue of the model could be estimated: does anything in it have mass?");
+    roundoff_shift = norm_K > 0 ? -kRoundoffShift * std::numeric_limits<double>::epsilon() * norm_K / norm_M : -1.0;
+    PetscCall(SolveModesAt(K, M, count, roundoff_shift, pairs, &failed));
+    if (pairs->stopped_by_signal) PetscFunctionReturn(PETSC_SUCCESS);
+  }
   double largest = 0.0, worst_error = 0.0;
   for (size_t k = 0; k < pairs->values.size(); ++k)
     largest = std::max(largest, std::abs(pairs->values[k])), worst_error = std::max(worst_error, pairs->backward_errors[k]);
   double first_elastic = NAN;
   bool   rigid         = false;
   for (double value : pairs->values) {
-    if (std::abs(value) <= 1e-6 * largest) rigid = true;
+    if (std::abs(value) <= std::max(1e-6 * largest, std::abs(roundoff_shift))) rigid = true;
     else if (std::isnan(first_elastic) && value > 0) first_elastic = value;
   }
-  if (!failed && !rigid && (int)pairs->values.size() == count && worst_error <= 1e-8) PetscFunctionReturn(PETSC_SUCCESS);
+  const bool complete = !failed && (int)pairs->values.size() == count && worst_error <= 1e-8;
+  if (complete && !rigid) PetscFunctionReturn(PETSC_SUCCESS);
+  // Every mode asked for rigid (a mechanism of rigid bodies with nothing to stiffen it): these are
+  // the modes, found accurately at the shift just below zero.
+  if (complete && std::isnan(first_elastic) && roundoff_shift != 0.0) PetscFunctionReturn(PETSC_SUCCESS);
   // Rigid modes, or a first solve that failed or is inaccurate: shift below zero by a hundredth of
   // the first elastic eigenvalue (or, without an estimate, of the lowest diagonal ratio).
   if (std::isnan(first_elastic)) PetscCall(DiagonalRatio(K, M, &first_elastic));
