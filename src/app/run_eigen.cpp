@@ -150,8 +150,13 @@ PetscErrorCode RunEigenAnalysis(MPI_Comm comm, const Model &model, const DofMap 
     PetscCall(VecSqrtAbs(shape));
     PetscCall(VecPointwiseMult(shape, shape, direction));
     PetscCall(VecNorm(shape, NORM_INFINITY, &largest));
-    PetscCheck(largest > 0, comm, PETSC_ERR_USER_INPUT, "buckling analysis: the loads do not deform the structure (no loads?)");
-    PetscCall(GeometricStiffness(system, model, map, lambda, direction, 1e-4 * length / largest, B));
+    // u' = 0 (loads that deform nothing, as a weight above a hinge held by a spring): no strain rate,
+    // but the loads' own stiffness (the weight's moment as its offset turns) may still buckle it.
+    PetscCall(GeometricStiffness(system, model, map, lambda, direction, largest > 0 ? 1e-4 * length / largest : 1.0, B));
+    PetscReal load_stiffness;
+    PetscCall(MatNorm(B, NORM_INFINITY, &load_stiffness));
+    PetscCheck(load_stiffness > 0, comm, PETSC_ERR_USER_INPUT,
+               "buckling analysis: the loads neither deform the structure nor change its stiffness (no loads?)");
     PetscCall(ConvertForCholesky(&K, &B));
     PetscCall(SolveBucklingModes(K, B, count, &pairs));
     PetscCall(VecDestroy(&residual));

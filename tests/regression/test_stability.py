@@ -11,7 +11,9 @@
    1e-4 (pre-buckling curvature effect: < 1e-4 with EI_strong = 1e4 EI_weak);
  - a column of two linear elements clamped at both ends (coarse_clamped_column.yaml), whose
    geometric stiffness is only semi-definite: no buckling load, and the run says so (eigenvalues
-   nu = 1/mu at round-off were reported as load factors of 1.8e24).
+   nu = 1/mu at round-off were reported as load factors of 1.8e24);
+ - an inverted pendulum of rigid parts (a body above a hinge with a torsion spring), whose weight
+   deforms nothing before buckling: k / (m g d) to 1e-10; without loads one line.
 Each on --np ranks."""
 
 import math
@@ -97,4 +99,25 @@ h = mt.history(f"{args.work_dir}/coarse_column.h5")
 reported = h["load_factor"] if "load_factor" in h else []
 check.equal("coarse clamped column: buckling loads reported", len(reported), 0)
 check.true("coarse clamped column: the run says it found none", "0 buckling loads found" in stdout)
+
+# An inverted pendulum of rigid parts: a body 0.3 above a hinge held by a torsion spring k = 50
+# under its weight m g = 2 x 9.81. The weight deforms nothing (u' = K^-1 q = 0: no moment about the
+# upright hinge), but its moment grows as the offset turns (the load's stiffness -m g d): buckling
+# at k / (m g d) = 8.4947 (refused before: "the loads do not deform the structure"). Without the
+# weight: one line saying the loads change nothing.
+pendulum = f"{args.work_dir}/inverted_pendulum.yaml"
+for label, loads in (("inverted pendulum", "loads: [{gravity: [0, -9.81, 0]}]\n"), ("inverted pendulum without loads", "")):
+    with open(pendulum, "w") as f:
+        f.write("nodes: {s: [0, 0, 0]}\nrigid_bodies: [{node: s, mass: 2.0, inertia: [0.1, 0.1, 0.1], offset: [0, 0.3, 0]}]\n"
+                "joints: [{name: h, type: revolute, master: ground, slave: s, axis: [0, 0, 1]}]\n"
+                "force_elements: [{name: k, type: coordinate, joint: h, coordinate: rotation, stiffness: 50}]\n" + loads +
+                "analysis: {type: buckling, eigenvalues: 1}\n")
+    code, _, stderr = mt.run_msflex(args, pendulum, f"{args.work_dir}/inverted_pendulum.h5", expect_success=bool(loads))
+    if loads:
+        factor = mt.history(f"{args.work_dir}/inverted_pendulum.h5")["load_factor"][0]
+        check.less(f"{label}: |load factor / (k / (m g d)) - 1|", abs(factor / (50.0 / (2.0 * 9.81 * 0.3)) - 1), 1e-10)
+    else:
+        lines = [line for line in stderr.splitlines() if line.startswith("msflex:")]
+        check.equal(f"{label}: exit status", code, 1)
+        check.true(f"{label}: one line saying the loads change nothing", len(lines) == 1 and "neither deform the structure nor change its stiffness" in lines[0])
 check.finish()
