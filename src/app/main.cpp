@@ -190,9 +190,8 @@ static PetscErrorCode CheckRunFilesOfRun(MPI_Comm comm, const Model &model, cons
 
 static PetscErrorCode RunMsflex(int argc, char **argv, RunEnd *end)
 {
-  const StopSignalHandlers signals;
-  MPI_Comm                 comm    = PETSC_COMM_WORLD;
-  const std::string        restart = RestartFile(argc, argv);
+  MPI_Comm          comm    = PETSC_COMM_WORLD;
+  const std::string restart = RestartFile(argc, argv);
   PetscFunctionBeginUser;
   PetscCheck(!RestartWithoutFile(argc, argv), comm, PETSC_ERR_USER_INPUT,
              "--restart needs the checkpoint file after it: msflex --restart CHECKPOINT.h5 [options]");
@@ -323,6 +322,13 @@ int main(int argc, char **argv)
   static const std::string help              = HelpText();
   const std::string        unreadable_option = TakeUnreadableOptionsFile(&argc, argv);
   PetscCall(PetscInitialize(&argc, &argv, nullptr, help.c_str()));
+  // msflex's stop-signal handlers (SIGTERM, SIGUSR1, SIGINT, SIGHUP: a checkpoint and exit 75) are
+  // in place from here to the process's end. PETSc's own handler is popped first: PetscFinalize
+  // reset every signal it handles to the default, and a scheduler's SIGTERM during the
+  // finalisation of a run that had completed killed it (exit 143, no word; a job script then
+  // took it for failed). A crash (SIGSEGV) is then reported by MPI's handler, not PETSc's.
+  PetscCall(PetscPopSignalHandler());
+  const StopSignalHandlers signals;
   // A reader that closes the pipe early (msflex --help | head) is no error: PETSc's handler would
   // print a trace and abort. Ignored, the write fails quietly and a run goes on to write its results.
   std::signal(SIGPIPE, SIG_IGN);
@@ -364,8 +370,16 @@ int main(int argc, char **argv)
       std::_Exit(1);
     }
   }
+  // A signal in a completed run's last step has been reported (the run's "arrived during the last
+  // step" line); one from here on is the finalisation's, reported after it.
+  PetscMPIInt rank = 0;
+  PetscCallMPI(MPI_Comm_rank(PETSC_COMM_WORLD, &rank));
+  const bool completed = code == PETSC_SUCCESS && end == RunEnd::Completed;
+  if (completed) ClearStopSignal();
   PetscCall(EigenFinalize()); // SLEPc, when the options check or an eigenanalysis started it
   PetscCall(PetscFinalize());
+  if (completed && StopSignalReceived() && rank == 0)
+    std::fprintf(stderr, "msflex: a stop signal (%d) arrived after the run had completed; it changes nothing\n", StopSignalReceived());
   // 75 (EX_TEMPFAIL): stopped by a signal after a checkpoint; a job script may resubmit.
   if (code != PETSC_SUCCESS) return 1;
   if (end == RunEnd::StoppedBySignalWithoutCheckpoint) return 128 + StopSignalReceived();
