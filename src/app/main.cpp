@@ -195,6 +195,21 @@ static PetscErrorCode RunMsflex(int argc, char **argv, RunEnd *end)
   PetscFunctionBeginUser;
   PetscCheck(!RestartWithoutFile(argc, argv), comm, PETSC_ERR_USER_INPUT,
              "--restart needs the checkpoint file after it: msflex --restart CHECKPOINT.h5 [options]");
+  // Anywhere on the line, a word with two dashes is --restart (--help and --version ended the run
+  // in main): a misspelt one (--verison after the input file) ran the whole model before PETSc
+  // warned that it was not used.
+  for (int i = 1; i < argc; ++i) {
+    if (std::strncmp(argv[i], "--", 2) != 0 || argv[i][2] == '\0') continue;
+    if (IsRestartWord(argv[i])) {
+      ++i; // its checkpoint
+      continue;
+    }
+    const std::string nearest = NearestLongArgument(argv[i]);
+    PetscCheck(nearest.empty(), comm, PETSC_ERR_USER_INPUT, "unknown argument %s; did you mean %s?", argv[i], nearest.c_str());
+    if (LooksLikeMsflexOption(argv[i])) continue; // an option with a dash too many: CheckMsflexOptionsUsed names the option meant
+    SETERRQ(comm, PETSC_ERR_USER_INPUT,
+            "unknown argument %s: msflex's options have one dash (-analysis_end_time), its only words with two are --help, --version and --restart", argv[i]);
+  }
   // Two checkpoints on one command line: the second was ignored without a word.
   int restarts = 0;
   for (int i = 1; i < argc; ++i) restarts += IsRestartWord(argv[i]);
@@ -254,8 +269,6 @@ static PetscErrorCode RunMsflex(int argc, char **argv, RunEnd *end)
       checkpoint_analysis.spectral_radius = radius;
     }
   } else {
-    const std::string nearest = argc >= 2 && std::strncmp(argv[1], "--", 2) == 0 ? NearestLongArgument(argv[1]) : "";
-    PetscCheck(nearest.empty(), comm, PETSC_ERR_USER_INPUT, "unknown argument %s; did you mean %s?", argv[1], nearest.c_str());
     PetscCheck(argc >= 2 && argv[1][0] != '-', comm, PETSC_ERR_USER_INPUT,
                "usage: msflex INPUT.yaml [options] or msflex --restart CHECKPOINT.h5 [options]; run 'msflex -h' for the options");
     InputError error;

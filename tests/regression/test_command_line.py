@@ -114,7 +114,10 @@ for ranks in sorted({1, args.np}):
     code, stdout, stderr = run(None, ["-version"], ranks)
     check.true(f"np {ranks} -version: exit 0 with msflex's version line", code == 0 and any(line.startswith("msflex ") and "(git " in line
                                                                                          for line in stdout.splitlines()))
+    # A misspelt word with two dashes after the input file ran the whole model (PETSc warned at the end).
     for options, fragment in [(["--verison"], "unknown argument --verison; did you mean --version?"),
+                              ([bend, "--verison"], "unknown argument --verison; did you mean --version?"),
+                              ([bend, "--threads", "4"], "unknown argument --threads: msflex's options have one dash"),
                               ([bend, bend], f"unexpected argument '{bend}': msflex takes one input file"),
                               (["--restart", "none.ckpt.h5", bend], f"unexpected argument '{bend}': a restart takes its input from the checkpoint")]:
         code, _, stderr = run(None, options, ranks)
