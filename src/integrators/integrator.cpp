@@ -56,6 +56,32 @@ PetscErrorCode Integrator::InitialiseStatics()
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
+// With initial_velocities: given, a slave given a velocity its joint forbids moves at the nearest
+// it allows: the largest such change over the ranks, said in one line (beyond round-off).
+PetscErrorCode Integrator::ReportSlaveVelocityChange(const SlaveVelocityChange &change)
+{
+  struct {
+    double value;
+    int    rank;
+  } mine, largest;
+  PetscMPIInt rank;
+  PetscFunctionBeginUser;
+  PetscCallMPI(MPI_Comm_rank(comm_, &rank));
+  const bool beyond_roundoff = change.largest > 1e-12 * change.given;
+  mine.value                 = beyond_roundoff ? change.largest : 0.0;
+  mine.rank                  = rank;
+  PetscCallMPI(MPIU_Allreduce(&mine, &largest, 1, MPI_DOUBLE_INT, MPI_MAXLOC, comm_));
+  if (!(largest.value > 0.0) || quiet_) PetscFunctionReturn(PETSC_SUCCESS);
+  char joint[256] = {};
+  if (rank == largest.rank) std::snprintf(joint, sizeof joint, "%s", model_->joints[change.joint].name.c_str());
+  PetscCallMPI(MPI_Bcast(joint, sizeof joint, MPI_CHAR, largest.rank, comm_));
+  PetscCall(PetscPrintf(comm_,
+                        "msflex: initial velocities as given, except where a joint forbids them: a slave moves at the nearest velocity its joint "
+                        "allows, changed by up to %.6g (joint '%s'); -analysis_initial_velocities projected completes them for every joint and support\n",
+                        largest.value, joint));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
 PetscErrorCode Integrator::InitialiseMotion(double t)
 {
   PetscFunctionBeginUser;
@@ -72,7 +98,9 @@ PetscErrorCode Integrator::InitialiseMotion(double t)
                             report.held, report.chosen, report.strain_rate_before, report.strain_rate_after, report.solved ? "" : ": nothing strains, no solve",
                             report.at_rest, report.slave_change));
   } else {
-    StateSetCoordinateRates(*model_, *map_, t, &system_.GetState());
+    SlaveVelocityChange change;
+    StateSetCoordinateRates(*model_, *map_, t, &system_.GetState(), &change);
+    PetscCall(ReportSlaveVelocityChange(change));
   }
   system_.StartMotion();
   const bool midpoint = IsMidpointScheme(model_->analysis.integrator);

@@ -152,6 +152,7 @@ private:
   // After a failed Newton solve: whether the banded LU was in use and MUMPS now takes over
   // (said on stdout with `why`, the failure), so that the same step is worth another try.
   PetscErrorCode SwitchToPivotingLU(const char *where, const std::string &why, bool *switched);
+  PetscErrorCode ReportSlaveVelocityChange(const SlaveVelocityChange &change);
   PetscLogStage  solve_stage_ = -1;
   std::string    solver_error_; // the first message of an error raised inside SNESSolve (TryEquations)
   // The reactions at t_end from the accelerations that satisfy the equations of motion in the

@@ -479,8 +479,9 @@ void StateSetInitialConfiguration(const Model &model, const DofMap &map, State *
   StateCommitStep(model, state);
 }
 
-void StateSetCoordinateRates(const Model &model, const DofMap &map, double t, State *state)
+void StateSetCoordinateRates(const Model &model, const DofMap &map, double t, State *state, SlaveVelocityChange *largest_change)
 {
+  if (largest_change) *largest_change = SlaveVelocityChange{};
   // The coordinates given a rate, per local joint (NaN: none given).
   std::array<double, kJointMaxReleased> none;
   none.fill(std::numeric_limits<double>::quiet_NaN());
@@ -514,12 +515,11 @@ void StateSetCoordinateRates(const Model &model, const DofMap &map, double t, St
       const Eigen::MatrixXd N_q = J.map.block(0, 6, 6, k);
       rates                     = N_q.colPivHouseholderQr().solve(relative);
     }
-    bool set = !own;
+    bool rate_given = false;
     for (int c = 0; c < k; ++c)
-      if (!std::isnan(given[j][c])) rates(c) = given[j][c], set = true;
-    if (joint.driven_coordinate >= 0) rates(joint.driven_coordinate) = DriveCoordinate(model, joint, t, 1), set = true;
+      if (!std::isnan(given[j][c])) rates(c) = given[j][c], rate_given = true;
+    if (joint.driven_coordinate >= 0) rates(joint.driven_coordinate) = DriveCoordinate(model, joint, t, 1), rate_given = true;
     for (int c = 0; c < kJointMaxReleased; ++c) J.coordinate_motion[c / 3].velocity(c % 3) = c < k ? rates(c) : 0.0;
-    if (!set) continue;
     // The slave as the joint moves it: v_s = N_m v_m + N_q qdot.
     NodeState &moved = state->nodes[J.local_slave];
     Vec6       v_s   = J.map.block(0, 6, 6, k) * rates;
@@ -528,6 +528,13 @@ void StateSetCoordinateRates(const Model &model, const DofMap &map, double t, St
       Vec6             v_m;
       v_m << master.translation_motion.velocity, QuaternionToMatrix(master.rotation_start) * master.rotation_motion.velocity;
       v_s += J.map.leftCols<6>() * v_m;
+    }
+    // A slave's own velocity that its joint forbids, beyond what a rate given on purpose changes.
+    if (own && !rate_given && largest_change) {
+      Vec6 given_velocity;
+      given_velocity << moved.translation_motion.velocity, QuaternionToMatrix(moved.rotation_start) * moved.rotation_motion.velocity;
+      const double change = (v_s - given_velocity).norm();
+      if (change > largest_change->largest) *largest_change = SlaveVelocityChange{change, given_velocity.norm(), J.joint};
     }
     moved.translation_motion.velocity = v_s.head<3>();
     moved.rotation_motion.velocity    = QuaternionToMatrix(moved.rotation_start).transpose() * Vec3(v_s.tail<3>());

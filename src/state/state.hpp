@@ -172,10 +172,16 @@ void StateSetInitialConfiguration(const Model &model, const DofMap &map, State *
 // squares solution of N_q qdot = v_s - N_m v_m) where the slave has a velocity of its own (a node
 // initial condition), else 0; used when the velocities are given rather than projected. Driven
 // coordinates take their drive's rate, and coordinates given a `rate` in the initial conditions
-// that rate; where either changes what the nodes implied, and for every slave without a velocity
-// of its own, the slave moves on as the joint says, v_s = N_m v_m + N_q qdot (masters first, so
-// that a chain carries it on).
-void StateSetCoordinateRates(const Model &model, const DofMap &map, double t, State *state);
+// that rate. Every slave then moves as its joint says, v_s = N_m v_m + N_q qdot (masters first, so
+// that a chain carries it on): a slave given a velocity its joint forbids gets the nearest one the
+// joint allows (it kept the given one, and the kinetic energy counted the forbidden part for the
+// whole run). *largest_change (when not null): the largest change of a slave's given velocity,
+// |v_s - v_given| over the translational and angular parts, and the slave's joint (-1: none).
+struct SlaveVelocityChange {
+  double largest = 0.0, given = 0.0; // |v_s - v_given| and |v_given| of that slave
+  int    joint = -1;                 // index into Model::joints
+};
+void StateSetCoordinateRates(const Model &model, const DofMap &map, double t, State *state, SlaveVelocityChange *largest_change = nullptr);
 // Initial velocities from the model's initial conditions and prescribed motions at time t; a slave
 // without an initial condition moves rigidly with its master.
 void StateSetInitialVelocities(const Model &model, const DofMap &map, double t, State *state);
