@@ -1,5 +1,6 @@
 #include "assembly/assembler.hpp"
 #include "core/errors.hpp"
+#include "elements/massless.hpp"
 
 #include "contributors/beam_contributor.hpp"
 #include "contributors/inertia_contributor.hpp"
@@ -709,6 +710,47 @@ PetscErrorCode Assembler::FindMasslessUnknowns()
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
+PetscErrorCode Assembler::MasslessImbalance(double *ratio)
+{
+  Vec       zero, forces;
+  PetscBool ok;
+  PetscFunctionBeginUser;
+  *ratio = 0.0;
+  PetscCheck(state_->equations.InitialAcceleration(), PETSC_COMM_SELF, PETSC_ERR_ARG_WRONGSTATE,
+             "MasslessImbalance: begin the initial-acceleration problem first");
+  // The residual at zero accelerations with no row replaced: on a row without mass no inertia
+  // enters (the accelerations are zero, the velocity terms carry mass), so it holds the force out
+  // of balance there.
+  PetscCall(VecDuplicate(solution_template_, &zero));
+  PetscCall(VecDuplicate(solution_template_, &forces));
+  PetscCall(VecZeroEntries(zero));
+  PetscCall(SetIncrements(zero));
+  mass_matrix_only_         = true;
+  const PetscErrorCode code = AssembleResidual(forces, &ok, false);
+  mass_matrix_only_         = false;
+  PetscCall(code);
+  const PetscScalar *f;
+  double             sums[2] = {0.0, 0.0}, global[2]; // rows without mass, all rows
+  PetscCall(VecGetArrayRead(forces, &f));
+  for (PetscInt i = 0; i < map_->num_owned; ++i) sums[1] += std::pow(PetscRealPart(f[i]), 2);
+  for (PetscInt row : massless_rows_) sums[0] += std::pow(PetscRealPart(f[row - map_->first_owned]), 2);
+  for (PetscInt l = 0; l < map_->num_owned_nodes; ++l) {
+    if (IsSlave((int)l)) continue; // its rows are its joint's (massless_rows_)
+    const NodeMassGroups &groups = inertia_->Groups((int)l);
+    for (int d = 0; d < 6; ++d) {
+      const PetscInt row = map_->node_dofs[map_->local_nodes[l]][d];
+      if (row < 0 || (d < 3 ? groups.translational : groups.rotary)) continue;
+      sums[0] += std::pow(PetscRealPart(f[row - map_->first_owned]), 2);
+    }
+  }
+  PetscCall(VecRestoreArrayRead(forces, &f));
+  PetscCallMPI(MPIU_Allreduce(sums, global, 2, MPI_DOUBLE, MPI_SUM, comm_));
+  *ratio = global[1] > 0 ? std::sqrt(global[0] / global[1]) : 0.0;
+  PetscCall(VecDestroy(&zero));
+  PetscCall(VecDestroy(&forces));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
 PetscErrorCode Assembler::SetMasslessResidualRows(Vec residual)
 {
   PetscScalar       *r;
@@ -868,10 +910,17 @@ void Assembler::EvaluateNode(int l, bool want_tangent, NodeContribution *out)
 void Assembler::Add(const NodeBlock &block, const double *residual, const double *tangent)
 {
   PetscErrorCode code = PETSC_SUCCESS;
+  // The initial-acceleration problem's equation of a group without mass is "acceleration = 0"
+  // (InertiaContributor::SetMasslessNodeEquations): a block's forces there are dropped, as an
+  // element's are (a spring on a massless node gave it the acceleration of its force on a unit mass).
+  const bool drop_massless = inertia_ && state_->equations.InitialAcceleration() && !mass_matrix_only_;
   for (int a = 0; a < block.num_nodes && code == PETSC_SUCCESS; ++a) {
     const int l = block.nodes[a];
-    if (block_residual_) code = AddNodeResidual(block_residual_, l, residual + 6 * a);
-    else if (IsSlave(l)) slave_residual_[l] += Eigen::Map<const Vec6>(residual + 6 * a);
+    double    kept[6];
+    std::copy(residual + 6 * a, residual + 6 * a + 6, kept);
+    if (drop_massless) DropMasslessRows(1, &inertia_->Groups(l), kept);
+    if (block_residual_) code = AddNodeResidual(block_residual_, l, kept);
+    else if (IsSlave(l)) slave_residual_[l] += Eigen::Map<const Vec6>(kept);
   }
   if (code == PETSC_SUCCESS && block_jacobian_ && tangent) {
     if (block.num_nodes == 1) code = AddNodeBlock(block_jacobian_, block.nodes[0], Eigen::Map<const Mat6>(tangent));
@@ -968,7 +1017,7 @@ PetscErrorCode Assembler::AssembleResidual(Vec residual, PetscBool *geometry_ok,
   }
   PetscCall(AddContributorBlocks(residual, nullptr));
   PetscCall(FinishResidual(residual, strain_energy, *geometry_ok));
-  if (state_->equations.InitialAcceleration()) PetscCall(SetMasslessResidualRows(residual));
+  if (state_->equations.InitialAcceleration() && !mass_matrix_only_) PetscCall(SetMasslessResidualRows(residual));
   by_products_version_    = increments_version_;
   by_products_propagated_ = false;
   PetscCall(PetscLogEventEnd(event_residual, 0, 0, 0, 0));

@@ -212,6 +212,10 @@ public:
   // mass, a point mass's node without rotary inertia): their equation becomes acceleration = 0.
   // Found when the initial-acceleration problem begins; the number found in the whole model.
   PetscInt NumMasslessUnknowns() const { return num_massless_unknowns_; }
+  // The forces on the unknowns without mass (zero rows, groups without mass) at zero acceleration,
+  // relative to all the forces of that residual: 0 where the part of the model without mass is in
+  // equilibrium. Within the initial-acceleration problem; it sets the increments to zero. Collective.
+  PetscErrorCode MasslessImbalance(double *ratio);
 
 private:
   // AssembleJacobian (residual null) and AssembleResidualWithJacobian.

@@ -51,6 +51,8 @@ public:
   // dropped, a node's rows replaced; called by the assembler after every contributor has added.
   void DropMasslessElementRows(const State &state, size_t k, ElementContribution *out) const;
   void SetMasslessNodeEquations(const State &state, int l, NodeContribution *out) const;
+  // Which of local node l's groups (translations, rotations) carry mass.
+  const NodeMassGroups &Groups(int l) const { return mass_.groups[l]; }
 
 private:
   const Model           *model_ = nullptr;

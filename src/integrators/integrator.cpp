@@ -1,5 +1,7 @@
 #include "integrators/integrator.hpp"
 
+#include <petscblaslapack.h>
+
 #include "core/errors.hpp"
 #include "core/format.hpp"
 
@@ -9,6 +11,8 @@ Integrator::~Integrator()
 {
   VecDestroy(&increments_);
   VecDestroy(&accelerations_);
+  KSPDestroy(&null_pivot_ksp_);
+  MatDestroy(&null_pivot_matrix_);
   SNESDestroy(&snes_);
   VecDestroy(&newton_context_.rank_one_solution);
 }
@@ -82,6 +86,126 @@ PetscErrorCode Integrator::ReportSlaveVelocityChange(const SlaveVelocityChange &
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
+// The relative mismatch |M a - f| / |f| of the initial accelerations above which the part of the
+// model without mass is said to be out of equilibrium: far above the solve's round-off.
+constexpr double kMasslessEquilibriumTolerance = 1e-8;
+
+PetscErrorCode Integrator::SolveSingularMassProblem(Vec accelerations, bool *solved, double *mismatch)
+{
+  Mat                jacobian, preconditioner, aij, factor;
+  Vec                forces, check;
+  KSP                ksp;
+  PC                 pc;
+  KSPConvergedReason reason;
+  PetscReal          force_norm, check_norm;
+  PetscFunctionBeginUser;
+  *solved   = false;
+  *mismatch = NAN;
+  // The problem is linear in the accelerations: M a = f with f = -r(0), M its tangent.
+  PetscCall(VecDuplicate(accelerations, &forces));
+  PetscCall(VecDuplicate(accelerations, &check));
+  PetscCall(VecZeroEntries(accelerations));
+  PetscCall(SNESComputeFunction(snes_, accelerations, forces));
+  PetscCall(VecScale(forces, -1.0));
+  PetscCall(SNESGetJacobian(snes_, &jacobian, &preconditioner, nullptr, nullptr));
+  PetscCall(SNESComputeJacobian(snes_, accelerations, jacobian, preconditioner));
+  PetscBool dense;
+  PetscCall(PetscObjectTypeCompare((PetscObject)jacobian, MATSEQDENSE, &dense));
+  if (dense) {
+    // A dense tangent (a small model on one rank): LAPACK's least-squares solution of least norm,
+    // M^+ f, by the singular values (gelss): no acceleration along the motions without mass. A
+    // MUMPS factorisation of such a matrix cost 130 us a step.
+    PetscInt n;
+    PetscCall(MatGetSize(jacobian, &n, nullptr));
+    const PetscScalar *values;
+    PetscInt           lda;
+    PetscCall(MatDenseGetLDA(jacobian, &lda));
+    PetscCall(MatDenseGetArrayRead(jacobian, &values));
+    dense_work_.assign(values, values + (size_t)lda * (size_t)n); // column-major, as LAPACK takes it
+    PetscCall(MatDenseRestoreArrayRead(jacobian, &values));
+    PetscScalar *solution;
+    PetscCall(VecCopy(forces, accelerations));
+    PetscCall(VecGetArray(accelerations, &solution));
+    PetscBLASInt m_blas, lda_blas, one = 1, rank = 0, info = 0, lwork;
+    PetscCall(PetscBLASIntCast(n, &m_blas));
+    PetscCall(PetscBLASIntCast(lda, &lda_blas));
+    std::vector<PetscReal> singular((size_t)n);
+    lwork = 5 * m_blas + 64;
+    std::vector<PetscScalar> work((size_t)lwork);
+    const PetscReal          rcond = 1e-12; // singular values below this fraction of the largest count as zero
+    PetscCallBLAS("LAPACKgelss", LAPACKgelss_(&m_blas, &m_blas, &one, dense_work_.data(), &lda_blas, solution, &m_blas, singular.data(), &rcond, &rank,
+                                              work.data(), &lwork, &info));
+    PetscCall(VecRestoreArray(accelerations, &solution));
+    if (info == 0) {
+      PetscCall(MatMult(jacobian, accelerations, check));
+      PetscCall(VecAXPY(check, -1.0, forces));
+      PetscCall(VecNorm(check, NORM_2, &check_norm));
+      PetscCall(VecNorm(forces, NORM_2, &force_norm));
+      *solved   = std::isfinite(check_norm);
+      *mismatch = force_norm > 0 ? check_norm / force_norm : 0.0;
+    }
+    singular_mass_ = *solved;
+    PetscCall(VecDestroy(&forces));
+    PetscCall(VecDestroy(&check));
+    PetscFunctionReturn(PETSC_SUCCESS);
+  }
+  // MUMPS takes AIJ (the tangent may be dense or blocked); the solver and its analysis are kept for
+  // the next solve (the consistent reactions solve one per step).
+  if (!null_pivot_ksp_) {
+    PetscCall(MatConvert(jacobian, MATAIJ, MAT_INITIAL_MATRIX, &null_pivot_matrix_));
+    PetscCall(KSPCreate(comm_, &null_pivot_ksp_));
+    PetscCall(KSPSetType(null_pivot_ksp_, KSPPREONLY));
+    PetscCall(KSPSetOperators(null_pivot_ksp_, null_pivot_matrix_, null_pivot_matrix_));
+    PetscCall(KSPGetPC(null_pivot_ksp_, &pc));
+    PetscCall(PCSetType(pc, PCLU));
+    PetscCall(PCFactorSetMatSolverType(pc, MATSOLVERMUMPS));
+    PetscCall(PCFactorSetUpMatSolverType(pc));
+    PetscCall(PCFactorGetMatrix(pc, &factor));
+    // Null pivots detected and fixed (ICNTL 24): the unknown of each is held at zero and its
+    // equation dropped, which for consistent equations leaves a solution of them all.
+    PetscCall(MatMumpsSetIcntl(factor, 24, 1));
+  } else PetscCall(MatConvert(jacobian, MATAIJ, MAT_REUSE_MATRIX, &null_pivot_matrix_));
+  ksp = null_pivot_ksp_;
+  aij = null_pivot_matrix_;
+  PetscCall(PetscPushErrorHandler(PetscReturnErrorHandler, nullptr));
+  const PetscErrorCode code = KSPSolve(ksp, forces, accelerations);
+  PetscCall(PetscPopErrorHandler());
+  int mine = code != PETSC_SUCCESS, any = 0;
+  PetscCallMPI(MPIU_Allreduce(&mine, &any, 1, MPI_INT, MPI_MAX, comm_));
+  if (!any) {
+    PetscCall(KSPGetConvergedReason(ksp, &reason));
+    PetscCall(MatMult(aij, accelerations, check));
+    PetscCall(VecAXPY(check, -1.0, forces));
+    PetscCall(VecNorm(check, NORM_2, &check_norm));
+    PetscCall(VecNorm(forces, NORM_2, &force_norm));
+    *solved   = reason > 0 && std::isfinite(check_norm);
+    *mismatch = force_norm > 0 ? check_norm / force_norm : 0.0;
+  }
+  singular_mass_ = *solved;
+  PetscCall(VecDestroy(&forces));
+  PetscCall(VecDestroy(&check));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+// One line when the part of the model without mass starts out of equilibrium: the forces on the
+// massless unknowns relative to the forces of the residual, or the mismatch of a singular mass
+// matrix's equations (SolveSingularMassProblem).
+PetscErrorCode Integrator::WarnIfMasslessOutOfEquilibrium(double t, double singular_mismatch)
+{
+  Assembler &assembler = system_.GetAssembler();
+  double     imbalance = 0.0;
+  PetscFunctionBeginUser;
+  PetscCall(assembler.MasslessImbalance(&imbalance));
+  const double mismatch = std::max(singular_mismatch, imbalance);
+  if (mismatch > kMasslessEquilibriumTolerance && !quiet_)
+    PetscCall(PetscPrintf(comm_,
+                          "msflex: warning: the part of the model without mass is not in equilibrium at t = %.9g (the forces on it are %.3g of the "
+                          "forces acting): newmark and genalpha bring it there in the first step, mc and em swing about it for the whole run; start "
+                          "it in equilibrium (docs/force_elements.md)\n",
+                          t, mismatch));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
 PetscErrorCode Integrator::InitialiseMotion(double t)
 {
   PetscFunctionBeginUser;
@@ -108,14 +232,15 @@ PetscErrorCode Integrator::InitialiseMotion(double t)
   // reactions do (they were 0): the problem is solved for them alone when there are joints, or
   // reaction probes whose reactions are the consistent ones.
   if (midpoint && map_->global_count.joints == 0 && !ConsistentReactionsWanted()) {
-    if (reaction_probes_) {
-      PetscCall(assembler.BeginStep(InitialAccelerationProblem(t)));
-      PetscCall(assembler.EvaluateSupportReactions());
-      // That problem's "increments" of prescribed DOFs are their accelerations value f''(t): drop
-      // them, or the first frame shows a prescribed rotation turned by value f''(0) (a cosine ramp
-      // of 0.4 rad: 1.97 rad at t = 0).
-      assembler.DiscardStep();
-    }
+    PetscCall(assembler.BeginStep(InitialAccelerationProblem(t)));
+    if (reaction_probes_) PetscCall(assembler.EvaluateSupportReactions());
+    // The forces on the unknowns without mass, of which the mid-point schemes solve no equation at
+    // t: a part without mass that starts out of equilibrium swings about it for the whole run.
+    PetscCall(WarnIfMasslessOutOfEquilibrium(t, 0.0));
+    // That problem's "increments" of prescribed DOFs are their accelerations value f''(t): drop
+    // them, or the first frame shows a prescribed rotation turned by value f''(0) (a cosine ramp
+    // of 0.4 rad: 1.97 rad at t = 0).
+    assembler.DiscardStep();
     PetscFunctionReturn(PETSC_SUCCESS);
   }
   SNESConvergedReason reason;
@@ -128,6 +253,14 @@ PetscErrorCode Integrator::InitialiseMotion(double t)
     PetscCall(VecZeroEntries(increments_));
     PetscCall(SNESSolve(snes_, nullptr, increments_));
     PetscCall(SNESGetConvergedReason(snes_, &reason));
+    double singular_mismatch = 0.0;
+    if (reason <= 0) {
+      bool solved;
+      PetscCall(SolveSingularMassProblem(increments_, &solved, &singular_mismatch));
+      if (solved) reason = SNES_CONVERGED_FNORM_ABS;
+      else singular_mismatch = 0.0;
+    }
+    PetscCall(WarnIfMasslessOutOfEquilibrium(t, singular_mismatch));
     if (reason > 0) {
       PetscCall(assembler.SetIncrements(increments_));
       PetscCall(assembler.EvaluateJointReactions(0.0));
@@ -145,8 +278,21 @@ PetscErrorCode Integrator::InitialiseMotion(double t)
     if (reason <= 0 && attempt == 0) PetscCall(SwitchToPivotingLU("the initial accelerations", SNESConvergedReasons[reason], &switched));
     if (!switched) break;
   }
-  PetscCheck(reason > 0, comm_, PETSC_ERR_NOT_CONVERGED,
-             "the initial accelerations could not be computed (%s): is every node with a DOF free given mass or stiffness?", SNESConvergedReasons[reason]);
+  double singular_mismatch = 0.0;
+  if (reason <= 0) {
+    // A mass matrix singular without empty rows: a node without mass between joints (its
+    // coordinates carry the mass beyond it, their difference none).
+    bool   solved;
+    double mismatch;
+    PetscCall(SolveSingularMassProblem(increments_, &solved, &mismatch));
+    PetscCheck(solved, comm_, PETSC_ERR_NOT_CONVERGED,
+               "the initial accelerations could not be computed (%s): is every node with a DOF free given mass or stiffness?", SNESConvergedReasons[reason]);
+    if (!quiet_)
+      PetscCall(PetscPrintf(comm_, "msflex: initial accelerations: the mass matrix is singular (a node without mass between joints); each motion without mass "
+                                   "starts with zero acceleration\n"));
+    singular_mismatch = mismatch;
+  }
+  PetscCall(WarnIfMasslessOutOfEquilibrium(t, singular_mismatch)); // (it evaluates the forces at zero accelerations)
   PetscCall(assembler.SetIncrements(increments_));
   // The joints' reactions at t, for the first history row (the rates stay as given).
   if (map_->global_count.joints > 0) PetscCall(assembler.EvaluateJointReactions(0.0));
@@ -192,10 +338,19 @@ PetscErrorCode Integrator::ConsistentReactions(double t)
   if (!accelerations_) PetscCall(VecDuplicate(increments_, &accelerations_));
   PetscCall(assembler.BeginStep(InitialAccelerationProblem(t)));
   PetscCall(VecZeroEntries(accelerations_));
-  PetscCall(SNESSolve(snes_, nullptr, accelerations_));
+  SNESConvergedReason reason = SNES_DIVERGED_LINEAR_SOLVE;
+  // A mass matrix found singular (a node without mass between joints) stays so: straight to its solver.
+  if (!singular_mass_) {
+    PetscCall(SNESSolve(snes_, nullptr, accelerations_));
+    PetscCall(SNESGetConvergedReason(snes_, &reason));
+  }
   ++consistent_reaction_solves_;
-  SNESConvergedReason reason;
-  PetscCall(SNESGetConvergedReason(snes_, &reason));
+  if (reason <= 0) {
+    bool   solved;
+    double mismatch;
+    PetscCall(SolveSingularMassProblem(accelerations_, &solved, &mismatch));
+    if (solved) reason = SNES_CONVERGED_FNORM_ABS;
+  }
   if (reason > 0) {
     PetscCall(assembler.SetIncrements(accelerations_));
     // The joints' mean rates over the step stay what the history reports.

@@ -153,8 +153,19 @@ private:
   // (said on stdout with `why`, the failure), so that the same step is worth another try.
   PetscErrorCode SwitchToPivotingLU(const char *where, const std::string &why, bool *switched);
   PetscErrorCode ReportSlaveVelocityChange(const SlaveVelocityChange &change);
-  PetscLogStage  solve_stage_ = -1;
-  std::string    solver_error_; // the first message of an error raised inside SNESSolve (TryEquations)
+  // The accelerations of the initial-acceleration problem set up in the Assembler when its mass
+  // matrix is singular without empty rows (a node without mass between joints, whose coordinates
+  // also carry the mass beyond it): MUMPS with null-pivot detection, one unknown of each massless
+  // motion held at zero acceleration. *mismatch: |M a - f| / |f|, above round-off where the part
+  // without mass is not in equilibrium (the equations then have no solution). Collective.
+  PetscErrorCode           SolveSingularMassProblem(Vec accelerations, bool *solved, double *mismatch);
+  PetscErrorCode           WarnIfMasslessOutOfEquilibrium(double t, double singular_mismatch);
+  KSP                      null_pivot_ksp_    = nullptr; // SolveSingularMassProblem's, kept
+  Mat                      null_pivot_matrix_ = nullptr;
+  bool                     singular_mass_     = false; // the mass matrix was found singular (ConsistentReactions)
+  std::vector<PetscScalar> dense_work_;                // SolveSingularMassProblem's copy of a dense mass matrix
+  PetscLogStage            solve_stage_ = -1;
+  std::string              solver_error_; // the first message of an error raised inside SNESSolve (TryEquations)
   // The reactions at t_end from the accelerations that satisfy the equations of motion in the
   // converged state (analysis.reactions: consistent), replacing the scheme's; see
   // docs/joints.md. After the step is committed; its rates stay. Collective.

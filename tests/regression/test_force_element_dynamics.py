@@ -15,7 +15,11 @@
   former centre-of-mass Newmark point lost 1.5e-3 of it in 0.7 s there;
 - a drive at constant speed without initial conditions (inputs/drive_start.yaml): the projected
   initial velocities start the arm rotating rigidly with it (kinetic energy at t = 0 against the
-  closed form, on 1 and 2 ranks), so it stays nearly unstrained, unlike with the given velocities."""
+  closed form, on 1 and 2 ranks), so it stays nearly unstrained, unlike with the given velocities;
+- a node without mass between two prismatic joints (a singular mass matrix without an empty row)
+  with every integrator: it runs, its joint force is the spring's, a start out of equilibrium is
+  said in a warning and newmark and genalpha bring the node to equilibrium in their first step; the
+  same warning for a node without mass between Cartesian springs."""
 
 import numpy as np
 
@@ -152,4 +156,53 @@ import re  # noqa: E402
 reduced = re.search(r"V\^T K V ([0-9.e+-]+) -> ([0-9.e+-]+)", stdout)
 check.true("flexible double pendulum: the projection lowered the strain rate V^T K V", bool(reduced) and float(reduced.group(2)) < 1e-2 * float(reduced.group(1)))
 check.less("welded pendulum: max |angle given - angle projected| (rad)", np.abs(swings["given"]["hinge.rx"] - swings["projected"]["hinge.rx"]).max(), 1e-12)
+
+# A node without mass between two prismatic joints (ground - j1 - n - j2 - body of 2 kg, springs
+# k1 = 300 on j1, k2 = 600 on j2): the mass matrix of (q1, q2) is
+# m [[1, 1], [1, 1]], singular without an empty row. newmark and genalpha stopped ("the initial
+# accelerations could not be computed ... is every node with a DOF free given mass or stiffness?")
+# and every integrator's consistent reactions failed at every step (em reported half the joint
+# force). Started in equilibrium and moving (q2' = 1): every integrator runs, no warning, and the
+# joints' force along the slide is the spring's, -k2 q2 (0.49 N at the first step). Started with
+# j2 stretched alone (the node out of equilibrium): a warning, and newmark and genalpha bring the
+# node to equilibrium in the first step (k1 q1 = k2 q2).
+def chain(start, extra=""):
+    return ("nodes: {n: [0, 0, 0], s: [0.5, 0, 0]}\nrigid_bodies: [{node: s, mass: 2.0, inertia: [0.1, 0.1, 0.1]}]\n"
+            "joints: [{name: j1, type: prismatic, master: ground, slave: n, axis: [1, 0, 0]}, {name: j2, type: prismatic, master: n, slave: s, axis: [1, 0, 0]}]\n"
+            "force_elements: [{name: k1, type: coordinate, joint: j1, coordinate: tx, stiffness: 300}, "
+            "{name: k2, type: coordinate, joint: j2, coordinate: tx, stiffness: 600}]\n"
+            f"initial_conditions: [{start}]\n{extra}"
+            "analysis: {type: dynamic, integrator: newmark, end_time: 0.05, initial_step: 0.001, max_step: 0.001}\n")
+WARNING = "msflex: warning: the part of the model without mass is not in equilibrium at t = 0"
+for name, start in (("moving", "{joint: j2, coordinate: tx, value: 0.0, rate: 1.0}"), ("stretched", "{joint: j2, coordinate: tx, value: 0.01}")):
+    with open(f"{args.work_dir}/massless_chain_{name}.yaml", "w") as f:
+        f.write(chain(start))
+    for integrator in ("newmark", "genalpha", "mc", "em"):
+        output = f"{args.work_dir}/massless_chain_{name}_{integrator}.h5"
+        code, stdout, _ = mt.run_msflex(args, f"{args.work_dir}/massless_chain_{name}.yaml", output, extra=["-analysis_integrator", integrator],
+                                        expect_success=False)
+        label = f"massless node between joints, {name}, {integrator}"
+        check.equal(f"{label}: exit status", code, 0)
+        if code != 0:
+            continue
+        h = mt.history(output)
+        check.true(f"{label}: the warning {'given' if name == 'stretched' else 'absent'}", (WARNING in stdout) == (name == "stretched"))
+        check.true(f"{label}: no consistent reaction failed", "could not be solved" not in stdout)
+        if name == "moving":
+            check.less(f"{label}: |j2.force_x + k2 q2| at the first step (N)", abs(h["j2.force_x"][1] + 600.0 * h["j2.tx"][1]), 1e-10)
+        elif integrator in ("newmark", "genalpha"):
+            balance = 300.0 * h["j1.tx"][1] - 600.0 * h["j2.tx"][1]
+            check.less(f"{label}: |k1 q1 - k2 q2| after the first step (N)", abs(balance), 1e-9)
+# The same out of balance with Cartesian springs (the node's translations a zero row of M): newmark
+# gave the node the acceleration of its spring force on a unit mass; now zero, and the warning.
+with open(f"{args.work_dir}/massless_springs.yaml", "w") as f:
+    f.write("nodes: {a: [-0.5, 0, 0], n: [0, 0, 0], s: [0.5, 0, 0]}\nrigid_bodies: [{node: s, mass: 2.0, inertia: [0.1, 0.1, 0.1]}]\n"
+            "supports: [{nodes: a, fix: all}, {nodes: [n, s], fix: [uy, uz, rx, ry, rz]}]\n"
+            "force_elements: [{name: k1, type: spring_damper, nodes: [a, n], stiffness: 300}, {name: k2, type: spring_damper, nodes: [n, s], stiffness: 600}]\n"
+            "initial_conditions: [{nodes: s, displacement: [0.01, 0, 0]}]\n"
+            "analysis: {type: dynamic, integrator: newmark, end_time: 0.01, initial_step: 0.001, max_step: 0.001}\n")
+for integrator in ("newmark", "em"):
+    _, stdout, _ = mt.run_msflex(args, f"{args.work_dir}/massless_springs.yaml", f"{args.work_dir}/massless_springs_{integrator}.h5",
+                                 extra=["-analysis_integrator", integrator])
+    check.true(f"massless node between springs, {integrator}: the warning", WARNING in stdout)
 check.finish()
