@@ -200,7 +200,7 @@ PetscErrorCode Setup(Analysis &a, Model whole)
   a.output.SetFlushInterval(a.options.output_flush_interval);
   a.output.SetXdmfFlavour(a.options.output_xdmf == "xdmf2" ? XdmfFlavour::Xdmf2 : XdmfFlavour::Xdmf3);
   if (a.options.continue_output) {
-    PetscCall(a.output.Reopen(a.comm, a.options.output_file, a.restart->last_written, a.restart->history_rows, a.options.run_id));
+    PetscCall(a.output.Reopen(a.comm, a.options.output_file, a.restart->last_written, a.restart->history_rows, a.options.run_id, a.restart->step));
     a.history_rows = a.restart->history_rows;
     // The summary's energy figures cover the whole file: its rows so far first.
     const std::vector<double> &rows = a.output.ResumedEnergyRows();

@@ -410,7 +410,7 @@ struct OutputFile::Impl {
   // the frame of `last_step` and at least `history_rows` rows of every series, and only then
   // drops the frames after `last_step` and the rows beyond `history_rows`, rewrites the sidecar
   // and closes the file again (OutputFile::Reopen).
-  PetscErrorCode Resume(int last_step, long long history_rows, const std::string &run_id);
+  PetscErrorCode Resume(int last_step, long long history_rows, const std::string &run_id, int checkpoint_step);
   PetscErrorCode LinkNames(hid_t group, std::vector<std::string> *names) const;
   PetscErrorCode TruncateRows(hid_t parent, const std::string &name, hsize_t rows) const;
   PetscErrorCode Close();
@@ -1625,7 +1625,7 @@ PetscErrorCode OutputFile::Impl::TruncateRows(hid_t parent, const std::string &n
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
-PetscErrorCode OutputFile::Impl::Resume(int last_step, long long history_rows, const std::string &run_id)
+PetscErrorCode OutputFile::Impl::Resume(int last_step, long long history_rows, const std::string &run_id, int checkpoint_step)
 {
   H5Id          frames_group;
   const char   *p    = path.c_str();
@@ -1767,9 +1767,9 @@ PetscErrorCode OutputFile::Impl::Resume(int last_step, long long history_rows, c
       PetscCallHDF5(exists);
       if (!exists) break;
     }
-    PetscCall(WriteStringAttribute(
-        file, ".", Format("restart_%d", number).c_str(),
-        Format("%s on %d rank(s) at step %d: %s; options: %s", IsoTimeNow().c_str(), (int)size, last_step, CommandLine().c_str(), OptionsText().c_str())));
+    PetscCall(WriteStringAttribute(file, ".", Format("restart_%d", number).c_str(),
+                                   Format("%s on %d rank(s) at step %d: %s; options: %s", IsoTimeNow().c_str(), (int)size, checkpoint_step,
+                                          CommandLine().c_str(), OptionsText().c_str())));
     PetscCall(ReplaceStringAttribute(file, "run_end", "running"));
   }
   for (const std::string &name : frame_datasets) PetscCall(TruncateRows(frames_group, name, kept));
@@ -1862,10 +1862,10 @@ PetscErrorCode OutputFile::Open(MPI_Comm comm, const std::string &path, bool ove
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
-PetscErrorCode OutputFile::Reopen(MPI_Comm comm, const std::string &path, int last_step, long long history_rows, const std::string &run_id)
+PetscErrorCode OutputFile::Reopen(MPI_Comm comm, const std::string &path, int last_step, long long history_rows, const std::string &run_id, int checkpoint_step)
 {
   PetscFunctionBeginUser;
-  PetscCall(OpenWith(comm, path, [&] { return impl_->Resume(last_step, history_rows, run_id); }));
+  PetscCall(OpenWith(comm, path, [&] { return impl_->Resume(last_step, history_rows, run_id, checkpoint_step < 0 ? last_step : checkpoint_step); }));
   long long rows = (long long)impl_->rows_written;
   PetscCallMPI(MPI_Bcast(&rows, 1, MPI_LONG_LONG, 0, comm));
   impl_->rows_written = (hsize_t)rows;
@@ -1979,7 +1979,9 @@ PetscErrorCode OutputFile::WriteFrame(const OutputFrame &frame)
   PetscCall(RunCollective(comm_, [&] { return impl_->BufferFrame(frame, entry); }));
   PetscCall(PetscLogEventEnd(write_phase_events.buffer_frame, 0, 0, 0, 0));
   impl_->dirty = true;
-  PetscCall(FlushIfDue());
+  // No flush here: a step's frame comes before its history row (RecordStep), and a flush due
+  // between them left a killed run's file with a frame of a step its history did not reach (4 of
+  // 4 SIGKILLs with -output_flush_interval 1). The row's AppendHistory flushes both.
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 

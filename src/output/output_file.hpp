@@ -139,7 +139,8 @@ public:
   // rest, rewrites the sidecar, and opens the file as Open does.
   // Nothing changes unless the file is the result of run `run_id` and holds the frame of
   // `last_step` and `history_rows` rows of history (one line naming what is missing).
-  PetscErrorCode Reopen(MPI_Comm comm, const std::string &path, int last_step, long long history_rows, const std::string &run_id);
+  // `checkpoint_step`: the step the run continues from (recorded in restart_N); -1: last_step.
+  PetscErrorCode Reopen(MPI_Comm comm, const std::string &path, int last_step, long long history_rows, const std::string &run_id, int checkpoint_step = -1);
   // Appends a frame to the /frames datasets (one row each): kept in memory and written in blocks,
   // at the latest at the next flush, from which on the sidecar lists it.
   PetscErrorCode WriteFrame(const OutputFrame &frame);
