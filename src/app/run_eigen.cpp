@@ -173,14 +173,14 @@ PetscErrorCode RunEigenAnalysis(MPI_Comm comm, const Model &model, const DofMap 
         comm, "msflex: %zu buckling loads found of the %d asked for; the other eigenvalues give none (a load factor below zero, or none within round-off)\n",
         pairs.values.size(), count));
   if (!quiet) {
-    PetscCall(PetscPrintf(comm, "msflex: %zu %s%s about the equilibrium at load factor %.6g", pairs.values.size(), buckling ? "buckling modes" : "modes",
+    PetscCall(PetscPrintf(comm, "msflex: %zu %s%s about the %s at load factor %.6g", pairs.values.size(), buckling ? "buckling modes" : "modes",
                           buckling
                               ? ""
                               : Format(" (%s at %.6g, %d solve%s)",
                                        pairs.transformation == "sinvert" ? "shift-and-invert" : ("spectral transformation " + pairs.transformation).c_str(),
                                        pairs.shift, pairs.solves, pairs.solves == 1 ? "" : "s")
                                     .c_str(),
-                          lambda));
+                          a.preload ? "equilibrium" : "reference configuration (no preload)", lambda));
     PetscCall(PetscPrintf(comm, buckling ? "\n  mode  load factor          backward error\n"
                                          : "\n  mode  eigenvalue (rad/s)^2  frequency (Hz)       backward error\n"));
   }
@@ -202,7 +202,11 @@ PetscErrorCode RunEigenAnalysis(MPI_Comm comm, const Model &model, const DofMap 
     }
     if (!quiet) {
       if (buckling) PetscCall(PetscPrintf(comm, "  %4d  %-19.12g  %.2e\n", number, lambda + value, error));
-      else PetscCall(PetscPrintf(comm, "  %4d  %-20.12g  %-19.12g  %.2e%s\n", number, value, omega / (2.0 * M_PI), error, rigid ? "  (rigid mode)" : ""));
+      else
+        PetscCall(PetscPrintf(comm, "  %4d  %-20.12g  %-19.12g  %.2e%s\n", number, value, omega / (2.0 * M_PI), error,
+                              rigid       ? "  (rigid mode)"
+                              : value < 0 ? "  (unstable: no frequency)"
+                                          : ""));
     }
     PetscCall(DisplayShape(pairs.vectors[k], weights, length, shape));
     PetscCall(WriteShapeFrame(comm, model, map, integrator, output, lambda, shape, number));
@@ -210,6 +214,15 @@ PetscErrorCode RunEigenAnalysis(MPI_Comm comm, const Model &model, const DofMap 
     PetscCall(SampleProbes(comm, model, map, integrator.GetState(), &probes));
     PetscCall(output.AppendHistory(names, values, probes));
   }
+  // Negative eigenvalues beyond the rigid level: the state is not stable (a preload beyond a
+  // critical load); their frequency is written as 0, which read like a rigid mode's.
+  int unstable = 0;
+  for (size_t k = 0; k < pairs.values.size() && !buckling; ++k) unstable += pairs.values[k] < 0 && std::abs(pairs.values[k]) > pairs.zero_levels[k];
+  if (unstable > 0 && !quiet)
+    PetscCall(PetscPrintf(comm,
+                          "msflex: warning: %d mode(s) with a negative eigenvalue: the %s at load factor %.6g is unstable (a preload beyond a critical load?); "
+                          "their frequency is written as 0 and rigid_mode as 0\n",
+                          unstable, a.preload ? "equilibrium" : "reference configuration", lambda));
   PetscCall(assembler.BeginStep(StaticStep(lambda, lambda)));
   PetscCall(EigenPairsDestroy(&pairs));
   PetscCall(MatDestroy(&K));

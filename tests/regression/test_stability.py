@@ -120,4 +120,19 @@ for label, loads in (("inverted pendulum", "loads: [{gravity: [0, -9.81, 0]}]\n"
         lines = [line for line in stderr.splitlines() if line.startswith("msflex:")]
         check.equal(f"{label}: exit status", code, 1)
         check.true(f"{label}: one line saying the loads change nothing", len(lines) == 1 and "neither deform the structure nor change its stiffness" in lines[0])
+# Its modes preloaded to lambda: omega^2 = (k - m g d lambda) / (J + m d^2), negative beyond the
+# buckling load; there the state is unstable, which the run says (the frequency 0 it writes read
+# like a rigid mode's).
+with open(pendulum, "w") as f:
+    f.write("nodes: {s: [0, 0, 0]}\nrigid_bodies: [{node: s, mass: 2.0, inertia: [0.1, 0.1, 0.1], offset: [0, 0.3, 0]}]\n"
+            "joints: [{name: h, type: revolute, master: ground, slave: s, axis: [0, 0, 1]}]\n"
+            "force_elements: [{name: k, type: coordinate, joint: h, coordinate: rotation, stiffness: 50}]\n"
+            "loads: [{gravity: [0, -9.81, 0]}]\nanalysis: {type: modes, eigenvalues: 1, preload: true}\n")
+for load in (8.0, 9.0):
+    _, stdout, _ = mt.run_msflex(args, pendulum, f"{args.work_dir}/inverted_pendulum_modes.h5", extra=["-analysis_end_time", str(load)])
+    h = mt.history(f"{args.work_dir}/inverted_pendulum_modes.h5")
+    exact = (50.0 - 2.0 * 9.81 * 0.3 * load) / (0.1 + 2.0 * 0.3**2)
+    label = f"inverted pendulum's mode at lambda = {load}"
+    check.less(f"{label}: |omega^2 / ((k - m g d lambda) / (J + m d^2)) - 1|", abs(h["eigenvalue"][0] / exact - 1), 1e-8)
+    check.true(f"{label}: the run says {'un' if exact < 0 else ''}stable", ("is unstable" in stdout) == (exact < 0) and ("(unstable: no frequency)" in stdout) == (exact < 0))
 check.finish()
