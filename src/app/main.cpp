@@ -288,7 +288,7 @@ static PetscErrorCode RunMsflex(int argc, char **argv, RunEnd *end)
   if (settings_status != PETSC_SUCCESS) {
     char *specific = nullptr;
     PetscCall(PetscErrorMessage(settings_status, nullptr, &specific));
-    const std::string message = specific ? specific : "unreadable value";
+    const std::string message = WithOptionNamed(specific ? specific : "unreadable value");
     // "option -x must ..." becomes "bad option: -x must ...".
     SETERRQ(comm, PETSC_ERR_USER_INPUT, "bad option: %s", (message.rfind("option -", 0) == 0 ? message.substr(7) : message).c_str());
   }

@@ -1,5 +1,7 @@
 #include "core/errors.hpp"
 
+#include <cstring>
+
 #include <string>
 
 namespace msflex {
@@ -33,16 +35,50 @@ PetscErrorCode ErrorHandler(MPI_Comm comm, int line, const char *function, const
   return code;
 }
 
+// The option given `value` on the command line or in PETSc's options ("" when none is): PETSc's
+// messages about a value it cannot convert name the value alone ("Input string abc has no integer
+// value"), and the user must find which of the options it was.
+static std::string OptionWithValue(const std::string &value)
+{
+  char *all = nullptr;
+  if (value.empty() || PetscOptionsGetAll(nullptr, &all) != PETSC_SUCCESS || !all) return "";
+  const std::string text(all);
+  std::string       previous, found;
+  for (size_t at = 0, end; found.empty(); at = end) {
+    at = text.find_first_not_of(' ', at);
+    if (at == std::string::npos) break;
+    end = text.find(' ', at);
+    if (end == std::string::npos) end = text.size();
+    const std::string word = text.substr(at, end - at);
+    if (word == value && previous.size() > 1 && previous[0] == '-') found = previous;
+    previous = word;
+  }
+  (void)PetscFree(all);
+  return found;
+}
+
+std::string WithOptionNamed(const std::string &message)
+{
+  // "Input string abc has no integer value" (or numeric), "Unknown logical value: abc".
+  for (const char *pattern : {"Input string ", "Unknown logical value: "}) {
+    if (message.rfind(pattern, 0) != 0) continue;
+    const size_t      start = std::strlen(pattern);
+    const std::string value = message.substr(start, message.find(' ', start) - start);
+    if (const std::string option = OptionWithValue(value); !option.empty()) return option + " " + value + ": " + message;
+  }
+  return message;
+}
+
 PetscErrorCode OptionsError(MPI_Comm comm, PetscErrorCode status)
 {
   char *specific = nullptr;
   PetscFunctionBeginUser;
   PetscCall(PetscErrorMessage(status, nullptr, &specific));
-  const char *message = specific && specific[0] ? specific : "unreadable value";
-  if (status == PETSC_ERR_USER_INPUT || status == PETSC_ERR_NOT_CONVERGED) SETERRQ(comm, status, "%s", message);
+  const std::string message = WithOptionNamed(specific && specific[0] ? specific : "unreadable value");
+  if (status == PETSC_ERR_USER_INPUT || status == PETSC_ERR_NOT_CONVERGED) SETERRQ(comm, status, "%s", message.c_str());
   if (status == PETSC_ERR_MEM || status == PETSC_ERR_PLIB || status == PETSC_ERR_MPI || status == PETSC_ERR_SIG || status == PETSC_ERR_FP)
-    SETERRQ(comm, status, "%s", message);
-  SETERRQ(comm, PETSC_ERR_USER_INPUT, "bad option: %s", message);
+    SETERRQ(comm, status, "%s", message.c_str());
+  SETERRQ(comm, PETSC_ERR_USER_INPUT, "bad option: %s", message.c_str());
 }
 
 PetscErrorCode CheckFactorSolverAvailable(KSP ksp, Mat matrix)

@@ -30,6 +30,10 @@
 
 namespace msflex {
 
+// PETSc's message about an option value it cannot convert, which names the value alone, with the
+// option that has it in front ("-snes_max_it abc: Input string abc has no integer value"); any
+// other message as it is.
+std::string WithOptionNamed(const std::string &message);
 // Raises the error of a failed call made under MSFLEX_CALL_READING_OPTIONS again, with its message.
 PetscErrorCode OptionsError(MPI_Comm comm, PetscErrorCode status);
 // Error handler that keeps the first message of the error raised (into the std::string `context`,

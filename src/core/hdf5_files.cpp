@@ -410,7 +410,10 @@ std::string ClassifyExistingFile(const std::string &path, ExistingFile *file)
   // A checkpoint whose bytes do not match its checksum is not given to HDF5 (which crashed or
   // looped on some damaged metadata).
   bool has_footer = false;
-  if (std::string damage = CheckpointFooterProblem(resolved.canonical, &has_footer); has_footer && !damage.empty()) return damage + "; move it away";
+  if (std::string damage = CheckpointFooterProblem(resolved.canonical, &has_footer); has_footer && !damage.empty()) {
+    file->damaged = true;
+    return damage;
+  }
   file->checksummed = has_footer;
   const Hdf5QuietScope quiet;
   if (H5Fis_hdf5(resolved.canonical.c_str()) <= 0) {
@@ -485,7 +488,10 @@ std::string CheckRunFiles(const RunFiles &files)
                                ResolvePath(files.restart, &restart_path).empty() && SameFile(checkpoint_path, restart_path);
   if (!is_restart_file) {
     ExistingFile checkpoint;
-    if (std::string problem = ClassifyExistingFile(files.checkpoint, &checkpoint); !problem.empty()) return problem;
+    // A damaged checkpoint in the way of this run's: the user's to move (one given to --restart is
+    // refused by its reader in the same words, without the advice).
+    if (std::string problem = ClassifyExistingFile(files.checkpoint, &checkpoint); !problem.empty())
+      return checkpoint.damaged ? problem + "; move it away" : problem;
     if (checkpoint.kind != ExistingKind::Missing) {
       if (checkpoint.kind != ExistingKind::MsflexCheckpoint)
         return refuse("checkpoint file", files.checkpoint, checkpoint, "msflex replaces only its own checkpoints");

@@ -93,6 +93,7 @@ struct ExistingFile {
   FileMarker   marker;              // for msflex HDF5 files; empty fields for files written before the marker
   bool         legacy      = false; // recognised by layout, without a marker
   bool         checksummed = false; // ends with a checkpoint footer whose checksum matches (a damaged one is a problem)
+  bool         damaged     = false; // its footer's checksum does not match (the problem says so)
 };
 const char *ExistingKindName(ExistingKind kind); // "an msflex result file", "a file that msflex did not write", ...
 // Classifies the file at `path` (following symbolic links); "" or the problem (one line).

@@ -623,7 +623,9 @@ PetscErrorCode DescribeLinearSolveFailure(SNES snes, NewtonContext *context, Vec
     if (zero_row >= 0) {
       std::string unknown;
       PetscCall(context->assembler->DescribeUnknown(zero_row, &unknown));
-      *why += ": nothing resists " + unknown + " (neither stiffness nor mass)";
+      // In statics (a static stage, a preload) mass does not resist: the node may well carry a body.
+      const bool statics = context->assembler->Equations().problem == StepProblem::Statics;
+      *why += ": nothing resists " + unknown + (statics ? " (no stiffness: in statics its mass, if any, does not resist)" : " (neither stiffness nor mass)");
     } else {
       *why += std::string(": ") + kSingularHint;
     }

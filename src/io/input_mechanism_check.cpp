@@ -320,8 +320,14 @@ std::string BeamList(const Model &model, const std::vector<int> &beams)
 
 } // namespace
 
-void CheckStaticMechanisms(const Model &model)
+void CheckStaticMechanisms(const Model &model, AnalysisType type)
 {
+  // What needs the equilibrium, and the way out: the message named a static analysis for a
+  // preloaded modes analysis as well.
+  const std::string        way_out      = type == AnalysisType::Static  ? "add supports"
+                                          : type == AnalysisType::Modes ? "add supports, or give preload: false (the modes of the free model)"
+                                                                        : "add supports (buckling needs an equilibrium to buckle from)";
+  const std::string        body_way_out = type == AnalysisType::Static ? "in a static analysis add supports or use type: dynamic" : way_out;
   NodeComponents           components(model);
   const std::vector<Group> groups = HeldGroups(model, components);
   // Groups in the order of their first beam, so the first mechanism reported is the first one in
@@ -330,7 +336,7 @@ void CheckStaticMechanisms(const Model &model)
     const Group &group = groups[components.Root(model.beams[beam].nodes.front())];
     if (group.beams.front() != static_cast<int>(beam) || group.held) continue;
     FailAt(model.beams[beam].mark, "mechanism: beam(s) " + BeamList(model, group.beams) + " can move as a rigid body (" + std::to_string(group.restrained) +
-                                       " of 6 rigid-body modes restrained); add supports");
+                                       " of 6 rigid-body modes restrained); " + way_out);
   }
   // A group of nodes outside every beam (carrying rigid bodies, possibly joined by joints) has no
   // stiffness of its own: statics needs what holds it completely. Reported at its first rigid body.
@@ -338,13 +344,13 @@ void CheckStaticMechanisms(const Model &model)
     const Group &group = groups[components.Root(body.node)];
     if (!group.beams.empty() || group.held) continue;
     FailAt(body.mark, "mechanism: the rigid body at node " + Quote(model.nodes[body.node].name) + " is not connected to any beam and can move freely (" +
-                          std::to_string(group.restrained) + " of 6 rigid-body modes restrained); in a static analysis add supports or use type: dynamic");
+                          std::to_string(group.restrained) + " of 6 rigid-body modes restrained); " + body_way_out);
   }
 }
 
 void CheckModelForAnalysis(const Model &model, AnalysisType type, bool preload)
 {
-  if (NeedsStaticStiffness(type, preload)) CheckStaticMechanisms(model);
+  if (NeedsStaticStiffness(type, preload)) CheckStaticMechanisms(model, type);
   // A follower load's stiffness is not symmetric: the symmetric eigenproblems of a buckling
   // analysis and of preloaded modes would give wrong answers (Beck's column, which loses stability
   // only by flutter at 20.05 EI/L^2, came out with a divergence load of 7.97 EI/L^2 and real

@@ -61,7 +61,8 @@ AnalysisProblem PathControlProblem(const Model &model)
     for (const Joint &j : model.joints)
       if (j.slave == n)
         return {"control_node", "node " + Quote(a.control_node) + " is the slave of joint " + Quote(j.name) +
-                                    ": control its master or one of the joint's coordinates ('control_joint') instead"};
+                                    (j.master < 0 ? ": control one of the joint's coordinates ('control_joint') instead (its master is the ground)"
+                                                  : ": control its master or one of the joint's coordinates ('control_joint') instead")};
     for (const Support &support : model.supports)
       for (int s : support.nodes)
         if (s == n && support.kind[a.control_dof] != Support::Kind::Free)

@@ -186,7 +186,7 @@ void ReadExpected(const YAML::Node *list, ReaderContext &context);
 // all six rigid-body motions by its supports and its joints to the ground, which would make the
 // static stiffness matrix singular; elements and joints between nodes connect groups
 // (input_mechanism_check.cpp). Called for static analyses only.
-void CheckStaticMechanisms(const Model &model);
+void CheckStaticMechanisms(const Model &model, AnalysisType type);
 // What an analysis type needs of the model: no mechanism where it needs the static stiffness
 // (CheckStaticMechanisms), no follower load where it solves a symmetric eigenproblem (buckling,
 // preloaded modes).

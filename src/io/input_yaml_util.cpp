@@ -230,7 +230,8 @@ YAML::Mark ValueMark(const YAML::Node &value)
 std::string DescribeValue(const YAML::Node &value)
 {
   if (!value.IsDefined() || value.IsNull()) return "an empty value";
-  if (value.IsSequence()) return value.size() == 0 ? "an empty list" : "a list";
+  // A list by its length: "must list two nodes, got a list" did not say what was wrong with it.
+  if (value.IsSequence()) return value.size() == 0 ? "an empty list" : "a list of " + std::to_string(value.size());
   if (value.IsMap()) return "a mapping";
   return Quote(value.Scalar());
 }

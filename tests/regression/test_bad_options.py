@@ -36,7 +36,11 @@ cases = [(bend, ["-analysis_end_time", "abc"], "-analysis_end_time: 'abc' is not
          (bend, ["-pc_type", "lu", "-pc_factor_mat_ordering_type", "foo"], "-pc_factor_mat_ordering_type: no ordering named 'foo'"),
          # an integer past 32 bits, which PETSc's conversion wraps (99999999999 read as 1215752191)
          (bend, ["-analysis_max_newton_iterations", "99999999999"], "-analysis_max_newton_iterations: '99999999999' is out of range"),
-         (bend, ["-output_every", "2147483648"], "-output_every: '2147483648' is out of range")]
+         (bend, ["-output_every", "2147483648"], "-output_every: '2147483648' is out of range"),
+         # PETSc's own conversions name the value alone ("Input string abc has no integer value"):
+         # the option is named in front
+         (bend, ["-snes_max_it", "abc"], "-snes_max_it abc: Input string abc has no integer value"),
+         (bend, ["-jacobian_dense_below", "abc"], "-jacobian_dense_below abc: Input string abc has no integer value")]
 for source, options, expected in cases:
     for ranks in sorted({1, args.np}):
         output = f"{args.work_dir}/never_written.h5"
