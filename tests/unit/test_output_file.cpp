@@ -697,10 +697,14 @@ TEST_F(OutputFileTest, SidecarIsWellFormedAfterEveryFrameAndListsFlushedFrames)
     EXPECT_EQ(CountOf(ReadText(xdmf_path()), beams_grid), 0u);
   }
   ASSERT_EQ(out.Flush(), PETSC_SUCCESS);
-  // ... and with a flush at every frame the sidecar grows by one grid each time.
+  // ... and with a flush at every step the sidecar grows by one grid each time. (A step's flush
+  // comes with its history row, after its frame, as in a run: a flush between the two left a killed
+  // run's file with a frame of a step its history did not reach.)
   out.SetFlushInterval(0.0);
   for (int step = 3; step < 9; ++step) {
     ASSERT_EQ(out.WriteFrame(IsRoot() ? FrameOfStep(step) : OutputFrame{}), PETSC_SUCCESS);
+    if (IsRoot()) EXPECT_EQ(CountOf(ReadText(xdmf_path()), beams_grid), (size_t)step) << "the frame of step " << step << " before its row";
+    ASSERT_EQ(out.AppendHistory(kHistoryNames, HistoryRow(step), {ProbeOfRow(step)}), PETSC_SUCCESS);
     if (!IsRoot()) continue;
     const std::string xdmf = ReadText(xdmf_path());
     EXPECT_TRUE(WellFormedXml(xdmf, &why)) << "after step " << step << ": " << why << "\n" << xdmf;
