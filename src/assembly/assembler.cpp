@@ -728,6 +728,9 @@ PetscErrorCode Assembler::MasslessImbalance(double *ratio)
   mass_matrix_only_         = true;
   const PetscErrorCode code = AssembleResidual(forces, &ok, false);
   mass_matrix_only_         = false;
+  // What that assembly left (slave forces, reactions) is not the problem's: made again when asked
+  // for (accelerations exactly zero would not change the increments' version).
+  by_products_version_ = -1;
   PetscCall(code);
   const PetscScalar *f;
   double             sums[2] = {0.0, 0.0}, global[2]; // rows without mass, all rows

@@ -57,6 +57,12 @@ PetscErrorCode NodalMassCreate(const Model &model, const DofMap &map, NodalMass 
     if (!body.inertia.isZero(0.0)) mass->groups[l].rotary = true;
     if (l < map.num_owned_nodes) mass->rotary_inertia[l] += body.inertia;
   }
+  // A support's DOF has no unknown: its row is the support's reaction, which dropping it lost (a
+  // massless anchor's reaction to a stretched spring read 0 at t = 0, and the work of a prescribed
+  // massless support was missed in the first step).
+  for (size_t l = 0; l < map.local_nodes.size(); ++l)
+    for (int d = 0; d < 6; ++d)
+      if (map.node_dofs[map.local_nodes[l]][d] < 0) mass->groups[l].held |= 1u << d;
   // Joints carry inertia between their nodes: never replace the equations of a master or a slave.
   for (const Joint &joint : model.joints)
     for (int node : {joint.master, joint.slave}) {

@@ -13,7 +13,8 @@ namespace msflex {
 
 // Which groups of a node carry mass: [0] translations, [1] rotations.
 struct NodeMassGroups {
-  bool translational = false, rotary = false;
+  bool     translational = false, rotary = false;
+  unsigned held = 0; // bit d: DOF d has no unknown (a support fixes or prescribes it); its row is a reaction, kept
 };
 
 // Drops the rows of the massless groups of an element's residual (6 per node).

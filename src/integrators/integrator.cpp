@@ -90,7 +90,49 @@ PetscErrorCode Integrator::ReportSlaveVelocityChange(const SlaveVelocityChange &
 // model without mass is said to be out of equilibrium: far above the solve's round-off.
 constexpr double kMasslessEquilibriumTolerance = 1e-8;
 
-PetscErrorCode Integrator::SolveSingularMassProblem(Vec accelerations, bool *solved, double *mismatch)
+PetscErrorCode Integrator::SolveAccelerations(Vec accelerations, bool hand_over, bool *solved, double *singular_mismatch)
+{
+  SNESConvergedReason reason = SNES_DIVERGED_LINEAR_SOLVE;
+  PetscFunctionBeginUser;
+  *solved            = false;
+  *singular_mismatch = 0.0;
+  // A mass matrix found singular stays so: straight to its solver (no failed factorisation a step).
+  if (!singular_mass_) {
+    PetscCall(VecZeroEntries(accelerations));
+    PetscCall(SNESSolve(snes_, nullptr, accelerations));
+    PetscCall(SNESGetConvergedReason(snes_, &reason));
+    if (reason > 0) {
+      *solved = true;
+      PetscFunctionReturn(PETSC_SUCCESS);
+    }
+    // A failed factorisation leaves Newton's PC unusable (MUMPS skips every numeric factorisation
+    // after a failed one, and the next step's Newton failed with INFOG(1) = -3): dropped.
+    PetscCall(NewtonForgetFactorization(snes_, &newton_context_));
+  }
+  // Singular without an empty row (a node without mass between joints), or an LU without
+  // pivoting between nodes that met a zero pivot: solved as it is, before any hand-over of the
+  // run's LU to MUMPS (the mass matrix's singularity is no pivoting problem).
+  PetscInt null_pivots = 0;
+  double   mismatch    = 0.0;
+  PetscCall(SolveSingularMassProblem(accelerations, solved, &mismatch, &null_pivots));
+  if (*solved) {
+    singular_mass_     = null_pivots > 0;
+    *singular_mismatch = mismatch;
+    PetscFunctionReturn(PETSC_SUCCESS);
+  }
+  if (!hand_over) PetscFunctionReturn(PETSC_SUCCESS);
+  bool switched = false;
+  PetscCall(SwitchToPivotingLU("the initial accelerations", SNESConvergedReasons[reason], &switched));
+  if (!switched) PetscFunctionReturn(PETSC_SUCCESS);
+  PetscCall(VecZeroEntries(accelerations));
+  PetscCall(SNESSolve(snes_, nullptr, accelerations));
+  PetscCall(SNESGetConvergedReason(snes_, &reason));
+  *solved = reason > 0;
+  if (!*solved) PetscCall(NewtonForgetFactorization(snes_, &newton_context_));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode Integrator::SolveSingularMassProblem(Vec accelerations, bool *solved, double *mismatch, PetscInt *null_pivots)
 {
   Mat                jacobian, preconditioner, aij, factor;
   Vec                forces, check;
@@ -99,8 +141,9 @@ PetscErrorCode Integrator::SolveSingularMassProblem(Vec accelerations, bool *sol
   KSPConvergedReason reason;
   PetscReal          force_norm, check_norm;
   PetscFunctionBeginUser;
-  *solved   = false;
-  *mismatch = NAN;
+  *solved      = false;
+  *mismatch    = NAN;
+  *null_pivots = 0;
   // The problem is linear in the accelerations: M a = f with f = -r(0), M its tangent.
   PetscCall(VecDuplicate(accelerations, &forces));
   PetscCall(VecDuplicate(accelerations, &check));
@@ -137,6 +180,7 @@ PetscErrorCode Integrator::SolveSingularMassProblem(Vec accelerations, bool *sol
                                               work.data(), &lwork, &info));
     PetscCall(VecRestoreArray(accelerations, &solution));
     if (info == 0) {
+      *null_pivots = n - rank;
       PetscCall(MatMult(jacobian, accelerations, check));
       PetscCall(VecAXPY(check, -1.0, forces));
       PetscCall(VecNorm(check, NORM_2, &check_norm));
@@ -144,7 +188,6 @@ PetscErrorCode Integrator::SolveSingularMassProblem(Vec accelerations, bool *sol
       *solved   = std::isfinite(check_norm);
       *mismatch = force_norm > 0 ? check_norm / force_norm : 0.0;
     }
-    singular_mass_ = *solved;
     PetscCall(VecDestroy(&forces));
     PetscCall(VecDestroy(&check));
     PetscFunctionReturn(PETSC_SUCCESS);
@@ -178,10 +221,18 @@ PetscErrorCode Integrator::SolveSingularMassProblem(Vec accelerations, bool *sol
     PetscCall(VecAXPY(check, -1.0, forces));
     PetscCall(VecNorm(check, NORM_2, &check_norm));
     PetscCall(VecNorm(forces, NORM_2, &force_norm));
-    *solved   = reason > 0 && std::isfinite(check_norm);
-    *mismatch = force_norm > 0 ? check_norm / force_norm : 0.0;
+    *solved       = reason > 0 && std::isfinite(check_norm);
+    *mismatch     = force_norm > 0 ? check_norm / force_norm : 0.0;
+    PetscInt null = 0;
+    PetscCall(KSPGetPC(ksp, &pc));
+    PetscCall(PCFactorGetMatrix(pc, &factor));
+    PetscCall(MatMumpsGetInfog(factor, 28, &null)); // the null pivots detected
+    *null_pivots = null;
+  } else {
+    // A failed factorisation is not tried again with the same solver (MUMPS would skip it).
+    PetscCall(KSPDestroy(&null_pivot_ksp_));
+    PetscCall(MatDestroy(&null_pivot_matrix_));
   }
-  singular_mass_ = *solved;
   PetscCall(VecDestroy(&forces));
   PetscCall(VecDestroy(&check));
   PetscFunctionReturn(PETSC_SUCCESS);
@@ -243,25 +294,17 @@ PetscErrorCode Integrator::InitialiseMotion(double t)
     assembler.DiscardStep();
     PetscFunctionReturn(PETSC_SUCCESS);
   }
-  SNESConvergedReason reason;
   PetscCall(assembler.BeginStep(InitialAccelerationProblem(t)));
   if (midpoint) {
     // For the reactions alone: one attempt, no hand-over of the LU (the run's solver stays as it
     // is), and a failure leaves the first row's joint reactions at 0 rather than stop a run that
     // needs no accelerations. Nothing of the solve is kept: the mid-point schemes' steps start
     // from positions and velocities alone, the State as it was before it.
-    PetscCall(VecZeroEntries(increments_));
-    PetscCall(SNESSolve(snes_, nullptr, increments_));
-    PetscCall(SNESGetConvergedReason(snes_, &reason));
-    double singular_mismatch = 0.0;
-    if (reason <= 0) {
-      bool solved;
-      PetscCall(SolveSingularMassProblem(increments_, &solved, &singular_mismatch));
-      if (solved) reason = SNES_CONVERGED_FNORM_ABS;
-      else singular_mismatch = 0.0;
-    }
+    bool   solved;
+    double singular_mismatch;
+    PetscCall(SolveAccelerations(increments_, false, &solved, &singular_mismatch));
     PetscCall(WarnIfMasslessOutOfEquilibrium(t, singular_mismatch));
-    if (reason > 0) {
+    if (solved) {
       PetscCall(assembler.SetIncrements(increments_));
       PetscCall(assembler.EvaluateJointReactions(0.0));
     } else PetscCall(assembler.BeginStep(InitialAccelerationProblem(t))); // the supports' reactions without accelerations, as before
@@ -269,29 +312,13 @@ PetscErrorCode Integrator::InitialiseMotion(double t)
     assembler.DiscardStep();
     PetscFunctionReturn(PETSC_SUCCESS);
   }
-  // A failure with the banded LU (msflex's block LU or PETSc's) hands the factorisation to MUMPS, which gets a second attempt.
-  for (int attempt = 0; attempt < 2; ++attempt) {
-    PetscCall(VecZeroEntries(increments_));
-    PetscCall(SNESSolve(snes_, nullptr, increments_));
-    PetscCall(SNESGetConvergedReason(snes_, &reason));
-    bool switched = false;
-    if (reason <= 0 && attempt == 0) PetscCall(SwitchToPivotingLU("the initial accelerations", SNESConvergedReasons[reason], &switched));
-    if (!switched) break;
-  }
-  double singular_mismatch = 0.0;
-  if (reason <= 0) {
-    // A mass matrix singular without empty rows: a node without mass between joints (its
-    // coordinates carry the mass beyond it, their difference none).
-    bool   solved;
-    double mismatch;
-    PetscCall(SolveSingularMassProblem(increments_, &solved, &mismatch));
-    PetscCheck(solved, comm_, PETSC_ERR_NOT_CONVERGED,
-               "the initial accelerations could not be computed (%s): is every node with a DOF free given mass or stiffness?", SNESConvergedReasons[reason]);
-    if (!quiet_)
-      PetscCall(PetscPrintf(comm_, "msflex: initial accelerations: the mass matrix is singular (a node without mass between joints); each motion without mass "
-                                   "starts with zero acceleration\n"));
-    singular_mismatch = mismatch;
-  }
+  bool   solved;
+  double singular_mismatch;
+  PetscCall(SolveAccelerations(increments_, true, &solved, &singular_mismatch));
+  PetscCheck(solved, comm_, PETSC_ERR_NOT_CONVERGED, "the initial accelerations could not be computed: is every node with a DOF free given mass or stiffness?");
+  if (singular_mass_ && !quiet_)
+    PetscCall(PetscPrintf(comm_, "msflex: initial accelerations: the mass matrix is singular (a node without mass between joints); each motion without mass "
+                                 "starts with zero acceleration\n"));
   PetscCall(WarnIfMasslessOutOfEquilibrium(t, singular_mismatch)); // (it evaluates the forces at zero accelerations)
   PetscCall(assembler.SetIncrements(increments_));
   // The joints' reactions at t, for the first history row (the rates stay as given).
@@ -337,21 +364,11 @@ PetscErrorCode Integrator::ConsistentReactions(double t)
   const double started = MPI_Wtime();
   if (!accelerations_) PetscCall(VecDuplicate(increments_, &accelerations_));
   PetscCall(assembler.BeginStep(InitialAccelerationProblem(t)));
-  PetscCall(VecZeroEntries(accelerations_));
-  SNESConvergedReason reason = SNES_DIVERGED_LINEAR_SOLVE;
-  // A mass matrix found singular (a node without mass between joints) stays so: straight to its solver.
-  if (!singular_mass_) {
-    PetscCall(SNESSolve(snes_, nullptr, accelerations_));
-    PetscCall(SNESGetConvergedReason(snes_, &reason));
-  }
+  bool   solved;
+  double mismatch;
+  PetscCall(SolveAccelerations(accelerations_, false, &solved, &mismatch));
   ++consistent_reaction_solves_;
-  if (reason <= 0) {
-    bool   solved;
-    double mismatch;
-    PetscCall(SolveSingularMassProblem(accelerations_, &solved, &mismatch));
-    if (solved) reason = SNES_CONVERGED_FNORM_ABS;
-  }
-  if (reason > 0) {
+  if (solved) {
     PetscCall(assembler.SetIncrements(accelerations_));
     // The joints' mean rates over the step stay what the history reports.
     if (map_->global_count.joints > 0) PetscCall(assembler.EvaluateJointReactions(0.0, true));
@@ -362,7 +379,7 @@ PetscErrorCode Integrator::ConsistentReactions(double t)
       PetscCall(PetscPrintf(comm_,
                             "msflex: warning: the consistent reactions at t = %.9g could not be solved (%s); the scheme's are reported there and "
                             "wherever this recurs (analysis.reactions, docs/joints.md)\n",
-                            t, SNESConvergedReasons[reason]));
+                            t, "DIVERGED_LINEAR_SOLVE"));
   }
   assembler.DiscardStep();
   ForgetKeptTangent();
@@ -485,6 +502,9 @@ PetscErrorCode Integrator::UsePivotingLU()
   bool switched;
   PetscFunctionBeginUser;
   PetscCall(NewtonUsePivotingLU(snes_, &newton_context_, &switched));
+  // Recorded whether Newton's own LU changed or not (it may not be banded, under -pc_type): the
+  // path follower's corrector, which asked, follows the flag after a restart (PathFollower::Correct).
+  newton_context_.pivoting_lu_forced = true;
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 

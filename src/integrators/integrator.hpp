@@ -158,7 +158,12 @@ private:
   // also carry the mass beyond it): MUMPS with null-pivot detection, one unknown of each massless
   // motion held at zero acceleration. *mismatch: |M a - f| / |f|, above round-off where the part
   // without mass is not in equilibrium (the equations then have no solution). Collective.
-  PetscErrorCode           SolveSingularMassProblem(Vec accelerations, bool *solved, double *mismatch);
+  PetscErrorCode SolveSingularMassProblem(Vec accelerations, bool *solved, double *mismatch, PetscInt *null_pivots);
+  // The accelerations of the initial-acceleration problem set up in the Assembler, into
+  // `accelerations`: by Newton's solver, where it fails (or the mass matrix was found singular) by
+  // SolveSingularMassProblem, and then (hand_over) by MUMPS after the banded LU hands the run over.
+  // *singular_mismatch: SolveSingularMassProblem's, 0 otherwise. Collective.
+  PetscErrorCode           SolveAccelerations(Vec accelerations, bool hand_over, bool *solved, double *singular_mismatch);
   PetscErrorCode           WarnIfMasslessOutOfEquilibrium(double t, double singular_mismatch);
   KSP                      null_pivot_ksp_    = nullptr; // SolveSingularMassProblem's, kept
   Mat                      null_pivot_matrix_ = nullptr;
