@@ -335,11 +335,14 @@ PetscErrorCode WarnEnergyGrowth(Analysis &a)
   const std::string scale =
       initial > 0 ? Format("%.3g J, %.3g times the initial total energy of %.4g J", a.summary.EnergyGrowth(), a.summary.EnergyGrowth() / initial, initial)
                   : Format("%.3g J, %.3g times the largest total energy", a.summary.EnergyGrowth(), growth);
+  // newmark has no spectral radius to lower (it ignores -analysis_spectral_radius): genalpha does.
+  const bool newmark = a.model.analysis.integrator == TimeSchemeKind::Newmark;
   PetscCall(PetscFPrintf(a.comm, PETSC_STDERR,
                          "msflex: warning: the energy balance grew by %s: %s created energy (newmark and genalpha "
-                         "near rho_infinity = 1 are not energy-stable for rotating bodies and joints; em conserves energy, a smaller "
-                         "-analysis_spectral_radius damps it)\n",
-                         scale.c_str(), TimeSchemeName(a.model.analysis.integrator)));
+                         "near rho_infinity = 1 are not energy-stable for rotating bodies and joints; em conserves energy, %s)\n",
+                         scale.c_str(), TimeSchemeName(a.model.analysis.integrator),
+                         newmark ? "genalpha with a spectral radius below 1 (-analysis_integrator genalpha -analysis_spectral_radius 0.8) damps it"
+                                 : "a smaller -analysis_spectral_radius damps it"));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 

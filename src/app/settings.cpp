@@ -158,6 +158,9 @@ PetscErrorCode SettingsFromOptions(MPI_Comm comm, Model *model, RunOptions *opti
     a.control_dof = PathControlDof(control_dof);
     PetscCheck(a.control_dof >= 0, comm, PETSC_ERR_USER_INPUT, "option -analysis_control_dof must be one of ux, uy, uz, rx, ry, rz, tx, ty, tz, got '%s'",
                control_dof);
+    const std::string mismatch = PathControlDofMismatch(control_dof, !a.control_joint.empty());
+    PetscCheck(mismatch.empty() || (a.control_joint.empty() && a.control_node.empty()), comm, PETSC_ERR_USER_INPUT, "option -analysis_control_dof: %s",
+               mismatch.c_str());
   }
   {
     InputError error;

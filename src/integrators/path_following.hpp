@@ -58,6 +58,10 @@ struct CriticalPoint {
   double            load_factor   = NAN;
   int               step          = 0;
   PetscInt          pivots_before = -1, pivots_after = -1;
+  // The step's ends when the point could not be located within it (the lowest eigenvalue, which
+  // locates it, did not pass zero: a second critical point after a first); load_factor is then
+  // the step's middle.
+  double step_start = NAN, step_end = NAN;
 };
 
 class PathFollower {

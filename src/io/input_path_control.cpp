@@ -99,4 +99,14 @@ bool CheckAnalysisSettings(const Model &model, InputError *error)
 
 int PathControlDof(const std::string &name) { return input_detail::PathControlDofFromName(name); }
 
+std::string PathControlDofMismatch(const std::string &name, bool joint)
+{
+  if (joint && !name.empty() && name[0] == 'u')
+    return "'control_dof' " + input_detail::Quote(name) +
+           " names a node's DOF; a joint's coordinates are tx, ty, tz (along its axes a1, a2, a3) and rx, ry, rz";
+  if (!joint && !name.empty() && name[0] == 't')
+    return "'control_dof' " + input_detail::Quote(name) + " names a joint's coordinate; a node's DOFs are ux, uy, uz, rx, ry, rz (global axes)";
+  return "";
+}
+
 } // namespace msflex

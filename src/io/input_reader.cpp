@@ -612,6 +612,9 @@ void ReadPathFollowing(const MappingReader &entry, const ReaderContext &context,
     analysis.control_dof   = PathControlDofFromName(name);
     if (analysis.control_dof < 0)
       FailAt(value->Mark(), "unknown 'control_dof' " + Quote(name) + "; expected ux, uy, uz, rx, ry, rz (a node) or tx, ty, tz, rx, ry, rz (a joint)");
+    if (const std::string mismatch = PathControlDofMismatch(name, !analysis.control_joint.empty());
+        !mismatch.empty() && (entry.Has("control_joint") || entry.Has("control_node")))
+      FailAt(value->Mark(), mismatch);
   }
   analysis.control_value = entry.Number("control_value", analysis.control_value);
   if (analysis.control_value == 0.0) FailAt(entry.Required("control_value").Mark(), "'control_value' must not be zero");

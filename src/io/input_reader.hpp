@@ -43,5 +43,8 @@ bool CheckModelForAnalysisType(const Model &model, AnalysisType type, bool prelo
 bool CheckAnalysisSettings(const Model &model, InputError *error);
 // ux uy uz rx ry rz (a node's DOF) or tx ty tz rx ry rz (a joint's coordinate) -> 0..5; else -1.
 int PathControlDof(const std::string &name);
+// "" when `name` (a control_dof) fits what is controlled (a joint: tx ty tz rx ry rz; a node: ux uy
+// uz rx ry rz), else why not: a joint's ux drove its translation along a1 without a word.
+std::string PathControlDofMismatch(const std::string &name, bool joint);
 
 } // namespace msflex

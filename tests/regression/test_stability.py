@@ -100,6 +100,35 @@ reported = h["load_factor"] if "load_factor" in h else []
 check.equal("coarse clamped column: buckling loads reported", len(reported), 0)
 check.true("coarse clamped column: the run says it found none", "0 buckling loads found" in stdout)
 
+# A column on a hinge held by a torsion spring (k = 1; EI = 1, L = 1), pressed by a tip force with
+# a lateral part of 0.3 %: a monotone path without critical point. Load steps of 0.2 step past the
+# buckling load of the perfect column (0.7402) onto the unstable branch, bent against the lateral
+# load: a jump, which the run called a limit point at 0.7405. Steps of 0.05 follow the path.
+COLUMN = ("sections: [{{name: s, EA: 1.0e7, GA2: 1.0e7, GA3: 1.0e7, GJ: 1.0, EI2: 1.0, EI3: 1.0}}]\n"
+          "nodes: {{root: [0, 0, 0], tip: [0, 1, 0]}}\nbeams: [{{name: col, section: s, from: root, to: tip, elements: 16, order: 2}}]\n"
+          "joints: [{{name: hinge, type: revolute, master: ground, slave: root, axis: [0, 0, 1]}}]\n"
+          "force_elements: [{{name: spring, type: coordinate, joint: hinge, coordinate: rotation, stiffness: {k}}}]\n"
+          "loads: [{{nodes: tip, force: [{lateral}, -1.0, 0]}}]\nprobes: [{{name: tip, node: tip}}]\n"
+          "analysis: {{type: static, initial_step: {step}, max_step: {step}, end_time: {end}}}\n")
+for step, jumps in ((0.2, True), (0.05, False)):
+    with open(f"{args.work_dir}/eccentric_column.yaml", "w") as f:
+        f.write(COLUMN.format(k=1.0, lateral=0.003, step=step, end=1.2))
+    _, stdout, _ = mt.run_msflex(args, f"{args.work_dir}/eccentric_column.yaml", f"{args.work_dir}/eccentric_column.h5")
+    h = mt.history(f"{args.work_dir}/eccentric_column.h5")
+    label = f"eccentric column, load steps of {step}"
+    check.true(f"{label}: {'a jump onto an unstable equilibrium' if jumps else 'no critical point'} ({h['critical_point'].tolist()})",
+               (3 in h["critical_point"].tolist() and "an unstable equilibrium" in stdout) if jumps else not np.any(h["critical_point"] > 0))
+    check.true(f"{label}: no limit point reported", "limit point" not in stdout)
+# The same column centred, k = 10: the in-plane bifurcation at alpha L tan(alpha L) = k L / EI
+# (lambda = 2.0417) is located, the out-of-plane one (pi^2 EI / 4 L^2 = 2.4674, the lowest
+# eigenvalue negative since the first) is said to lie in its step (it was reported at the step's
+# middle, 2.45, as if located).
+with open(f"{args.work_dir}/centred_column.yaml", "w") as f:
+    f.write(COLUMN.format(k=10.0, lateral=0, step=0.1, end=2.6))
+_, stdout, _ = mt.run_msflex(args, f"{args.work_dir}/centred_column.yaml", f"{args.work_dir}/centred_column.h5")
+check.true("centred column: the in-plane bifurcation located at 2.0417", "bifurcation point at lambda = 2.0416" in stdout or "bifurcation point at lambda = 2.0417" in stdout)
+check.true("centred column: the out-of-plane one placed in its step", "bifurcation point between lambda = 2.4 and 2.5 (negative pivots 1 -> 2)" in stdout)
+
 # An inverted pendulum of rigid parts: a body 0.3 above a hinge held by a torsion spring k = 50
 # under its weight m g = 2 x 9.81. The weight deforms nothing (u' = K^-1 q = 0: no moment about the
 # upright hinge), but its moment grows as the offset turns (the load's stiffness -m g d): buckling
