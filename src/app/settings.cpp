@@ -159,7 +159,8 @@ PetscErrorCode SettingsFromOptions(MPI_Comm comm, Model *model, RunOptions *opti
     PetscCheck(a.control_dof >= 0, comm, PETSC_ERR_USER_INPUT, "option -analysis_control_dof must be one of ux, uy, uz, rx, ry, rz, tx, ty, tz, got '%s'",
                control_dof);
     const std::string mismatch = PathControlDofMismatch(control_dof, !a.control_joint.empty());
-    PetscCheck(mismatch.empty() || (a.control_joint.empty() && a.control_node.empty()), comm, PETSC_ERR_USER_INPUT, "option -analysis_control_dof: %s",
+    // (Both or neither controlled: the analysis check names that instead.)
+    PetscCheck(mismatch.empty() || a.control_joint.empty() == a.control_node.empty(), comm, PETSC_ERR_USER_INPUT, "option -analysis_control_dof: %s",
                mismatch.c_str());
   }
   {

@@ -613,7 +613,7 @@ void ReadPathFollowing(const MappingReader &entry, const ReaderContext &context,
     if (analysis.control_dof < 0)
       FailAt(value->Mark(), "unknown 'control_dof' " + Quote(name) + "; expected ux, uy, uz, rx, ry, rz (a node) or tx, ty, tz, rx, ry, rz (a joint)");
     if (const std::string mismatch = PathControlDofMismatch(name, !analysis.control_joint.empty());
-        !mismatch.empty() && (entry.Has("control_joint") || entry.Has("control_node")))
+        !mismatch.empty() && entry.Has("control_joint") != entry.Has("control_node"))
       FailAt(value->Mark(), mismatch);
   }
   analysis.control_value = entry.Number("control_value", analysis.control_value);
