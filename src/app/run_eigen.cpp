@@ -9,6 +9,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 namespace msflex {
 
@@ -153,9 +154,12 @@ PetscErrorCode RunEigenAnalysis(MPI_Comm comm, const Model &model, const DofMap 
     // u' = 0 (loads that deform nothing, as a weight above a hinge held by a spring): no strain rate,
     // but the loads' own stiffness (the weight's moment as its offset turns) may still buckle it.
     PetscCall(GeometricStiffness(system, model, map, lambda, direction, largest > 0 ? 1e-4 * length / largest : 1.0, B));
-    PetscReal load_stiffness;
+    // A K_sigma at K's round-off (a difference of two tangents that the loads do not change) is
+    // none: it would end in "0 buckling loads found" rather than in this line.
+    PetscReal load_stiffness, stiffness;
     PetscCall(MatNorm(B, NORM_INFINITY, &load_stiffness));
-    PetscCheck(load_stiffness > 0, comm, PETSC_ERR_USER_INPUT,
+    PetscCall(MatNorm(K, NORM_INFINITY, &stiffness));
+    PetscCheck(load_stiffness > 1e3 * std::numeric_limits<double>::epsilon() * stiffness, comm, PETSC_ERR_USER_INPUT,
                "buckling analysis: the loads neither deform the structure nor change its stiffness (no loads?)");
     PetscCall(ConvertForCholesky(&K, &B));
     PetscCall(SolveBucklingModes(K, B, count, &pairs));
