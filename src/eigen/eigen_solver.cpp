@@ -413,13 +413,25 @@ PetscErrorCode SolveModes(Mat K, Mat M, int count, double shift, EigenPairs *pai
     PetscCall(SolveModesAt(K, M, count, roundoff_shift, pairs, &failed));
     if (pairs->stopped_by_signal) PetscFunctionReturn(PETSC_SUCCESS);
   }
-  double largest = 0.0, worst_error = 0.0;
-  for (size_t k = 0; k < pairs->values.size(); ++k)
-    largest = std::max(largest, std::abs(pairs->values[k])), worst_error = std::max(worst_error, pairs->backward_errors[k]);
+  double worst_error = 0.0;
+  for (size_t k = 0; k < pairs->values.size(); ++k) worst_error = std::max(worst_error, pairs->backward_errors[k]);
+  // Rigid: an eigenvalue at its own round-off, kRigidRoundoffFactor eps max_i |K_ii| |phi|^2 (as
+  // SolveVibrationModes classifies them), or below the round-off shift. (1e-6 of the largest found
+  // took a slow elastic mode for rigid: a spring-mass of omega^2 = 1e-4 beside one of 1e6, and the
+  // second solve's shift, -1e-2 of the latter, then made it rigid for good.)
+  Vec       diagonal;
+  PetscReal largest_diagonal;
+  PetscCall(MatCreateVecs(K, &diagonal, nullptr));
+  PetscCall(MatGetDiagonal(K, diagonal));
+  PetscCall(VecNorm(diagonal, NORM_INFINITY, &largest_diagonal));
+  PetscCall(VecDestroy(&diagonal));
   double first_elastic = NAN;
   bool   rigid         = false;
-  for (double value : pairs->values) {
-    if (std::abs(value) <= std::max(1e-6 * largest, std::abs(roundoff_shift))) rigid = true;
+  for (size_t k = 0; k < pairs->values.size(); ++k) {
+    PetscReal length;
+    PetscCall(VecNorm(pairs->vectors[k], NORM_2, &length));
+    const double value = pairs->values[k], level = kRigidRoundoffFactor * std::numeric_limits<double>::epsilon() * largest_diagonal * length * length;
+    if (std::abs(value) <= std::max(level, std::abs(roundoff_shift))) rigid = true;
     else if (std::isnan(first_elastic) && value > 0) first_elastic = value;
   }
   const bool complete = !failed && (int)pairs->values.size() == count && worst_error <= 1e-8;

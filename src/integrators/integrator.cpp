@@ -2,6 +2,8 @@
 
 #include <petscblaslapack.h>
 
+#include <limits>
+
 #include "core/errors.hpp"
 #include "core/format.hpp"
 
@@ -175,7 +177,9 @@ PetscErrorCode Integrator::SolveSingularMassProblem(Vec accelerations, bool *sol
     std::vector<PetscReal> singular((size_t)n);
     lwork = 5 * m_blas + 64;
     std::vector<PetscScalar> work((size_t)lwork);
-    const PetscReal          rcond = 1e-12; // singular values below this fraction of the largest count as zero
+    // Singular values below this fraction of the largest count as zero: round-off, 10 n eps (1e-12
+    // zeroed a genuine light body, 1e-7 kg beside 1e6 kg).
+    const PetscReal rcond = 10.0 * (PetscReal)n * std::numeric_limits<PetscReal>::epsilon();
     PetscCallBLAS("LAPACKgelss", LAPACKgelss_(&m_blas, &m_blas, &one, dense_work_.data(), &lda_blas, solution, &m_blas, singular.data(), &rcond, &rank,
                                               work.data(), &lwork, &info));
     PetscCall(VecRestoreArray(accelerations, &solution));

@@ -138,6 +138,18 @@ for name, text, modes in (("free_body", "nodes: {b: [1, 0, 0]}\n", 6),
     check.true(f"{name}: {modes} modes, every one rigid ({h['rigid_mode'].tolist()})", h["rigid_mode"].tolist() == [1] * modes)
     check.less(f"{name}: largest backward error", float(np.max(h["backward_error"])), 1e-12)
 
+# Two separate spring-mass slides, omega^2 = 1e-8 and 1e6: both elastic. 1e-6 of the largest
+# eigenvalue found took the slow one for rigid (frequency 0, rigid_mode 1).
+with open(f"{args.work_dir}/slow_and_fast.yaml", "w") as f:
+    f.write("nodes: {a: [1, 0, 0], b: [2, 0, 0]}\n"
+            "rigid_bodies: [{node: a, mass: 1.0e4, inertia: [1, 1, 1]}, {node: b, mass: 1.0, inertia: [1, 1, 1]}]\n"
+            "joints: [{name: ja, type: prismatic, master: ground, slave: a, axis: [1, 0, 0]}, {name: jb, type: prismatic, master: ground, slave: b, axis: [1, 0, 0]}]\n"
+            "force_elements: [{name: ka, type: coordinate, joint: ja, coordinate: tx, stiffness: 1.0e-4}, {name: kb, type: coordinate, joint: jb, coordinate: tx, stiffness: 1.0e6}]\n"
+            "analysis: {type: modes, eigenvalues: 2}\n")
+h = mt.history(run("slow_and_fast", f"{args.work_dir}/slow_and_fast.yaml", ranks=1))
+check.true(f"slow and fast slides: no mode rigid ({h['rigid_mode'].tolist()})", h["rigid_mode"].tolist() == [0, 0])
+check.less("slow and fast slides: largest |omega^2 / (k/m) - 1|", float(np.max(np.abs(h["eigenvalue"] / np.array([1e-8, 1e6]) - 1))), 1e-9)
+
 # Preloaded beam: tension, and compression by half the Euler load of the weak axis.
 euler = math.pi**2 * EI2 / L**2
 tension_input = f"{inputs}/tension_modes.yaml"

@@ -128,6 +128,10 @@ with open(f"{args.work_dir}/centred_column.yaml", "w") as f:
 _, stdout, _ = mt.run_msflex(args, f"{args.work_dir}/centred_column.yaml", f"{args.work_dir}/centred_column.h5")
 check.true("centred column: the in-plane bifurcation located at 2.0417", "bifurcation point at lambda = 2.0416" in stdout or "bifurcation point at lambda = 2.0417" in stdout)
 check.true("centred column: the out-of-plane one placed in its step", "bifurcation point between lambda = 2.4 and 2.5 (negative pivots 1 -> 2)" in stdout)
+# Both in one step of 0.65: one point named, and the line says the step holds two.
+_, stdout, _ = mt.run_msflex(args, f"{args.work_dir}/centred_column.yaml", f"{args.work_dir}/centred_column.h5",
+                             extra=["-analysis_initial_step", "0.65", "-analysis_max_step", "0.65"])
+check.true("centred column in steps of 0.65: two critical points said to lie in the step", "(negative pivots 0 -> 2): 2 critical points in this step" in stdout)
 
 # An inverted pendulum of rigid parts: a body 0.3 above a hinge held by a torsion spring k = 50
 # under its weight m g = 2 x 9.81. The weight deforms nothing (u' = K^-1 q = 0: no moment about the
