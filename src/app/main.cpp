@@ -238,7 +238,7 @@ static PetscErrorCode RunMsflex(int argc, char **argv, RunEnd *end)
   PetscReal read_timeout = 30.0; // seconds; core/hdf5_files.hpp
   PetscCall(PetscOptionsGetReal(nullptr, nullptr, "-file_read_timeout", &read_timeout, nullptr));
   PetscCheck(read_timeout > 0 && std::isfinite(read_timeout), comm, PETSC_ERR_USER_INPUT,
-             "option -file_read_timeout must be a positive number of seconds, got %g", (double)read_timeout);
+             "bad option: -file_read_timeout must be a positive number of seconds, got %g", (double)read_timeout);
   SetVariableStringReadTimeout(read_timeout);
   Model            model;
   CheckpointRun    run;

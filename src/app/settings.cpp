@@ -203,7 +203,8 @@ PetscErrorCode SettingsFromOptions(MPI_Comm comm, Model *model, RunOptions *opti
   PetscCheck(a.initial_step <= a.max_step, comm, PETSC_ERR_USER_INPUT, "initial_step %.6g is larger than max_step %.6g", a.initial_step, a.max_step);
   PetscCheck(std::isfinite(a.newton_atol) && a.newton_atol >= 0, comm, PETSC_ERR_USER_INPUT, "option -analysis_newton_atol must be >= 0, got %.6g",
              a.newton_atol);
-  PetscCheck(a.max_rotation_increment < M_PI, comm, PETSC_ERR_USER_INPUT, "max_rotation_increment must be below pi, got %.6g", a.max_rotation_increment);
+  PetscCheck(a.max_rotation_increment < M_PI, comm, PETSC_ERR_USER_INPUT,
+             "option -analysis_max_rotation_increment (max_rotation_increment) must be below pi, got %.6g", a.max_rotation_increment);
   // A run shortened with -analysis_end_time keeps the output times it still reaches.
   a.output_times.erase(std::remove_if(a.output_times.begin(), a.output_times.end(), [&a](double t) { return t > a.end_time; }), a.output_times.end());
   PetscCheck(a.control != PathControl::ArcLength || a.output_times.empty(), comm, PETSC_ERR_USER_INPUT,

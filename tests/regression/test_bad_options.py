@@ -40,7 +40,9 @@ cases = [(bend, ["-analysis_end_time", "abc"], "-analysis_end_time: 'abc' is not
          # PETSc's own conversions name the value alone ("Input string abc has no integer value"):
          # the option is named in front
          (bend, ["-snes_max_it", "abc"], "-snes_max_it abc: Input string abc has no integer value"),
-         (bend, ["-jacobian_dense_below", "abc"], "-jacobian_dense_below abc: Input string abc has no integer value")]
+         (bend, ["-jacobian_dense_below", "abc"], "-jacobian_dense_below abc: Input string abc has no integer value"),
+         (bend, ["-analysis_max_rotation_increment", "4"], "-analysis_max_rotation_increment (max_rotation_increment) must be below pi, got 4"),
+         (bend, ["-file_read_timeout", "-1"], "-file_read_timeout must be a positive number of seconds, got -1")]
 for source, options, expected in cases:
     for ranks in sorted({1, args.np}):
         output = f"{args.work_dir}/never_written.h5"
