@@ -79,4 +79,18 @@ for ranks in sorted({1, args.np}):
     check.less(f"{label}: |kinetic energy at t = 0 - 1 J|", abs(h["kinetic_energy"][0] - 1.0), 1e-14)
     check.less(f"{label}: largest |total energy - 1 J|", float(np.abs(h["total_energy"] - 1.0).max()), 1e-10)
     check.true(f"{label}: one line names the joint and the change", "changed by up to 1 (joint 'rail')" in stdout)
+# ... and "nearest" in the kinetic energy of the slave's body: a body (m = 1, J = 0.01) on a screw of
+# pitch p = 0.005 given v = 0.01 along the axis turns at m p v / (m p^2 + J) = 4.9875e-3 rad/s, the
+# same model in millimetres (pitch 5, v 10, J 1e4) alike (in the plain norm of the six velocities:
+# 5e-5 and 1.92 rad/s).
+for unit, scale in (("m", 1.0), ("mm", 1000.0)):
+    with open(f"{args.work_dir}/screw_{unit}.yaml", "w") as f:
+        f.write(f"nodes: {{s: [0, 0, 0]}}\nrigid_bodies: [{{node: s, mass: 1.0, inertia: [{0.01 * scale**2}, {0.01 * scale**2}, {0.01 * scale**2}]}}]\n"
+                f"joints: [{{name: sc, type: screw, master: ground, slave: s, axis: [1, 0, 0], pitch: {0.005 * scale}}}]\n"
+                f"initial_conditions: [{{nodes: s, velocity: [{0.01 * scale}, 0, 0]}}]\n"
+                "analysis: {type: dynamic, integrator: newmark, end_time: 0.002, initial_step: 0.001, max_step: 0.001, initial_velocities: given}\n")
+    output = f"{args.work_dir}/screw_{unit}.h5"
+    mt.run_msflex(args, f"{args.work_dir}/screw_{unit}.yaml", output, extra=["-quiet"])
+    rate = float(mt.history(output)["sc.rx_rate"][0])
+    check.less(f"given velocity along a screw, in {unit}: |rate / (m p v / (m p^2 + J)) - 1|", abs(rate / (0.005 * 0.01 / (0.005**2 + 0.01)) - 1), 1e-12)
 check.finish()
