@@ -189,12 +189,14 @@ PetscErrorCode RunEigenAnalysis(MPI_Comm comm, const Model &model, const DofMap 
                                          : "\n  mode  eigenvalue (rad/s)^2  frequency (Hz)       backward error\n"));
   }
   PetscCall(WriteShapeFrame(comm, model, map, integrator, output, lambda, nullptr, 0));
+  int unstable = 0; // modes with a negative eigenvalue beyond the rigid level
   for (size_t k = 0; k < pairs.values.size(); ++k) {
     const int    number = (int)k + 1;
     const double value = pairs.values[k], error = pairs.backward_errors[k];
     // A rigid mode (a mechanism's free motion) has lambda at round-off.
-    const bool               rigid  = !buckling && std::abs(value) <= pairs.zero_levels[k];
-    const double             omega  = !buckling && value > 0 && !rigid ? std::sqrt(value) : 0.0;
+    const bool   rigid = !buckling && std::abs(value) <= pairs.zero_levels[k];
+    const double omega = !buckling && value > 0 && !rigid ? std::sqrt(value) : 0.0;
+    unstable += !buckling && !rigid && value < 0;
     std::vector<std::string> names  = {"time", "step", "mode"};
     std::vector<double>      values = {(double)number, (double)number, (double)number};
     if (buckling) {
@@ -220,8 +222,6 @@ PetscErrorCode RunEigenAnalysis(MPI_Comm comm, const Model &model, const DofMap 
   }
   // Negative eigenvalues beyond the rigid level: the state is not stable (a preload beyond a
   // critical load); their frequency is written as 0, which read like a rigid mode's.
-  int unstable = 0;
-  for (size_t k = 0; k < pairs.values.size() && !buckling; ++k) unstable += pairs.values[k] < 0 && std::abs(pairs.values[k]) > pairs.zero_levels[k];
   if (unstable > 0 && !quiet)
     PetscCall(PetscPrintf(comm,
                           "msflex: warning: %d mode(s) with a negative eigenvalue: the %s at load factor %.6g is unstable (a preload beyond a critical load?); "

@@ -295,6 +295,27 @@ PetscErrorCode DiagonalRatio(Mat K, Mat M, double *ratio)
 
 PetscErrorCode SolveModes(Mat K, Mat M, int count, double shift, EigenPairs *pairs);
 
+// Per pair, its eigenvalue's own round-off, kRigidRoundoffFactor eps max_i |K_ii| |phi|^2: a
+// backward-stable solve perturbs K by about eps ||K||, which moves lambda = phi^T K phi by
+// eps ||K|| |phi|^2 (EigenPairs::zero_levels). Collective.
+PetscErrorCode RoundoffLevels(Mat K, const EigenPairs &pairs, std::vector<double> *levels)
+{
+  Vec       diagonal;
+  PetscReal largest_diagonal;
+  PetscFunctionBeginUser;
+  PetscCall(MatCreateVecs(K, &diagonal, nullptr));
+  PetscCall(MatGetDiagonal(K, diagonal));
+  PetscCall(VecNorm(diagonal, NORM_INFINITY, &largest_diagonal));
+  PetscCall(VecDestroy(&diagonal));
+  levels->clear();
+  for (Vec phi : pairs.vectors) {
+    PetscReal length;
+    PetscCall(VecNorm(phi, NORM_2, &length));
+    levels->push_back(kRigidRoundoffFactor * std::numeric_limits<double>::epsilon() * largest_diagonal * length * length);
+  }
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
 } // namespace
 
 PetscErrorCode EigenInitialize()
@@ -363,21 +384,10 @@ PetscErrorCode EigenPairsDestroy(EigenPairs *pairs)
 
 PetscErrorCode SolveVibrationModes(Mat K, Mat M, int count, double shift, EigenPairs *pairs)
 {
-  Vec       diagonal;
-  PetscReal largest_diagonal;
   PetscFunctionBeginUser;
   PetscCall(SolveModes(K, M, count, shift, pairs));
-  PetscCall(MatCreateVecs(K, &diagonal, nullptr));
-  PetscCall(MatGetDiagonal(K, diagonal));
-  PetscCall(VecNorm(diagonal, NORM_INFINITY, &largest_diagonal));
-  PetscCall(VecDestroy(&diagonal));
-  pairs->zero_levels.clear();
-  for (Vec phi : pairs->vectors) {
-    PetscReal length;
-    PetscCall(VecNorm(phi, NORM_2, &length));
-    pairs->zero_levels.push_back(
-        std::max(1e-6 * std::abs(pairs->shift), kRigidRoundoffFactor * std::numeric_limits<double>::epsilon() * largest_diagonal * length * length));
-  }
+  PetscCall(RoundoffLevels(K, *pairs, &pairs->zero_levels));
+  for (double &level : pairs->zero_levels) level = std::max(1e-6 * std::abs(pairs->shift), level);
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
@@ -419,19 +429,13 @@ PetscErrorCode SolveModes(Mat K, Mat M, int count, double shift, EigenPairs *pai
   // SolveVibrationModes classifies them), or below the round-off shift. (1e-6 of the largest found
   // took a slow elastic mode for rigid: a spring-mass of omega^2 = 1e-4 beside one of 1e6, and the
   // second solve's shift, -1e-2 of the latter, then made it rigid for good.)
-  Vec       diagonal;
-  PetscReal largest_diagonal;
-  PetscCall(MatCreateVecs(K, &diagonal, nullptr));
-  PetscCall(MatGetDiagonal(K, diagonal));
-  PetscCall(VecNorm(diagonal, NORM_INFINITY, &largest_diagonal));
-  PetscCall(VecDestroy(&diagonal));
+  std::vector<double> levels;
+  PetscCall(RoundoffLevels(K, *pairs, &levels));
   double first_elastic = NAN;
   bool   rigid         = false;
   for (size_t k = 0; k < pairs->values.size(); ++k) {
-    PetscReal length;
-    PetscCall(VecNorm(pairs->vectors[k], NORM_2, &length));
-    const double value = pairs->values[k], level = kRigidRoundoffFactor * std::numeric_limits<double>::epsilon() * largest_diagonal * length * length;
-    if (std::abs(value) <= std::max(level, std::abs(roundoff_shift))) rigid = true;
+    const double value = pairs->values[k];
+    if (std::abs(value) <= std::max(levels[k], std::abs(roundoff_shift))) rigid = true;
     else if (std::isnan(first_elastic) && value > 0) first_elastic = value;
   }
   const bool complete = !failed && (int)pairs->values.size() == count && worst_error <= 1e-8;

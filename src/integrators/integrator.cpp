@@ -15,6 +15,8 @@ Integrator::~Integrator()
   VecDestroy(&accelerations_);
   KSPDestroy(&null_pivot_ksp_);
   MatDestroy(&null_pivot_matrix_);
+  VecDestroy(&mass_forces_);
+  VecDestroy(&mass_check_);
   SNESDestroy(&snes_);
   VecDestroy(&newton_context_.rank_one_solution);
 }
@@ -136,68 +138,70 @@ PetscErrorCode Integrator::SolveAccelerations(Vec accelerations, bool hand_over,
 
 PetscErrorCode Integrator::SolveSingularMassProblem(Vec accelerations, bool *solved, double *mismatch, PetscInt *null_pivots)
 {
-  Mat                jacobian, preconditioner, aij, factor;
-  Vec                forces, check;
-  KSP                ksp;
-  PC                 pc;
-  KSPConvergedReason reason;
-  PetscReal          force_norm, check_norm;
+  Mat jacobian, preconditioner;
   PetscFunctionBeginUser;
   *solved      = false;
   *mismatch    = NAN;
   *null_pivots = 0;
-  // The problem is linear in the accelerations: M a = f with f = -r(0), M its tangent.
-  PetscCall(VecDuplicate(accelerations, &forces));
-  PetscCall(VecDuplicate(accelerations, &check));
+  // The problem is linear in the accelerations: M a = f with f = -r(0), M its tangent. (The
+  // vectors are kept: the consistent reactions solve it at every step.)
+  if (!mass_forces_) PetscCall(VecDuplicate(accelerations, &mass_forces_));
+  if (!mass_check_) PetscCall(VecDuplicate(accelerations, &mass_check_));
   PetscCall(VecZeroEntries(accelerations));
-  PetscCall(SNESComputeFunction(snes_, accelerations, forces));
-  PetscCall(VecScale(forces, -1.0));
+  PetscCall(SNESComputeFunction(snes_, accelerations, mass_forces_));
+  PetscCall(VecScale(mass_forces_, -1.0));
   PetscCall(SNESGetJacobian(snes_, &jacobian, &preconditioner, nullptr, nullptr));
   PetscCall(SNESComputeJacobian(snes_, accelerations, jacobian, preconditioner));
+  // |M a - f| / |f| of the solution found (by either solver below).
+  const auto measure = [&](Mat M) -> PetscErrorCode {
+    PetscReal force_norm, check_norm;
+    PetscFunctionBeginUser;
+    PetscCall(MatMult(M, accelerations, mass_check_));
+    PetscCall(VecAXPY(mass_check_, -1.0, mass_forces_));
+    PetscCall(VecNorm(mass_check_, NORM_2, &check_norm));
+    PetscCall(VecNorm(mass_forces_, NORM_2, &force_norm));
+    *solved   = std::isfinite(check_norm);
+    *mismatch = force_norm > 0 ? check_norm / force_norm : 0.0;
+    PetscFunctionReturn(PETSC_SUCCESS);
+  };
   PetscBool dense;
   PetscCall(PetscObjectTypeCompare((PetscObject)jacobian, MATSEQDENSE, &dense));
   if (dense) {
     // A dense tangent (a small model on one rank): LAPACK's least-squares solution of least norm,
     // M^+ f, by the singular values (gelss): no acceleration along the motions without mass. A
     // MUMPS factorisation of such a matrix cost 130 us a step.
-    PetscInt n;
-    PetscCall(MatGetSize(jacobian, &n, nullptr));
+    PetscInt           n, lda;
     const PetscScalar *values;
-    PetscInt           lda;
+    PetscCall(MatGetSize(jacobian, &n, nullptr));
     PetscCall(MatDenseGetLDA(jacobian, &lda));
     PetscCall(MatDenseGetArrayRead(jacobian, &values));
     dense_work_.assign(values, values + (size_t)lda * (size_t)n); // column-major, as LAPACK takes it
     PetscCall(MatDenseRestoreArrayRead(jacobian, &values));
-    PetscScalar *solution;
-    PetscCall(VecCopy(forces, accelerations));
-    PetscCall(VecGetArray(accelerations, &solution));
     PetscBLASInt m_blas, lda_blas, one = 1, rank = 0, info = 0, lwork;
     PetscCall(PetscBLASIntCast(n, &m_blas));
     PetscCall(PetscBLASIntCast(lda, &lda_blas));
-    std::vector<PetscReal> singular((size_t)n);
     lwork = 5 * m_blas + 64;
-    std::vector<PetscScalar> work((size_t)lwork);
+    dense_singular_values_.resize((size_t)n);
+    dense_lapack_work_.resize((size_t)lwork);
     // Singular values below this fraction of the largest count as zero: round-off, 10 n eps (1e-12
     // zeroed a genuine light body, 1e-7 kg beside 1e6 kg).
     const PetscReal rcond = 10.0 * (PetscReal)n * std::numeric_limits<PetscReal>::epsilon();
-    PetscCallBLAS("LAPACKgelss", LAPACKgelss_(&m_blas, &m_blas, &one, dense_work_.data(), &lda_blas, solution, &m_blas, singular.data(), &rcond, &rank,
-                                              work.data(), &lwork, &info));
+    PetscScalar    *solution;
+    PetscCall(VecCopy(mass_forces_, accelerations));
+    PetscCall(VecGetArray(accelerations, &solution));
+    PetscCallBLAS("LAPACKgelss", LAPACKgelss_(&m_blas, &m_blas, &one, dense_work_.data(), &lda_blas, solution, &m_blas, dense_singular_values_.data(), &rcond,
+                                              &rank, dense_lapack_work_.data(), &lwork, &info));
     PetscCall(VecRestoreArray(accelerations, &solution));
     if (info == 0) {
       *null_pivots = n - rank;
-      PetscCall(MatMult(jacobian, accelerations, check));
-      PetscCall(VecAXPY(check, -1.0, forces));
-      PetscCall(VecNorm(check, NORM_2, &check_norm));
-      PetscCall(VecNorm(forces, NORM_2, &force_norm));
-      *solved   = std::isfinite(check_norm);
-      *mismatch = force_norm > 0 ? check_norm / force_norm : 0.0;
+      PetscCall(measure(jacobian));
     }
-    PetscCall(VecDestroy(&forces));
-    PetscCall(VecDestroy(&check));
     PetscFunctionReturn(PETSC_SUCCESS);
   }
   // MUMPS takes AIJ (the tangent may be dense or blocked); the solver and its analysis are kept for
-  // the next solve (the consistent reactions solve one per step).
+  // the next solve.
+  PC  pc;
+  Mat factor;
   if (!null_pivot_ksp_) {
     PetscCall(MatConvert(jacobian, MATAIJ, MAT_INITIAL_MATRIX, &null_pivot_matrix_));
     PetscCall(KSPCreate(comm_, &null_pivot_ksp_));
@@ -212,33 +216,26 @@ PetscErrorCode Integrator::SolveSingularMassProblem(Vec accelerations, bool *sol
     // equation dropped, which for consistent equations leaves a solution of them all.
     PetscCall(MatMumpsSetIcntl(factor, 24, 1));
   } else PetscCall(MatConvert(jacobian, MATAIJ, MAT_REUSE_MATRIX, &null_pivot_matrix_));
-  ksp = null_pivot_ksp_;
-  aij = null_pivot_matrix_;
   PetscCall(PetscPushErrorHandler(PetscReturnErrorHandler, nullptr));
-  const PetscErrorCode code = KSPSolve(ksp, forces, accelerations);
+  const PetscErrorCode code = KSPSolve(null_pivot_ksp_, mass_forces_, accelerations);
   PetscCall(PetscPopErrorHandler());
   int mine = code != PETSC_SUCCESS, any = 0;
   PetscCallMPI(MPIU_Allreduce(&mine, &any, 1, MPI_INT, MPI_MAX, comm_));
-  if (!any) {
-    PetscCall(KSPGetConvergedReason(ksp, &reason));
-    PetscCall(MatMult(aij, accelerations, check));
-    PetscCall(VecAXPY(check, -1.0, forces));
-    PetscCall(VecNorm(check, NORM_2, &check_norm));
-    PetscCall(VecNorm(forces, NORM_2, &force_norm));
-    *solved       = reason > 0 && std::isfinite(check_norm);
-    *mismatch     = force_norm > 0 ? check_norm / force_norm : 0.0;
-    PetscInt null = 0;
-    PetscCall(KSPGetPC(ksp, &pc));
-    PetscCall(PCFactorGetMatrix(pc, &factor));
-    PetscCall(MatMumpsGetInfog(factor, 28, &null)); // the null pivots detected
-    *null_pivots = null;
-  } else {
+  if (any) {
     // A failed factorisation is not tried again with the same solver (MUMPS would skip it).
     PetscCall(KSPDestroy(&null_pivot_ksp_));
     PetscCall(MatDestroy(&null_pivot_matrix_));
+    PetscFunctionReturn(PETSC_SUCCESS);
   }
-  PetscCall(VecDestroy(&forces));
-  PetscCall(VecDestroy(&check));
+  KSPConvergedReason reason;
+  PetscInt           null = 0;
+  PetscCall(KSPGetConvergedReason(null_pivot_ksp_, &reason));
+  PetscCall(measure(null_pivot_matrix_));
+  *solved = *solved && reason > 0;
+  PetscCall(KSPGetPC(null_pivot_ksp_, &pc));
+  PetscCall(PCFactorGetMatrix(pc, &factor));
+  PetscCall(MatMumpsGetInfog(factor, 28, &null)); // the null pivots detected
+  *null_pivots = null;
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
@@ -381,9 +378,9 @@ PetscErrorCode Integrator::ConsistentReactions(double t)
     // The scheme's reactions stay; said once (a run that keeps failing here says it at the end).
     if (consistent_reaction_failures_++ == 0 && !quiet_)
       PetscCall(PetscPrintf(comm_,
-                            "msflex: warning: the consistent reactions at t = %.9g could not be solved (%s); the scheme's are reported there and "
-                            "wherever this recurs (analysis.reactions, docs/joints.md)\n",
-                            t, "DIVERGED_LINEAR_SOLVE"));
+                            "msflex: warning: the consistent reactions at t = %.9g could not be solved (DIVERGED_LINEAR_SOLVE); the scheme's are "
+                            "reported there and wherever this recurs (analysis.reactions, docs/joints.md)\n",
+                            t));
   }
   assembler.DiscardStep();
   ForgetKeptTangent();

@@ -155,9 +155,11 @@ private:
   PetscErrorCode ReportSlaveVelocityChange(const SlaveVelocityChange &change);
   // The accelerations of the initial-acceleration problem set up in the Assembler when its mass
   // matrix is singular without empty rows (a node without mass between joints, whose coordinates
-  // also carry the mass beyond it): MUMPS with null-pivot detection, one unknown of each massless
-  // motion held at zero acceleration. *mismatch: |M a - f| / |f|, above round-off where the part
-  // without mass is not in equilibrium (the equations then have no solution). Collective.
+  // also carry the mass beyond it): a dense tangent's least-squares solution of least norm
+  // (LAPACK gelss), else MUMPS with null-pivot detection, one unknown of each massless motion held
+  // at zero acceleration. *mismatch: |M a - f| / |f|, above round-off where the part without mass
+  // is not in equilibrium (the equations then have no solution); *null_pivots: the rank deficiency
+  // found. Collective.
   PetscErrorCode SolveSingularMassProblem(Vec accelerations, bool *solved, double *mismatch, PetscInt *null_pivots);
   // The accelerations of the initial-acceleration problem set up in the Assembler, into
   // `accelerations`: by Newton's solver, where it fails (or the mass matrix was found singular) by
@@ -167,8 +169,10 @@ private:
   PetscErrorCode           WarnIfMasslessOutOfEquilibrium(double t, double singular_mismatch);
   KSP                      null_pivot_ksp_    = nullptr; // SolveSingularMassProblem's, kept
   Mat                      null_pivot_matrix_ = nullptr;
-  bool                     singular_mass_     = false; // the mass matrix was found singular (ConsistentReactions)
-  std::vector<PetscScalar> dense_work_;                // SolveSingularMassProblem's copy of a dense mass matrix
+  bool                     singular_mass_     = false;                    // the mass matrix was found singular (ConsistentReactions)
+  Vec                      mass_forces_ = nullptr, mass_check_ = nullptr; // SolveSingularMassProblem's f and M a - f
+  std::vector<PetscScalar> dense_work_, dense_lapack_work_;               // its copy of a dense mass matrix, gelss's work
+  std::vector<PetscReal>   dense_singular_values_;
   PetscLogStage            solve_stage_ = -1;
   std::string              solver_error_; // the first message of an error raised inside SNESSolve (TryEquations)
   // The reactions at t_end from the accelerations that satisfy the equations of motion in the

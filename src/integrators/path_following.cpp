@@ -155,8 +155,9 @@ PetscErrorCode PathFollower::Linearize(double t, double lambda, double load_fact
   if (stability_ || control_ != PathControl::Load) {
     PetscBool ok;
     double    force_scale;
-    // In the stages of -log_view and the summary (Assembly, LinearSolve): the stability account's
-    // factorisation and solves were in Main Stage and "other", 0.40 of a 1.07 s run.
+    // In the stages of -log_view and the summary (Assembly, then LinearSolve for the factorisation
+    // and what is done with it): the stability account's work was in Main Stage and "other", 0.40
+    // of a 1.07 s run.
     PetscCall(PetscLogStagePush(integrator_->AssemblyStage()));
     PetscCall(EquilibriumTangent(system, lambda, tangent_));
     PetscCall(StaticResidual(system, lambda, lambda, nullptr, residual_, &ok, &force_scale));
@@ -164,13 +165,10 @@ PetscErrorCode PathFollower::Linearize(double t, double lambda, double load_fact
     PetscCall(PetscLogStagePop());
     PetscCall(PetscLogStagePush(integrator_->SolveStage()));
     PetscCall(factor_.Factor(tangent_, symmetry_tolerance_, &point_.inertia));
-    PetscCall(PetscLogStagePop());
     Assembler &assembler = system.GetAssembler();
     if (point_.inertia.factored) {
       PetscScalar c;
-      PetscCall(PetscLogStagePush(integrator_->SolveStage()));
       PetscCall(factor_.Solve(q_, path_tangent_));
-      PetscCall(PetscLogStagePop());
       PetscCall(assembler.ZeroRelayEntries(path_tangent_)); // the condensed rows of K^{-1} q are the condensed solve's
       PetscCall(VecDot(q_, path_tangent_, &c));
       if (std::isnan(c_0_)) {
@@ -196,14 +194,11 @@ PetscErrorCode PathFollower::Linearize(double t, double lambda, double load_fact
       }
       point_.stiffness_parameter = PetscRealPart(c) != 0.0 ? c_0_ / PetscRealPart(c) : NAN;
       PetscCall(LoadFactorRate());
-      if (stability_) {
-        PetscCall(PetscLogStagePush(integrator_->SolveStage()));
-        PetscCall(factor_.LowestEigenvalue(scale_, mode_, &point_.lowest_eigenvalue));
-        PetscCall(PetscLogStagePop());
-      }
+      if (stability_) PetscCall(factor_.LowestEigenvalue(scale_, mode_, &point_.lowest_eigenvalue));
       PetscCall(assembler.ZeroRelayEntries(mode_));
       tangent_ready_ = true;
     }
+    PetscCall(PetscLogStagePop());
   }
   recent_.push_back(point_);
   if (recent_.size() > 3) recent_.erase(recent_.begin());

@@ -111,6 +111,30 @@ Vec3 NodeTangentScaledIncrement(const StepEquations &equations, const NodeState 
 }
 
 // The rigid bodies' centre-of-mass velocities from their nodes' velocities at the start state.
+// A node's velocity and angular velocity, spatial.
+static Vec6 SpatialVelocity(const NodeState &s)
+{
+  Vec6 v;
+  v << s.translation_motion.velocity, QuaternionToMatrix(s.rotation_start) * s.rotation_motion.velocity;
+  return v;
+}
+
+// The kinetic energy of rigid bodies on a node as a quadratic form of its spatial velocity
+// (v, w): T = 1/2 sum m |v - c^ w|^2 + 1/2 w^T J_c w, c = R offset, J_c = R J R^T.
+static Eigen::Matrix<double, 6, 6> KineticEnergyMetric(const Model &model, const std::vector<int> &bodies, const Mat3 &R)
+{
+  Eigen::Matrix<double, 6, 6> W = Eigen::Matrix<double, 6, 6>::Zero();
+  for (int b : bodies) {
+    const RigidBody &body = model.rigid_bodies[b];
+    const Mat3       hat  = Skew(R * body.offset);
+    W.topLeftCorner<3, 3>() += body.mass * Mat3::Identity();
+    W.topRightCorner<3, 3>() -= body.mass * hat;
+    W.bottomLeftCorner<3, 3>() += body.mass * hat;
+    W.bottomRightCorner<3, 3>() += R * body.inertia * R.transpose() - body.mass * hat * hat;
+  }
+  return W;
+}
+
 static void SetBodyVelocities(State *state)
 {
   for (RigidBodyState &body : state->bodies) {
@@ -505,36 +529,20 @@ void StateSetCoordinateRates(const Model &model, const DofMap &map, double t, St
     const Joint &joint = model.joints[J.joint];
     const int    k     = JointNumCoordinates(J.geometry);
     // v_s - N_m v_m = N_q qdot (velocities of the slave and the master, spatial).
-    const NodeState &slave = state->nodes[J.local_slave];
-    Vec6             relative;
-    relative << slave.translation_motion.velocity, QuaternionToMatrix(slave.rotation_start) * slave.rotation_motion.velocity;
-    if (J.local_master >= 0) {
-      const NodeState &master = state->nodes[J.local_master];
-      Vec6             v_m;
-      v_m << master.translation_motion.velocity, QuaternionToMatrix(master.rotation_start) * master.rotation_motion.velocity;
-      relative -= J.map.leftCols<6>() * v_m;
-    }
-    Eigen::VectorXd rates = Eigen::VectorXd::Zero(k);
-    const bool      own   = own_velocity[joint.slave] != 0;
+    NodeState            &slave   = state->nodes[J.local_slave];
+    const Mat3            R       = QuaternionToMatrix(slave.rotation_start);
+    const Vec6            own_v   = SpatialVelocity(slave);
+    const Vec6            carried = J.local_master >= 0 ? Vec6(J.map.leftCols<6>() * SpatialVelocity(state->nodes[J.local_master])) : Vec6(Vec6::Zero());
+    const Eigen::MatrixXd N_q     = J.map.block(0, 6, 6, k);
+    Eigen::VectorXd       rates   = Eigen::VectorXd::Zero(k);
+    const bool            own     = own_velocity[joint.slave] != 0;
     if (k > 0 && own) { // a rigid joint releases nothing; a slave without a velocity of its own turns with nothing
-      const Eigen::MatrixXd N_q = J.map.block(0, 6, 6, k);
+      const Vec6 relative = own_v - carried;
       // "Nearest" in the kinetic energy of the slave's rigid bodies when it carries any: the same
       // motion in any unit of length (in the plain norm of the 6 velocities a screw of 5 mm
       // pitch given 10 mm/s along its axis turned at 5e-5 rad/s in metres, 1.92 in millimetres).
       // Without a body, or where the bodies' energy does not fix every rate, the plain norm.
-      Eigen::Matrix<double, 6, 6> W = Eigen::Matrix<double, 6, 6>::Zero();
-      const Mat3                  R = QuaternionToMatrix(slave.rotation_start);
-      for (int b : bodies_at[joint.slave]) {
-        // T = 1/2 m |v - c^ w|^2 + 1/2 w^T J_c w, c = R offset, J_c = R J R^T (spatial).
-        const RigidBody &body = model.rigid_bodies[b];
-        const Vec3       c    = R * body.offset;
-        Mat3             hat;
-        hat << 0, -c(2), c(1), c(2), 0, -c(0), -c(1), c(0), 0;
-        W.topLeftCorner<3, 3>() += body.mass * Mat3::Identity();
-        W.topRightCorner<3, 3>() += -body.mass * hat;
-        W.bottomLeftCorner<3, 3>() += body.mass * hat;
-        W.bottomRightCorner<3, 3>() += R * body.inertia * R.transpose() - body.mass * hat * hat;
-      }
+      const Eigen::Matrix<double, 6, 6>  W      = KineticEnergyMetric(model, bodies_at[joint.slave], R);
       const Eigen::MatrixXd              normal = N_q.transpose() * W * N_q;
       const Eigen::LDLT<Eigen::MatrixXd> ldlt(normal);
       const double                       scale = normal.diagonal().cwiseAbs().maxCoeff();
@@ -548,23 +556,14 @@ void StateSetCoordinateRates(const Model &model, const DofMap &map, double t, St
     if (joint.driven_coordinate >= 0) rates(joint.driven_coordinate) = DriveCoordinate(model, joint, t, 1), rate_given = true;
     for (int c = 0; c < kJointMaxReleased; ++c) J.coordinate_motion[c / 3].velocity(c % 3) = c < k ? rates(c) : 0.0;
     // The slave as the joint moves it: v_s = N_m v_m + N_q qdot.
-    NodeState &moved = state->nodes[J.local_slave];
-    Vec6       v_s   = J.map.block(0, 6, 6, k) * rates;
-    if (J.local_master >= 0) {
-      const NodeState &master = state->nodes[J.local_master];
-      Vec6             v_m;
-      v_m << master.translation_motion.velocity, QuaternionToMatrix(master.rotation_start) * master.rotation_motion.velocity;
-      v_s += J.map.leftCols<6>() * v_m;
-    }
+    const Vec6 v_s = N_q * rates + carried;
     // A slave's own velocity that its joint forbids, beyond what a rate given on purpose changes.
     if (own && !rate_given && largest_change) {
-      Vec6 given_velocity;
-      given_velocity << moved.translation_motion.velocity, QuaternionToMatrix(moved.rotation_start) * moved.rotation_motion.velocity;
-      const double change = (v_s - given_velocity).norm();
-      if (change > largest_change->largest) *largest_change = SlaveVelocityChange{change, given_velocity.norm(), J.joint};
+      const double change = (v_s - own_v).norm();
+      if (change > largest_change->largest) *largest_change = SlaveVelocityChange{change, own_v.norm(), J.joint};
     }
-    moved.translation_motion.velocity = v_s.head<3>();
-    moved.rotation_motion.velocity    = QuaternionToMatrix(moved.rotation_start).transpose() * Vec3(v_s.tail<3>());
+    slave.translation_motion.velocity = v_s.head<3>();
+    slave.rotation_motion.velocity    = R.transpose() * Vec3(v_s.tail<3>());
   }
   SetBodyVelocities(state);
 }
