@@ -1242,8 +1242,9 @@ PetscErrorCode OutputFile::Impl::WriteXdmfWhole()
 
 // Lists frames[frames_listed, end) by writing their grids and the tail again over the old tail, a
 // piece of about kXdmfPieceBytes per write at the tail's offset: what a killed process leaves is a
-// whole sidecar listing the frames of the pieces written. A sidecar changed by someone else since
-// the last flush takes a whole rewrite instead.
+// whole sidecar listing the frames of the pieces written. The first piece over a sidecar that
+// listed no frame is written from the start of the file, with the head that has the XIncludes.
+// A sidecar changed by someone else since the last flush takes a whole rewrite instead.
 PetscErrorCode OutputFile::Impl::AppendXdmf()
 {
   PetscFunctionBeginUser;
@@ -1254,39 +1255,47 @@ PetscErrorCode OutputFile::Impl::AppendXdmf()
   // whole (atomically, beside it) instead of writing into whatever the link names.
   int        fd     = ::open(xdmf_path.c_str(), O_WRONLY | O_NOFOLLOW);
   const bool intact = fd >= 0 && fstat(fd, &status) == 0 && (long long)status.st_size == xdmf_size && xdmf_size >= tail_size;
-  if (!intact || frames_listed == 0) {
+  if (!intact) {
     if (fd >= 0) ::close(fd);
-    // A sidecar that listed no frame has no XIncludes: rewritten whole with them, once, and with
-    // its first frame alone, the others appended below. Renamed over the old one, a file is
-    // written out by ext4 before the rename returns (auto_da_alloc): 7 ms for the 11 MB of 4000
-    // frames of the first flush of a long run, written whole.
-    frames_listed = intact ? 1 : frames.size();
+    frames_listed = frames.size();
     PetscCall(WriteXdmfWhole());
-    if (frames_listed == frames.size()) PetscFunctionReturn(PETSC_SUCCESS);
-    fd = ::open(xdmf_path.c_str(), O_WRONLY | O_NOFOLLOW);
-    PetscCheck(fd >= 0, PETSC_COMM_SELF, PETSC_ERR_FILE_WRITE, "cannot append to XDMF sidecar '%s': %s (it lists the first frame)", xdmf_path.c_str(),
-               std::strerror(errno));
+    PetscFunctionReturn(PETSC_SUCCESS);
   }
   // Pieces of frames, each written with the tail over the old tail in one write: what a killed
-  // process leaves lists every frame of the pieces written.
+  // process leaves lists every frame of the pieces written. A sidecar that listed no frame has no
+  // XIncludes (XdmfHead): its first piece is written over the whole of it, head and all, in
+  // place rather than aside and renamed over it, which ext4 would write out before the rename
+  // returned (auto_da_alloc: 0.3 ms for a few kB, 7 ms for the 11 MB of 4000 frames).
   std::string &text    = xdmf_piece;
   bool         written = true;
   int          error   = 0;
   while (written && frames_listed < frames.size()) {
-    text.clear();
-    size_t next = frames_listed;
+    const bool      over_empty = frames_listed == 0;
+    const long long offset     = over_empty ? 0 : xdmf_size - tail_size;
+    text                       = over_empty ? XdmfHead(true) : std::string();
+    size_t next                = frames_listed;
     while (next < frames.size() && text.size() < kXdmfPieceBytes) AppendXdmfFrameGrids(frames[next++], &text);
     text += kXdmfTail;
-    const ssize_t count = ::pwrite(fd, text.data(), text.size(), (off_t)(xdmf_size - tail_size));
+    const ssize_t count = ::pwrite(fd, text.data(), text.size(), (off_t)offset);
     written             = count == (ssize_t)text.size();
-    if (written) xdmf_size += (long long)text.size() - tail_size, frames_listed = next;
-    else {
-      // A short write (a full disk, a file-size limit) leaves half a piece over the old tail: the
-      // tail goes back where it was, so that the sidecar stays the complete XML it was.
-      error = count < 0 ? errno : ENOSPC;
-      if (::pwrite(fd, kXdmfTail, (size_t)tail_size, (off_t)(xdmf_size - tail_size)) == (ssize_t)tail_size) {
-        if (::ftruncate(fd, (off_t)xdmf_size) != 0) error = error ? error : errno;
-      }
+    if (written) {
+      // (the head with XIncludes is longer than the one without: nothing of the old file is left)
+      xdmf_size     = offset + (long long)text.size();
+      frames_listed = next;
+      continue;
+    }
+    // A short write (a full disk, a file-size limit) leaves half a piece over the old tail: the
+    // old end goes back where it was (for the empty sidecar, the whole of it), so that the
+    // sidecar stays the complete XML it was.
+    error = count < 0 ? errno : ENOSPC;
+    if (count >= 0) { // the reason comes with the next write (EFBIG at a file-size limit)
+      const ssize_t more = ::pwrite(fd, text.data() + count, text.size() - (size_t)count, (off_t)(offset + count));
+      if (more < 0) error = errno;
+    }
+    const std::string old   = over_empty ? XdmfHead(false) + kXdmfTail : std::string(kXdmfTail);
+    const long long   where = over_empty ? 0 : xdmf_size - tail_size;
+    if (::pwrite(fd, old.data(), old.size(), (off_t)where) == (ssize_t)old.size()) {
+      if (::ftruncate(fd, (off_t)xdmf_size) != 0) error = error ? error : errno;
     }
   }
   const int closed = ::close(fd);

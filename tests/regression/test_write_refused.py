@@ -77,4 +77,42 @@ for name, fraction, every in (("below", 0.5, "100000"), ("above", 1.0, "1")):
         with h5py.File(output, "r") as f:
             rows = f["history/values"].shape[0]
         check.greater(f"limit {name}: history rows readable", rows, 10)
+
+# "first": the first flush comes at the end of the run and its sidecar piece, written over the
+# sidecar that listed no frame yet, meets a limit the result file stays under: the sidecar goes
+# back to the complete XML listing no frame, and the result file keeps every frame. (The limit is
+# set from the start: Open MPI's shared-memory segments are kept under it by the hash store and
+# the self transport of a single process.)
+output = os.path.join(args.work_dir, "first.h5")
+for suffix in (".h5", ".xmf"):
+    if os.path.exists(output[:-3] + suffix):
+        os.remove(output[:-3] + suffix)
+short_model = os.path.join(args.work_dir, "short_pendulum.yaml")
+with open(model) as f, open(short_model, "w") as g:
+    g.write(f.read().replace("end_time: 1000", "end_time: 0.6"))
+command = [args.msflex, short_model, "-output_file", output, "-output_flush_interval", "1000", "-quiet", "-output_every", "1"]
+subprocess.run(command, check=True, cwd=args.work_dir, capture_output=True)  # the sizes without a limit
+h5_size, xmf_size = os.path.getsize(output), os.path.getsize(output[:-3] + ".xmf")
+check.greater("first: the sidecar outgrows the result file", xmf_size, h5_size + 10_000)
+limit = (h5_size + xmf_size) // 2
+os.remove(output), os.remove(output[:-3] + ".xmf")
+
+
+def limit_from_start():
+    ignore_size_signal()
+    resource.setrlimit(resource.RLIMIT_FSIZE, (limit, limit))
+
+
+env = dict(os.environ, PMIX_MCA_gds="hash", OMPI_MCA_btl="self")
+run = subprocess.run(command, capture_output=True, text=True, cwd=args.work_dir, env=env, preexec_fn=limit_from_start, timeout=120)
+lines = [line for line in (run.stdout + run.stderr).splitlines() if "error" in line.lower()]
+print(f"first: status {run.returncode}; {lines}")
+check.equal("first flush over the limit: exit status", run.returncode, 1)
+check.equal("first flush over the limit: error lines", len(lines), 1)
+check.true("first flush over the limit: the line names the sidecar and the reason", bool(lines) and ".xmf" in lines[0] and "File too large" in lines[0])
+document = xml.dom.minidom.parse(output[:-3] + ".xmf")  # raises on a sidecar that is no complete XML
+frames_listed = [g for g in document.getElementsByTagName("Grid") if g.getElementsByTagName("Time")]
+check.equal("first flush over the limit: the sidecar lists no frame", len(frames_listed), 0)
+with h5py.File(output, "r") as f:
+    check.equal("first flush over the limit: frames in the result file", f["frames/time"].shape[0], 61)
 check.finish()
