@@ -14,8 +14,8 @@ namespace msflex {
 
 void RunSummary::Attempt(const StepOutcome &outcome)
 {
-  newton_all_ += outcome.newton_iterations;
-  krylov_all_ += outcome.linear_iterations;
+  newton_all_ += outcome.newton_iterations + outcome.retried_newton_iterations;
+  krylov_all_ += outcome.linear_iterations + outcome.retried_linear_iterations;
   if (outcome.converged) {
     ++accepted_;
     newton_accepted_ += outcome.newton_iterations;

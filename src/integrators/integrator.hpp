@@ -28,6 +28,9 @@ struct StepOutcome {
   // (SNES's reason, e.g. DIVERGED_LINEAR_SOLVE, or max_rotation_increment).
   int         linear_iterations = 0;
   std::string reason;
+  // Iterations of an attempt at the same step before this one, inside the same call (the banded
+  // LU's, retried with MUMPS): counted among all attempts, never among the accepted step's.
+  int retried_newton_iterations = 0, retried_linear_iterations = 0;
   // A failure that a shorter step cannot mend (it depends on the last equilibrium only): the run
   // stops at once instead of halving down to min_step.
   bool step_size_irrelevant = false;

@@ -866,6 +866,23 @@ PetscErrorCode NewtonUsePivotingLU(SNES snes, NewtonContext *context, bool *swit
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
+PetscErrorCode NewtonUseBandedLUAgain(SNES snes, NewtonContext *context)
+{
+  KSP ksp;
+  PC  pc;
+  PetscFunctionBeginUser;
+  PetscCall(NewtonForgetFactorization(snes, context));
+  PetscCall(SNESGetKSP(snes, &ksp));
+  PetscCall(KSPGetPC(ksp, &pc));
+  // As NewtonSolverCreate chose it (a banded structure, no option naming the PC or its package),
+  // with the options of the factorisation read again.
+  PetscCall(ChooseDirectSolver(true, context->assembler->Jacobian(), pc));
+  PetscCall(PCSetFromOptions(pc));
+  PetscCall(BandedLUByStructure(pc, &context->banded_lu_by_structure));
+  context->pivoting_lu_forced = false;
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
 PetscErrorCode NewtonForgetFactorization(SNES snes, NewtonContext *context)
 {
   KSP ksp;

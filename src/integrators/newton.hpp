@@ -23,9 +23,10 @@
 //    LU in RCM order when the tangent is banded under RCM (mean squared row envelope <= 60^2:
 //    chains, slender frames): msflex's block LU when the Assembler stores the tangent in 6x6 node
 //    blocks (every unknown belongs to a node; core/block_envelope_pc.hpp), else PETSc's LU;
-//    else MUMPS; a banded LU does not pivot between nodes, so the first
-//    failed Newton solve hands the rest of the run to MUMPS (NewtonUsePivotingLU) and the step is
-//    tried again.
+//    else MUMPS; a banded LU does not pivot between nodes, so a failed Newton solve is tried
+//    again with MUMPS (NewtonUsePivotingLU): converged, MUMPS factors the rest of the run; failed
+//    as well, the failure was no pivoting problem and the banded LU comes back
+//    (NewtonUseBandedLUAgain) for the halved step.
 //    direct_solver mumps: MUMPS always. A dense -jacobian_mat_type uses msflex's dense LU. The
 //    symbolic factorisation is reused while the matrix pattern is unchanged.
 //  - The tangent is exact in every scheme (assembly/assembler.hpp). In em it has a rank-one term
@@ -108,5 +109,9 @@ PetscErrorCode NewtonForgetFactorization(SNES snes, NewtonContext *context);
 // rest of the run factors by MUMPS, which pivots and accounts for a singular tangent (INFOG);
 // *switched tells whether that happened now (false: MUMPS or a user's choice already). Collective.
 PetscErrorCode NewtonUsePivotingLU(SNES snes, NewtonContext *context, bool *switched);
+
+// Back from MUMPS to the banded LU the structure chose, after MUMPS failed the same step: the
+// failure was not the banded LU's. Collective.
+PetscErrorCode NewtonUseBandedLUAgain(SNES snes, NewtonContext *context);
 
 } // namespace msflex

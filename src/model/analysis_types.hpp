@@ -64,8 +64,9 @@ const char *LinearSolverKindName(LinearSolverKind kind);
 
 // Which direct factorisation solves Newton's systems (analysis.direct_solver; docs/solvers.md):
 // `auto` chooses by the tangent's structure (on one rank a tangent banded under reverse
-// Cuthill-McKee goes to PETSc's LU in that order, which does not pivot between nodes, and the first failed
-// Newton solve hands the rest of the run to MUMPS; everything else to MUMPS); `mumps` always MUMPS.
+// Cuthill-McKee goes to a banded LU in that order, which does not pivot between nodes: a step on
+// which Newton fails with it is tried again with MUMPS, which keeps the rest of the run if it
+// converges there; everything else to MUMPS); `mumps` always MUMPS.
 // A dense tangent (small models) goes to msflex's dense LU either way.
 enum class DirectSolverChoice { Auto, Mumps };
 
