@@ -125,14 +125,24 @@ PetscErrorCode Integrator::SolveAccelerations(Vec accelerations, bool hand_over,
     PetscFunctionReturn(PETSC_SUCCESS);
   }
   if (!hand_over) PetscFunctionReturn(PETSC_SUCCESS);
+  // As for a step (TryEquations): MUMPS keeps the run only if it solves what the banded LU could not.
   bool switched = false;
-  PetscCall(SwitchToPivotingLU("the initial accelerations", SNESConvergedReasons[reason], &switched));
+  PetscCall(NewtonUsePivotingLU(snes_, &newton_context_, &switched));
   if (!switched) PetscFunctionReturn(PETSC_SUCCESS);
+  const SNESConvergedReason banded_reason = reason;
   PetscCall(VecZeroEntries(accelerations));
   PetscCall(SNESSolve(snes_, nullptr, accelerations));
   PetscCall(SNESGetConvergedReason(snes_, &reason));
   *solved = reason > 0;
-  if (!*solved) PetscCall(NewtonForgetFactorization(snes_, &newton_context_));
+  if (!*solved) {
+    PetscCall(NewtonUseBandedLUAgain(snes_, &newton_context_));
+    PetscFunctionReturn(PETSC_SUCCESS);
+  }
+  if (!quiet_)
+    PetscCall(PetscPrintf(comm_,
+                          "msflex: Newton failed on the initial accelerations with the banded LU, which does not pivot between nodes (%s), and MUMPS "
+                          "converged: MUMPS factors from here on\n",
+                          SNESConvergedReasons[banded_reason]));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
@@ -500,16 +510,6 @@ PetscErrorCode Integrator::TryEquations(const StepEquations &equations, double d
                           "msflex: Newton failed on the step from t = %.9g to %.9g with the banded LU, which does not pivot between nodes (%s), and "
                           "MUMPS converged: MUMPS factors from here on\n",
                           equations.t_start, equations.t_end, why_banded.c_str()));
-  PetscFunctionReturn(PETSC_SUCCESS);
-}
-
-PetscErrorCode Integrator::SwitchToPivotingLU(const char *where, const std::string &why, bool *switched)
-{
-  PetscFunctionBeginUser;
-  PetscCall(NewtonUsePivotingLU(snes_, &newton_context_, switched));
-  if (*switched && !quiet_)
-    PetscCall(PetscPrintf(comm_, "msflex: Newton failed on %s with the banded LU, which does not pivot between nodes (%s); MUMPS factors from here on\n", where,
-                          why.c_str()));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 

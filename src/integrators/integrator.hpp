@@ -154,7 +154,6 @@ private:
   PetscErrorCode TryEquations(const StepEquations &equations, double dt, StepOutcome *outcome);
   // After a failed Newton solve: whether the banded LU was in use and MUMPS now takes over
   // (said on stdout with `why`, the failure), so that the same step is worth another try.
-  PetscErrorCode SwitchToPivotingLU(const char *where, const std::string &why, bool *switched);
   PetscErrorCode ReportSlaveVelocityChange(const SlaveVelocityChange &change);
   // The accelerations of the initial-acceleration problem set up in the Assembler when its mass
   // matrix is singular without empty rows (a node without mass between joints, whose coordinates
