@@ -44,7 +44,8 @@ PROBE_COMPONENTS = {
 
 SERIES_HELP = """\
 series names:
-  <name>                        every history series, e.g. time (the load factor in statics,
+  <name>                        every history series, e.g. time (in statics the load factor,
+                                or the path parameter under arc length or displacement control;
                                 the mode number in modes and buckling analyses),
                                 newton_iterations, residual_norm, step_size, <joint>.rz
   <probe>.position.x|y|z        probed point's current position (node, offset point, centre of mass)
@@ -114,6 +115,17 @@ def open_hdf5(path):
         return h5py.File(path, "r")
 
 
+def _results_of_checkpoint(checkpoint, stored):
+    """Where a checkpoint's results are, as seen from here: the run stored its output file as it
+    was given, relative to the directory the run started in."""
+    if os.path.isabs(stored) or os.path.exists(stored):
+        return stored
+    beside = os.path.join(os.path.dirname(checkpoint), os.path.basename(stored))
+    if os.path.exists(beside):
+        return beside
+    return f"{stored} (relative to the directory its run started in)"
+
+
 def open_result_file(path):
     """The msflex result file `path`, open for reading (an h5py.File); FileError, with a one-line
     message, for a missing file, a file that is not HDF5 (an XDMF sidecar, ...), an msflex
@@ -146,7 +158,7 @@ def open_result_file(path):
         if marker.startswith("msflex checkpoint"):
             results = ""
             if isinstance(f.get("run/output_file"), h5py.Dataset):
-                results = f"; its run's results are in {_dataset_text(f['run/output_file'])}"
+                results = f"; its run's results are in {_results_of_checkpoint(path, _dataset_text(f['run/output_file']))}"
             raise FileError(f"{path} is an msflex checkpoint, not a result file{results}")
         if marker and not marker.startswith("msflex result"):
             raise FileError(f"{path} is not an msflex result file (its msflex_format is '{marker}')")

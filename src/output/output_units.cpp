@@ -21,7 +21,7 @@ const Entry kDatasets[] = {
     {"mesh", "beam_names", "", "beam names from the input"},
     {"mesh", "segments", "1", "node indices of the 2-node polyline segments drawn for the elements"},
     {"mesh", "segment_element", "1", "element each segment belongs to"},
-    {"mesh", "node_rank", "1", "MPI rank that owned each node (the partition of this run)"},
+    {"mesh", "node_rank", "1", "MPI rank that owned each node (the partition of the run that created the file; a restart on other ranks keeps it)"},
     {"mesh", "joint_names", "", "joint names from the input"},
     {"mesh", "joint_types", "", "joint types from the input (revolute, screw, ...)"},
     {"mesh", "joint_master", "1", "master node index of each joint; -1 is the ground"},

@@ -223,7 +223,9 @@ chroma = image.max(axis=2) - image.min(axis=2)
 check.true(f"last.png: coloured by displacement (more than 200 pixels of chroma > 0.3: {(chroma > 0.3).sum()})", bool((chroma > 0.3).sum() > 200))
 
 png = os.path.join(args.work_dir, "triads.png")
-image, drawn = render(png, "--time", "2.5", "--size", "500", "400", "--view", "+y", "--color", "none", "--triads", "--radius", "0.03", "--triad-length", "0.8", "--no-axes")
+# (--title '': no title; an empty argument crashed the pvpython it was passed on to, SIGSEGV)
+image, drawn = render(png, "--time", "2.5", "--size", "500", "400", "--view", "+y", "--color", "none", "--triads", "--radius", "0.03", "--triad-length", "0.8", "--no-axes",
+                      "--title", "")
 pixel_size_check("triads.png", image, (500, 400))
 check.less("triads.png: not blank (0.01 / fraction of drawn pixels)", 0.01 / max(drawn.mean(), 1e-12), 1.0)
 r, g, b = image[:, :, 0], image[:, :, 1], image[:, :, 2]
@@ -329,6 +331,13 @@ result = render_refused("--colormap Nope", [xmf, "-o", png, "--xvfb", "--colorma
 check.true("--colormap Nope: one line naming the preset", len(result.stderr.splitlines()) == 1 and "no colour map preset 'Nope'" in result.stderr)
 for low, high in (("1", "0"), ("0.5", "0.5")):
     render_refused(f"--range {low} {high}", [xmf, "-o", png, "--range", low, high], 2)
+# An image name ParaView cannot write, refused before ParaView starts; a file that is no sidecar is a
+# file problem (status 1, as the other tools).
+render_refused("-o a.xyz", [xmf, "-o", os.path.join(args.work_dir, "a.xyz")], 2)
+not_sidecar = os.path.join(args.work_dir, "not_a_sidecar.xmf")
+with open(not_sidecar, "w", encoding="utf-8") as f:
+    f.write("analysis: {type: static}\n")
+render_refused("a YAML file as the result", [not_sidecar, "-o", png], 1, f"'{not_sidecar}' is not an msflex XDMF sidecar (no HDF data item found)")
 
 # The default colour range is over the nodes the beams draw: input/rack_pinion.yaml's beams grid
 # also holds the pinion's node (a rigid body's), which moves 0.8 m while the rack's nodes move

@@ -362,8 +362,13 @@ class PostprocTest(unittest.TestCase):
     def test_a_checkpoint_is_not_a_result_file(self):
         path = os.path.join(self.directory.name, "out.ckpt.h5")
         write_checkpoint(path)
-        message = f"{path} is an msflex checkpoint, not a result file; its run's results are in out.h5"
+        # The run stored its output file as given (out.h5, relative to where it started): named
+        # as found beside the checkpoint, or else said to be relative to the run's directory.
+        message = f"{path} is an msflex checkpoint, not a result file; its run's results are in {self.h5}"
         self.assert_every_tool_refuses(path, message, ([], ["--names"], ["time"]))
+        os.remove(self.h5)
+        message = f"{path} is an msflex checkpoint, not a result file; its run's results are in out.h5 (relative to the directory its run started in)"
+        self.assert_every_tool_refuses(path, message, ([], ["--names"]))
 
     def test_other_files_are_not_result_files(self):
         sidecar = os.path.join(self.directory.name, "out.xmf")
