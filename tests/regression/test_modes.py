@@ -262,4 +262,31 @@ h = mt.history(run("hinged_fine", f"{args.work_dir}/hinged_fine.yaml", ranks=1))
 check.true(f"hinged beam, 8000 elements: only the first mode is rigid ({h['rigid_mode'].tolist()})", h["rigid_mode"].tolist() == [1, 0, 0])
 first = (1.875104068711961 / 2.0) ** 2 * math.sqrt(1.0e4)
 check.less("hinged beam, 8000 elements: |omega_1 / clamped-free (1.8751/L)^2 sqrt(EI2/rhoA) - 1|", abs(h["angular_frequency"][1] / first - 1), 5e-3)
+
+# Non-conservative loads make the pencil non-symmetric, and the symmetric eigensolvers answered with
+# load factors that changed with the rank count (a cantilever under an end moment of fixed direction:
+# 51.8, 42.8 and 57.3 on 1, 2 and 4 ranks, exit 0): refused in one line, on 1 and --np ranks; the
+# same column without the moment still buckles (the end load alone is conservative).
+with open(f"{args.work_dir}/end_moment.yaml", "w") as f:
+    f.write("""sections: [{name: s, EA: 1.0e6, GA2: 4.0e5, GA3: 4.0e5, GJ: 50, EI2: 80, EI3: 100}]
+nodes: {a: [0, 0, 0], b: [2, 0, 0]}
+beams: [{name: col, section: s, from: a, to: b, elements: 16}]
+supports: [{nodes: a, fix: all}]
+loads: [{nodes: b, force: [-1, 0, 0], moment: [0, 0, 0.5]}]
+analysis: {type: buckling, eigenvalues: 2}
+""")
+for ranks in sorted({1, args.np}):
+    code, _, stderr = mt.run_msflex(args, f"{args.work_dir}/end_moment.yaml", f"{args.work_dir}/end_moment_{ranks}.h5", np_ranks=ranks, expect_success=False)
+    lines = [line for line in stderr.splitlines() if line.startswith("msflex:")]
+    print(f"end moment of fixed direction, {ranks} rank(s): exit {code}: {lines[:1]}")
+    check.equal(f"end moment of fixed direction, {ranks} rank(s): exit status", code, 1)
+    check.true(f"end moment of fixed direction, {ranks} rank(s): one line saying the load stiffness is not symmetric",
+               len(lines) == 1 and "buckling analysis: the load stiffness K_sigma is not symmetric" in lines[0])
+with open(f"{args.work_dir}/end_moment.yaml") as f:
+    conservative = f.read().replace(", moment: [0, 0, 0.5]", "")
+with open(f"{args.work_dir}/end_force.yaml", "w") as f:
+    f.write(conservative)
+h = mt.history(run("end_force", f"{args.work_dir}/end_force.yaml", ranks=1))
+euler = math.pi ** 2 * 80 / (4 * 2.0 ** 2)  # clamped-free, EI2 = 80 the weaker plane
+check.less("end force alone: |first load factor / Euler's pi^2 EI / (4 L^2) - 1|", abs(h["load_factor"][0] / euler - 1), 2e-3)
 check.finish()
