@@ -200,12 +200,19 @@ PetscErrorCode Setup(Analysis &a, Model whole)
   a.output.SetFlushInterval(a.options.output_flush_interval);
   a.output.SetXdmfFlavour(a.options.output_xdmf == "xdmf2" ? XdmfFlavour::Xdmf2 : XdmfFlavour::Xdmf3);
   if (a.options.continue_output) {
-    PetscCall(a.output.Reopen(a.comm, a.options.output_file, a.restart->last_written, a.restart->history_rows, a.options.run_id, a.restart->step));
+    // The stability account's series, written or not by this run's settings (the static path's).
+    std::vector<std::pair<std::string, bool>> series_by_settings;
+    if (a.Static()) series_by_settings.push_back({"negative_pivots", a.model.analysis.stability});
+    PetscCall(a.output.Reopen(a.comm, a.options.output_file, a.restart->last_written, a.restart->history_rows, a.options.run_id, a.restart->step,
+                              series_by_settings));
     a.history_rows = a.restart->history_rows;
     // The summary's energy figures cover the whole file: its rows so far first.
     const std::vector<double> &rows = a.output.ResumedEnergyRows();
     for (size_t r = 0; r + 3 < rows.size(); r += 4) a.summary.Energy(rows[r], rows[r + 1], rows[r + 2], rows[r + 3]);
   } else {
+    if (a.restart)
+      a.output.SetContinues(Format("checkpoint %s at step %d, t = %.17g (of the run whose results were %s)", a.options.restart_file.c_str(), a.restart->step,
+                                   a.restart->time, a.restart->output_file.c_str()));
     PetscCall(a.output.Open(a.comm, a.options.output_file, a.options.output_overwrite, input_file, a.input_text, mesh, a.options.model_fingerprint,
                             a.options.run_id));
   }
@@ -505,8 +512,11 @@ const char *StopSignalName(int signal)
 }
 
 // After a converged step: a checkpoint when one is due (every n steps, every so many seconds) or
-// a stop signal arrived on any rank; *stop tells the step loop to end the run.
-PetscErrorCode CheckpointIfDue(Analysis &a, int step, double t, int last_written, const StepController &controller, bool *stop)
+// a stop signal arrived on any rank; *stop tells the step loop to end the run. A run stopped by a
+// signal writes its last step as a frame first (the last step is always written); the checkpoint
+// names the frame before it as its last, so that the restart drops the extra frame and the run it
+// completes has the frames of one never stopped.
+PetscErrorCode CheckpointIfDue(Analysis &a, int step, double t, int *last_written, const StepController &controller, bool *stop)
 {
   const int mine = StopSignalReceived();
   int       signal;
@@ -520,6 +530,12 @@ PetscErrorCode CheckpointIfDue(Analysis &a, int step, double t, int last_written
   *stop = signal != 0 && !a.Finished(t);
   if (signal != 0 && !*stop)
     PetscCall(PetscFPrintf(a.comm, PETSC_STDERR, "msflex: %s arrived during the last step; the run has completed\n", StopSignalName(signal)));
+  const int last_regular_frame = *last_written;
+  if (*stop && *last_written != step) {
+    double strain_energy;
+    PetscCall(WriteFrame(a, step, t, &strain_energy));
+    *last_written = step;
+  }
   if (!a.Checkpointable()) {
     if (*stop)
       PetscCall(PetscPrintf(a.comm,
@@ -529,7 +545,7 @@ PetscErrorCode CheckpointIfDue(Analysis &a, int step, double t, int last_written
     PetscFunctionReturn(PETSC_SUCCESS);
   }
   if (!due && !*stop) PetscFunctionReturn(PETSC_SUCCESS);
-  PetscCall(WriteCheckpoint(a, step, t, last_written, controller));
+  PetscCall(WriteCheckpoint(a, step, t, last_regular_frame, controller));
   if (!o.quiet && !*stop) PetscCall(PetscPrintf(a.comm, "checkpoint at step %d, t = %.6g: %s\n", step, t, o.checkpoint_file.c_str()));
   if (*stop)
     PetscCall(PetscPrintf(a.comm, "msflex: stopped by %s at step %d, t = %.6g; checkpoint %s; continue with: msflex --restart %s\n", StopSignalName(signal),
@@ -598,6 +614,12 @@ StopSignalHandlers::StopSignalHandlers()
   action.sa_flags |= SA_RESETHAND;
   sigaction(SIGINT, &action, &previous_int_);
   sigaction(SIGHUP, &action, &previous_hup_);
+  // A file-size limit (ulimit -f) is a write error like a full disk: the write fails with EFBIG,
+  // which the file's writer reports in one line, instead of SIGXFSZ ending the run without a word.
+  struct sigaction ignore = {};
+  ignore.sa_handler       = SIG_IGN;
+  sigemptyset(&ignore.sa_mask);
+  sigaction(SIGXFSZ, &ignore, &previous_xfsz_);
   ClearStopSignal();
 }
 
@@ -607,6 +629,7 @@ StopSignalHandlers::~StopSignalHandlers()
   sigaction(SIGUSR1, &previous_usr1_, nullptr);
   sigaction(SIGINT, &previous_int_, nullptr);
   sigaction(SIGHUP, &previous_hup_, nullptr);
+  sigaction(SIGXFSZ, &previous_xfsz_, nullptr);
 }
 
 PetscErrorCode RunAnalysis(MPI_Comm comm, Model model, const RunOptions &options, const CheckpointRun *restart, RunEnd *end)
@@ -703,7 +726,7 @@ PetscErrorCode RunAnalysis(MPI_Comm comm, Model model, const RunOptions &options
         if (write_frame) last_written = step;
         PetscCall(RecordStep(a, {step, t, taken, outcome.newton_iterations, outcome.residual_norm}, write_frame));
         bool stop = false;
-        PetscCall(CheckpointIfDue(a, step, t, last_written, controller, &stop));
+        PetscCall(CheckpointIfDue(a, step, t, &last_written, controller, &stop));
         if (stop) {
           a.output.SetRunEnd(Format("stopped by %s at step %d, t = %.8g; %s", StopSignalName(StopSignalReceived()), step, t,
                                     a.Checkpointable() ? ("checkpoint " + options.checkpoint_file).c_str() : "no checkpoint"));

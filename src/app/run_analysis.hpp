@@ -60,7 +60,7 @@ public:
   StopSignalHandlers &operator=(const StopSignalHandlers &) = delete;
 
 private:
-  struct sigaction previous_term_ = {}, previous_usr1_ = {}, previous_int_ = {}, previous_hup_ = {};
+  struct sigaction previous_term_ = {}, previous_usr1_ = {}, previous_int_ = {}, previous_hup_ = {}, previous_xfsz_ = {};
 };
 
 // Takes the model: after set-up each rank keeps only its part of it (DofMapRestrictToLocal).

@@ -410,7 +410,8 @@ struct OutputFile::Impl {
   // the frame of `last_step` and at least `history_rows` rows of every series, and only then
   // drops the frames after `last_step` and the rows beyond `history_rows`, rewrites the sidecar
   // and closes the file again (OutputFile::Reopen).
-  PetscErrorCode Resume(int last_step, long long history_rows, const std::string &run_id, int checkpoint_step);
+  PetscErrorCode Resume(int last_step, long long history_rows, const std::string &run_id, int checkpoint_step,
+                        const std::vector<std::pair<std::string, bool>> &series_by_settings);
   PetscErrorCode LinkNames(hid_t group, std::vector<std::string> *names) const;
   PetscErrorCode TruncateRows(hid_t parent, const std::string &name, hsize_t rows) const;
   PetscErrorCode Close();
@@ -476,6 +477,7 @@ struct OutputFile::Impl {
   std::vector<std::string> history_names, probe_names, columns, stored_columns;
   std::vector<double>      resumed_energy; // rank 0, from Resume: ResumedEnergyRows
   std::string              run_end;        // SetRunEnd: the root attribute run_end written at Close
+  std::string              continues;      // SetContinues: the root attribute continues (a restart into a new file)
   bool                     names_known  = false;
   hsize_t                  rows_written = 0, rows_buffered = 0;
   std::vector<double>      buffered_values;
@@ -672,6 +674,7 @@ PetscErrorCode OutputFile::Impl::WriteProvenance(const OutputMesh &mesh)
   PetscCall(WriteStringAttribute(file, ".", "options", OptionsText()));
   PetscCall(WriteAttribute(file, ".", "ranks", H5T_STD_I32LE, H5T_NATIVE_INT, &size));
   PetscCall(WriteStringAttribute(file, ".", "start_time", IsoTimeNow()));
+  if (!continues.empty()) PetscCall(WriteStringAttribute(file, ".", "continues", continues));
   // How the run ended (OutputFile::SetRunEnd, written at Close); "running" until then, so that the
   // file of a run killed outright says it did not end.
   PetscCall(WriteStringAttribute(file, ".", "run_end", "running"));
@@ -1641,7 +1644,8 @@ PetscErrorCode OutputFile::Impl::TruncateRows(hid_t parent, const std::string &n
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
-PetscErrorCode OutputFile::Impl::Resume(int last_step, long long history_rows, const std::string &run_id, int checkpoint_step)
+PetscErrorCode OutputFile::Impl::Resume(int last_step, long long history_rows, const std::string &run_id, int checkpoint_step,
+                                        const std::vector<std::pair<std::string, bool>> &series_by_settings)
 {
   H5Id          frames_group;
   const char   *p    = path.c_str();
@@ -1771,6 +1775,15 @@ PetscErrorCode OutputFile::Impl::Resume(int last_step, long long history_rows, c
     PetscCheck(stored_columns.size() == dims[1], PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "'%s': /history/names names %zu columns, /history/values has %llu",
                p, stored_columns.size(), (unsigned long long)dims[1]);
   }
+  // Series this run writes, or does not, by its settings (the stability account's): a file whose
+  // run wrote otherwise would be refused at the first row, after the changes below.
+  for (const auto &[series, written] : series_by_settings) {
+    const bool stored = std::find(stored_columns.begin(), stored_columns.end(), series) != stored_columns.end();
+    PetscCheck(stored == written || !has_table, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED,
+               "'%s': the run it continues wrote %s series '%s', and this restart would %s (a changed option such as -analysis_stability?); restart with "
+               "that run's settings, or into a new file with -output_file",
+               p, stored ? "the" : "no", series.c_str(), written ? "write it" : "not");
+  }
   // (2) Changes: frames written after the checkpoint go, the table is cut to its rows; the
   // restart is recorded (restart_1, restart_2, ...: when, on how many ranks, the command line and
   // the options), and the run is running again.
@@ -1874,14 +1887,19 @@ PetscErrorCode OutputFile::Open(MPI_Comm comm, const std::string &path, bool ove
                                 const OutputMesh &mesh, const std::string &model_fingerprint, const std::string &run_id)
 {
   PetscFunctionBeginUser;
-  PetscCall(OpenWith(comm, path, [&] { return impl_->Create(overwrite, input_file, input_text, mesh, {kResultFormat, model_fingerprint, run_id}); }));
+  PetscCall(OpenWith(comm, path, [&] {
+    impl_->continues = continues_;
+    return impl_->Create(overwrite, input_file, input_text, mesh, {kResultFormat, model_fingerprint, run_id});
+  }));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
-PetscErrorCode OutputFile::Reopen(MPI_Comm comm, const std::string &path, int last_step, long long history_rows, const std::string &run_id, int checkpoint_step)
+PetscErrorCode OutputFile::Reopen(MPI_Comm comm, const std::string &path, int last_step, long long history_rows, const std::string &run_id, int checkpoint_step,
+                                  const std::vector<std::pair<std::string, bool>> &series_by_settings)
 {
   PetscFunctionBeginUser;
-  PetscCall(OpenWith(comm, path, [&] { return impl_->Resume(last_step, history_rows, run_id, checkpoint_step < 0 ? last_step : checkpoint_step); }));
+  PetscCall(OpenWith(comm, path,
+                     [&] { return impl_->Resume(last_step, history_rows, run_id, checkpoint_step < 0 ? last_step : checkpoint_step, series_by_settings); }));
   long long rows = (long long)impl_->rows_written;
   PetscCallMPI(MPI_Bcast(&rows, 1, MPI_LONG_LONG, 0, comm));
   impl_->rows_written = (hsize_t)rows;

@@ -19,6 +19,7 @@
 #include <petscsys.h>
 
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace msflex {
@@ -140,7 +141,10 @@ public:
   // Nothing changes unless the file is the result of run `run_id` and holds the frame of
   // `last_step` and `history_rows` rows of history (one line naming what is missing).
   // `checkpoint_step`: the step the run continues from (recorded in restart_N); -1: last_step.
-  PetscErrorCode Reopen(MPI_Comm comm, const std::string &path, int last_step, long long history_rows, const std::string &run_id, int checkpoint_step = -1);
+  // `series_by_settings`: history series that this run's settings write (true) or leave out
+  // (false), checked against the file's before anything changes.
+  PetscErrorCode Reopen(MPI_Comm comm, const std::string &path, int last_step, long long history_rows, const std::string &run_id, int checkpoint_step = -1,
+                        const std::vector<std::pair<std::string, bool>> &series_by_settings = {});
   // Appends a frame to the /frames datasets (one row each): kept in memory and written in blocks,
   // at the latest at the next flush, from which on the sidecar lists it.
   PetscErrorCode WriteFrame(const OutputFrame &frame);
@@ -167,6 +171,9 @@ public:
   double FlushInterval() const { return flush_interval_; }
   // The sidecar's syntax (default Xdmf3). Before Open or Reopen.
   void SetXdmfFlavour(XdmfFlavour flavour) { xdmf_flavour_ = flavour; }
+  // Before Open, for a restart into a new file: what the file continues (the checkpoint, its step
+  // and time), written as the root attribute `continues`.
+  void SetContinues(const std::string &what) { continues_ = what; }
   // Number of history rows written so far, including the buffered ones.
   long long HistoryRows() const;
   // After Reopen, rank 0: the rows the file kept of energy_balance, total_energy, external_work and
@@ -190,7 +197,8 @@ private:
   Impl          *impl_           = nullptr;
   double         flush_interval_ = 10.0;
   XdmfFlavour    xdmf_flavour_   = XdmfFlavour::Xdmf3;
-  MPI_Comm       comm_           = MPI_COMM_NULL;
+  std::string    continues_;
+  MPI_Comm       comm_ = MPI_COMM_NULL;
   std::string    path_;
 };
 

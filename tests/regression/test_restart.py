@@ -16,8 +16,9 @@
    chunks in collective writes: equal to an uninterrupted serial run to the new end to 1e-8.
 3. SIGTERM and SIGINT (serial; SIGINT printed a PETSc trace and left no checkpoint) and SIGUSR1
    sent to mpirun (2 ranks) during a run: exit status 75, a
-   checkpoint at the step reached, a readable result file holding exactly the steps done; the
-   restart then completes the run exactly as the uninterrupted run on as many ranks.
+   checkpoint at the step reached, a readable result file holding exactly the steps done, the last
+   as a frame too (output.every 100 did not write it before); the restart then completes the run
+   exactly as the uninterrupted run on as many ranks (it drops that extra frame).
 4. SIGKILL during a run: the result file stays readable and holds whole frames and rows up to the
    last completed step.
 5. Checkpoints by wall time (-checkpoint_wall_time 0.2): a run of more than a second leaves a
@@ -151,12 +152,20 @@ for label, source, settings in cases:
     check.equal(f"{label}: datasets in only one of this and the uninterrupted run", len(set(expected) ^ set(got)), 0)
     check.less(f"{label}: serial restart, largest difference", difference, 1e-300)
 
-    # 2. The same checkpoint continued on 2 ranks into a new file.
+    # 2. The same checkpoint continued on 2 ranks into a new file: the root attribute `continues`
+    # names the checkpoint; the rows and frames are those of the steps after it (the state it starts
+    # from is the last row of the file it came from: its joints' rates and reactions are those of
+    # the step that reached it).
     other = f"{work}/{tag}_np2.h5"
     if os.path.exists(other):
         os.remove(other)
     run(2, "--restart", checkpoint, "-output_file", other, "-checkpoint_file", f"{work}/{tag}_np2.ckpt.h5")
     got = read_all(other)
+    with h5py.File(other, "r") as f:
+        continues = f.attrs.get("continues", b"")
+        continues = continues.decode() if isinstance(continues, bytes) else str(continues)
+    check.true(f"{label}: the new file's attribute 'continues' names the checkpoint and its step ({continues!r})",
+               continues.startswith(f"checkpoint {checkpoint} at step {checkpoint_step},"))
     frames = [name for name in got if name.startswith("frames/")]
     first_step = int(mt.history(other)["step"][0])
     rows = slice(first_step, None)
@@ -217,6 +226,11 @@ def interrupt(ranks, send, label, source, settings, expected):
         stopped_at = int(f["run/numbers"][0])
     history_steps = mt.history(output)["step"]
     check.equal(f"{label}: the result file's history ends at the checkpoint (last step = checkpoint step)", history_steps[-1], stopped_at)
+    # The last step is always written, as a frame too (output.every is 100 here); the restart drops
+    # that frame again, so the completed run has the frames of the uninterrupted one.
+    with h5py.File(output, "r") as f:
+        last_frame = int(f["frames/step"][-1])
+    check.equal(f"{label}: the stopped run's last frame is its last step", last_frame, stopped_at)
     run(ranks, "--restart", checkpoint, "-quiet")
     got = read_all(output)
     difference, compared = largest_difference(expected, got)

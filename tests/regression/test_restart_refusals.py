@@ -5,7 +5,8 @@
    next): one line, exit 1; a job script's empty $CHECKPOINT used to start a fresh run.
 2. A restart that changes the analysis: a dynamic checkpoint continued as buckling (the run
    stopped with a trace, "frame of step 0 after the frame of step 4") and a load-controlled
-   checkpoint continued under arc length: one line, exit 1, the result file untouched.
+   checkpoint continued under arc length, or without the stability account whose series the file
+   holds: one line, exit 1, the result file and its sidecar untouched.
 3. A static analysis under arc length writes no checkpoint (a restart cannot continue it: its
    predictor needs the previous step): -checkpoint_every is ignored with a warning, and SIGTERM
    stops it with its results written, no checkpoint, and exit status 128 + 15 (the shell's
@@ -101,6 +102,15 @@ code, _, stderr = run([args.msflex, arch, "-analysis_control", "load", "-analysi
 check.equal("deep arch under load control with checkpoints: exit status", code, 0)
 code, _, stderr = run([args.msflex, "--restart", "arch_load.ckpt.h5", "-analysis_control", "arc_length"])
 one_line("load-controlled checkpoint restarted under arc length", code, stderr, "was written under control: load, not arc_length")
+# ... or without the stability account whose series the file holds: refused before the file or its
+# sidecar changes (it cut the history and frames to the checkpoint's, marked the run as running and
+# rewrote the sidecar, and only the first row found the columns different).
+files = {name: open(f"{work}/{name}", "rb").read() for name in ("arch_load.h5", "arch_load.xmf")}
+code, _, stderr = run([args.msflex, "--restart", "arch_load.ckpt.h5", "-analysis_stability", "false", "-analysis_end_time", "0.2"])
+one_line("restart without the stability account", code, stderr, "the run it continues wrote the series 'negative_pivots', and this restart would not")
+for name, before in files.items():
+    with open(f"{work}/{name}", "rb") as f:
+        check.true(f"restart without the stability account: {name} is untouched", f.read() == before)
 
 # A stop signal during the last step: the run has completed and ends so (exit 0); it stopped with
 # exit 75, and the job script's restart was then refused (nothing left to do). One step of a long
