@@ -118,8 +118,10 @@ def open_hdf5(path):
 def _results_of_checkpoint(checkpoint, stored):
     """Where a checkpoint's results are, as seen from here: the run stored its output file as it
     was given, relative to the directory the run started in."""
-    if os.path.isabs(stored) or os.path.exists(stored):
+    if os.path.isabs(stored):
         return stored
+    # Beside the checkpoint first (its default place): a file of that name in the directory this
+    # tool runs in may be another run's.
     beside = os.path.join(os.path.dirname(checkpoint), os.path.basename(stored))
     if os.path.exists(beside):
         return beside

@@ -195,12 +195,13 @@ std::string DescribeBadOptionValue()
   const auto integer = [](const char *s, void *v) { return PetscOptionsStringToInt(s, static_cast<PetscInt *>(v)); };
   const auto logical = [](const char *s, void *v) { return PetscOptionsStringToBool(s, static_cast<PetscBool *>(v)); };
   for (const OptionInfo &option : kOptions) {
-    const Kind kind = kind_of(option.argument);
-    if (kind == Kind::Text) continue;
-    const char *raw = nullptr;
-    PetscBool   set = PETSC_FALSE;
+    const Kind  kind = kind_of(option.argument);
+    const char *raw  = nullptr;
+    PetscBool   set  = PETSC_FALSE;
     if (PetscOptionsFindPair(nullptr, nullptr, option.name, &raw, &set) != PETSC_SUCCESS || !set) continue;
+    // (Names and files too: -checkpoint_file alone said "the checkpoint file name is empty".)
     if (!raw && kind != Kind::Flag) return std::string(option.name) + " needs a value (" + option.argument + ")";
+    if (kind == Kind::Text) continue;
     const std::string text = raw ? raw : "";
     const std::string head = std::string(option.name) + ": '" + text + "' ";
     PetscReal         r;

@@ -231,7 +231,7 @@ PetscErrorCode SettingsFromOptions(MPI_Comm comm, Model *model, RunOptions *opti
   options->output_xdmf = xdmf;
   PetscCheck(every >= 1, comm, PETSC_ERR_USER_INPUT, "option -output_every must be >= 1, got %" PetscInt_FMT, every);
   PetscCheck(std::isfinite(options->output_flush_interval) && options->output_flush_interval >= 0, comm, PETSC_ERR_USER_INPUT,
-             "option -output_flush_interval must be >= 0 seconds, got %.6g", (double)options->output_flush_interval);
+             "option -output_flush_interval must be a finite number of seconds >= 0, got %.6g", (double)options->output_flush_interval);
   options->output_file       = file;
   options->output_every      = every;
   options->progress_every    = model->output.progress_every;    // default: the input's output.progress_every
@@ -244,7 +244,7 @@ PetscErrorCode SettingsFromOptions(MPI_Comm comm, Model *model, RunOptions *opti
   PetscOptionsEnd();
   PetscCheck(options->progress_every >= 1, comm, PETSC_ERR_USER_INPUT, "option -progress_every must be >= 1, got %" PetscInt_FMT, options->progress_every);
   PetscCheck(std::isfinite(options->progress_interval) && options->progress_interval >= 0, comm, PETSC_ERR_USER_INPUT,
-             "option -progress_interval must be >= 0 seconds, got %.6g", (double)options->progress_interval);
+             "option -progress_interval must be a finite number of seconds >= 0, got %.6g", (double)options->progress_interval);
 
   // Checkpoints; defaults: the input's output.checkpoint, the file next to the output file.
   std::string default_checkpoint = model->output.checkpoint_file;
@@ -265,7 +265,7 @@ PetscErrorCode SettingsFromOptions(MPI_Comm comm, Model *model, RunOptions *opti
   PetscCheck(options->checkpoint_every >= 0, comm, PETSC_ERR_USER_INPUT, "option -checkpoint_every must be >= 0, got %" PetscInt_FMT,
              options->checkpoint_every);
   PetscCheck(std::isfinite(options->checkpoint_wall_time) && options->checkpoint_wall_time >= 0, comm, PETSC_ERR_USER_INPUT,
-             "option -checkpoint_wall_time must be >= 0 seconds, got %.6g", (double)options->checkpoint_wall_time);
+             "option -checkpoint_wall_time must be a finite number of seconds >= 0, got %.6g", (double)options->checkpoint_wall_time);
   options->checkpoint_file = checkpoint_file;
   // Whether the checkpoint is the output file (or any other file of the run), after links, `.`
   // and `..`: the run-file policy in main (CheckRunFiles).

@@ -200,6 +200,8 @@ std::string OpenChecked(hid_t parent, const std::string &name, int rank, Id *dat
 
 } // namespace
 
+std::string ReadTextAttribute(hid_t object, const char *name, std::string *value) { return ReadStringAttribute(object, name, value); }
+
 void Hdf5SilenceErrorStack() { H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr); }
 
 Hdf5QuietScope::Hdf5QuietScope()

@@ -64,6 +64,9 @@ std::string WriteFileMarker(hid_t file, const FileMarker &marker);
 // latter as files of earlier msflex versions and other programs have them, under the read
 // timeout below); "" or the problem.
 std::string ReadFileMarker(hid_t file, FileMarker *marker);
+// The string attribute `name` of `object` (variable or fixed length, at most 1 MiB; "" when absent);
+// a problem in words, or "".
+std::string ReadTextAttribute(hid_t object, const char *name, std::string *value);
 
 // The longest a read of a variable-length string attribute may take (seconds, > 0): past it the
 // process writes one line naming the file and exits with status 1 (the read cannot be

@@ -150,10 +150,9 @@ private:
   double           dissipated_energy_ = 0.0;   // accumulated dissipation of the dampers (dynamics)
   bool             reaction_probes_   = false; // the model has reaction probes
   bool             quiet_             = false;
-  // One attempt at a step with these equations (TryStep, TryStaticStageStep).
+  // An attempt at a step with these equations (TryStep, TryStaticStageStep); failed with the banded
+  // LU, a second with MUMPS, which keeps the run if it converges (said on stdout).
   PetscErrorCode TryEquations(const StepEquations &equations, double dt, StepOutcome *outcome);
-  // After a failed Newton solve: whether the banded LU was in use and MUMPS now takes over
-  // (said on stdout with `why`, the failure), so that the same step is worth another try.
   PetscErrorCode ReportSlaveVelocityChange(const SlaveVelocityChange &change);
   // The accelerations of the initial-acceleration problem set up in the Assembler when its mass
   // matrix is singular without empty rows (a node without mass between joints, whose coordinates

@@ -105,9 +105,10 @@ PetscErrorCode NewtonDescribeFailure(SNES snes, NewtonContext *context, std::str
 // Modified Newton then forms a new tangent.
 PetscErrorCode NewtonForgetFactorization(SNES snes, NewtonContext *context);
 
-// When the structure chose a non-pivoting banded LU (NewtonContext::banded_lu_by_structure): the
-// rest of the run factors by MUMPS, which pivots and accounts for a singular tangent (INFOG);
-// *switched tells whether that happened now (false: MUMPS or a user's choice already). Collective.
+// When the structure chose a non-pivoting banded LU (NewtonContext::banded_lu_by_structure): MUMPS
+// factors from now on, which pivots and accounts for a singular tangent (INFOG), until
+// NewtonUseBandedLUAgain; *switched tells whether that happened now (false: MUMPS or a user's
+// choice already). Collective.
 PetscErrorCode NewtonUsePivotingLU(SNES snes, NewtonContext *context, bool *switched);
 
 // Back from MUMPS to the banded LU the structure chose, after MUMPS failed the same step: the

@@ -1275,8 +1275,9 @@ PetscErrorCode OutputFile::Impl::AppendXdmf()
   while (written && frames_listed < frames.size()) {
     const bool      over_empty = frames_listed == 0;
     const long long offset     = over_empty ? 0 : xdmf_size - tail_size;
-    text                       = over_empty ? XdmfHead(true) : std::string();
-    size_t next                = frames_listed;
+    if (over_empty) text = XdmfHead(true);
+    else text.clear(); // (keeps the buffer's capacity)
+    size_t next = frames_listed;
     while (next < frames.size() && text.size() < kXdmfPieceBytes) AppendXdmfFrameGrids(frames[next++], &text);
     text += kXdmfTail;
     const ssize_t count = ::pwrite(fd, text.data(), text.size(), (off_t)offset);
@@ -1291,8 +1292,14 @@ PetscErrorCode OutputFile::Impl::AppendXdmf()
     // old end goes back where it was (for the empty sidecar, the whole of it), so that the
     // sidecar stays the complete XML it was.
     error = count < 0 ? errno : ENOSPC;
-    if (count >= 0) { // the reason comes with the next write (EFBIG at a file-size limit)
+    if (count >= 0) { // the rest, or the reason with it (EFBIG at a file-size limit)
       const ssize_t more = ::pwrite(fd, text.data() + count, text.size() - (size_t)count, (off_t)(offset + count));
+      if (more == (ssize_t)(text.size() - (size_t)count)) {
+        written       = true;
+        xdmf_size     = offset + (long long)text.size();
+        frames_listed = next;
+        continue;
+      }
       if (more < 0) error = errno;
     }
     const std::string old   = over_empty ? XdmfHead(false) + kXdmfTail : std::string(kXdmfTail);
@@ -1783,6 +1790,19 @@ PetscErrorCode OutputFile::Impl::Resume(int last_step, long long history_rows, c
                "'%s': the run it continues wrote %s series '%s', and this restart would %s (a changed option such as -analysis_stability?); restart with "
                "that run's settings, or into a new file with -output_file",
                p, stored ? "the" : "no", series.c_str(), written ? "write it" : "not");
+  }
+  // A completed run cut back to an earlier checkpoint (a restart to another end time) loses the
+  // rows after it: said, as nothing else would tell.
+  if (has_table) {
+    std::string          how_it_ended;
+    std::vector<hsize_t> dims;
+    const std::string    problem = DatasetDims(file, "/history/values", &dims);
+    if (ReadTextAttribute(file, "run_end", &how_it_ended).empty() && how_it_ended.rfind("completed", 0) == 0 && problem.empty() && dims.size() == 2 &&
+        dims[0] > rows)
+      PetscCall(PetscFPrintf(PETSC_COMM_SELF, PETSC_STDERR,
+                             "msflex: warning: '%s' holds a run that %s; this restart continues it from its checkpoint at step %d and replaces the %llu "
+                             "rows after that step\n",
+                             p, how_it_ended.c_str(), checkpoint_step, (unsigned long long)(dims[0] - rows)));
   }
   // (2) Changes: frames written after the checkpoint go, the table is cut to its rows; the
   // restart is recorded (restart_1, restart_2, ...: when, on how many ranks, the command line and

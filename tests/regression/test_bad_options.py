@@ -20,6 +20,9 @@ bend = f"{args.source_dir}/input/bend45.yaml"
 spaghetti = f"{args.source_dir}/input/flying_spaghetti.yaml"
 cases = [(bend, ["-analysis_end_time", "abc"], "-analysis_end_time: 'abc' is not a number"),
          (bend, ["-analysis_end_time"], "-analysis_end_time needs a value"),
+         # a file or name without its value ("the checkpoint file name is empty"), a time past double
+         (bend, ["-checkpoint_file"], "-checkpoint_file needs a value (FILE)"),
+         (bend, ["-checkpoint_wall_time", "1e400"], "-checkpoint_wall_time must be a finite number of seconds >= 0"),
          (bend, ["-analysis_max_newton_iterations", "2.5"], "-analysis_max_newton_iterations: '2.5' is not an integer"),
          (bend, ["-analysis_stability", "maybe"], "-analysis_stability: 'maybe' is not a logical value"),
          (bend, ["-analysis_output_times", "0.5,x"], "-analysis_output_times: '0.5,x' is not a comma-separated list of numbers"),

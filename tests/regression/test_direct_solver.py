@@ -139,7 +139,7 @@ NEWTON_HANDOVER = "with the banded LU, which does not pivot between nodes"
 pendulum = f"{args.source_dir}/tests/regression/inputs/beam_pendulum.yaml"
 arm = f"{args.source_dir}/input/turning_arm_screw.yaml"
 LONG_STEPS = ["-jacobian_dense_below", "0", "-analysis_max_newton_iterations", "3", "-analysis_initial_step", "0.05", "-analysis_max_step", "0.05"]
-retries = {}
+retries, newton_all = {}, {}
 for label, model, options, hands_over in (("a banded LU failed at every pivot", arm, ["-analysis_end_time", "0.1", "-pc_factor_zeropivot", "1e300"], True),
                                           ("steps too long for 3 iterations", pendulum, LONG_STEPS, False),
                                           ("steps too long for 3 iterations, MUMPS", pendulum, [*LONG_STEPS, "-analysis_direct_solver", "mumps"], None)):
@@ -147,6 +147,8 @@ for label, model, options, hands_over in (("a banded LU failed at every pivot", 
     _, stdout, _ = mt.run_msflex(args, model, output, extra=[*options, "-checkpoint_every", "1"], np_ranks=1)
     summary = re.search(r"steps\s+(\d+) accepted, (\d+) rejected", stdout)
     rejected = int(summary.group(2)) if summary else -1
+    attempts = re.search(r"Newton iterations\s+\d+ in accepted steps, (\d+) in all attempts", stdout)
+    newton_all[label] = int(attempts.group(1)) if attempts else -1
     lines = [line for line in stdout.splitlines() if NEWTON_HANDOVER in line]
     print(f"Newton retry, {label}: {rejected} rejected; {lines}")
     retries[label] = mt.history(output)
@@ -163,4 +165,7 @@ for label, model, options, hands_over in (("a banded LU failed at every pivot", 
 both = ("steps too long for 3 iterations", "steps too long for 3 iterations, MUMPS")
 worst = max(float(np.abs(retries[both[0]][s] - retries[both[1]][s]).max() / np.abs(retries[both[1]][s]).max()) for s in ("tip.position.x", "tip.position.y"))
 check.less("Newton retry, steps too long: the tip's path against MUMPS' own run", worst, 1e-9)
+# Each rejected step was tried with the banded LU, then with MUMPS: more Newton iterations in all
+# attempts than MUMPS' own run, which tries each once.
+check.greater("Newton retry, steps too long: Newton iterations in all attempts beyond MUMPS' own run", newton_all[both[0]] - newton_all[both[1]], 0)
 check.finish()

@@ -1,7 +1,8 @@
 """METIS partitioning (issue 5): a mechanism with joints (tests/regression/inputs/joint_mechanism.yaml)
 run on 1, 2 and 3 ranks (oversubscribed) with -partitioner metis gives the same final state to
 1e-9 relative; the partition is written to /mesh/node_rank, uses every rank, differs between
-the rank counts, and never splits a joint (master and slave on one rank)."""
+the rank counts, and never splits a joint (master and slave on one rank). A model whose nodes all belong to one
+group leaves a rank without nodes, and the run says so in one warning."""
 
 import h5py
 import numpy as np
@@ -29,4 +30,19 @@ for ranks in (2, 3):
     check.less(f"np {ranks} vs 1: max position difference / extent", np.abs(frames[ranks]["position"] - frames[1]["position"]).max() / extent, 1e-9)
     check.less(f"np {ranks} vs 1: max quaternion difference", np.abs(frames[ranks]["rotation"] - frames[1]["rotation"]).max(), 1e-9)
 check.true("the partitions of 2 and 3 ranks differ", not np.array_equal(partitions[2], partitions[3]))
+
+# A model whose nodes are all held together (a rigid body on a beam hinged to the ground: joint and
+# body make one group) leaves a rank without nodes, which runs then silently did: said once, on
+# stderr; a serial run says nothing.
+with open(f"{args.work_dir}/one_group.yaml", "w") as f:
+    f.write("""nodes: {pivot: [0, 0, 0]}
+rigid_bodies: [{node: pivot, mass: 1.0, inertia: [1, 1, 1], offset: [1, 0, 0]}]
+joints: [{name: hinge, type: revolute, master: ground, slave: pivot, axis: [0, 0, 1]}]
+loads: [{gravity: [0, -9.81, 0]}]
+analysis: {type: dynamic, end_time: 0.02, initial_step: 0.01, max_step: 0.01}
+""")
+for ranks in (1, 2):
+    _, _, stderr = mt.run_msflex(args, f"{args.work_dir}/one_group.yaml", f"{args.work_dir}/one_group_{ranks}.h5", np_ranks=ranks, extra=["-quiet"])
+    warnings = [line for line in stderr.splitlines() if line.startswith("msflex: warning: the partition leaves rank(s) 1 without a node")]
+    check.equal(f"one group of nodes on {ranks} rank(s): warnings of a rank without nodes", len(warnings), 1 if ranks > 1 else 0)
 check.finish()

@@ -6,7 +6,8 @@
 2. A restart that changes the analysis: a dynamic checkpoint continued as buckling (the run
    stopped with a trace, "frame of step 0 after the frame of step 4") and a load-controlled
    checkpoint continued under arc length, or without the stability account whose series the file
-   holds: one line, exit 1, the result file and its sidecar untouched.
+   holds: one line, exit 1, the result file and its sidecar untouched. A completed run continued
+   from a checkpoint before its end is allowed, with a warning naming the rows it replaces.
 3. A static analysis under arc length writes no checkpoint (a restart cannot continue it: its
    predictor needs the previous step): -checkpoint_every is ignored with a warning, and SIGTERM
    stops it with its results written, no checkpoint, and exit status 128 + 15 (the shell's
@@ -111,6 +112,15 @@ one_line("restart without the stability account", code, stderr, "the run it cont
 for name, before in files.items():
     with open(f"{work}/{name}", "rb") as f:
         check.true(f"restart without the stability account: {name} is untouched", f.read() == before)
+# A completed run continued from a checkpoint before its end (here to an earlier end time) loses
+# the rows after that checkpoint: allowed, and said on stderr (nothing else told).
+code, _, stderr = run([args.msflex, bend, "-checkpoint_every", "3", "-output_file", "bend_cut.h5", "-output_overwrite", "-quiet"])
+check.equal("bend45 with checkpoints every 3 steps: exit status", code, 0)
+code, _, stderr = run([args.msflex, "--restart", "bend_cut.ckpt.h5", "-analysis_end_time", "0.8", "-quiet"])
+check.equal("completed run cut back to its checkpoint: exit status", code, 0)
+check.true(f"completed run cut back to its checkpoint: the warning names the run's end and the rows replaced ({stderr.strip()!r})",
+           "msflex: warning: 'bend_cut.h5' holds a run that completed at t = 1 after step 8; this restart continues it from its checkpoint at step 6 "
+           "and replaces the 2 rows after that step" in stderr)
 
 # A stop signal during the last step: the run has completed and ends so (exit 0); it stopped with
 # exit 75, and the job script's restart was then refused (nothing left to do). One step of a long

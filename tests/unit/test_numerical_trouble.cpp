@@ -393,9 +393,10 @@ TEST(NumericalTrouble, SingularTangentNamesTheUnknownNothingResists)
 }
 
 // The same model with the default choice of the direct solver: on one rank the banded tangent
-// (BAIJ: its unknowns are all in node blocks) goes to msflex's block LU, which stops at the zero pivot; NewtonUsePivotingLU then hands the solver to MUMPS
-// for good, and the step tried again ends with MUMPS' account, which names the unknown. On two
-// ranks MUMPS factors from the start and there is nothing to hand over.
+// (BAIJ: its unknowns are all in node blocks) goes to msflex's block LU, which stops at the zero pivot; NewtonUsePivotingLU then hands the solver to MUMPS,
+// and the step tried again ends with MUMPS' account, which names the unknown; MUMPS failing too,
+// NewtonUseBandedLUAgain gives the factorisation back to the block LU. On two ranks MUMPS factors
+// from the start and there is nothing to hand over.
 TEST(NumericalTrouble, BandedLUHandsASingularTangentToMumps)
 {
   ScopedOptions sparse{{"-jacobian_dense_below", "0"}};
@@ -436,6 +437,17 @@ TEST(NumericalTrouble, BandedLUHandsASingularTangentToMumps)
                         infog1, infog2));
   ASSERT_EQ(NewtonUsePivotingLU(p.snes, &p.context, &switched), PETSC_SUCCESS);
   EXPECT_FALSE(switched); // once only
+  if (Size() > 1) return;
+  // MUMPS failed the same step as well: the banded LU comes back (Integrator::TryEquations), with
+  // its flags, and meets the zero pivot again.
+  ASSERT_EQ(NewtonUseBandedLUAgain(p.snes, &p.context), PETSC_SUCCESS);
+  EXPECT_TRUE(p.context.banded_lu_by_structure);
+  EXPECT_FALSE(p.context.pivoting_lu_forced);
+  ASSERT_EQ(BlockLUDescribeFailure(pc, &block_lu, &detail), PETSC_SUCCESS);
+  EXPECT_TRUE(block_lu);
+  ASSERT_EQ(SolveStep(&p, 0, 0.01, &scheme, nullptr, &reason, &why), PETSC_SUCCESS);
+  EXPECT_EQ(reason, SNES_DIVERGED_LINEAR_SOLVE);
+  EXPECT_EQ(why.rfind("the tangent is singular (zero pivot in the diagonal block of unknowns ", 0), 0u) << why;
 }
 
 // A package named by an option is the user's choice: PETSc's LU is kept, and nothing falls back.
