@@ -150,7 +150,8 @@ for label, loads in (("inverted pendulum", "loads: [{gravity: [0, -9.81, 0]}]\n"
         factor = mt.history(f"{args.work_dir}/inverted_pendulum.h5")["load_factor"][0]
         check.less(f"{label}: |load factor / (k / (m g d)) - 1|", abs(factor / (50.0 / (2.0 * 9.81 * 0.3)) - 1), 1e-10)
     else:
-        lines = [line for line in stderr.splitlines() if line.startswith("msflex:")]
+        # (on 2 ranks also the warning that one rank holds no node: the model has one)
+        lines = [line for line in stderr.splitlines() if line.startswith("msflex:") and not line.startswith("msflex: warning: the partition leaves")]
         check.equal(f"{label}: exit status", code, 1)
         check.true(f"{label}: one line saying the loads change nothing", len(lines) == 1 and "neither deform the structure nor change its stiffness" in lines[0])
 # Its modes preloaded to lambda: omega^2 = (k - m g d lambda) / (J + m d^2), negative beyond the
