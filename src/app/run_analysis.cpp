@@ -8,6 +8,7 @@
 #include "integrators/integrator.hpp"
 #include "integrators/path_following.hpp"
 #include "integrators/step_controller.hpp"
+#include "model/joint_kinds.hpp"
 #include "output/results.hpp"
 #include "parallel/partition.hpp"
 
@@ -17,6 +18,7 @@
 #include <filesystem>
 #include <initializer_list>
 #include <iterator>
+#include <map>
 
 namespace msflex {
 
@@ -48,18 +50,19 @@ struct OutputEvents {
 
 // Everything one analysis owns, so that the step loop reads as the algorithm.
 struct Analysis {
-  MPI_Comm             comm;
-  const RunOptions    &options;
-  Model                model; // this rank's part of the model (the distributed model)
-  DofMap               map;
-  Integrator           integrator;
-  PathFollower         path; // statics: the control of the steps and the stability of the path
-  OutputFile           output;
-  HistoryGather        joint_history;
-  HistoryGather        force_element_history;
-  const CheckpointRun *restart      = nullptr;                      // the checkpoint this run continues, or null
-  long long            history_rows = 0;                            // rows written to /history
-  std::string          input_file_absolute, input_text, input_file; // for checkpoints (the text only on rank 0)
+  MPI_Comm                           comm;
+  const RunOptions                  &options;
+  Model                              model; // this rank's part of the model (the distributed model)
+  DofMap                             map;
+  Integrator                         integrator;
+  PathFollower                       path; // statics: the control of the steps and the stability of the path
+  OutputFile                         output;
+  HistoryGather                      joint_history;
+  HistoryGather                      force_element_history;
+  const CheckpointRun               *restart      = nullptr;                      // the checkpoint this run continues, or null
+  long long                          history_rows = 0;                            // rows written to /history
+  std::string                        input_file_absolute, input_text, input_file; // for checkpoints (the text only on rank 0)
+  std::map<std::string, std::string> series_units, owner_kinds;                   // OutputFile::SetSeriesKnowledge, from the whole model
   // Wall clock (rank 0's, broadcast) and simulated time when this process started stepping, and
   // of the last checkpoint.
   double     wall_start = 0.0, time_start = 0.0, last_checkpoint_wall = 0.0;
@@ -106,6 +109,37 @@ struct StepRecord {
 // Set-up sees the whole model: partition, unknowns, the matrix pattern, nodal masses and the
 // output mesh; then each rank keeps only its part (the distributed model) and the integrator is
 // set up on it.
+// Units of the history series that depend on the model, and the kinds of the series' owners
+// (OutputFile::SetSeriesKnowledge): a generalised force is N on a translation, N m on a rotation.
+void SeriesKnowledge(const Model &whole, std::map<std::string, std::string> *series_units, std::map<std::string, std::string> *owner_kinds)
+{
+  const auto force_unit = [](const Joint &joint, int coordinate) { return coordinate < joint.num_translations ? "N" : "N m"; };
+  for (const Joint &joint : whole.joints) {
+    (*owner_kinds)[joint.name] = std::string(JointKindName(joint.kind)) + " joint";
+    if (joint.driven_coordinate >= 0)
+      // (a screw or rack driven by its translation: the force along it)
+      (*series_units)[joint.name + ".drive_force"] = joint.drive_coordinate_scale != 1.0 ? "N" : force_unit(joint, joint.driven_coordinate);
+  }
+  for (const ForceElement &element : whole.force_elements) {
+    switch (element.kind) {
+    case ForceElement::Kind::Coordinate:
+      (*owner_kinds)[element.name]             = "coordinate force element on joint " + whole.joints[element.joint].name;
+      (*series_units)[element.name + ".force"] = force_unit(whole.joints[element.joint], element.coordinate);
+      break;
+    case ForceElement::Kind::SpringDamper:
+      (*owner_kinds)[element.name] = "spring-damper";
+      break;
+    case ForceElement::Kind::Bushing:
+      (*owner_kinds)[element.name] = "bushing";
+      break;
+    }
+  }
+  for (const Probe &probe : whole.probes) {
+    if (probe.kind == Probe::Kind::Reaction) (*owner_kinds)[probe.name] = "reaction probe";
+    if (probe.kind == Probe::Kind::Element) (*owner_kinds)[probe.name] = "beam probe";
+  }
+}
+
 PetscErrorCode Setup(Analysis &a, Model whole)
 {
   PartitionerType  partitioner;
@@ -153,6 +187,7 @@ PetscErrorCode Setup(Analysis &a, Model whole)
   PetscMPIInt rank;
   PetscCallMPI(MPI_Comm_rank(a.comm, &rank));
   std::error_code no_throw;
+  SeriesKnowledge(whole, &a.series_units, &a.owner_kinds);
   a.input_file          = whole.input_file;
   a.input_file_absolute = std::filesystem::absolute(whole.input_file, no_throw).string();
   if (rank == 0) a.input_text = whole.input_text;
@@ -216,6 +251,7 @@ PetscErrorCode Setup(Analysis &a, Model whole)
     PetscCall(a.output.Open(a.comm, a.options.output_file, a.options.output_overwrite, input_file, a.input_text, mesh, a.options.model_fingerprint,
                             a.options.run_id));
   }
+  a.output.SetSeriesKnowledge(a.series_units, a.owner_kinds);
   PetscCall(PetscLogEventEnd(event_output_open, 0, 0, 0, 0));
   PetscCall(PetscLogStagePop());
   PetscFunctionReturn(PETSC_SUCCESS);

@@ -23,6 +23,7 @@
 #include <cstring>
 #include <ctime>
 #include <filesystem>
+#include <map>
 #include <memory>
 #include <sstream>
 
@@ -474,13 +475,14 @@ struct OutputFile::Impl {
   // make (every rank: the series, then kProbeColumns per probe); the columns of the table a
   // restarted file holds (rank 0, from Resume: the run must write the same); rows in the file and
   // rows in the buffer (the same on every rank); the buffered rows (rank 0): rows x columns.
-  std::vector<std::string> history_names, probe_names, columns, stored_columns;
-  std::vector<double>      resumed_energy; // rank 0, from Resume: ResumedEnergyRows
-  std::string              run_end;        // SetRunEnd: the root attribute run_end written at Close
-  std::string              continues;      // SetContinues: the root attribute continues (a restart into a new file)
-  bool                     names_known  = false;
-  hsize_t                  rows_written = 0, rows_buffered = 0;
-  std::vector<double>      buffered_values;
+  std::vector<std::string>           history_names, probe_names, columns, stored_columns;
+  std::vector<double>                resumed_energy;            // rank 0, from Resume: ResumedEnergyRows
+  std::string                        run_end;                   // SetRunEnd: the root attribute run_end written at Close
+  std::string                        continues;                 // SetContinues: the root attribute continues (a restart into a new file)
+  std::map<std::string, std::string> series_units, owner_kinds; // SetSeriesKnowledge
+  bool                               names_known  = false;
+  hsize_t                            rows_written = 0, rows_buffered = 0;
+  std::vector<double>                buffered_values;
 
   // Flushing: anything written since the last flush (the same on every rank); rank 0's wall clock
   // at the last flush.
@@ -883,7 +885,18 @@ void OutputFile::Impl::TableColumns(std::vector<std::string> *names, std::vector
   for (std::vector<std::string> *list : {names, units, descriptions})
     if (list) list->clear();
   for (const std::string &name : history_names) {
-    const Quantity quantity = HistoryQuantity(name, analysis);
+    Quantity quantity = HistoryQuantity(name, analysis);
+    // What the model knows and the name does not: the unit of a generalised force ("N or N m") and
+    // the kind of the series' owner ("joint, bushing or reaction probe").
+    if (const auto unit = series_units.find(name); unit != series_units.end()) quantity.unit = unit->second;
+    const size_t dot = name.rfind('.');
+    if (dot != std::string::npos) {
+      const std::string owner = name.substr(0, dot), head = owner + " (";
+      const auto        kind  = owner_kinds.find(owner);
+      const size_t      close = quantity.description.find("): ");
+      if (kind != owner_kinds.end() && quantity.description.rfind(head, 0) == 0 && close != std::string::npos)
+        quantity.description = head + kind->second + quantity.description.substr(close);
+    }
     if (names) names->push_back(name);
     if (units) units->push_back(quantity.unit);
     if (descriptions) descriptions->push_back(quantity.description);
@@ -2113,6 +2126,13 @@ PetscErrorCode OutputFile::Flush()
 }
 
 long long OutputFile::HistoryRows() const { return impl_ ? (long long)(impl_->rows_written + impl_->rows_buffered) : 0; }
+
+void OutputFile::SetSeriesKnowledge(const std::map<std::string, std::string> &series_units, const std::map<std::string, std::string> &owner_kinds)
+{
+  if (!impl_) return;
+  impl_->series_units = series_units;
+  impl_->owner_kinds  = owner_kinds;
+}
 
 void OutputFile::SetRunEnd(const std::string &how)
 {

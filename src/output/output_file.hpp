@@ -18,6 +18,7 @@
 
 #include <petscsys.h>
 
+#include <map>
 #include <string>
 #include <utility>
 #include <vector>
@@ -181,6 +182,10 @@ public:
   // two), so that a restarted run's summary covers the whole file (it covered the restarted part:
   // "initial total energy" was the restart's). Empty on other ranks.
   const std::vector<double> &ResumedEnergyRows() const;
+  // After Open or Reopen, before the first history row: units of series that depend on the model
+  // (a driven coordinate's drive_force, a coordinate element's force: N or N m) and the kinds of
+  // the series' owners (a bushing, a revolute joint), for the units and descriptions of /history.
+  void SetSeriesKnowledge(const std::map<std::string, std::string> &series_units, const std::map<std::string, std::string> &owner_kinds);
   // How the run ended, for the root attribute run_end that Close writes ("running" from Open or
   // Reopen until then): "completed ...", "stopped by SIGTERM ...", "stopped at t = ...: ...". The
   // same text on every rank.

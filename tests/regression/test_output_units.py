@@ -85,18 +85,20 @@ check.equal("slider_crank: msflex-history's exit status", listing.returncode, 0)
 check.equal("slider_crank: series msflex-history lists as unknown", sum("unknown" in line for line in listing.stdout.splitlines()), 0)
 
 # --- Units ---------------------------------------------------------------------------------------
+# (A coordinate element's force and a drive's force in the unit of their coordinate: N m on a
+# rotation, N on a translation; the series' names alone said "N or N m".)
 EXPECTED_UNITS = {
     "slider_crank": {"spring_energy": "J", "dissipated_energy": "J", "total_energy": "J", "energy_balance": "J", "algorithmic_dissipation": "J",
-                     "energy_correction": "1", "motor.force": "N or N m", "motor.power": "W", "torsional_damper.force": "N or N m",
+                     "energy_correction": "1", "motor.force": "N m", "motor.power": "W", "torsional_damper.force": "N m",
                      "torsional_damper.power": "W", "rod_middle.N1": "N", "rod_middle.N3": "N", "rod_middle.M1": "N m", "rod_middle.M3": "N m",
                      "rotor.rx": "rad", "rotor.rx_rate": "rad/s", "slide.tx": "m", "slide.tx_rate": "m/s", "slide.force_x": "N",
                      "slide.moment_z": "N m", "slider_mass.position.x": "m", "time": "s"},
     "bushing_mount": {"mount.force_x": "N", "mount.force_z": "N", "mount.moment_x": "N m", "mount.moment_z": "N m", "mount.power": "W",
                       "root.force_y": "N", "root.moment_z": "N m", "root_section.N2": "N", "root_section.M2": "N m", "spring_energy": "J",
                       "box_centre.rotation_angle": "rad"},
-    "force_element_energy": {"strut.length": "m", "strut.tension": "N", "strut.power": "W", "torsion.force": "N or N m", "mount.moment_y": "N m",
+    "force_element_energy": {"strut.length": "m", "strut.tension": "N", "strut.power": "W", "torsion.force": "N m", "mount.moment_y": "N m",
                              "hinge.rx_rate": "rad/s"},
-    "spring_mass_damper": {"spring.force": "N or N m", "spring.power": "W", "slide.tx": "m", "slide.tx_rate": "m/s"},
+    "spring_mass_damper": {"spring.force": "N", "spring.power": "W", "slide.tx": "m", "slide.tx_rate": "m/s"},
     "turning_arm_screw": {"screw.tx": "m", "screw.rx": "rad", "screw.rx_rate": "rad/s"},
     "von_mises_truss": {"time": "1", "load_factor": "1", "hinge.rx": "rad", "hinge.rx_rate": "rad", "critical_load_factor": "1"},
     "hinged_beam_modes": {"time": "1", "mode": "1", "eigenvalue": "(rad/s)^2", "angular_frequency": "rad/s", "frequency": "Hz"},
