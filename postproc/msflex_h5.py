@@ -125,6 +125,8 @@ def _results_of_checkpoint(checkpoint, stored):
     beside = os.path.join(os.path.dirname(checkpoint), os.path.basename(stored))
     if os.path.exists(beside):
         return beside
+    if os.path.exists(stored):  # this tool runs where the run did (a checkpoint kept elsewhere)
+        return stored
     return f"{stored} (relative to the directory its run started in)"
 
 

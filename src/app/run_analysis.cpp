@@ -113,31 +113,41 @@ struct StepRecord {
 // (OutputFile::SetSeriesKnowledge): a generalised force is N on a translation, N m on a rotation.
 void SeriesKnowledge(const Model &whole, std::map<std::string, std::string> *series_units, std::map<std::string, std::string> *owner_kinds)
 {
+  // A name that owners of two kinds share (a joint and a beam probe may) keeps the generic
+  // description: its series cannot be told apart by the name.
+  std::map<std::string, std::string> kinds;
+  std::vector<std::string>           shared;
+  const auto                         claim = [&](const std::string &name, const std::string &kind) {
+    const auto [at, inserted] = kinds.emplace(name, kind);
+    if (!inserted && at->second != kind) shared.push_back(name);
+  };
   const auto force_unit = [](const Joint &joint, int coordinate) { return coordinate < joint.num_translations ? "N" : "N m"; };
   for (const Joint &joint : whole.joints) {
-    (*owner_kinds)[joint.name] = std::string(JointKindName(joint.kind)) + " joint";
+    claim(joint.name, std::string(JointKindName(joint.kind)) + " joint");
     if (joint.driven_coordinate >= 0)
       // (a screw or rack driven by its translation: the force along it)
-      (*series_units)[joint.name + ".drive_force"] = joint.drive_coordinate_scale != 1.0 ? "N" : force_unit(joint, joint.driven_coordinate);
+      (*series_units)[joint.name + ".drive_force"] = joint.drive_by_translation ? "N" : force_unit(joint, joint.driven_coordinate);
   }
   for (const ForceElement &element : whole.force_elements) {
     switch (element.kind) {
     case ForceElement::Kind::Coordinate:
-      (*owner_kinds)[element.name]             = "coordinate force element on joint " + whole.joints[element.joint].name;
+      claim(element.name, "coordinate force element on joint " + whole.joints[element.joint].name);
       (*series_units)[element.name + ".force"] = force_unit(whole.joints[element.joint], element.coordinate);
       break;
     case ForceElement::Kind::SpringDamper:
-      (*owner_kinds)[element.name] = "spring-damper";
+      claim(element.name, "spring-damper");
       break;
     case ForceElement::Kind::Bushing:
-      (*owner_kinds)[element.name] = "bushing";
+      claim(element.name, "bushing");
       break;
     }
   }
   for (const Probe &probe : whole.probes) {
-    if (probe.kind == Probe::Kind::Reaction) (*owner_kinds)[probe.name] = "reaction probe";
-    if (probe.kind == Probe::Kind::Element) (*owner_kinds)[probe.name] = "beam probe";
+    if (probe.kind == Probe::Kind::Reaction) claim(probe.name, "reaction probe");
+    if (probe.kind == Probe::Kind::Element) claim(probe.name, "beam probe");
   }
+  for (const std::string &name : shared) kinds.erase(name);
+  *owner_kinds = std::move(kinds);
 }
 
 PetscErrorCode Setup(Analysis &a, Model whole)

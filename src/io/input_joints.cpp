@@ -195,6 +195,7 @@ void ReadDrive(const YAML::Node &value, const MappingReader &joint_entry, const 
     index                        = joint.num_translations;
     scale                        = 1.0 / joint.coefficient;
     joint.drive_coordinate_scale = joint.coefficient;
+    joint.drive_by_translation   = true;
   } else {
     for (size_t k = 0; k < names.size(); ++k)
       if (names[k] == coordinate) index = static_cast<int>(k);

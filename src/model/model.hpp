@@ -202,6 +202,7 @@ struct Joint {
   // translation's coefficient (pitch, radius) when a screw or rack is driven by its translation,
   // whose drive_force is then the force along it, Q_phi / coefficient.
   double     drive_coordinate_scale = 1.0;
+  bool       drive_by_translation   = false; // a screw or rack driven by its translation (drive_force in N)
   SourceMark mark;
 };
 

@@ -1813,7 +1813,7 @@ PetscErrorCode OutputFile::Impl::Resume(int last_step, long long history_rows, c
     if (ReadTextAttribute(file, "run_end", &how_it_ended).empty() && how_it_ended.rfind("completed", 0) == 0 && problem.empty() && dims.size() == 2 &&
         dims[0] > rows)
       PetscCall(PetscFPrintf(PETSC_COMM_SELF, PETSC_STDERR,
-                             "msflex: warning: '%s' holds a run that %s; this restart continues it from its checkpoint at step %d and replaces the %llu "
+                             "msflex: warning: '%s' holds a run that %s; this restart continues it from its checkpoint at step %d and drops the %llu "
                              "rows after that step\n",
                              p, how_it_ended.c_str(), checkpoint_step, (unsigned long long)(dims[0] - rows)));
   }

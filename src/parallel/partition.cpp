@@ -138,9 +138,9 @@ PetscErrorCode PartitionNodes(MPI_Comm comm, const Model &model, PartitionerType
     PetscCallMPI(MPI_Bcast(node_rank->data(), (int)n, MPI_INT, 0, comm));
     break;
   }
-  // A rank without nodes does no work: said, since the run then goes no faster than on fewer
-  // ranks (a hub joined to 18 arms by joints is one group of 19 nodes that no partition splits:
-  // 55 nodes on 4 ranks were 18, 19, 18 and 0).
+  // A rank without nodes holds no part of the model (only a share of MUMPS' factorisation): said,
+  // since the run then goes little faster than on fewer ranks (a hub joined to 18 arms by joints is
+  // one group of 19 nodes that no partition splits: 55 nodes on 4 ranks were 18, 19, 18 and 0).
   std::vector<size_t> nodes_of(size, 0);
   for (int r : *node_rank) ++nodes_of[r];
   std::string idle;
@@ -148,8 +148,8 @@ PetscErrorCode PartitionNodes(MPI_Comm comm, const Model &model, PartitionerType
     if (nodes_of[r] == 0) idle += (idle.empty() ? "" : ", ") + std::to_string(r);
   if (!idle.empty())
     PetscCall(PetscFPrintf(comm, PETSC_STDERR,
-                           "msflex: warning: the partition leaves rank(s) %s without a node (%zu nodes on %d ranks; nodes held together by joints and "
-                           "rigid bodies stay on one rank): those ranks do no work\n",
+                           "msflex: warning: the partition leaves rank(s) %s without a node (%zu nodes on %d ranks; the nodes a chain of joints joins "
+                           "stay on one rank): those ranks hold no part of the model\n",
                            idle.c_str(), n, (int)size));
   PetscFunctionReturn(PETSC_SUCCESS);
 }

@@ -31,9 +31,8 @@ for ranks in (2, 3):
     check.less(f"np {ranks} vs 1: max quaternion difference", np.abs(frames[ranks]["rotation"] - frames[1]["rotation"]).max(), 1e-9)
 check.true("the partitions of 2 and 3 ranks differ", not np.array_equal(partitions[2], partitions[3]))
 
-# A model whose nodes are all held together (a rigid body on a beam hinged to the ground: joint and
-# body make one group) leaves a rank without nodes, which runs then silently did: said once, on
-# stderr; a serial run says nothing.
+# A model of fewer nodes than ranks (a rigid body hinged to the ground: one node) leaves a rank
+# without nodes, which runs then silently did: said once, on stderr; a serial run says nothing.
 with open(f"{args.work_dir}/one_group.yaml", "w") as f:
     f.write("""nodes: {pivot: [0, 0, 0]}
 rigid_bodies: [{node: pivot, mass: 1.0, inertia: [1, 1, 1], offset: [1, 0, 0]}]

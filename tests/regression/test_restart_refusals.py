@@ -7,7 +7,7 @@
    stopped with a trace, "frame of step 0 after the frame of step 4") and a load-controlled
    checkpoint continued under arc length, or without the stability account whose series the file
    holds: one line, exit 1, the result file and its sidecar untouched. A completed run continued
-   from a checkpoint before its end is allowed, with a warning naming the rows it replaces.
+   from a checkpoint before its end is allowed, with a warning naming the rows it drops.
 3. A static analysis under arc length writes no checkpoint (a restart cannot continue it: its
    predictor needs the previous step): -checkpoint_every is ignored with a warning, and SIGTERM
    stops it with its results written, no checkpoint, and exit status 128 + 15 (the shell's
@@ -120,7 +120,7 @@ code, _, stderr = run([args.msflex, "--restart", "bend_cut.ckpt.h5", "-analysis_
 check.equal("completed run cut back to its checkpoint: exit status", code, 0)
 check.true(f"completed run cut back to its checkpoint: the warning names the run's end and the rows replaced ({stderr.strip()!r})",
            "msflex: warning: 'bend_cut.h5' holds a run that completed at t = 1 after step 8; this restart continues it from its checkpoint at step 6 "
-           "and replaces the 2 rows after that step" in stderr)
+           "and drops the 2 rows after that step" in stderr)
 
 # A stop signal during the last step: the run has completed and ends so (exit 0); it stopped with
 # exit 75, and the job script's restart was then refused (nothing left to do). One step of a long
