@@ -134,15 +134,21 @@ PetscErrorCode Integrator::SolveAccelerations(Vec accelerations, bool hand_over,
   PetscCall(SNESSolve(snes_, nullptr, accelerations));
   PetscCall(SNESGetConvergedReason(snes_, &reason));
   *solved = reason > 0;
-  if (!*solved) {
+  PetscCall(SettleRetryWithMumps(*solved, "the initial accelerations", SNESConvergedReasons[banded_reason]));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode Integrator::SettleRetryWithMumps(bool converged, const std::string &what, const std::string &why)
+{
+  PetscFunctionBeginUser;
+  if (!converged) {
     PetscCall(NewtonUseBandedLUAgain(snes_, &newton_context_));
     PetscFunctionReturn(PETSC_SUCCESS);
   }
   if (!quiet_)
-    PetscCall(PetscPrintf(comm_,
-                          "msflex: Newton failed on the initial accelerations with the banded LU, which does not pivot between nodes (%s), and MUMPS "
-                          "converged: MUMPS factors from here on\n",
-                          SNESConvergedReasons[banded_reason]));
+    PetscCall(PetscPrintf(
+        comm_, "msflex: Newton failed on %s with the banded LU, which does not pivot between nodes (%s), and MUMPS converged: MUMPS factors from here on\n",
+        what.c_str(), why.c_str()));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
@@ -501,15 +507,7 @@ PetscErrorCode Integrator::TryEquations(const StepEquations &equations, double d
   const int         newton = outcome->newton_iterations, linear = outcome->linear_iterations;
   PetscCall(TryEquations(equations, dt, outcome));
   outcome->retried_newton_iterations += newton, outcome->retried_linear_iterations += linear;
-  if (!outcome->converged) {
-    PetscCall(NewtonUseBandedLUAgain(snes_, &newton_context_));
-    PetscFunctionReturn(PETSC_SUCCESS);
-  }
-  if (!quiet_)
-    PetscCall(PetscPrintf(comm_,
-                          "msflex: Newton failed on the step from t = %.9g to %.9g with the banded LU, which does not pivot between nodes (%s), and "
-                          "MUMPS converged: MUMPS factors from here on\n",
-                          equations.t_start, equations.t_end, why_banded.c_str()));
+  PetscCall(SettleRetryWithMumps(outcome->converged, Format("the step from t = %.9g to %.9g", equations.t_start, equations.t_end), why_banded));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 

@@ -153,6 +153,9 @@ private:
   // An attempt at a step with these equations (TryStep, TryStaticStageStep); failed with the banded
   // LU, a second with MUMPS, which keeps the run if it converges (said on stdout).
   PetscErrorCode TryEquations(const StepEquations &equations, double dt, StepOutcome *outcome);
+  // After the retry with MUMPS of what the banded LU failed (`what`, with the banded LU's failure
+  // `why`): converged, MUMPS keeps the run (said in one line); else the banded LU comes back.
+  PetscErrorCode SettleRetryWithMumps(bool converged, const std::string &what, const std::string &why);
   PetscErrorCode ReportSlaveVelocityChange(const SlaveVelocityChange &change);
   // The accelerations of the initial-acceleration problem set up in the Assembler when its mass
   // matrix is singular without empty rows (a node without mass between joints, whose coordinates
