@@ -202,6 +202,7 @@ PetscErrorCode PathFollower::Linearize(double t, double lambda, double load_fact
   }
   recent_.push_back(point_);
   if (recent_.size() > 3) recent_.erase(recent_.begin());
+  if (!std::isfinite(start_rate_)) start_rate_ = point_.load_factor_rate;
   if (steps_ > 0 && stability_) PetscCall(DetectCriticalPoint(previous));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
@@ -663,6 +664,26 @@ std::string PathFollower::ProgressNote() const
 
 std::string PathFollower::StopAdvice() const
 {
+  if (control_ == PathControl::Displacement) {
+    // At a turning point of the controlled displacement (a snap-back in it) the load factor's rate
+    // along it, d lambda / d t, grows without bound and changes sign: the corrector then fails at a
+    // fixed t. (At a limit point of the load factor the rate passes through zero instead, which
+    // displacement control passes.) The Lee frame's rate went from about 0.03 at the start to
+    // -72.7, 92.4 and 122 in its last steps before v = -61.015.
+    // (A stiffening structure's rate grows too, but keeps its sign.)
+    double largest = 0.0;
+    bool   turned  = false;
+    for (size_t k = 0; k < recent_.size(); ++k) {
+      largest = std::max(largest, std::abs(recent_[k].load_factor_rate));
+      if (k > 0 && recent_[k].load_factor_rate * recent_[k - 1].load_factor_rate < 0) turned = true;
+    }
+    if (turned && std::isfinite(largest) && std::isfinite(start_rate_) && largest > 30.0 * std::abs(start_rate_))
+      return Format("; the load factor's rate along the controlled displacement has grown from %.3g at the start to %.3g, so the displacement "
+                    "reaches a turning point of the path (a snap-back), which displacement control cannot pass: follow the path with analysis: "
+                    "{control: arc_length} (docs/stability.md)",
+                    start_rate_, recent_.back().load_factor_rate);
+    return "";
+  }
   if (control_ != PathControl::Load || !stability_ || recent_.size() < 2) return "";
   const PathPoint &now = recent_.back(), &before = recent_[recent_.size() - 2];
   const double     S = now.stiffness_parameter, S_before = before.stiffness_parameter;

@@ -169,4 +169,27 @@ for load in (8.0, 9.0):
     label = f"inverted pendulum's mode at lambda = {load}"
     check.less(f"{label}: |omega^2 / ((k - m g d lambda) / (J + m d^2)) - 1|", abs(h["eigenvalue"][0] / exact - 1), 1e-8)
     check.true(f"{label}: the run says {'un' if exact < 0 else ''}stable", ("is unstable" in stdout) == (exact < 0) and ("(unstable: no frequency)" in stdout) == (exact < 0))
+
+# Lee's frame under displacement control of the loaded point's vertical displacement: the path
+# turns back in that displacement (a snap-back) at v = -61.015, which displacement control cannot
+# pass. The stop now says so and points to arc length (it said only that the corrector did not
+# converge).
+with open(f"{args.work_dir}/lee_frame.yaml", "w") as f:
+    f.write("""sections: [{name: s, EA: 4320, GA2: 1384.6, GA3: 1.0e8, GJ: 1.0e8, EI2: 1.0e8, EI3: 1440}]
+nodes: {A: [0, 0, 0], B: [0, 120, 0], C: [24, 120, 0], D: [120, 120, 0]}
+beams:
+  - {name: col, section: s, from: A, to: B, elements: 10, order: 2}
+  - {name: b1, section: s, from: B, to: C, elements: 2, order: 2}
+  - {name: b2, section: s, from: C, to: D, elements: 8, order: 2}
+supports: [{nodes: A, fix: [ux, uy, uz, rx, ry]}, {nodes: D, fix: [ux, uy, uz, rx, ry]}]
+loads: [{nodes: C, force: [0, -1, 0]}]
+analysis: {type: static, control: displacement, control_node: C, control_dof: uy, control_value: -1, end_time: 90, initial_step: 1, max_step: 1}
+""")
+code, _, stderr = mt.run_msflex(args, f"{args.work_dir}/lee_frame.yaml", f"{args.work_dir}/lee_frame.h5", expect_success=False, extra=["-quiet"])
+stop = [line for line in stderr.splitlines() if "stopped at" in line]
+print(f"Lee frame under displacement control: exit {code}: {stop[:1]}")
+check.equal("Lee frame under displacement control: exit status", code, 1)
+check.true("Lee frame under displacement control: the stop names the turning point of the displacement and arc length",
+           len(stop) == 1 and "stopped at t = 61.01" in stop[0] and "reaches a turning point of the path (a snap-back)" in stop[0]
+           and "control: arc_length" in stop[0])
 check.finish()
