@@ -9,6 +9,9 @@
 
 namespace msflex {
 
+// A rotation increment of a step beyond this (16 turns) is no motion but a singular tangent's answer.
+constexpr double kAbsurdRotationIncrement = 100.0;
+
 Integrator::~Integrator()
 {
   VecDestroy(&increments_);
@@ -489,6 +492,12 @@ PetscErrorCode Integrator::TryEquations(const StepEquations &equations, double d
   if (rotation_too_large) {
     outcome->why = Format("a rotation increment (of a node, or a joint's released angle) of %.4g rad exceeds max_rotation_increment = %.4g rad", max_rotation,
                           analysis.max_rotation_increment);
+    // Dozens of turns in one step come from a tangent singular but for round-off, which a pivoting
+    // LU (MUMPS, on more ranks) factors without a word, where the banded LU stops at the pivot and
+    // says what is free: the same hint.
+    if (max_rotation > kAbsurdRotationIncrement)
+      outcome->why += "; an increment this large comes from a nearly singular tangent: is part of the model a mechanism, free to move without "
+                      "resistance?";
   } else {
     PetscCall(NewtonDescribeFailure(snes_, &newton_context_, &outcome->why));
     PetscCall(NewtonForgetFactorization(snes_, &newton_context_));
