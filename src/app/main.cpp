@@ -237,8 +237,9 @@ static PetscErrorCode RunMsflex(int argc, char **argv, RunEnd *end)
   // Before any existing file is looked at (a checkpoint, an output path already taken).
   PetscReal read_timeout = 30.0; // seconds; core/hdf5_files.hpp
   PetscCall(PetscOptionsGetReal(nullptr, nullptr, "-file_read_timeout", &read_timeout, nullptr));
-  PetscCheck(read_timeout > 0 && std::isfinite(read_timeout), comm, PETSC_ERR_USER_INPUT,
-             "bad option: -file_read_timeout must be a positive number of seconds, got %g", (double)read_timeout);
+  // (At most a day: the watchdog converts it to whole seconds of time_t, which 1e300 overflowed.)
+  PetscCheck(read_timeout > 0 && read_timeout <= 86400.0, comm, PETSC_ERR_USER_INPUT,
+             "bad option: -file_read_timeout must be a positive number of seconds up to 86400 (a day), got %g", (double)read_timeout);
   SetVariableStringReadTimeout(read_timeout);
   Model            model;
   CheckpointRun    run;

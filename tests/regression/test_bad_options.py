@@ -23,6 +23,7 @@ cases = [(bend, ["-analysis_end_time", "abc"], "-analysis_end_time: 'abc' is not
          # a file or name without its value ("the checkpoint file name is empty"), a time past double
          (bend, ["-checkpoint_file"], "-checkpoint_file needs a value (FILE)"),
          (bend, ["-checkpoint_wall_time", "1e400"], "-checkpoint_wall_time must be a finite number of seconds >= 0"),
+         (bend, ["-file_read_timeout", "1e300"], "-file_read_timeout must be a positive number of seconds up to 86400"),
          (bend, ["-analysis_max_newton_iterations", "2.5"], "-analysis_max_newton_iterations: '2.5' is not an integer"),
          (bend, ["-analysis_stability", "maybe"], "-analysis_stability: 'maybe' is not a logical value"),
          (bend, ["-analysis_output_times", "0.5,x"], "-analysis_output_times: '0.5,x' is not a comma-separated list of numbers"),
@@ -45,7 +46,7 @@ cases = [(bend, ["-analysis_end_time", "abc"], "-analysis_end_time: 'abc' is not
          (bend, ["-snes_max_it", "abc"], "-snes_max_it abc: Input string abc has no integer value"),
          (bend, ["-jacobian_dense_below", "abc"], "-jacobian_dense_below abc: Input string abc has no integer value"),
          (bend, ["-analysis_max_rotation_increment", "4"], "-analysis_max_rotation_increment (max_rotation_increment) must be below pi, got 4"),
-         (bend, ["-file_read_timeout", "-1"], "-file_read_timeout must be a positive number of seconds, got -1")]
+         (bend, ["-file_read_timeout", "-1"], "-file_read_timeout must be a positive number of seconds up to 86400 (a day), got -1")]
 for source, options, expected in cases:
     for ranks in sorted({1, args.np}):
         output = f"{args.work_dir}/never_written.h5"
