@@ -303,7 +303,8 @@ std::string WriteFileMarker(hid_t file, const FileMarker &marker)
 
 void SetVariableStringReadTimeout(double seconds)
 {
-  if (seconds > 0 && std::isfinite(seconds)) variable_string_read_timeout = seconds;
+  // At most a day: the watchdog counts it in whole seconds of time_t.
+  if (seconds > 0 && std::isfinite(seconds)) variable_string_read_timeout = std::min(seconds, 86400.0);
 }
 
 std::string ReadFileMarker(hid_t file, FileMarker *marker)

@@ -495,7 +495,7 @@ PetscErrorCode Integrator::TryEquations(const StepEquations &equations, double d
     // Dozens of turns in one step come from a tangent singular but for round-off, which a pivoting
     // LU (MUMPS, on more ranks) factors without a word, where the banded LU stops at the pivot and
     // says what is free: the same hint.
-    if (max_rotation > kAbsurdRotationIncrement)
+    if (!equations.Dynamic() && max_rotation > kAbsurdRotationIncrement) // (in dynamics: real spin, and a step too long)
       outcome->why += "; an increment this large comes from a nearly singular tangent: is part of the model a mechanism, free to move without "
                       "resistance?";
   } else {

@@ -201,8 +201,12 @@ PetscErrorCode PathFollower::Linearize(double t, double lambda, double load_fact
     PetscCall(PetscLogStagePop());
   }
   recent_.push_back(point_);
-  if (recent_.size() > 3) recent_.erase(recent_.begin());
-  if (!std::isfinite(start_rate_)) start_rate_ = point_.load_factor_rate;
+  if (recent_.size() > 3) {
+    // The largest rate of the path before the last three points (StopAdvice's reference).
+    if (std::isfinite(recent_.front().load_factor_rate)) earlier_rate_ = std::max(earlier_rate_, std::abs(recent_.front().load_factor_rate));
+    recent_.erase(recent_.begin());
+  }
+  if (!std::isfinite(first_rate_)) first_rate_ = point_.load_factor_rate;
   if (steps_ > 0 && stability_) PetscCall(DetectCriticalPoint(previous));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
@@ -665,23 +669,33 @@ std::string PathFollower::ProgressNote() const
 std::string PathFollower::StopAdvice() const
 {
   if (control_ == PathControl::Displacement) {
-    // At a turning point of the controlled displacement (a snap-back in it) the load factor's rate
-    // along it, d lambda / d t, grows without bound and changes sign: the corrector then fails at a
-    // fixed t. (At a limit point of the load factor the rate passes through zero instead, which
-    // displacement control passes.) The Lee frame's rate went from about 0.03 at the start to
-    // -72.7, 92.4 and 122 in its last steps before v = -61.015.
-    // (A stiffening structure's rate grows too, but keeps its sign.)
-    double largest = 0.0;
-    bool   turned  = false;
-    for (size_t k = 0; k < recent_.size(); ++k) {
-      largest = std::max(largest, std::abs(recent_[k].load_factor_rate));
-      if (k > 0 && recent_[k].load_factor_rate * recent_[k - 1].load_factor_rate < 0) turned = true;
+    // At a turning point t* of the controlled displacement (a snap-back in it) the load factor's
+    // rate along it, r = d lambda / d t, grows without bound like 1/sqrt(t* - t), and changes sign
+    // past it; the corrector then fails at a fixed t. Said when the last three rates grow with one
+    // sign and 1/r^2, extrapolated linearly, reaches zero within two more steps of the last's
+    // length; or when they change sign with both sides beyond every rate before and 10 times the
+    // first (at a limit point of the load factor the rate passes through zero instead, which
+    // displacement control passes). Lee's frame: 0.163 at the start; with min_step 1e-4, -4.36,
+    // -9.32, -29.7 (t* 0.11 steps ahead); with 1e-6 the halved steps jumped across: -72.7, 92.4,
+    // 122 after at most 44.2.
+    if (recent_.size() < 3) return "";
+    const PathPoint &p0 = recent_[0], &p1 = recent_[1], &p2 = recent_[2];
+    const double     r0 = p0.load_factor_rate, r1 = p1.load_factor_rate, r2 = p2.load_factor_rate;
+    if (!(std::isfinite(r0) && std::isfinite(r1) && std::isfinite(r2) && r0 != 0 && r1 != 0 && r2 != 0)) return "";
+    bool         near = false;
+    const double step = p2.t - p1.t;
+    if (r0 * r1 > 0 && r1 * r2 > 0 && std::abs(r1) > std::abs(r0) && std::abs(r2) > std::abs(r1) && step > 0) {
+      const double w1 = 1.0 / (r1 * r1), w2 = 1.0 / (r2 * r2); // falling linearly to 0 at t*
+      near = w2 / (w1 - w2) * step < 2.0 * step;
     }
-    if (turned && std::isfinite(largest) && std::isfinite(start_rate_) && largest > 30.0 * std::abs(start_rate_))
-      return Format("; the load factor's rate along the controlled displacement has grown from %.3g at the start to %.3g, so the displacement "
+    const auto crossed = [&](double a, double b) {
+      return a * b < 0 && std::min(std::abs(a), std::abs(b)) > std::max(earlier_rate_, 10.0 * std::abs(first_rate_));
+    };
+    if (near || crossed(r0, r1) || crossed(r1, r2))
+      return Format("; the load factor's rate along the controlled displacement has grown to %.3g (%.3g at the start), so the displacement "
                     "reaches a turning point of the path (a snap-back), which displacement control cannot pass: follow the path with analysis: "
                     "{control: arc_length} (docs/stability.md)",
-                    start_rate_, recent_.back().load_factor_rate);
+                    std::abs(r2) >= std::abs(r1) ? r2 : r1, first_rate_);
     return "";
   }
   if (control_ != PathControl::Load || !stability_ || recent_.size() < 2) return "";

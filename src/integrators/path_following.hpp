@@ -134,9 +134,11 @@ private:
   Vec           x_ = nullptr, residual_ = nullptr, q_ = nullptr, dx_R_ = nullptr, dx_F_ = nullptr, dx_ = nullptr, trial_ = nullptr, work_ = nullptr;
   Vec           weights_ = nullptr, scale_ = nullptr, mode_ = nullptr, path_tangent_ = nullptr, previous_increment_ = nullptr, previous_tangent_ = nullptr;
 
-  PathPoint                  point_;            // the last equilibrium
-  std::vector<PathPoint>     recent_;           // the last three, oldest first
-  double                     start_rate_ = NAN; // the load factor's rate at the path's first point (StopAdvice)
+  PathPoint              point_;  // the last equilibrium
+  std::vector<PathPoint> recent_; // the last three, oldest first
+  // StopAdvice's reference: the load factor's rate at the path's first point, and the largest
+  // before the last three points.
+  double                     first_rate_ = NAN, earlier_rate_ = 0.0;
   CriticalPoint              last_critical_;
   std::vector<CriticalPoint> critical_points_;
   double                     c_0_ = NAN, c_ref_ = NAN, arc_scale_ = NAN, psi2_c_ref_ = 0.0;
