@@ -246,6 +246,20 @@ class PostprocTest(unittest.TestCase):
             axes = plot_history.plot(history, "time", ["tip.rotation_angle"], "t").axes[0]
         self.assertEqual(axes.get_xlabel(), "time [s]")
         self.assertEqual(axes.get_ylabel(), "tip.rotation_angle [rad]")
+        self.assertEqual(axes.get_lines()[0].get_linestyle(), "-")
+        # Against an eigenanalysis's mode number: points without a line between them, whole-number
+        # ticks (the axis showed 1.25, 1.5, ...).
+        write_result_file(self.h5, analysis="static")  # (time in unit 1, as a mode number's)
+        with h5py.File(self.h5, "a") as f:
+            f.attrs["analysis_type"] = "modes"
+        with msflex_h5.HistoryFile(self.h5) as history:
+            figure = plot_history.plot(history, "time", ["tip.rotation_angle"], "t")
+        axes = figure.axes[0]
+        self.assertEqual(axes.get_xlabel(), "mode")
+        self.assertEqual(axes.get_lines()[0].get_linestyle(), "None")
+        figure.canvas.draw()
+        ticks = [tick for tick in axes.get_xticks() if axes.get_xlim()[0] <= tick <= axes.get_xlim()[1]]
+        self.assertTrue(len(ticks) > 0 and all(float(tick).is_integer() for tick in ticks), ticks)
 
     def test_prints_csv_with_time_first(self):
         result = run("msflex-history", self.h5, "load_factor", "tip.position.z",
