@@ -50,19 +50,18 @@ struct OutputEvents {
 
 // Everything one analysis owns, so that the step loop reads as the algorithm.
 struct Analysis {
-  MPI_Comm                           comm;
-  const RunOptions                  &options;
-  Model                              model; // this rank's part of the model (the distributed model)
-  DofMap                             map;
-  Integrator                         integrator;
-  PathFollower                       path; // statics: the control of the steps and the stability of the path
-  OutputFile                         output;
-  HistoryGather                      joint_history;
-  HistoryGather                      force_element_history;
-  const CheckpointRun               *restart      = nullptr;                      // the checkpoint this run continues, or null
-  long long                          history_rows = 0;                            // rows written to /history
-  std::string                        input_file_absolute, input_text, input_file; // for checkpoints (the text only on rank 0)
-  std::map<std::string, std::string> series_units, owner_kinds;                   // OutputFile::SetSeriesKnowledge, from the whole model
+  MPI_Comm             comm;
+  const RunOptions    &options;
+  Model                model; // this rank's part of the model (the distributed model)
+  DofMap               map;
+  Integrator           integrator;
+  PathFollower         path; // statics: the control of the steps and the stability of the path
+  OutputFile           output;
+  HistoryGather        joint_history;
+  HistoryGather        force_element_history;
+  const CheckpointRun *restart      = nullptr;                      // the checkpoint this run continues, or null
+  long long            history_rows = 0;                            // rows written to /history
+  std::string          input_file_absolute, input_text, input_file; // for checkpoints (the text only on rank 0)
   // Wall clock (rank 0's, broadcast) and simulated time when this process started stepping, and
   // of the last checkpoint.
   double     wall_start = 0.0, time_start = 0.0, last_checkpoint_wall = 0.0;
@@ -106,9 +105,6 @@ struct StepRecord {
   double residual_norm     = 0.0;
 };
 
-// Set-up sees the whole model: partition, unknowns, the matrix pattern, nodal masses and the
-// output mesh; then each rank keeps only its part (the distributed model) and the integrator is
-// set up on it.
 // Units of the history series that depend on the model, and the kinds of the series' owners
 // (OutputFile::SetSeriesKnowledge): a generalised force is N on a translation, N m on a rotation.
 void SeriesKnowledge(const Model &whole, std::map<std::string, std::string> *series_units, std::map<std::string, std::string> *owner_kinds)
@@ -150,6 +146,9 @@ void SeriesKnowledge(const Model &whole, std::map<std::string, std::string> *ser
   *owner_kinds = std::move(kinds);
 }
 
+// Set-up sees the whole model: partition, unknowns, the matrix pattern, nodal masses and the
+// output mesh; then each rank keeps only its part (the distributed model) and the integrator is
+// set up on it.
 PetscErrorCode Setup(Analysis &a, Model whole)
 {
   PartitionerType  partitioner;
@@ -196,8 +195,9 @@ PetscErrorCode Setup(Analysis &a, Model whole)
   PetscCall(PetscLogEventEnd(event_preallocation, 0, 0, 0, 0));
   PetscMPIInt rank;
   PetscCallMPI(MPI_Comm_rank(a.comm, &rank));
-  std::error_code no_throw;
-  SeriesKnowledge(whole, &a.series_units, &a.owner_kinds);
+  std::error_code                    no_throw;
+  std::map<std::string, std::string> series_units, owner_kinds; // for the result file, from the whole model
+  SeriesKnowledge(whole, &series_units, &owner_kinds);
   a.input_file          = whole.input_file;
   a.input_file_absolute = std::filesystem::absolute(whole.input_file, no_throw).string();
   if (rank == 0) a.input_text = whole.input_text;
@@ -261,7 +261,7 @@ PetscErrorCode Setup(Analysis &a, Model whole)
     PetscCall(a.output.Open(a.comm, a.options.output_file, a.options.output_overwrite, input_file, a.input_text, mesh, a.options.model_fingerprint,
                             a.options.run_id));
   }
-  a.output.SetSeriesKnowledge(a.series_units, a.owner_kinds);
+  a.output.SetSeriesKnowledge(series_units, owner_kinds);
   PetscCall(PetscLogEventEnd(event_output_open, 0, 0, 0, 0));
   PetscCall(PetscLogStagePop());
   PetscFunctionReturn(PETSC_SUCCESS);

@@ -1293,28 +1293,24 @@ PetscErrorCode OutputFile::Impl::AppendXdmf()
     size_t next = frames_listed;
     while (next < frames.size() && text.size() < kXdmfPieceBytes) AppendXdmfFrameGrids(frames[next++], &text);
     text += kXdmfTail;
-    const ssize_t count = ::pwrite(fd, text.data(), text.size(), (off_t)offset);
-    written             = count == (ssize_t)text.size();
+    ssize_t count  = ::pwrite(fd, text.data(), text.size(), (off_t)offset);
+    int     reason = count < 0 ? errno : 0;
+    if (count >= 0 && (size_t)count < text.size()) { // a short write: the rest, or the reason with it (EFBIG at a file-size limit)
+      const ssize_t more = ::pwrite(fd, text.data() + count, text.size() - (size_t)count, (off_t)(offset + count));
+      if (more < 0) reason = errno;
+      else count += more;
+    }
+    written = count == (ssize_t)text.size();
     if (written) {
       // (the head with XIncludes is longer than the one without: nothing of the old file is left)
       xdmf_size     = offset + (long long)text.size();
       frames_listed = next;
       continue;
     }
-    // A short write (a full disk, a file-size limit) leaves half a piece over the old tail: the
-    // old end goes back where it was (for the empty sidecar, the whole of it), so that the
-    // sidecar stays the complete XML it was.
-    error = count < 0 ? errno : ENOSPC;
-    if (count >= 0) { // the rest, or the reason with it (EFBIG at a file-size limit)
-      const ssize_t more = ::pwrite(fd, text.data() + count, text.size() - (size_t)count, (off_t)(offset + count));
-      if (more == (ssize_t)(text.size() - (size_t)count)) {
-        written       = true;
-        xdmf_size     = offset + (long long)text.size();
-        frames_listed = next;
-        continue;
-      }
-      if (more < 0) error = errno;
-    }
+    // A write refused part-way (a full disk, a file-size limit) leaves half a piece over the old
+    // tail: the old end goes back where it was (for the empty sidecar, the whole of it), so that
+    // the sidecar stays the complete XML it was.
+    error                   = reason ? reason : ENOSPC;
     const std::string old   = over_empty ? XdmfHead(false) + kXdmfTail : std::string(kXdmfTail);
     const long long   where = over_empty ? 0 : xdmf_size - tail_size;
     if (::pwrite(fd, old.data(), old.size(), (off_t)where) == (ssize_t)old.size()) {
@@ -1783,8 +1779,9 @@ PetscErrorCode OutputFile::Impl::Resume(int last_step, long long history_rows, c
   PetscCheck(has_table || rows == 0, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "'%s' has no history, the checkpoint expects %llu rows", p,
              (unsigned long long)rows);
   stored_columns.clear();
+  hsize_t stored_rows = 0;
   if (has_table) {
-    std::vector<hsize_t> dims, names_dims;
+    std::vector<hsize_t> dims;
     std::string          problem = DatasetDims(file, "/history/values", &dims);
     PetscCheck(problem.empty(), PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "'%s': %s", p, problem.c_str());
     PetscCheck(dims.size() == 2 && dims[0] >= rows, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED,
@@ -1794,6 +1791,7 @@ PetscErrorCode OutputFile::Impl::Resume(int last_step, long long history_rows, c
     PetscCheck(problem.empty(), PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "'%s': %s", p, problem.c_str());
     PetscCheck(stored_columns.size() == dims[1], PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "'%s': /history/names names %zu columns, /history/values has %llu",
                p, stored_columns.size(), (unsigned long long)dims[1]);
+    stored_rows = dims[0];
   }
   // Series this run writes, or does not, by its settings (the stability account's): a file whose
   // run wrote otherwise would be refused at the first row, after the changes below.
@@ -1806,16 +1804,13 @@ PetscErrorCode OutputFile::Impl::Resume(int last_step, long long history_rows, c
   }
   // A completed run cut back to an earlier checkpoint (a restart to another end time) loses the
   // rows after it: said, as nothing else would tell.
-  if (has_table) {
-    std::string          how_it_ended;
-    std::vector<hsize_t> dims;
-    const std::string    problem = DatasetDims(file, "/history/values", &dims);
-    if (ReadTextAttribute(file, "run_end", &how_it_ended).empty() && how_it_ended.rfind("completed", 0) == 0 && problem.empty() && dims.size() == 2 &&
-        dims[0] > rows)
+  if (stored_rows > rows) {
+    std::string how_it_ended;
+    if (ReadTextAttribute(file, "run_end", &how_it_ended).empty() && how_it_ended.rfind("completed", 0) == 0)
       PetscCall(PetscFPrintf(PETSC_COMM_SELF, PETSC_STDERR,
                              "msflex: warning: '%s' holds a run that %s; this restart continues it from its checkpoint at step %d and drops the %llu "
                              "rows after that step\n",
-                             p, how_it_ended.c_str(), checkpoint_step, (unsigned long long)(dims[0] - rows)));
+                             p, how_it_ended.c_str(), checkpoint_step, (unsigned long long)(stored_rows - rows)));
   }
   // (2) Changes: frames written after the checkpoint go, the table is cut to its rows; the
   // restart is recorded (restart_1, restart_2, ...: when, on how many ranks, the command line and

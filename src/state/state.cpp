@@ -110,7 +110,6 @@ Vec3 NodeTangentScaledIncrement(const StepEquations &equations, const NodeState 
   return alpha;
 }
 
-// The rigid bodies' centre-of-mass velocities from their nodes' velocities at the start state.
 // A node's velocity and angular velocity, spatial.
 static Vec6 SpatialVelocity(const NodeState &s)
 {
@@ -135,12 +134,13 @@ static Eigen::Matrix<double, 6, 6> KineticEnergyMetric(const Model &model, const
   return W;
 }
 
+// The rigid bodies' centre-of-mass velocities from their nodes' velocities at the start state.
 static void SetBodyVelocities(State *state)
 {
   for (RigidBodyState &body : state->bodies) {
     const NodeState &s           = state->nodes[body.local_node];
-    const Mat3       R           = QuaternionToMatrix(s.rotation_start);
-    body.centre_of_mass.velocity = s.translation_motion.velocity + (R * s.rotation_motion.velocity).cross(R * body.offset);
+    const Vec6       v           = SpatialVelocity(s);
+    body.centre_of_mass.velocity = v.head<3>() + v.tail<3>().cross(QuaternionToMatrix(s.rotation_start) * body.offset);
   }
 }
 
