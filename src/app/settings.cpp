@@ -46,7 +46,8 @@ PetscErrorCode SettingsFromOptions(MPI_Comm comm, Model *model, RunOptions *opti
   PetscInt               condensation_depth = a.condensation_depth; // default: the input's (AnalysisSettings)
   PetscInt               desired_iterations = a.desired_iterations, max_steps = a.max_steps, eigenvalues = a.eigenvalues;
   PetscBool              stability = a.stability ? PETSC_TRUE : PETSC_FALSE, preload = a.preload ? PETSC_TRUE : PETSC_FALSE, shift_set = PETSC_FALSE;
-  PetscReal              shift = a.shift;
+  PetscReal              shift        = a.shift;
+  PetscBool              max_step_set = PETSC_FALSE;
   PetscFunctionBeginUser;
   PetscCall(PetscStrncpy(control, PathControlName(a.control), sizeof(control)));
   PetscCall(PetscStrncpy(control_node, a.control_node.c_str(), sizeof(control_node)));
@@ -69,7 +70,7 @@ PetscErrorCode SettingsFromOptions(MPI_Comm comm, Model *model, RunOptions *opti
   PetscCall(PetscOptionsReal("-end_time", OptionDescription("-analysis_end_time"), "", a.end_time, &a.end_time, nullptr));
   PetscCall(PetscOptionsReal("-initial_step", OptionDescription("-analysis_initial_step"), "", a.initial_step, &a.initial_step, nullptr));
   PetscCall(PetscOptionsReal("-min_step", OptionDescription("-analysis_min_step"), "", a.min_step, &a.min_step, nullptr));
-  PetscCall(PetscOptionsReal("-max_step", OptionDescription("-analysis_max_step"), "", a.max_step, &a.max_step, nullptr));
+  PetscCall(PetscOptionsReal("-max_step", OptionDescription("-analysis_max_step"), "", a.max_step, &a.max_step, &max_step_set));
   PetscCall(PetscOptionsReal("-growth_factor", OptionDescription("-analysis_growth_factor"), "", a.growth_factor, &a.growth_factor, nullptr));
   PetscCall(PetscOptionsInt("-easy_iterations", OptionDescription("-analysis_easy_iterations"), "", easy_iterations, &easy_iterations, nullptr));
   PetscCall(PetscOptionsInt("-easy_steps_to_grow", OptionDescription("-analysis_easy_steps_to_grow"), "", easy_steps, &easy_steps, nullptr));
@@ -125,6 +126,10 @@ PetscErrorCode SettingsFromOptions(MPI_Comm comm, Model *model, RunOptions *opti
   PetscCheck(PathControlFromName(control, &a.control), comm, PETSC_ERR_USER_INPUT, "option -analysis_control must be one of %s, got '%s'", control_list.c_str(),
              control);
   a.preload = preload == PETSC_TRUE;
+  // Dynamics without a max_step steps at initial_step (the input reader's rule), also after
+  // -analysis_initial_step or -analysis_type dynamic; statics keep max_step's default of 1.
+  if (max_step_set) a.max_step_given = true;
+  if (!a.max_step_given) a.max_step = a.type == AnalysisType::Dynamic ? a.initial_step : AnalysisSettings().max_step;
   // The reader checked the input for its own analysis only.
   if (a.type != input_type || a.preload != input_preload) {
     InputError error;

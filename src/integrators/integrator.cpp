@@ -490,8 +490,10 @@ PetscErrorCode Integrator::TryEquations(const StepEquations &equations, double d
   // Why, in words and naming where (element, node, joint), before the increments are dropped.
   outcome->reason = rotation_too_large ? "max_rotation_increment" : SNESConvergedReasons[reason];
   if (rotation_too_large) {
-    outcome->why = Format("a rotation increment (of a node, or a joint's released angle) of %.4g rad exceeds max_rotation_increment = %.4g rad", max_rotation,
-                          analysis.max_rotation_increment);
+    // mc and em carry a joint angle's step as 2 tan(dphi/2), which outgrows dphi (a user read 14.8
+    // rad for a step of about 4 rad): the message says which measure it is.
+    outcome->why = Format("a rotation increment (of a node, or a joint's released angle%s) of %.4g rad exceeds max_rotation_increment = %.4g rad",
+                          equations.Midpoint() ? ", as 2 tan(dphi/2) in mc and em" : "", max_rotation, analysis.max_rotation_increment);
     // Dozens of turns in one step come from a tangent singular but for round-off, which a pivoting
     // LU (MUMPS, on more ranks) factors without a word, where the banded LU stops at the pivot and
     // says what is free: the same hint.

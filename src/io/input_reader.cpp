@@ -704,6 +704,11 @@ void ReadAnalysis(const YAML::Node *mapping, const ReaderContext &context, Analy
   if (analysis.min_step > analysis.initial_step)
     FailAt(entry.Has("min_step") ? entry.Required("min_step").Mark() : entry.Required("initial_step").Mark(),
            "'min_step' (" + FormatNumber(analysis.min_step) + ") must not exceed 'initial_step' (" + FormatNumber(analysis.initial_step) + ")");
+  // Dynamics steps at initial_step unless max_step lets it grow: the controller grows a step after
+  // easy Newton iterations, which say nothing about the time-discretisation error, and a linear
+  // oscillator grew to a step of one period with no warning.
+  analysis.max_step_given = entry.Has("max_step");
+  if (!analysis.max_step_given && analysis.type == AnalysisType::Dynamic) analysis.max_step = analysis.initial_step;
   analysis.max_step = entry.PositiveNumber("max_step", analysis.max_step);
   if (analysis.max_step < analysis.initial_step)
     FailAt(entry.Has("max_step") ? entry.Required("max_step").Mark() : entry.Required("initial_step").Mark(),

@@ -271,11 +271,12 @@ struct AnalysisSettings {
   double           end_time               = 1.0;
   double           initial_step           = 0.1;
   double           min_step               = 1e-6;
-  double           max_step               = 1.0;
-  double           growth_factor          = 1.5; // step multiplier after easy steps
-  int              easy_iterations        = 5;   // a step converged in <= this many iterations is easy
-  int              easy_steps_to_grow     = 2;   // consecutive easy steps before growing
-  double           max_rotation_increment = 1.0; // rad: a step whose |omega| exceeds it is halved
+  double           max_step               = 1.0;   // statics' default; dynamics' is initial_step (max_step_given)
+  bool             max_step_given         = false; // by the input or -analysis_max_step: else dynamics keeps initial_step
+  double           growth_factor          = 1.5;   // step multiplier after easy steps
+  int              easy_iterations        = 5;     // a step converged in <= this many iterations is easy
+  int              easy_steps_to_grow     = 2;     // consecutive easy steps before growing
+  double           max_rotation_increment = 1.0;   // rad: a step whose |omega| exceeds it is halved
   int              max_newton_iterations  = 25;
   double           newton_rtol            = 1e-10;
   double           newton_atol            = 1e-50;
