@@ -149,6 +149,35 @@ void SeriesKnowledge(const Model &whole, std::map<std::string, std::string> *ser
 // Set-up sees the whole model: partition, unknowns, the matrix pattern, nodal masses and the
 // output mesh; then each rank keeps only its part (the distributed model) and the integrator is
 // set up on it.
+// A warning line on standard error (also with -quiet) for the loads and actuators of a dynamic
+// analysis that have no function: the default ramp f(t) = t is statics' load factor, and in
+// dynamics it makes gravity three times g at t = 3 s, which users coming from other codes (whose
+// loads hold their value) met without a word. The first one is named, the others counted.
+PetscErrorCode WarnRampedDynamicLoads(MPI_Comm comm, const Model &whole)
+{
+  PetscFunctionBeginUser;
+  if (whole.analysis.type != AnalysisType::Dynamic) PetscFunctionReturn(PETSC_SUCCESS);
+  std::vector<std::pair<std::string, SourceMark>> ramped; // what, where
+  for (const NodalLoad &load : whole.nodal_loads)
+    if (load.function < 0 && (load.force.squaredNorm() > 0.0 || load.moment.squaredNorm() > 0.0)) ramped.push_back({"a nodal load", load.mark});
+  for (const DistributedLoad &load : whole.distributed_loads)
+    if (load.function < 0 && load.force_per_length.squaredNorm() > 0.0) ramped.push_back({load.gravity ? "gravity" : "a distributed load", load.mark});
+  for (const ForceElement &element : whole.force_elements)
+    if (element.has_actuator && element.actuator != 0.0 && element.actuator_function < 0)
+      ramped.push_back({"the actuator of '" + element.name + "'", element.mark});
+  if (ramped.empty()) PetscFunctionReturn(PETSC_SUCCESS);
+  const auto &[what, mark]  = ramped.front();
+  const std::string where   = mark.file.empty() ? std::string() : Format(" (%s:%d)", mark.file.c_str(), mark.line);
+  const bool        one     = ramped.size() == 1;
+  const std::string subject = one ? what + where + " has no function and grows"
+                                  : Format("%s%s and %zu more loads or actuators without a function grow", what.c_str(), where.c_str(), ramped.size() - 1);
+  PetscCall(PetscFPrintf(comm, PETSC_STDERR,
+                         "msflex: warning: %s with time as f(t) = t in dynamics (twice %s value at t = 2 s); give %s a function (type: constant) to "
+                         "keep %s value (docs/input.md, functions)\n",
+                         subject.c_str(), one ? "its" : "their", one ? "it" : "them", one ? "its" : "their"));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
 PetscErrorCode Setup(Analysis &a, Model whole)
 {
   PartitionerType  partitioner;
@@ -218,6 +247,7 @@ PetscErrorCode Setup(Analysis &a, Model whole)
                "the checkpoint '%s' is at t = %.6g, at or beyond the end time %.6g; give a later -analysis_end_time", path, a.restart->time,
                whole.analysis.end_time);
   }
+  PetscCall(WarnRampedDynamicLoads(a.comm, whole));
   OutputMesh mesh; // rank 0: for a new result file
   if (!a.options.continue_output && rank == 0) {
     BuildOutputMesh(whole, &mesh);
