@@ -78,8 +78,9 @@ void BeamContributor::BeginStep(const State &state)
 namespace {
 // sum += K and Ktp = K^T p for a row-major ND x ND matrix K, in one sweep over K (the size fixed at
 // compile time, so that K^T p accumulates in registers: with a run-time size GCC kept it in memory
-// and every row waited for the last row's stores).
-template <int ND> void AddWithTransposeProduct(const double *K, const double *p, double *sum, double *Ktp)
+// and every row waited for the last row's stores; with the pointers free to alias each other it
+// kept it scalar, reloading p[i] after every store into sum).
+template <int ND> void AddWithTransposeProduct(const double *__restrict K, const double *__restrict p, double *__restrict sum, double *__restrict Ktp)
 {
   double accumulated[ND] = {};
   for (int i = 0; i < ND; ++i)
