@@ -43,7 +43,8 @@ with h5py.File(f"{args.work_dir}/stopped.h5", "r") as f:
     check.equal("frames in the stopped run's file", mt.frame_count(f), 1)
 
 _, stdout, _ = mt.run_msflex(args, f"{args.source_dir}/tests/regression/inputs/fast_hinge.yaml", f"{args.work_dir}/fast_hinge.h5")
-halvings = len(re.findall(r"rejected: a rotation increment \(of a node, or a joint's released angle\) of \S+ rad exceeds", stdout))
+# (em measures the hinge's angle by 2 tan(dphi/2), and the message says so)
+halvings = len(re.findall(r"rejected: a rotation increment \(of a node, or a joint's released angle, as 2 tan\(dphi/2\) in mc and em\) of \S+ rad exceeds", stdout))
 check.true(f"fast hinge: steps halved for the joint's angle ({halvings})", halvings >= 1)
 h = mt.history(f"{args.work_dir}/fast_hinge.h5")
 # em turns a body spinning at a constant rate W by 2 atan(W h / 2) per step (the Cayley map).
