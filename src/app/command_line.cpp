@@ -37,6 +37,7 @@ const OptionInfo kOptions[] = {
     {"-analysis_easy_iterations", "N", "Newton iterations of an easy step"},
     {"-analysis_easy_steps_to_grow", "N", "easy steps in a row before the step grows"},
     {"-analysis_max_newton_iterations", "N", "Newton iterations per step"},
+    {"-analysis_step_tolerance", "TOL", "dynamics: local error per step relative to its motion (0: no error control)"},
     {"-analysis_max_rotation_increment", "RAD", "largest nodal rotation per step, in (0, pi)"},
     {"-analysis_newton_rtol", "TOL", "Newton relative residual tolerance"},
     {"-analysis_newton_atol", "TOL", "Newton absolute residual tolerance"},

@@ -638,9 +638,10 @@ PetscErrorCode RunStaticStage(Analysis &a)
   // The analysis' growth rules over the load factor 0 .. 1, in steps of its own.
   StepControllerSettings settings = StepControllerSettingsOf(analysis);
   PetscFunctionBeginUser;
-  settings.initial_step = 1.0 / analysis.static_stage_steps;
-  settings.max_step     = 1.0;
-  settings.min_step     = std::min(1e-6, settings.initial_step);
+  settings.initial_step  = 1.0 / analysis.static_stage_steps;
+  settings.max_step      = 1.0;
+  settings.error_control = false; // a load factor has no time-integration error
+  settings.min_step      = std::min(1e-6, settings.initial_step);
   StepController controller(settings);
   double         factor = 0.0;
   int            steps  = 0;
@@ -796,7 +797,7 @@ PetscErrorCode RunAnalysis(MPI_Comm comm, Model model, const RunOptions &options
         const double taken = std::isfinite(outcome.step_taken) ? outcome.step_taken : dt;
         t                  = (t + taken >= target * (1.0 - 1e-14)) ? target : t + taken;
         ++step;
-        controller.Accept(dt, outcome.newton_iterations);
+        controller.Accept(dt, outcome.newton_iterations, outcome.error_ratio);
         const bool write_frame = (step % options.output_every == 0) || a.Finished(t) ||
                                  std::find(analysis.output_times.begin(), analysis.output_times.end(), t) != analysis.output_times.end();
         if (write_frame) last_written = step;
@@ -814,9 +815,12 @@ PetscErrorCode RunAnalysis(MPI_Comm comm, Model model, const RunOptions &options
         break;
       }
       const char *why   = outcome.why.c_str();
-      const bool  retry = controller.Reject(dt) && !outcome.step_size_irrelevant;
+      const bool  retry = controller.Reject(dt, outcome.error_ratio) && !outcome.step_size_irrelevant;
       if (!options.quiet)
-        PetscCall(PetscPrintf(comm, "step %5d  t = %-12.6g dt = %-10.4g rejected: %s%s\n", step + 1, t + dt, dt, why, retry ? "; halving" : ""));
+        PetscCall(PetscPrintf(comm, "step %5d  t = %-12.6g dt = %-10.4g rejected: %s%s\n", step + 1, t + dt, dt, why,
+                              !retry                      ? ""
+                              : outcome.error_ratio > 1.0 ? "; shortening"
+                                                          : "; halving"));
       if (!retry) {
         // Keep what there is: the last converged state as a frame and as a checkpoint (to go on
         // with other settings, e.g. a smaller min_step).
@@ -838,7 +842,9 @@ PetscErrorCode RunAnalysis(MPI_Comm comm, Model model, const RunOptions &options
                                        : new_state         ? ", a checkpoint of that state in " + options.checkpoint_file
                                                            : ", and the checkpoint it started from, " + options.restart_file + ", is as it was";
         const std::string no_halving = outcome.step_size_irrelevant ? std::string("; a shorter step cannot help")
-                                                                    : Format(" and halving it would go below min_step = %.6g", analysis.min_step);
+                                       : outcome.error_ratio > 1.0
+                                           ? Format(" and the step its error estimate asks for is below min_step = %.6g", analysis.min_step)
+                                           : Format(" and halving it would go below min_step = %.6g", analysis.min_step);
         SETERRQ(comm, PETSC_ERR_NOT_CONVERGED,
                 "%s analysis stopped at t = %.8g after step %d: the step to t = %.8g failed (%s)%s%s; the results up to t = %.8g are in %s%s",
                 AnalysisTypeName(analysis.type), t, step, t + dt, why, no_halving.c_str(), advice.c_str(), t, options.output_file.c_str(), checkpoint.c_str());

@@ -71,6 +71,7 @@ PetscErrorCode SettingsFromOptions(MPI_Comm comm, Model *model, RunOptions *opti
   PetscCall(PetscOptionsReal("-initial_step", OptionDescription("-analysis_initial_step"), "", a.initial_step, &a.initial_step, nullptr));
   PetscCall(PetscOptionsReal("-min_step", OptionDescription("-analysis_min_step"), "", a.min_step, &a.min_step, nullptr));
   PetscCall(PetscOptionsReal("-max_step", OptionDescription("-analysis_max_step"), "", a.max_step, &a.max_step, &max_step_set));
+  PetscCall(PetscOptionsReal("-step_tolerance", OptionDescription("-analysis_step_tolerance"), "", a.step_tolerance, &a.step_tolerance, nullptr));
   PetscCall(PetscOptionsReal("-growth_factor", OptionDescription("-analysis_growth_factor"), "", a.growth_factor, &a.growth_factor, nullptr));
   PetscCall(PetscOptionsInt("-easy_iterations", OptionDescription("-analysis_easy_iterations"), "", easy_iterations, &easy_iterations, nullptr));
   PetscCall(PetscOptionsInt("-easy_steps_to_grow", OptionDescription("-analysis_easy_steps_to_grow"), "", easy_steps, &easy_steps, nullptr));
@@ -129,7 +130,12 @@ PetscErrorCode SettingsFromOptions(MPI_Comm comm, Model *model, RunOptions *opti
   // Dynamics without a max_step steps at initial_step (the input reader's rule), also after
   // -analysis_initial_step or -analysis_type dynamic; statics keep max_step's default of 1.
   if (max_step_set) a.max_step_given = true;
-  if (!a.max_step_given) a.max_step = a.type == AnalysisType::Dynamic ? a.initial_step : AnalysisSettings().max_step;
+  PetscCheck(std::isfinite(a.step_tolerance) && a.step_tolerance >= 0.0 && a.step_tolerance < 1.0, comm, PETSC_ERR_USER_INPUT,
+             "option -analysis_step_tolerance must lie in [0, 1), got %.6g", a.step_tolerance);
+  if (!a.max_step_given) {
+    const bool dynamic = a.type == AnalysisType::Dynamic;
+    a.max_step         = !dynamic ? AnalysisSettings().max_step : a.step_tolerance > 0.0 ? std::max(a.end_time, a.initial_step) : a.initial_step;
+  }
   // The reader checked the input for its own analysis only.
   if (a.type != input_type || a.preload != input_preload) {
     InputError error;

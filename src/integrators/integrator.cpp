@@ -281,6 +281,7 @@ PetscErrorCode Integrator::InitialiseMotion(double t)
 {
   PetscFunctionBeginUser;
   Assembler &assembler = system_.GetAssembler();
+  motion_start_time_   = t;
   StateSetInitialVelocities(*model_, *map_, t, &system_.GetState());
   if (model_->analysis.project_initial_velocities) {
     InitialVelocityReport report;
@@ -408,6 +409,23 @@ PetscErrorCode Integrator::ConsistentReactions(double t)
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
+PetscErrorCode Integrator::LocalErrorRatio(double dt, double *ratio)
+{
+  double local[4] = {0.0, 0.0, 0.0, 0.0}, global[4];
+  PetscFunctionBeginUser;
+  StateLocalErrorSums(GetState(), dt, local);
+  PetscCall(MPIU_Allreduce(local, global, 4, MPI_DOUBLE, MPI_SUM, comm_));
+  const double tolerance = model_->analysis.step_tolerance;
+  // No error where nothing changed its acceleration (a body at rest or in uniform motion), however
+  // little it moved; an error with no motion at all is infinitely too large.
+  auto part = [tolerance](double error_squared, double motion_squared) {
+    if (error_squared == 0.0) return 0.0;
+    return motion_squared > 0.0 ? std::sqrt(error_squared / motion_squared) / tolerance : INFINITY;
+  };
+  *ratio = std::max(part(global[0], global[1]), part(global[2], global[3]));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
 PetscErrorCode Integrator::TryStep(double t, double dt, StepOutcome *outcome)
 {
   const AnalysisSettings &analysis = model_->analysis;
@@ -475,7 +493,13 @@ PetscErrorCode Integrator::TryEquations(const StepEquations &equations, double d
   outcome->linear_iterations = (int)linear_iterations;
   if (reason > 0) PetscCall(assembler.MaxRotationIncrement(&max_rotation));
   const bool rotation_too_large = max_rotation > analysis.max_rotation_increment;
-  if (reason > 0 && !rotation_too_large) {
+  // The mid-point schemes' first step has no start acceleration to compare with (they solve none at
+  // t_0, and the state holds zero): it goes unestimated, and the controller keeps its step.
+  const bool start_acceleration_known = !equations.Midpoint() || equations.t_start > motion_start_time_;
+  if (reason > 0 && !rotation_too_large && equations.Dynamic() && analysis.step_tolerance > 0.0 && start_acceleration_known)
+    PetscCall(LocalErrorRatio(dt, &outcome->error_ratio));
+  const bool error_too_large = outcome->error_ratio > 1.0;
+  if (reason > 0 && !rotation_too_large && !error_too_large) {
     if (equations.Dynamic()) {
       double work, dissipation;
       PetscCall(assembler.StepExternalWork(&work));
@@ -488,7 +512,9 @@ PetscErrorCode Integrator::TryEquations(const StepEquations &equations, double d
     PetscFunctionReturn(PETSC_SUCCESS);
   }
   // Why, in words and naming where (element, node, joint), before the increments are dropped.
-  outcome->reason = rotation_too_large ? "max_rotation_increment" : SNESConvergedReasons[reason];
+  outcome->reason = rotation_too_large ? "max_rotation_increment" : error_too_large ? "step_tolerance" : SNESConvergedReasons[reason];
+  if (error_too_large && !rotation_too_large)
+    outcome->why = Format("the local error estimate is %.3g times step_tolerance = %.3g", outcome->error_ratio, analysis.step_tolerance);
   if (rotation_too_large) {
     // mc and em carry a joint angle's step as 2 tan(dphi/2), which outgrows dphi (a user read 14.8
     // rad for a step of about 4 rad): the message says which measure it is.
@@ -500,13 +526,13 @@ PetscErrorCode Integrator::TryEquations(const StepEquations &equations, double d
     if (!equations.Dynamic() && max_rotation > kAbsurdRotationIncrement) // (in dynamics: real spin, and a step too long)
       outcome->why += "; an increment this large comes from a nearly singular tangent: is part of the model a mechanism, free to move without "
                       "resistance?";
-  } else {
+  } else if (!error_too_large) {
     PetscCall(NewtonDescribeFailure(snes_, &newton_context_, &outcome->why));
     PetscCall(NewtonForgetFactorization(snes_, &newton_context_));
   }
   assembler.DiscardStep();
   ForgetKeptTangent(); // the retried step starts on a new tangent, whatever its length
-  if (rotation_too_large) PetscFunctionReturn(PETSC_SUCCESS);
+  if (rotation_too_large || error_too_large) PetscFunctionReturn(PETSC_SUCCESS);
   // A banded LU does not pivot between nodes: the step is tried again with MUMPS, once. Converged,
   // MUMPS factors the rest of the run; failed as well, the failure is no pivoting problem (a step
   // too long for the motion), and the banded LU comes back for the halved step: MUMPS costs

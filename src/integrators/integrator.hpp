@@ -38,6 +38,9 @@ struct StepOutcome {
   // proposed (an arc-length step that lands on end_time by load control covers that fraction of
   // its pseudo-time); NaN: the proposed one.
   double step_taken = std::numeric_limits<double>::quiet_NaN();
+  // Dynamics with step_tolerance: the step's local error estimate over the tolerance (a step
+  // converged by Newton whose ratio exceeds 1 is rejected with reason step_tolerance); -1: none.
+  double error_ratio = -1.0;
 };
 
 class Integrator {
@@ -173,6 +176,7 @@ private:
   PetscErrorCode           WarnIfMasslessOutOfEquilibrium(double t, double singular_mismatch);
   KSP                      null_pivot_ksp_    = nullptr; // SolveSingularMassProblem's, kept
   Mat                      null_pivot_matrix_ = nullptr;
+  double                   motion_start_time_ = -INFINITY;                // InitialiseMotion's t (a restart continues after it)
   bool                     singular_mass_     = false;                    // the mass matrix was found singular (ConsistentReactions)
   Vec                      mass_forces_ = nullptr, mass_check_ = nullptr; // SolveSingularMassProblem's f and M a - f
   std::vector<PetscScalar> dense_work_, dense_lapack_work_;               // its copy of a dense mass matrix, gelss's work
@@ -184,6 +188,10 @@ private:
   // docs/joints.md. After the step is committed; its rates stay. Collective.
   bool           ConsistentReactionsWanted() const;
   PetscErrorCode ConsistentReactions(double t);
+  // The converged step's local error estimate over step_tolerance (StateLocalErrorSums): the
+  // larger of the translations' |e_x| / (tol |u|) and the rotations' |e_theta| / (tol |omega|),
+  // norms over the whole model. Collective.
+  PetscErrorCode LocalErrorRatio(double dt, double *ratio);
   PetscLogEvent  consistent_reactions_event_ = 0;
   Vec            accelerations_              = nullptr;
   long long      consistent_reaction_solves_ = 0, consistent_reaction_failures_ = 0;

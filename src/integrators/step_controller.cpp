@@ -5,9 +5,17 @@
 
 namespace msflex {
 
+namespace {
+// The step factor a local error estimate asks for: the estimate goes as dt^2 relative to the
+// step's motion (docs/dynamics.md), so the step that meets the tolerance is dt / sqrt(ratio),
+// taken with a safety factor of 0.9 as TSAdapt's basic adaptor does.
+double ErrorStepFactor(double error_ratio) { return error_ratio > 0.0 ? 0.9 / std::sqrt(error_ratio) : INFINITY; }
+} // namespace
+
 StepControllerSettings StepControllerSettingsOf(const AnalysisSettings &analysis)
 {
   StepControllerSettings settings;
+  settings.error_control      = analysis.type == AnalysisType::Dynamic && analysis.step_tolerance > 0.0;
   settings.initial_step       = analysis.initial_step;
   settings.min_step           = analysis.min_step;
   settings.max_step           = analysis.max_step;
@@ -25,8 +33,18 @@ double StepController::Propose(double t, double target) const
   return step_;
 }
 
-void StepController::Accept(double dt, int iterations)
+void StepController::Accept(double dt, int iterations, double error_ratio)
 {
+  if (settings_.error_control) {
+    if (error_ratio < 0.0) return; // a step without an estimate (mc's and em's first) keeps the step
+    // Grow by at most growth_factor, shrink by at most 5; a step shortened to land on an output
+    // time keeps the nominal step unless its estimate asks for less.
+    const double proposed = dt * std::clamp(ErrorStepFactor(error_ratio), 0.2, settings_.growth_factor);
+    const bool   landed   = dt < step_ * (1.0 - 1e-12);
+    step_     = std::clamp(landed ? (proposed < dt ? std::min(step_, proposed) : std::max(step_, proposed)) : proposed, settings_.min_step, settings_.max_step);
+    easy_run_ = 0;
+    return;
+  }
   if (settings_.desired_iterations > 0) {
     const double factor = std::sqrt((double)settings_.desired_iterations / std::max(iterations, 1));
     step_               = std::clamp(dt * std::clamp(factor, 0.5, settings_.growth_factor), settings_.min_step, settings_.max_step);
@@ -43,10 +61,10 @@ void StepController::Accept(double dt, int iterations)
   }
 }
 
-bool StepController::Reject(double dt)
+bool StepController::Reject(double dt, double error_ratio)
 {
   easy_run_ = 0;
-  step_     = 0.5 * dt;
+  step_     = error_ratio > 1.0 ? dt * std::clamp(ErrorStepFactor(error_ratio), 0.2, 0.9) : 0.5 * dt;
   return step_ >= settings_.min_step;
 }
 

@@ -20,6 +20,9 @@ struct StepControllerSettings {
   // within [dt / 2, growth_factor * dt] and [min_step, max_step] (Crisfield's adaptive arc length),
   // instead of growing after runs of easy steps.
   int desired_iterations = 0;
+  // Dynamics with step_tolerance: the step follows the local error estimate (Accept's and Reject's
+  // error_ratio, the estimate over the tolerance, which goes as dt^2) instead of easy iterations.
+  bool error_control = false;
 };
 
 // The analysis' step settings (initial, min and max step, growth, easy iterations and steps);
@@ -31,10 +34,13 @@ public:
   explicit StepController(const StepControllerSettings &settings) : settings_(settings), step_(settings.initial_step) {}
   // The next step from t, shortened to land exactly on `target` (next output time or the end).
   double Propose(double t, double target) const;
-  // A converged step of size dt taking `iterations` Newton iterations.
-  void Accept(double dt, int iterations);
-  // A failed attempt of size dt: halves it. Returns false when the halved step is below min_step.
-  bool Reject(double dt);
+  // A converged step of size dt taking `iterations` Newton iterations; error_ratio: its local error
+  // estimate over the tolerance (error control), negative without one.
+  void Accept(double dt, int iterations, double error_ratio = -1.0);
+  // A failed attempt of size dt: halves it, or with error_ratio > 1 (a converged step whose error
+  // estimate exceeds the tolerance) shortens it to the step that estimate asks for. Returns false
+  // when the new step is below min_step.
+  bool Reject(double dt, double error_ratio = -1.0);
   // The state a checkpoint keeps, and its restoration.
   double CurrentStep() const { return step_; }
   int    EasyRun() const { return easy_run_; }

@@ -646,6 +646,7 @@ void ReadAnalysis(const YAML::Node *mapping, const ReaderContext &context, Analy
                              "initial_step",
                              "min_step",
                              "max_step",
+                             "step_tolerance",
                              "growth_factor",
                              "easy_iterations",
                              "easy_steps_to_grow",
@@ -707,8 +708,12 @@ void ReadAnalysis(const YAML::Node *mapping, const ReaderContext &context, Analy
   // Dynamics steps at initial_step unless max_step lets it grow: the controller grows a step after
   // easy Newton iterations, which say nothing about the time-discretisation error, and a linear
   // oscillator grew to a step of one period with no warning.
+  analysis.step_tolerance = entry.Number("step_tolerance", analysis.step_tolerance);
+  if (!(analysis.step_tolerance >= 0.0 && analysis.step_tolerance < 1.0))
+    FailAt(entry.Required("step_tolerance").Mark(), "'step_tolerance' must lie in [0, 1), got " + entry.Required("step_tolerance").Scalar());
   analysis.max_step_given = entry.Has("max_step");
-  if (!analysis.max_step_given && analysis.type == AnalysisType::Dynamic) analysis.max_step = analysis.initial_step;
+  if (!analysis.max_step_given && analysis.type == AnalysisType::Dynamic)
+    analysis.max_step = analysis.step_tolerance > 0.0 ? std::max(analysis.end_time, analysis.initial_step) : analysis.initial_step;
   analysis.max_step = entry.PositiveNumber("max_step", analysis.max_step);
   if (analysis.max_step < analysis.initial_step)
     FailAt(entry.Has("max_step") ? entry.Required("max_step").Mark() : entry.Required("initial_step").Mark(),

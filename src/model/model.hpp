@@ -263,23 +263,26 @@ struct ExpectedResult {
 // [0, end_time]; the default function is the ramp f(t) = t, so t is the load factor.
 // Dynamic analysis: t is time, the steps are time steps, and `integrator` selects the scheme.
 struct AnalysisSettings {
-  AnalysisType     type                   = AnalysisType::Static;           // model/analysis_types.hpp
-  TimeSchemeKind   integrator             = TimeSchemeKind::EnergyMomentum; // dynamic only; schemes/time_scheme.hpp
-  double           spectral_radius        = 0.9;                            // rho_infinity of genalpha, in [0, 1]
-  EnergyCorrection em_correction          = EnergyCorrection::Resultants;   // the correction vector of em (schemes/time_scheme.hpp)
-  ReactionPoint    reactions              = ReactionPoint::Consistent;      // where dynamics reports reactions (docs/joints.md)
-  double           end_time               = 1.0;
-  double           initial_step           = 0.1;
-  double           min_step               = 1e-6;
-  double           max_step               = 1.0;   // statics' default; dynamics' is initial_step (max_step_given)
-  bool             max_step_given         = false; // by the input or -analysis_max_step: else dynamics keeps initial_step
-  double           growth_factor          = 1.5;   // step multiplier after easy steps
-  int              easy_iterations        = 5;     // a step converged in <= this many iterations is easy
-  int              easy_steps_to_grow     = 2;     // consecutive easy steps before growing
-  double           max_rotation_increment = 1.0;   // rad: a step whose |omega| exceeds it is halved
-  int              max_newton_iterations  = 25;
-  double           newton_rtol            = 1e-10;
-  double           newton_atol            = 1e-50;
+  AnalysisType     type            = AnalysisType::Static;           // model/analysis_types.hpp
+  TimeSchemeKind   integrator      = TimeSchemeKind::EnergyMomentum; // dynamic only; schemes/time_scheme.hpp
+  double           spectral_radius = 0.9;                            // rho_infinity of genalpha, in [0, 1]
+  EnergyCorrection em_correction   = EnergyCorrection::Resultants;   // the correction vector of em (schemes/time_scheme.hpp)
+  ReactionPoint    reactions       = ReactionPoint::Consistent;      // where dynamics reports reactions (docs/joints.md)
+  double           end_time        = 1.0;
+  double           initial_step    = 0.1;
+  double           min_step        = 1e-6;
+  double           max_step        = 1.0;   // statics' default; dynamics' is initial_step (max_step_given)
+  bool             max_step_given  = false; // by the input or -analysis_max_step: else dynamics keeps initial_step
+  // Dynamics: > 0 controls the step by the local error estimate (docs/dynamics.md, step size and
+  // accuracy), the error of a step relative to its motion; 0: no error control.
+  double step_tolerance         = 0.0;
+  double growth_factor          = 1.5; // step multiplier after easy steps
+  int    easy_iterations        = 5;   // a step converged in <= this many iterations is easy
+  int    easy_steps_to_grow     = 2;   // consecutive easy steps before growing
+  double max_rotation_increment = 1.0; // rad: a step whose |omega| exceeds it is halved
+  int    max_newton_iterations  = 25;
+  double newton_rtol            = 1e-10;
+  double newton_atol            = 1e-50;
   // Modified Newton: the factored tangent is kept while every iteration reduces the residual at
   // least by this factor (in [0, 1); 0: a new tangent every iteration), also into the next step
   // when it has the same length and the last iteration contracted (docs/solvers.md).

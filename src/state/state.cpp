@@ -575,6 +575,22 @@ bool NodeStateFinite(const NodeState &s)
          s.translation_update.velocity.allFinite() && s.translation_update.acceleration.allFinite();
 }
 
+void StateLocalErrorSums(const State &state, double dt, double sums[4])
+{
+  const TimeScheme &scheme = state.equations.scheme;
+  const double      c      = std::abs((scheme.Midpoint() ? 0.25 : scheme.beta) - 1.0 / 6.0) * dt * dt;
+  for (PetscInt l = 0; l < state.num_owned_nodes; ++l) {
+    const NodeState   &s    = state.nodes[l];
+    const MotionUpdate spin = scheme.Midpoint()
+                                  ? AdvanceMotion(scheme, s.rotation_motion, QuaternionToMatrix(s.rotation_start).transpose() * s.tangent_scaled_increment)
+                                  : NodeSpinUpdate(scheme, s);
+    sums[0] += (c * (s.translation_update.acceleration - s.translation_motion.acceleration)).squaredNorm();
+    sums[1] += s.displacement_increment.squaredNorm();
+    sums[2] += (c * (spin.acceleration - s.rotation_motion.acceleration)).squaredNorm();
+    sums[3] += s.rotation_increment.squaredNorm();
+  }
+}
+
 double StateMaxRotationIncrement(const State &state, bool joint_angles)
 {
   double largest = 0.0;

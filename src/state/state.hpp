@@ -147,6 +147,13 @@ struct State {
   StepEquations                 equations; // of the step being solved
 };
 
+// The local error estimate of a converged dynamic step, Zienkiewicz and Xie's for the Newmark
+// family: e = (beta - 1/6) dt^2 (a_{n+1} - a_n) per owned node, of the translations and of the
+// material angular accelerations, with beta = 1/4 for the mid-point schemes (trapezoidal in their
+// positions; their accelerations are the steps' mean ones). Into sums, added: |e_x|^2, |u|^2,
+// |e_theta|^2, |omega|^2 (the step's increments, the scale the error is measured against).
+void StateLocalErrorSums(const State &state, double dt, double sums[4]);
+
 // The reference configuration at rest.
 void StateCreate(const Model &model, const DofMap &map, State *state);
 // Starts a step: fixed DOFs keep a zero increment, prescribed DOFs and driven joint coordinates

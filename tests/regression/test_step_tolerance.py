@@ -1,0 +1,71 @@
+"""Error-controlled steps in dynamics (analysis.step_tolerance, docs/dynamics.md "Step size and
+accuracy") on the spring slider (tests/regression/inputs/spring_slider.yaml, x = 0.1 cos(2 pi t)):
+- newmark at tolerances 1e-2, 1e-3, 1e-4: more steps and a smaller error at every tenfold
+  tightening; the error ratio (omega dt)^2 / 12 / tol aimed at 0.81 gives dt = 0.0157 at 1e-3,
+  about 127 steps to t = 2 (checked within 100..160), and the step grows from initial_step 0.01
+  (max_step defaults to end_time with a tolerance);
+- a first step of 0.5 s is rejected by its error estimate (reason step_tolerance, "shortening")
+  and the run completes within the same error as from 0.01;
+- em follows the tolerance too (error below newmark's bound at 1e-3);
+- a tolerance outside [0, 1) is one line and exit 1, from the input and from the option."""
+
+import math
+import re
+import subprocess
+
+import numpy as np
+
+import msflex_testing as mt
+
+args = mt.parse_arguments(__doc__)
+check = mt.Checker("step tolerance")
+source = f"{args.source_dir}/tests/regression/inputs/spring_slider.yaml"
+
+
+def run(name, extra):
+    output = f"{args.work_dir}/{name}.h5"
+    _, stdout, _ = mt.run_msflex(args, source, output, extra=extra)
+    h = mt.history(output)
+    steps = int(re.search(r"steps\s+(\d+) accepted", stdout).group(1))
+    error = np.abs(h["slide.tx"] - 0.1 * np.cos(2.0 * math.pi * h["time"])).max()
+    return steps, error, stdout
+
+
+results = {}
+for tolerance in ("1e-2", "1e-3", "1e-4"):
+    steps, error, _ = run(f"newmark_{tolerance}", ["-analysis_step_tolerance", tolerance])
+    results[tolerance] = (steps, error)
+    print(f"newmark step_tolerance {tolerance}: {steps} steps, largest |x - x_exact| {error:.3e} m")
+for loose, tight in (("1e-2", "1e-3"), ("1e-3", "1e-4")):
+    check.true(f"tolerance {loose} -> {tight}: more steps ({results[loose][0]} -> {results[tight][0]})", results[tight][0] > results[loose][0])
+    check.true(f"tolerance {loose} -> {tight}: smaller error ({results[loose][1]:.3e} -> {results[tight][1]:.3e})", results[tight][1] < results[loose][1])
+steps_1e3, error_1e3 = results["1e-3"]
+check.true(f"tolerance 1e-3: 100..160 steps to t = 2 (dt about 0.0157 from (omega dt)^2/12 = 0.81e-3; {steps_1e3})", 100 <= steps_1e3 <= 160)
+check.less("tolerance 1e-3: largest |x - x_exact| [m]", error_1e3, 5e-3)
+
+steps, error, stdout = run("from_half_second", ["-analysis_step_tolerance", "1e-3", "-analysis_initial_step", "0.5"])
+shortened = re.findall(r"rejected: the local error estimate is [0-9.e+-]+ times step_tolerance = 0.001; shortening", stdout)
+print(f"from 0.5 s: {steps} steps, {len(shortened)} rejections by the estimate, error {error:.3e}")
+check.true(f"a first step of 0.5 s is rejected by the error estimate ({len(shortened)} rejections)", len(shortened) >= 1)
+check.less("from 0.5 s: largest |x - x_exact| [m]", error, 5e-3)
+check.true("the summary counts the rejections by step_tolerance", re.search(r"rejected.*step_tolerance", stdout) is not None)
+
+steps, error, _ = run("em", ["-analysis_step_tolerance", "1e-3", "-analysis_integrator", "em"])
+print(f"em step_tolerance 1e-3: {steps} steps, error {error:.3e}")
+check.true(f"em at 1e-3: 100..160 steps ({steps})", 100 <= steps <= 160)
+check.less("em at 1e-3: largest |x - x_exact| [m]", error, 5e-3)
+
+for where, extra, text in (("option", ["-analysis_step_tolerance", "2"], None), ("input", [], "step_tolerance: -1")):
+    path = source
+    if text:
+        path = f"{args.work_dir}/bad_tolerance.yaml"
+        with open(source) as f:
+            model = f.read().replace("initial_step: 0.01}", "initial_step: 0.01, " + text + "}")
+        with open(path, "w") as f:
+            f.write(model)
+    result = subprocess.run([args.msflex, path, "-output_file", f"{args.work_dir}/bad.h5", "-output_overwrite"] + extra, capture_output=True, text=True)
+    lines = [line for line in (result.stdout + result.stderr).splitlines() if line.strip()]
+    print(f"bad tolerance from the {where}: exit {result.returncode}: {lines}")
+    check.true(f"bad tolerance from the {where}: exit 1", result.returncode == 1)
+    check.true(f"bad tolerance from the {where}: one line naming step_tolerance", len(lines) == 1 and "step_tolerance" in lines[0])
+check.finish()
