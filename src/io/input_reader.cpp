@@ -931,10 +931,17 @@ bool ReadModelString(const std::string &text, const std::string &file_label, Mod
 static bool ReadTextFile(const std::string &path, std::string *text, InputError *error)
 {
   try {
-    // A directory opens as a stream on Linux but cannot be read, so it is rejected up front.
-    std::error_code directory_check;
-    std::ifstream   stream(path, std::ios::binary);
-    if (!stream || std::filesystem::is_directory(path, directory_check)) {
+    // Only a regular file (or a link to one) is read: a directory opens as a stream on Linux but
+    // cannot be read, a FIFO without a writer blocked the open for good (deaf to SIGTERM), and
+    // /dev/zero was read until the machine's memory ran out (19 GB in 2.5 min; a user trial).
+    std::error_code                  status_error;
+    const std::filesystem::file_type type = std::filesystem::status(path, status_error).type();
+    if (type != std::filesystem::file_type::not_found && type != std::filesystem::file_type::regular && !status_error) {
+      *error = InputError{path, 0, 0, "cannot read input file " + input_detail::Quote(path) + ": not a regular file (a directory, FIFO, socket or device)"};
+      return false;
+    }
+    std::ifstream stream(path, std::ios::binary);
+    if (!stream) {
       *error = InputError{path, 0, 0, "cannot open input file " + input_detail::Quote(path)};
       return false;
     }

@@ -8,6 +8,7 @@
 #include <cerrno>
 #include <cmath>
 #include <cstdlib>
+#include <limits>
 #include <sstream>
 #include <unordered_map>
 #include <utility>
@@ -268,9 +269,20 @@ double ReadNonNegativeNumber(const YAML::Node &value, const std::string &key)
 
 int ReadInteger(const YAML::Node &value, const std::string &key, int minimum)
 {
-  int number = 0;
-  if (!value.IsScalar() || !YAML::convert<int>::decode(value, number))
-    FailAt(ValueMark(value), "expected an integer for " + Quote(key) + ", got " + DescribeValue(value));
+  // Decimal digits only: yaml-cpp reads 010 as octal 8 and 0x0A as 10 (a user's `elements: 010`
+  // ran with 8 elements), where the command line reads 010 as 10.
+  if (!value.IsScalar()) FailAt(ValueMark(value), "expected an integer for " + Quote(key) + ", got " + DescribeValue(value));
+  const std::string &text    = value.Scalar();
+  const size_t       digits  = !text.empty() && (text[0] == '+' || text[0] == '-') ? 1 : 0; // where the digits start
+  const bool         decimal = digits < text.size() && text.find_first_not_of("0123456789", digits) == std::string::npos;
+  if (!decimal) FailAt(ValueMark(value), "expected an integer for " + Quote(key) + ", got " + DescribeValue(value));
+  if (text.size() - digits > 1 && text[digits] == '0')
+    FailAt(ValueMark(value), "expected a decimal integer for " + Quote(key) + ", got " + text + " (a leading 0 would read as octal)");
+  errno                = 0;
+  const long long wide = std::strtoll(text.c_str(), nullptr, 10);
+  if (errno == ERANGE || wide > std::numeric_limits<int>::max() || wide < std::numeric_limits<int>::min())
+    FailAt(ValueMark(value), Quote(key) + " is out of range (+-2147483647), got " + text);
+  const int number = (int)wide;
   if (number < minimum) FailAt(ValueMark(value), Quote(key) + " must be at least " + std::to_string(minimum) + ", got " + value.Scalar());
   return number;
 }
@@ -296,6 +308,8 @@ std::string ReadString(const YAML::Node &value, const std::string &key)
 {
   if (!value.IsScalar()) FailAt(ValueMark(value), "expected a string for " + Quote(key) + ", got " + DescribeValue(value));
   if (value.Scalar().empty()) FailAt(ValueMark(value), Quote(key) + " must not be empty");
+  // A "\0" escape ends the string for every C interface behind it: `file: "a\0b.h5"` wrote 'a'.
+  if (value.Scalar().find('\0') != std::string::npos) FailAt(ValueMark(value), Quote(key) + " must not contain a NUL character (\\0)");
   return value.Scalar();
 }
 
