@@ -63,6 +63,8 @@ void NoteWriteRefused(int error)
 
 bool WriteRefused() { return write_refused; }
 
+std::string MpiIoPath(const std::string &path) { return path.empty() || path[0] == '/' || path.rfind("./", 0) == 0 ? path : "./" + path; }
+
 PetscErrorCode OpenFileCollective(MPI_Comm comm, const std::string &path, H5Id *file)
 {
   H5Id        access;
@@ -71,7 +73,7 @@ PetscErrorCode OpenFileCollective(MPI_Comm comm, const std::string &path, H5Id *
   Hdf5SilenceErrorStack();
   PetscCallHDF5At(path, access = H5Pcreate(H5P_FILE_ACCESS));
   PetscCallHDF5At(path, H5Pset_fapl_mpio(access, comm, MPI_INFO_NULL));
-  *file = Hdf5OpenFile(path, H5F_ACC_RDWR, access, &problem);
+  *file = Hdf5OpenFile(MpiIoPath(path), H5F_ACC_RDWR, access, &problem);
   PetscCheck(problem.empty(), PETSC_COMM_SELF, PETSC_ERR_FILE_OPEN, "%s", problem.c_str());
   PetscFunctionReturn(PETSC_SUCCESS);
 }

@@ -26,8 +26,12 @@ std::string Hdf5CallProblem(const std::string &label, const char *call);
 // limit, an I/O error: NoteWriteRefused with the errno, which HDF5 calls' failures note
 // themselves). HDF5 then cannot close the result file's datasets: its own clean-up at
 // MPI_Finalize crashed on them (main ends such a run without it).
-void NoteWriteRefused(int error);
-bool WriteRefused();
+// The path MPI-IO opens: a relative path starts with ./ (Open MPI's MPI_File_open failed with
+// MPI_ERR_OTHER on any one-character name, `-output_file b` under mpirun, after the old file had
+// been replaced).
+std::string MpiIoPath(const std::string &path);
+void        NoteWriteRefused(int error);
+bool        WriteRefused();
 
 // Owns one HDF5 identifier of any kind (file, group, dataset, dataspace, type, property list):
 // H5Idec_ref closes whatever it refers to, so early returns on errors leak nothing.

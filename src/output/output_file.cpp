@@ -1340,7 +1340,7 @@ PetscErrorCode OutputFile::Impl::OpenParallel()
   PetscCallHDF5(H5Pset_meta_block_size(access, 64 * 1024));
   PetscCallHDF5(H5Pset_small_data_block_size(access, 64 * 1024));
   PetscCallHDF5(H5Pset_libver_bounds(access, H5F_LIBVER_V18, H5F_LIBVER_V18));
-  PetscCallHDF5(file = H5Fopen(path.c_str(), H5F_ACC_RDWR, access));
+  PetscCallHDF5(file = H5Fopen((size > 1 ? MpiIoPath(path) : path).c_str(), H5F_ACC_RDWR, access));
   PetscCall(CreateCollectiveTransfer(path, file, &frame_transfer));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
