@@ -302,7 +302,13 @@ PetscErrorCode TangentFactor::InverseIteration(Vec D, Vec mode, double *mu)
   *mu = NAN;
   PetscCall(VecPointwiseMult(Dv, D, mode));
   PetscCall(VecDot(mode, Dv, &vDv));
-  PetscCheck(PetscRealPart(vDv) > 0, PetscObjectComm((PetscObject)mode), PETSC_ERR_ARG_WRONG, "the start vector of the inverse iteration is zero");
+  // A start vector of no D-length (a scale that over- or underflowed: a user's EI of 1e308) leaves
+  // the estimate unknown, NaN, as the caller reports an estimate that did not converge: it ended
+  // the run with PETSc's trace and MPI_ABORT.
+  if (!(PetscRealPart(vDv) > 0 && std::isfinite(PetscRealPart(vDv)))) {
+    *mu = NAN;
+    PetscFunctionReturn(PETSC_SUCCESS);
+  }
   PetscCall(VecScale(mode, 1.0 / std::sqrt(PetscRealPart(vDv))));
   for (int iteration = 0; iteration < 100; ++iteration) {
     PetscCall(VecPointwiseMult(Dv, D, mode));
@@ -344,7 +350,7 @@ PetscErrorCode TangentFactor::LanczosLowestEigenvalue(Vec D, Vec mode, double *m
   for (int restart = 0; restart < kLanczosRestarts; ++restart) {
     PetscCall(VecPointwiseMult(DV[0], D, V[0]));
     PetscCall(VecDot(V[0], DV[0], &dot));
-    PetscCheck(PetscRealPart(dot) > 0, PetscObjectComm((PetscObject)mode), PETSC_ERR_ARG_WRONG, "the start vector of the eigenvalue iteration is zero");
+    if (!(PetscRealPart(dot) > 0 && std::isfinite(PetscRealPart(dot)))) PetscFunctionReturn(PETSC_SUCCESS); // *mu stays NaN: as InverseIteration
     PetscCall(VecScale(V[0], 1.0 / std::sqrt(PetscRealPart(dot))));
     PetscCall(VecScale(DV[0], 1.0 / std::sqrt(PetscRealPart(dot))));
     double          alpha[kLanczosSteps] = {}, beta[kLanczosSteps] = {};

@@ -60,4 +60,21 @@ for case, (name, options, factorisation, common_phrases, failed_time, hands_over
             frames = mt.frame_count(f)
         check.true(f"np {ranks} {label}: at least 1 frame in the result file ({frames})", frames >= 1)
         check.true(f"np {ranks} {label}: checkpoint written", os.path.exists(output[:-3] + ".ckpt.h5"))
+
+# A bending stiffness of 1e308 (EI2 and EI3 alike): the stability estimate's scaled start vector has
+# no finite length. It ended the run with PETSc's trace and MPI_ABORT (exit 62); the estimate is
+# now unknown (NaN) and the run goes on.
+for stiffness in ("EI2", "EI3"):
+    model = f"{args.work_dir}/huge_{stiffness}.yaml"
+    section = {"EI2": 100.0, "EI3": 100.0}
+    section[stiffness] = "1e308"
+    with open(model, "w") as f:
+        f.write("sections:\n  - {name: rod, EA: 1.0e4, GA2: 1.0e4, GA3: 1.0e4, GJ: 200, " + f"EI2: {section['EI2']}, EI3: {section['EI3']}" + "}\n"
+                "nodes: {root: [0, 0, 0], tip: [10, 0, 0]}\nbeams: [{name: arm, section: rod, from: root, to: tip, elements: 4}]\n"
+                "supports: [{nodes: root, fix: all}]\nloads: [{nodes: tip, force: [0, -1, 0]}]\nanalysis: {type: static, end_time: 1.0, initial_step: 0.5}\n")
+    for ranks in sorted({1, args.np}):
+        code, _, stderr = mt.run_msflex(args, model, f"{args.work_dir}/huge_{stiffness}.h5", np_ranks=ranks, expect_success=False, extra=["-quiet"])
+        print(f"np {ranks} {stiffness} 1e308: exit {code}, stderr {stderr.strip()[:200]!r}")
+        check.true(f"np {ranks} {stiffness} 1e308: completes (exit 0)", code == 0)
+        check.true(f"np {ranks} {stiffness} 1e308: no PETSc trace", "PETSC ERROR" not in stderr)
 check.finish()
