@@ -688,8 +688,12 @@ std::string PathFollower::StopAdvice() const
       const double w1 = 1.0 / (r1 * r1), w2 = 1.0 / (r2 * r2); // falling linearly to 0 at t*
       near = w2 / (w1 - w2) * step < 2.0 * step;
     }
+    // A sign change between rates both a hundred times the first is conclusive on its own: on
+    // another processor's rounding the halved steps of Lee's frame jumped back and forth near t*
+    // (-154.7, 92.7, -269, 55.6, 758, -117.9), so the last crossing was not beyond every rate before.
     const auto crossed = [&](double a, double b) {
-      return a * b < 0 && std::min(std::abs(a), std::abs(b)) > std::max(earlier_rate_, 10.0 * std::abs(first_rate_));
+      const double smaller = std::min(std::abs(a), std::abs(b));
+      return a * b < 0 && (smaller > std::max(earlier_rate_, 10.0 * std::abs(first_rate_)) || smaller > 100.0 * std::abs(first_rate_));
     };
     if (near || crossed(r0, r1) || crossed(r1, r2))
       return Format("; the load factor's rate along the controlled displacement has grown to %.3g (%.3g at the start), so the displacement "
