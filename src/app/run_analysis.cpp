@@ -146,9 +146,6 @@ void SeriesKnowledge(const Model &whole, std::map<std::string, std::string> *ser
   *owner_kinds = std::move(kinds);
 }
 
-// Set-up sees the whole model: partition, unknowns, the matrix pattern, nodal masses and the
-// output mesh; then each rank keeps only its part (the distributed model) and the integrator is
-// set up on it.
 // A warning line on standard error (also with -quiet) for the loads and actuators of a dynamic
 // analysis that have no function: the default ramp f(t) = t is statics' load factor, and in
 // dynamics it makes gravity three times g at t = 3 s, which users coming from other codes (whose
@@ -178,6 +175,9 @@ PetscErrorCode WarnRampedDynamicLoads(MPI_Comm comm, const Model &whole)
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
+// Set-up sees the whole model: partition, unknowns, the matrix pattern, nodal masses and the
+// output mesh; then each rank keeps only its part (the distributed model) and the integrator is
+// set up on it.
 PetscErrorCode Setup(Analysis &a, Model whole)
 {
   PartitionerType  partitioner;
@@ -267,6 +267,8 @@ PetscErrorCode Setup(Analysis &a, Model whole)
     PetscCall(CheckpointReadState(a.comm, a.options.restart_file, a.model, a.map, a.integrator.MutableState()));
     a.integrator.SetExternalWork(a.restart->external_work);
     a.integrator.SetDissipatedEnergy(a.restart->dissipated_energy);
+    a.integrator.SetPreviousStep(a.restart->previous_step);
+    if (a.restart->step == 0) a.integrator.SetMotionStart(a.restart->time);
     if (a.restart->pivoting_lu) PetscCall(a.integrator.UsePivotingLU());
     a.initial_energy = a.restart->initial_energy;
   }
@@ -559,6 +561,7 @@ PetscErrorCode WriteCheckpoint(Analysis &a, int step, double t, int last_written
   run.history_rows        = a.history_rows;
   run.controller_step     = controller.CurrentStep();
   run.controller_easy_run = controller.EasyRun();
+  run.previous_step       = a.integrator.PreviousStep();
   run.num_nodes           = a.map.global_count.nodes;
   run.num_joints          = a.map.global_count.joints;
   run.num_rigid_bodies    = a.map.global_count.rigid_bodies;

@@ -132,10 +132,7 @@ PetscErrorCode SettingsFromOptions(MPI_Comm comm, Model *model, RunOptions *opti
   if (max_step_set) a.max_step_given = true;
   PetscCheck(std::isfinite(a.step_tolerance) && a.step_tolerance >= 0.0 && a.step_tolerance < 1.0, comm, PETSC_ERR_USER_INPUT,
              "option -analysis_step_tolerance must lie in [0, 1), got %.6g", a.step_tolerance);
-  if (!a.max_step_given) {
-    const bool dynamic = a.type == AnalysisType::Dynamic;
-    a.max_step         = !dynamic ? AnalysisSettings().max_step : a.step_tolerance > 0.0 ? std::max(a.end_time, a.initial_step) : a.initial_step;
-  }
+  if (!a.max_step_given) a.max_step = DefaultMaxStep(a);
   // The reader checked the input for its own analysis only.
   if (a.type != input_type || a.preload != input_preload) {
     InputError error;

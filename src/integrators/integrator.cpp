@@ -28,9 +28,10 @@ PetscErrorCode Integrator::Setup(MPI_Comm comm, const Model &model, const DofMap
                                  PetscLogStage assembly_stage)
 {
   PetscFunctionBeginUser;
-  comm_    = comm;
-  model_   = &model;
-  map_     = &map;
+  comm_  = comm;
+  model_ = &model;
+  map_   = &map;
+  PetscCall(MeasureModelSize()); // (a restart too: the error estimate's floor)
   dynamic_ = model.analysis.type == AnalysisType::Dynamic;
   // -log_view stages: LinearSolve (each Newton solve but its assembly: factorisation, triangular
   // or Krylov solves), Assembly (pushed by the Newton callbacks).
@@ -53,6 +54,21 @@ PetscErrorCode Integrator::InitialiseConfiguration()
 {
   PetscFunctionBeginUser;
   StateSetInitialConfiguration(*model_, *map_, &system_.GetState());
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode Integrator::MeasureModelSize()
+{
+  double low[3] = {INFINITY, INFINITY, INFINITY}, high[3] = {-INFINITY, -INFINITY, -INFINITY}, global_low[3], global_high[3];
+  PetscFunctionBeginUser;
+  for (const Node &node : model_->nodes)
+    for (int i = 0; i < 3; ++i) low[i] = std::min(low[i], node.position(i)), high[i] = std::max(high[i], node.position(i));
+  PetscCall(MPIU_Allreduce(low, global_low, 3, MPI_DOUBLE, MPI_MIN, comm_));
+  PetscCall(MPIU_Allreduce(high, global_high, 3, MPI_DOUBLE, MPI_MAX, comm_));
+  double squared = 0.0;
+  for (int i = 0; i < 3; ++i)
+    if (global_high[i] >= global_low[i]) squared += (global_high[i] - global_low[i]) * (global_high[i] - global_low[i]);
+  model_size_ = std::sqrt(squared);
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
@@ -361,6 +377,7 @@ PetscErrorCode Integrator::CommitConvergedStep(double dt)
   PetscFunctionBeginUser;
   const double t_end      = system_.GetState().equations.t_end;
   step_energy_correction_ = assembler.EnergyCorrectionFactor();
+  previous_step_          = dt;
   if (map_->global_count.joints > 0) PetscCall(assembler.EvaluateJointReactions(dt));
   if (reaction_probes_) PetscCall(assembler.EvaluateSupportReactions());
   system_.CommitStep();
@@ -409,20 +426,35 @@ PetscErrorCode Integrator::ConsistentReactions(double t)
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
+// LocalErrorRatio's floor of motion per step: this fraction of the model's size and of a radian.
+constexpr double kErrorMotionFloor = 1e-3;
+
 PetscErrorCode Integrator::LocalErrorRatio(double dt, double *ratio)
 {
   double local[4] = {0.0, 0.0, 0.0, 0.0}, global[4];
   PetscFunctionBeginUser;
+  // The mid-point schemes' accelerations are the steps' means: their difference spans the two
+  // steps' mid-points, (h_prev + h)/2 apart, not h (a step after a longer one kept an error floor
+  // that did not fall with dt, and the controller piled up rejections; a user trial).
+  const bool   midpoint = GetState().equations.Midpoint();
+  const double span     = midpoint && previous_step_ > 0.0 ? 2.0 * dt / (previous_step_ + dt) : 1.0;
   StateLocalErrorSums(GetState(), dt, local);
   PetscCall(MPIU_Allreduce(local, global, 4, MPI_DOUBLE, MPI_SUM, comm_));
   const double tolerance = model_->analysis.step_tolerance;
-  // No error where nothing changed its acceleration (a body at rest or in uniform motion), however
-  // little it moved; an error with no motion at all is infinitely too large.
-  auto part = [tolerance](double error_squared, double motion_squared) {
+  // The motion an error is measured against, with a floor of a thousandth of the model's size
+  // (and of a radian) per node: starting from rest under a ramped load the error and the motion
+  // both go as dt^3, so a purely relative measure never fell with the step (flying spaghetti
+  // under newmark stopped at t = 0), nor where the motion nearly came to rest. No error where no
+  // acceleration changed (rest, uniform motion).
+  const double nodes = std::sqrt((double)std::max<PetscInt>(map_->global_count.nodes, 1));
+  // (A model of one point has no size: a metre stands in for it.)
+  const double size = model_size_ > 0.0 ? model_size_ : 1.0;
+  auto         part = [tolerance](double error_squared, double motion_squared, double floor) {
     if (error_squared == 0.0) return 0.0;
-    return motion_squared > 0.0 ? std::sqrt(error_squared / motion_squared) / tolerance : INFINITY;
+    const double scale = std::sqrt(motion_squared) + floor;
+    return scale > 0.0 ? std::sqrt(error_squared) / (tolerance * scale) : INFINITY;
   };
-  *ratio = std::max(part(global[0], global[1]), part(global[2], global[3]));
+  *ratio = span * std::max(part(global[0], global[1], kErrorMotionFloor * size * nodes), part(global[2], global[3], kErrorMotionFloor * nodes));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
@@ -498,7 +530,19 @@ PetscErrorCode Integrator::TryEquations(const StepEquations &equations, double d
   const bool start_acceleration_known = !equations.Midpoint() || equations.t_start > motion_start_time_;
   if (reason > 0 && !rotation_too_large && equations.Dynamic() && analysis.step_tolerance > 0.0 && start_acceleration_known)
     PetscCall(LocalErrorRatio(dt, &outcome->error_ratio));
-  const bool error_too_large = outcome->error_ratio > 1.0;
+  // A step at min_step is accepted whatever its estimate, as TSAdapt's basic adaptor does, and said
+  // once: near rest, or from rest under a ramped load, the estimate relative to the motion need not
+  // fall with the step.
+  const bool at_min_step     = dt <= analysis.min_step * (1.0 + 1e-12);
+  const bool error_too_large = outcome->error_ratio > 1.0 && !at_min_step;
+  if (outcome->error_ratio > 1.0 && at_min_step && !error_over_tolerance_said_) {
+    error_over_tolerance_said_ = true;
+    if (!quiet_)
+      PetscCall(PetscFPrintf(comm_, PETSC_STDERR,
+                             "msflex: warning: the step to t = %.9g at min_step = %.3g has a local error estimate %.4g times step_tolerance; steps at "
+                             "min_step are accepted whatever their estimate (said once)\n",
+                             equations.t_end, analysis.min_step, outcome->error_ratio));
+  }
   if (reason > 0 && !rotation_too_large && !error_too_large) {
     if (equations.Dynamic()) {
       double work, dissipation;
@@ -514,7 +558,7 @@ PetscErrorCode Integrator::TryEquations(const StepEquations &equations, double d
   // Why, in words and naming where (element, node, joint), before the increments are dropped.
   outcome->reason = rotation_too_large ? "max_rotation_increment" : error_too_large ? "step_tolerance" : SNESConvergedReasons[reason];
   if (error_too_large && !rotation_too_large)
-    outcome->why = Format("the local error estimate is %.3g times step_tolerance = %.3g", outcome->error_ratio, analysis.step_tolerance);
+    outcome->why = Format("the local error estimate is %.4g times step_tolerance = %.3g", outcome->error_ratio, analysis.step_tolerance);
   if (rotation_too_large) {
     // mc and em carry a joint angle's step as 2 tan(dphi/2), which outgrows dphi (a user read 14.8
     // rad for a step of about 4 rad): the message says which measure it is.
@@ -544,7 +588,9 @@ PetscErrorCode Integrator::TryEquations(const StepEquations &equations, double d
   const int         newton = outcome->newton_iterations, linear = outcome->linear_iterations;
   PetscCall(TryEquations(equations, dt, outcome));
   outcome->retried_newton_iterations += newton, outcome->retried_linear_iterations += linear;
-  PetscCall(SettleRetryWithMumps(outcome->converged, Format("the step from t = %.9g to %.9g", equations.t_start, equations.t_end), why_banded));
+  // (Newton converged with MUMPS where the step's error estimate alone rejects it: MUMPS keeps it.)
+  PetscCall(SettleRetryWithMumps(outcome->converged || outcome->reason == "step_tolerance",
+                                 Format("the step from t = %.9g to %.9g", equations.t_start, equations.t_end), why_banded));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 

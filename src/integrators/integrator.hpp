@@ -100,6 +100,13 @@ public:
   // Energy dissipated by the dampers since t = 0 (dynamics).
   double DissipatedEnergy() const { return dissipated_energy_; }
   void   SetDissipatedEnergy(double energy) { dissipated_energy_ = energy; }
+  // The length of the last converged step (0 before the first): the mid-point schemes' error
+  // estimate spans the two steps' mid-points; a checkpoint keeps it.
+  double PreviousStep() const { return previous_step_; }
+  void   SetPreviousStep(double step) { previous_step_ = step; }
+  // A restart from a checkpoint of the initial state: the mid-point schemes' first step from it goes
+  // unestimated, as from InitialiseMotion.
+  void SetMotionStart(double t) { motion_start_time_ = t; }
   // em's beta of the last committed step (the consistent reactions' solve after it has none).
   double       EnergyCorrectionFactor() const { return step_energy_correction_; }
   const State &GetState() const { return system_.GetState(); }
@@ -174,10 +181,13 @@ private:
   // *singular_mismatch: SolveSingularMassProblem's, 0 otherwise. Collective.
   PetscErrorCode           SolveAccelerations(Vec accelerations, bool hand_over, bool *solved, double *singular_mismatch);
   PetscErrorCode           WarnIfMasslessOutOfEquilibrium(double t, double singular_mismatch);
-  KSP                      null_pivot_ksp_    = nullptr; // SolveSingularMassProblem's, kept
-  Mat                      null_pivot_matrix_ = nullptr;
-  double                   motion_start_time_ = -INFINITY;                // InitialiseMotion's t (a restart continues after it)
-  bool                     singular_mass_     = false;                    // the mass matrix was found singular (ConsistentReactions)
+  KSP                      null_pivot_ksp_            = nullptr; // SolveSingularMassProblem's, kept
+  Mat                      null_pivot_matrix_         = nullptr;
+  double                   motion_start_time_         = -INFINITY;        // InitialiseMotion's t (a restart continues after it)
+  double                   previous_step_             = 0.0;              // PreviousStep
+  double                   model_size_                = 0.0;              // the diagonal of the nodes' bounding box, m (LocalErrorRatio's floor)
+  bool                     error_over_tolerance_said_ = false;            // the warning of a step at min_step over step_tolerance
+  bool                     singular_mass_             = false;            // the mass matrix was found singular (ConsistentReactions)
   Vec                      mass_forces_ = nullptr, mass_check_ = nullptr; // SolveSingularMassProblem's f and M a - f
   std::vector<PetscScalar> dense_work_, dense_lapack_work_;               // its copy of a dense mass matrix, gelss's work
   std::vector<PetscReal>   dense_singular_values_;
@@ -192,6 +202,8 @@ private:
   // larger of the translations' |e_x| / (tol |u|) and the rotations' |e_theta| / (tol |omega|),
   // norms over the whole model. Collective.
   PetscErrorCode LocalErrorRatio(double dt, double *ratio);
+  // model_size_ from the whole model's nodes. Collective.
+  PetscErrorCode MeasureModelSize();
   PetscLogEvent  consistent_reactions_event_ = 0;
   Vec            accelerations_              = nullptr;
   long long      consistent_reaction_solves_ = 0, consistent_reaction_failures_ = 0;

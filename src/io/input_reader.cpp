@@ -4,6 +4,7 @@
 // mechanisms are detected in input_mechanism_check.cpp. The schema is documented in docs/input.md.
 #include "io/input_reader.hpp"
 
+#include "core/file_safety.hpp"
 #include "core/mpi_util.hpp"
 
 #include "io/input_reader_internal.hpp"
@@ -705,15 +706,11 @@ void ReadAnalysis(const YAML::Node *mapping, const ReaderContext &context, Analy
   if (analysis.min_step > analysis.initial_step)
     FailAt(entry.Has("min_step") ? entry.Required("min_step").Mark() : entry.Required("initial_step").Mark(),
            "'min_step' (" + FormatNumber(analysis.min_step) + ") must not exceed 'initial_step' (" + FormatNumber(analysis.initial_step) + ")");
-  // Dynamics steps at initial_step unless max_step lets it grow: the controller grows a step after
-  // easy Newton iterations, which say nothing about the time-discretisation error, and a linear
-  // oscillator grew to a step of one period with no warning.
   analysis.step_tolerance = entry.Number("step_tolerance", analysis.step_tolerance);
   if (!(analysis.step_tolerance >= 0.0 && analysis.step_tolerance < 1.0))
     FailAt(entry.Required("step_tolerance").Mark(), "'step_tolerance' must lie in [0, 1), got " + entry.Required("step_tolerance").Scalar());
   analysis.max_step_given = entry.Has("max_step");
-  if (!analysis.max_step_given && analysis.type == AnalysisType::Dynamic)
-    analysis.max_step = analysis.step_tolerance > 0.0 ? std::max(analysis.end_time, analysis.initial_step) : analysis.initial_step;
+  if (!analysis.max_step_given) analysis.max_step = DefaultMaxStep(analysis);
   analysis.max_step = entry.PositiveNumber("max_step", analysis.max_step);
   if (analysis.max_step < analysis.initial_step)
     FailAt(entry.Has("max_step") ? entry.Required("max_step").Mark() : entry.Required("initial_step").Mark(),
@@ -934,10 +931,8 @@ static bool ReadTextFile(const std::string &path, std::string *text, InputError 
     // Only a regular file (or a link to one) is read: a directory opens as a stream on Linux but
     // cannot be read, a FIFO without a writer blocked the open for good (deaf to SIGTERM), and
     // /dev/zero was read until the machine's memory ran out (19 GB in 2.5 min; a user trial).
-    std::error_code                  status_error;
-    const std::filesystem::file_type type = std::filesystem::status(path, status_error).type();
-    if (type != std::filesystem::file_type::not_found && type != std::filesystem::file_type::regular && !status_error) {
-      *error = InputError{path, 0, 0, "cannot read input file " + input_detail::Quote(path) + ": not a regular file (a directory, FIFO, socket or device)"};
+    if (const std::string problem = NotRegularFileProblem(path); !problem.empty()) {
+      *error = InputError{path, 0, 0, "cannot read input file " + input_detail::Quote(path) + ": " + problem};
       return false;
     }
     std::ifstream stream(path, std::ios::binary);

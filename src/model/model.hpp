@@ -10,6 +10,7 @@
 #include "model/joint_kinds.hpp"
 #include "schemes/time_scheme.hpp"
 
+#include <algorithm>
 #include <array>
 #include <limits>
 #include <string>
@@ -271,7 +272,7 @@ struct AnalysisSettings {
   double           end_time        = 1.0;
   double           initial_step    = 0.1;
   double           min_step        = 1e-6;
-  double           max_step        = 1.0;   // statics' default; dynamics' is initial_step (max_step_given)
+  double           max_step        = 1.0;   // DefaultMaxStep unless max_step_given
   bool             max_step_given  = false; // by the input or -analysis_max_step: else dynamics keeps initial_step
   // Dynamics: > 0 controls the step by the local error estimate (docs/dynamics.md, step size and
   // accuracy), the error of a step relative to its motion; 0: no error control.
@@ -328,6 +329,16 @@ struct AnalysisSettings {
   bool       preload     = false;
   SourceMark mark;
 };
+
+// The largest step where neither the input nor -analysis_max_step gives one: statics 1; dynamics
+// initial_step, since the controller grows a step after easy Newton iterations, which say nothing
+// about the time-integration error (a linear oscillator grew to a step of one period with no
+// warning), or end_time under step_tolerance, whose error estimate then sets the step.
+inline double DefaultMaxStep(const AnalysisSettings &a)
+{
+  if (a.type != AnalysisType::Dynamic) return 1.0;
+  return a.step_tolerance > 0.0 ? std::max(a.end_time, a.initial_step) : a.initial_step;
+}
 
 struct OutputSettings {
   std::string file;               // HDF5 output; default: input file name with .h5, in the working directory

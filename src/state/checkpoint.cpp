@@ -16,7 +16,7 @@ namespace msflex {
 
 namespace {
 
-constexpr int kRunNumbers = 12;
+constexpr int kRunNumbers = 13;
 // Limits of the stored texts (ReadBoundedText): far above any real input, options database or
 // path, and small enough that a damaged size can never exhaust the memory.
 constexpr size_t kMaxInputBytes = size_t(256) << 20, kMaxOptionsBytes = size_t(16) << 20, kMaxPathBytes = size_t(64) << 10;
@@ -39,7 +39,8 @@ void PackNumbers(const CheckpointRun &run, double *numbers)
                                       (double)run.num_joints,
                                       (double)run.num_rigid_bodies,
                                       run.initial_energy,
-                                      run.dissipated_energy};
+                                      run.dissipated_energy,
+                                      run.previous_step};
   std::copy(values, values + kRunNumbers, numbers);
 }
 
@@ -99,11 +100,13 @@ std::string UnpackNumbers(const std::vector<double> &numbers, CheckpointRun *run
   run->num_rigid_bodies    = (long long)numbers[9];
   run->initial_energy      = numbers[10];
   run->dissipated_energy   = numbers[11];
+  run->previous_step       = numbers[12];
   // One history row per converged step plus the initial state's.
   if (run->history_rows != (long long)run->step + 1)
     return Format("history rows %lld do not match step %d (expected %lld)", run->history_rows, run->step, (long long)run->step + 1);
   if (run->last_written > run->step) return Format("the last written step %d is beyond the step %d", run->last_written, run->step);
   if (!(run->controller_step > 0.0)) return Format("the step controller's step %.6g is not positive", run->controller_step);
+  if (!(run->previous_step >= 0.0)) return Format("the last step's length %.6g is negative", run->previous_step);
   if (run->num_nodes == 0) return "the model has no nodes";
   return "";
 }

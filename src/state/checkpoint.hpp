@@ -27,6 +27,7 @@ struct CheckpointRun {
   long long   history_rows        = 0;   // rows of /history written so far
   double      controller_step     = 0.0; // the step controller's current step and run of easy steps
   int         controller_easy_run = 0;
+  double      previous_step       = 0.0;                           // the last converged step's length (Integrator::PreviousStep)
   long long   num_nodes = 0, num_joints = 0, num_rigid_bodies = 0; // sizes of the whole model
   double      initial_energy = 0.0;                                // total energy at the start of the run (dynamics: the energy balance)
   bool        pivoting_lu    = false;                              // Newton factors by MUMPS since the banded LU failed (Integrator::PivotingLUForced)

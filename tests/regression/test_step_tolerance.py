@@ -7,10 +7,14 @@ accuracy") on the spring slider (tests/regression/inputs/spring_slider.yaml, x =
 - a first step of 0.5 s is rejected by its error estimate (reason step_tolerance, "shortening")
   and the run completes within the same error as from 0.01;
 - em follows the tolerance too (error below newmark's bound at 1e-3);
+- a restart from a checkpoint continues the steps bitwise;
+- from rest under a load ramped from zero newmark, genalpha and em complete (the estimate's floor
+  of motion) within 1e-3 m of the closed form;
 - a tolerance outside [0, 1) is one line and exit 1, from the input and from the option."""
 
 import math
 import re
+import shutil
 import subprocess
 
 import numpy as np
@@ -48,12 +52,55 @@ shortened = re.findall(r"rejected: the local error estimate is [0-9.e+-]+ times 
 print(f"from 0.5 s: {steps} steps, {len(shortened)} rejections by the estimate, error {error:.3e}")
 check.true(f"a first step of 0.5 s is rejected by the error estimate ({len(shortened)} rejections)", len(shortened) >= 1)
 check.less("from 0.5 s: largest |x - x_exact| [m]", error, 5e-3)
-check.true("the summary counts the rejections by step_tolerance", re.search(r"rejected.*step_tolerance", stdout) is not None)
+summary = re.search(r"^\s*steps\s+\d+ accepted, (\d+) rejected \((\d+) step_tolerance\)", stdout, re.M)
+check.true(f"the summary counts the rejections by step_tolerance ({summary.group(0).strip() if summary else 'no summary line'})",
+           summary is not None and int(summary.group(2)) == len(shortened))
 
 steps, error, _ = run("em", ["-analysis_step_tolerance", "1e-3", "-analysis_integrator", "em"])
 print(f"em step_tolerance 1e-3: {steps} steps, error {error:.3e}")
 check.true(f"em at 1e-3: 100..160 steps ({steps})", 100 <= steps <= 160)
 check.less("em at 1e-3: largest |x - x_exact| [m]", error, 5e-3)
+
+# A restart continues the controlled steps bitwise: em at 1e-3 with checkpoints every 37 steps,
+# restarted from the last (step 111 of 118), ends on the uninterrupted run's last row exactly (the
+# controller's step, the rejection flag and the last step's length are in the checkpoint).
+full = f"{args.work_dir}/em_checkpointed.h5"
+checkpoint = f"{args.work_dir}/em_checkpointed.ckpt.h5"
+mt.run_msflex(args, source, full, extra=["-quiet", "-analysis_step_tolerance", "1e-3", "-analysis_integrator", "em", "-checkpoint_every", "37",
+                                         "-checkpoint_file", checkpoint])
+uninterrupted = mt.history(full)
+shutil.copy(full, f"{args.work_dir}/em_uninterrupted.h5")
+restarted = subprocess.run(mt.mpi_launcher(args.mpiexec, args.np) + [args.msflex, "--restart", checkpoint, "-quiet"], capture_output=True, text=True)
+check.true(f"restart with step_tolerance: exit 0 ({restarted.stderr.strip()[:200]})", restarted.returncode == 0)
+again = mt.history(full)
+check.true(f"restart with step_tolerance: the same rows ({len(again['time'])} and {len(uninterrupted['time'])})", len(again["time"]) == len(uninterrupted["time"]))
+if len(again["time"]) == len(uninterrupted["time"]):
+    check.true("restart with step_tolerance: times and positions bitwise equal",
+               bool(np.array_equal(again["time"], uninterrupted["time"]) and np.array_equal(again["slide.tx"], uninterrupted["slide.tx"])))
+
+# From rest under a load ramped from zero (f(t) = t): the motion and the estimate both start as
+# dt^3, so a measure relative to the motion alone never fell with the step and newmark stopped at
+# t = 0; with the floor of motion every scheme completes, within 1e-3 m of
+# x = (F/k) (t - sin(omega t)/omega) (amplitude 0.25 m).
+with open(source) as f:
+    ramp = f.read().replace("value: 0.1, rate: 0.0", "value: 0.0, rate: 0.0") + "loads:\n  - {nodes: mass, force: [10, 0, 0]}\n"
+ramp_input = f"{args.work_dir}/ramp_from_rest.yaml"
+with open(ramp_input, "w") as f:
+    f.write(ramp)
+k = 78.95683520871486
+for integrator in ("newmark", "genalpha", "em"):
+    output = f"{args.work_dir}/ramp_{integrator}.h5"
+    code, stdout, _ = mt.run_msflex(args, ramp_input, output, expect_success=False,
+                                    extra=["-analysis_step_tolerance", "1e-3", "-analysis_integrator", integrator])
+    steps = re.search(r"steps\s+(\d+) accepted", stdout)
+    print(f"ramp from rest, {integrator}: exit {code}, {steps.group(0) if steps else 'no summary'}")
+    check.true(f"ramp from rest, {integrator}: completes", code == 0)
+    if code == 0:
+        h = mt.history(output)
+        t = h["time"]
+        exact = 10.0 / k * (t - np.sin(2.0 * math.pi * t) / (2.0 * math.pi))
+        check.less(f"ramp from rest, {integrator}: largest |x - x_exact| [m]", np.abs(h["slide.tx"] - exact).max(), 1e-3)
+        check.true(f"ramp from rest, {integrator}: fewer than 400 steps ({steps.group(1)})", int(steps.group(1)) < 400)
 
 for where, extra, text in (("option", ["-analysis_step_tolerance", "2"], None), ("input", [], "step_tolerance: -1")):
     path = source
