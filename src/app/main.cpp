@@ -246,6 +246,8 @@ static PetscErrorCode RunMsflex(int argc, char **argv, RunEnd *end)
   AnalysisSettings checkpoint_analysis;
   std::string      stored_type, stored_control, stored_integrator, stored_spectral_radius;
   if (!restart.empty()) {
+    const std::string not_regular = NotRegularFileProblem(restart);
+    PetscCheck(not_regular.empty(), comm, PETSC_ERR_FILE_OPEN, "cannot read the checkpoint '%s': %s", restart.c_str(), not_regular.c_str());
     PetscCall(CheckpointReadRun(comm, restart, &run));
     PetscCall(RestoreOptions(run, argc, argv, &stored_type, &stored_control, &stored_integrator, &stored_spectral_radius));
     InputError error;
@@ -311,12 +313,16 @@ static std::string TakeUnreadableOptionsFile(int *argc, char **argv)
 {
   for (int i = 1; i + 1 < *argc; ++i) {
     if (std::strcmp(argv[i], "-options_file") != 0 && std::strcmp(argv[i], "-options_file_yaml") != 0) continue;
-    std::FILE *file = std::fopen(argv[i + 1], "r");
-    if (file) {
-      std::fclose(file);
-      continue;
+    std::string why = NotRegularFileProblem(argv[i + 1]);
+    if (why.empty()) {
+      std::FILE *file = std::fopen(argv[i + 1], "r");
+      if (file) {
+        std::fclose(file);
+        continue;
+      }
+      why = std::strerror(errno);
     }
-    const std::string problem = std::string("cannot read the options file '") + argv[i + 1] + "' (" + argv[i] + "): " + std::strerror(errno);
+    const std::string problem = std::string("cannot read the options file '") + argv[i + 1] + "' (" + argv[i] + "): " + why;
     for (int k = i; k + 2 <= *argc; ++k) argv[k] = argv[k + 2];
     *argc -= 2;
     return problem;

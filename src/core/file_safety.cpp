@@ -2,6 +2,7 @@
 
 #include <dirent.h>
 #include <fcntl.h>
+#include <filesystem>
 #include <sys/random.h>
 #include <sys/stat.h>
 #include <unistd.h>
@@ -140,6 +141,14 @@ std::string ErrnoText(int error_number)
   char        buffer[256];
   const char *text = ::strerror_r(error_number, buffer, sizeof buffer); // the GNU strerror_r
   return text != nullptr ? text : "error " + std::to_string(error_number);
+}
+
+std::string NotRegularFileProblem(const std::string &path)
+{
+  std::error_code                  status_error;
+  const std::filesystem::file_type type = std::filesystem::status(path, status_error).type();
+  if (status_error || type == std::filesystem::file_type::not_found || type == std::filesystem::file_type::regular) return "";
+  return "not a regular file (a directory, FIFO, socket or device)";
 }
 
 std::string FileProblem(const std::string &action, const std::string &path, int error_number)

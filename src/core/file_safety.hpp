@@ -42,6 +42,9 @@ std::string ErrnoText(int error_number);
 
 // "cannot <action> '<path>': <strerror(error_number)>", the one line of every file-system error.
 std::string FileProblem(const std::string &action, const std::string &path, int error_number);
+// "" when `path` is a regular file (or a link to one) or does not exist, else that it is not one:
+// a FIFO without a writer blocks an open for good (deaf to SIGTERM), and /dev/zero reads forever.
+std::string NotRegularFileProblem(const std::string &path);
 
 // A path resolved the way the kernel would resolve it for an open(2) that creates it: every
 // directory component and, when present, a symbolic link in the last component are followed.

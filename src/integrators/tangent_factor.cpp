@@ -350,7 +350,10 @@ PetscErrorCode TangentFactor::LanczosLowestEigenvalue(Vec D, Vec mode, double *m
   for (int restart = 0; restart < kLanczosRestarts; ++restart) {
     PetscCall(VecPointwiseMult(DV[0], D, V[0]));
     PetscCall(VecDot(V[0], DV[0], &dot));
-    if (!(PetscRealPart(dot) > 0 && std::isfinite(PetscRealPart(dot)))) PetscFunctionReturn(PETSC_SUCCESS); // *mu stays NaN: as InverseIteration
+    if (!(PetscRealPart(dot) > 0 && std::isfinite(PetscRealPart(dot)))) { // unknown, as in InverseIteration (a restart's 1/theta is no estimate)
+      *mu = NAN;
+      PetscFunctionReturn(PETSC_SUCCESS);
+    }
     PetscCall(VecScale(V[0], 1.0 / std::sqrt(PetscRealPart(dot))));
     PetscCall(VecScale(DV[0], 1.0 / std::sqrt(PetscRealPart(dot))));
     double          alpha[kLanczosSteps] = {}, beta[kLanczosSteps] = {};

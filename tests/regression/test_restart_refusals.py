@@ -270,4 +270,19 @@ code, _, stderr = run([args.msflex, shaft, "-analysis_end_time", "0.001", "-outp
 check.equal("run beside stale temporaries: exit status", code, 0)
 check.equal("stale temporaries of the run's files left", sum(os.path.exists(f"{work}/{name}") for name in stale), 0)
 check.equal("other files kept", sum(os.path.exists(f"{work}/{name}") for name in kept), len(kept))
+
+# A checkpoint or options file that is a FIFO without a writer: the open blocked for good, deaf to
+# SIGTERM; both are now refused in one line.
+fifo = f"{work}/not_a_checkpoint.ckpt.h5"
+if os.path.exists(fifo):
+    os.remove(fifo)
+os.mkfifo(fifo)
+for label, command in (("--restart FIFO", [args.msflex, "--restart", fifo]),
+                       ("-options_file FIFO", [args.msflex, shaft, "-options_file", fifo, "-analysis_end_time", "0.001", "-quiet", "-output_overwrite"])):
+    result = mt.run_with_timeout(command, work, 60)
+    lines = [] if result is None else [line for line in (result[0] + result[1]).splitlines() if line.strip()]
+    print(f"{label}: {'hung' if result is None else f'exit {result[2]}'}: {lines}")
+    check.true(f"{label}: ends with exit 1", result is not None and result[2] == 1)
+    check.true(f"{label}: one line saying it is not a regular file", len(lines) == 1 and "not a regular file" in lines[0])
+os.remove(fifo)
 check.finish()
