@@ -351,6 +351,17 @@ void CheckStaticMechanisms(const Model &model, AnalysisType type)
 void CheckModelForAnalysis(const Model &model, AnalysisType type, bool preload)
 {
   if (NeedsStaticStiffness(type, preload)) CheckStaticMechanisms(model, type);
+  // Modes need mass: found here, before any file is made, instead of by the eigensolver after
+  // -output_overwrite had replaced the old results with an empty file (a user trial).
+  if (type == AnalysisType::Modes) {
+    bool has_mass = false;
+    for (const RigidBody &body : model.rigid_bodies) has_mass = has_mass || body.mass > 0.0 || body.inertia.norm() > 0.0;
+    for (const BeamElement &element : model.elements) {
+      const Section &section = model.sections[element.section];
+      has_mass               = has_mass || section.rhoA > 0.0 || section.rhoJ.norm() > 0.0;
+    }
+    if (!has_mass) FailAt(model.analysis.mark, "a modes analysis needs mass, but no beam's section has rhoA or rhoJ (or density) and there is no rigid body");
+  }
   // A follower load's stiffness is not symmetric: the symmetric eigenproblems of a buckling
   // analysis and of preloaded modes would give wrong answers (Beck's column, which loses stability
   // only by flutter at 20.05 EI/L^2, came out with a divergence load of 7.97 EI/L^2 and real
