@@ -29,6 +29,10 @@ cases = [(bend, ["-analysis_end_time", "abc"], "-analysis_end_time: 'abc' is not
          (bend, ["-analysis_output_times", "0.5,x"], "-analysis_output_times: '0.5,x' is not a comma-separated list of numbers"),
          (bend, ["-analysis_initial_step", "2"], "initial_step 2 is larger than max_step 1"),
          (bend, ["-analysis_newton_atol", "-1"], "-analysis_newton_atol must be >= 0"),
+         # the controlled DOF's options outside displacement control (taken without a word before)
+         (bend, ["-analysis_control_node", "nope"], "-analysis_control_node applies to a static analysis under displacement control"),
+         (spaghetti, ["-analysis_control_dof", "ux"], "-analysis_control_dof applies to a static analysis under displacement control"),
+         (bend, ["-analysis_step_tolerance", "1"], "-analysis_step_tolerance must lie in [0, 1), got 1"),
          (spaghetti, ["-analysis_type", "static"], "with -analysis_type static: " + spaghetti + ":"),
          (bend, ["-pc_factor_mat_solver_type", "foo"], "-pc_factor_mat_solver_type foo: no LU factorisation of that name"),
          (bend, ["-output_xdmf", "xdmf4"], "-output_xdmf must be xdmf3 or xdmf2, got 'xdmf4'"),
