@@ -246,8 +246,6 @@ static PetscErrorCode RunMsflex(int argc, char **argv, RunEnd *end)
   AnalysisSettings checkpoint_analysis;
   std::string      stored_type, stored_control, stored_integrator, stored_spectral_radius;
   if (!restart.empty()) {
-    const std::string not_regular = NotRegularFileProblem(restart);
-    PetscCheck(not_regular.empty(), comm, PETSC_ERR_FILE_OPEN, "cannot read the checkpoint '%s': %s", restart.c_str(), not_regular.c_str());
     PetscCall(CheckpointReadRun(comm, restart, &run));
     PetscCall(RestoreOptions(run, argc, argv, &stored_type, &stored_control, &stored_integrator, &stored_spectral_radius));
     InputError error;

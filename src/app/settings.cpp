@@ -161,14 +161,12 @@ PetscErrorCode SettingsFromOptions(MPI_Comm comm, Model *model, RunOptions *opti
   PetscCheck(!shift_set || std::isfinite(shift), comm, PETSC_ERR_USER_INPUT, "option -analysis_shift must be a finite number, got %.6g", (double)shift);
   a.shift = shift;
   // As the input's keys (the reader's check): the controlled DOF's options apply to displacement
-  // control of a static analysis only (they were taken without a word under load control and in
-  // dynamics; a user trial).
+  // control only (they were taken without a word under load control and in dynamics; a user trial).
   static const char *const control_options[4] = {"-analysis_control_node", "-analysis_control_joint", "-analysis_control_dof", "-analysis_control_value"};
   for (int k = 0; k < 4; ++k)
-    PetscCheck(!control_set[k] || (a.type == AnalysisType::Static && a.control == PathControl::Displacement), comm, PETSC_ERR_USER_INPUT,
-               "option %s applies to a static analysis under displacement control (-analysis_control displacement), but the analysis is %s%s%s",
-               control_options[k], AnalysisTypeName(a.type), a.type == AnalysisType::Static ? " under control: " : "",
-               a.type == AnalysisType::Static ? PathControlName(a.control) : "");
+    PetscCheck(!control_set[k] || a.control == PathControl::Displacement, comm, PETSC_ERR_USER_INPUT,
+               "option %s applies to displacement control (-analysis_control displacement), but the control is %s", control_options[k],
+               PathControlName(a.control));
   PetscCheck(std::isfinite(a.control_value) && a.control_value != 0.0, comm, PETSC_ERR_USER_INPUT,
              "option -analysis_control_value must be a finite number other than zero, got %.6g", a.control_value);
   a.control_node  = control_node;

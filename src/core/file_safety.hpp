@@ -192,7 +192,7 @@ inline constexpr const char *kFormatAttribute  = "msflex_format"; // kResultForm
 inline constexpr const char *kModelAttribute   = "msflex_model";  // ModelFingerprint(...)
 inline constexpr const char *kRunAttribute     = "msflex_run";    // NewRunId() of the result file
 inline constexpr const char *kResultFormat     = "msflex result 3";
-inline constexpr const char *kCheckpointFormat = "msflex checkpoint 6";
+inline constexpr const char *kCheckpointFormat = "msflex checkpoint 7"; // 7: the run record holds the last step's length
 // The XDMF sidecar carries this element right after <Domain>; a sidecar without it is still
 // recognised by the collection grid msflex names "msflex" or the comment opening the incremental
 // layout (files written before the marker).

@@ -298,6 +298,7 @@ PetscErrorCode Integrator::InitialiseMotion(double t)
   PetscFunctionBeginUser;
   Assembler &assembler = system_.GetAssembler();
   motion_start_time_   = t;
+  previous_step_       = 0.0; // (a static stage's load step is no time step)
   StateSetInitialVelocities(*model_, *map_, t, &system_.GetState());
   if (model_->analysis.project_initial_velocities) {
     InitialVelocityReport report;
@@ -533,15 +534,16 @@ PetscErrorCode Integrator::TryEquations(const StepEquations &equations, double d
   // A step at min_step is accepted whatever its estimate, as TSAdapt's basic adaptor does, and said
   // once: near rest, or from rest under a ramped load, the estimate relative to the motion need not
   // fall with the step.
-  const bool at_min_step     = dt <= analysis.min_step * (1.0 + 1e-12);
+  // (StepController::Propose stretches a step by up to 1 % to land on a target: from min_step that
+  // is still min_step, or the rejection and the same stretched retry would loop for ever.)
+  const bool at_min_step     = dt <= analysis.min_step * 1.01 * (1.0 + 1e-12);
   const bool error_too_large = outcome->error_ratio > 1.0 && !at_min_step;
   if (outcome->error_ratio > 1.0 && at_min_step && !error_over_tolerance_said_) {
-    error_over_tolerance_said_ = true;
-    if (!quiet_)
-      PetscCall(PetscFPrintf(comm_, PETSC_STDERR,
-                             "msflex: warning: the step to t = %.9g at min_step = %.3g has a local error estimate %.4g times step_tolerance; steps at "
-                             "min_step are accepted whatever their estimate (said once)\n",
-                             equations.t_end, analysis.min_step, outcome->error_ratio));
+    error_over_tolerance_said_ = true; // (a warning: -quiet too)
+    PetscCall(PetscFPrintf(comm_, PETSC_STDERR,
+                           "msflex: warning: the step to t = %.9g at min_step = %.3g has a local error estimate %.4g times step_tolerance; steps at "
+                           "min_step are accepted whatever their estimate (said once)\n",
+                           equations.t_end, analysis.min_step, outcome->error_ratio));
   }
   if (reason > 0 && !rotation_too_large && !error_too_large) {
     if (equations.Dynamic()) {

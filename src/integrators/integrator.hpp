@@ -39,7 +39,8 @@ struct StepOutcome {
   // its pseudo-time); NaN: the proposed one.
   double step_taken = std::numeric_limits<double>::quiet_NaN();
   // Dynamics with step_tolerance: the step's local error estimate over the tolerance (a step
-  // converged by Newton whose ratio exceeds 1 is rejected with reason step_tolerance); -1: none.
+  // converged by Newton whose ratio exceeds 1 is rejected with reason step_tolerance, except at
+  // min_step); -1: none.
   double error_ratio = -1.0;
 };
 
@@ -199,8 +200,10 @@ private:
   bool           ConsistentReactionsWanted() const;
   PetscErrorCode ConsistentReactions(double t);
   // The converged step's local error estimate over step_tolerance (StateLocalErrorSums): the
-  // larger of the translations' |e_x| / (tol |u|) and the rotations' |e_theta| / (tol |omega|),
-  // norms over the whole model. Collective.
+  // larger of the translations' |e_x| / (tol (|u| + floor)) and the rotations'
+  // |e_theta| / (tol (|omega| + floor)), norms over the whole model, u and omega the step's
+  // increments, the floors 1e-3 of the model's size and of a radian per node; the mid-point
+  // schemes' scaled by 2 dt / (dt_prev + dt). Collective.
   PetscErrorCode LocalErrorRatio(double dt, double *ratio);
   // model_size_ from the whole model's nodes. Collective.
   PetscErrorCode MeasureModelSize();

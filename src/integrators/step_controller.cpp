@@ -8,7 +8,8 @@ namespace msflex {
 namespace {
 // The step factor a local error estimate asks for: the estimate goes as dt^2 relative to the
 // step's motion (docs/dynamics.md), so the step that meets the tolerance is dt / sqrt(ratio),
-// taken with a safety factor of 0.9 as TSAdapt's basic adaptor does.
+// taken with a safety factor of 0.9 as TSAdapt's basic adaptor does. (Where the floor of motion
+// dominates it goes as dt^3 and this overshoots a growth, which growth_factor bounds.)
 double ErrorStepFactor(double error_ratio) { return error_ratio > 0.0 ? 0.9 / std::sqrt(error_ratio) : INFINITY; }
 } // namespace
 
@@ -71,11 +72,12 @@ void StepController::Accept(double dt, int iterations, double error_ratio)
 
 bool StepController::Reject(double dt, double error_ratio)
 {
-  easy_run_ = settings_.error_control ? 1 : 0; // see Accept
-  step_     = error_ratio > 1.0 ? dt * std::clamp(ErrorStepFactor(error_ratio), 0.2, 0.9) : 0.5 * dt;
+  const bool from_min_step = step_ <= settings_.min_step * (1.0 + 1e-12); // (a step Propose stretched from it counts as min_step)
+  easy_run_                = settings_.error_control ? 1 : 0;             // see Accept
+  step_                    = error_ratio > 1.0 ? dt * std::clamp(ErrorStepFactor(error_ratio), 0.2, 0.9) : 0.5 * dt;
   // Under error control min_step itself is tried before the run gives up (a step asked for just
   // below it stopped the run where min_step might have passed).
-  if (settings_.error_control && step_ < settings_.min_step && dt > settings_.min_step * (1.0 + 1e-12)) step_ = settings_.min_step;
+  if (settings_.error_control && step_ < settings_.min_step && !from_min_step) step_ = settings_.min_step;
   return step_ >= settings_.min_step;
 }
 

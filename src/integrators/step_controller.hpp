@@ -39,7 +39,7 @@ public:
   void Accept(double dt, int iterations, double error_ratio = -1.0);
   // A failed attempt of size dt: halves it, or with error_ratio > 1 (a converged step whose error
   // estimate exceeds the tolerance) shortens it to the step that estimate asks for. Returns false
-  // when the new step is below min_step.
+  // when the new step is below min_step (under error control min_step itself is tried first).
   bool Reject(double dt, double error_ratio = -1.0);
   // The state a checkpoint keeps, and its restoration.
   double CurrentStep() const { return step_; }

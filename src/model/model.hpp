@@ -273,7 +273,7 @@ struct AnalysisSettings {
   double           initial_step    = 0.1;
   double           min_step        = 1e-6;
   double           max_step        = 1.0;   // DefaultMaxStep unless max_step_given
-  bool             max_step_given  = false; // by the input or -analysis_max_step: else dynamics keeps initial_step
+  bool             max_step_given  = false; // by the input or -analysis_max_step: else DefaultMaxStep
   // Dynamics: > 0 controls the step by the local error estimate (docs/dynamics.md, step size and
   // accuracy), the error of a step relative to its motion; 0: no error control.
   double step_tolerance         = 0.0;

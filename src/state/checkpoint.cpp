@@ -11,6 +11,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
+#include <filesystem>
 
 namespace msflex {
 
@@ -377,6 +378,12 @@ PetscErrorCode ReadRunRecord(const std::string &path, CheckpointRun *run)
   // The classification checks the whole file's checksum before HDF5 reads a byte of it: a footer
   // whose checksum does not match is damage, refused here. No footer: a file of another kind or
   // format, which the checks below name, or one of this format whose end was cut or damaged.
+  // A FIFO without a writer blocked the open for good, deaf to SIGTERM (a directory is named below).
+  std::error_code no_throw;
+  if (!std::filesystem::is_directory(path, no_throw)) {
+    const std::string not_regular = NotRegularFileProblem(path);
+    PetscCheck(not_regular.empty(), PETSC_COMM_SELF, PETSC_ERR_FILE_OPEN, "cannot read the checkpoint '%s': %s", p, not_regular.c_str());
+  }
   ExistingFile existing;
   std::string  problem = ClassifyExistingFile(path, &existing);
   PetscCheck(problem.empty(), PETSC_COMM_SELF, PETSC_ERR_FILE_OPEN, "%s", problem.c_str());

@@ -30,8 +30,8 @@ cases = [(bend, ["-analysis_end_time", "abc"], "-analysis_end_time: 'abc' is not
          (bend, ["-analysis_initial_step", "2"], "initial_step 2 is larger than max_step 1"),
          (bend, ["-analysis_newton_atol", "-1"], "-analysis_newton_atol must be >= 0"),
          # the controlled DOF's options outside displacement control (taken without a word before)
-         (bend, ["-analysis_control_node", "nope"], "-analysis_control_node applies to a static analysis under displacement control"),
-         (spaghetti, ["-analysis_control_dof", "ux"], "-analysis_control_dof applies to a static analysis under displacement control"),
+         (bend, ["-analysis_control_node", "nope"], "-analysis_control_node applies to displacement control (-analysis_control displacement), but the control is load"),
+         (spaghetti, ["-analysis_control_dof", "ux"], "-analysis_control_dof applies to displacement control"),
          (bend, ["-analysis_step_tolerance", "1"], "-analysis_step_tolerance must lie in [0, 1), got 1"),
          (spaghetti, ["-analysis_type", "static"], "with -analysis_type static: " + spaghetti + ":"),
          (bend, ["-pc_factor_mat_solver_type", "foo"], "-pc_factor_mat_solver_type foo: no LU factorisation of that name"),

@@ -114,8 +114,8 @@ def write_checkpoint(path, output_file="out.h5"):
     """An msflex checkpoint: its marker, and the format and result file as /run datasets of
     characters (int8), as msflex writes them."""
     with h5py.File(path, "w") as f:
-        f.attrs["msflex_format"] = "msflex checkpoint 6"
-        f["run/format"] = np.frombuffer(b"msflex checkpoint 6", dtype=np.int8)
+        f.attrs["msflex_format"] = "msflex checkpoint 7"
+        f["run/format"] = np.frombuffer(b"msflex checkpoint 7", dtype=np.int8)
         f["run/output_file"] = np.frombuffer(output_file.encode(), dtype=np.int8)
         f.create_group("nodes")
 

@@ -8,13 +8,14 @@ accuracy") on the spring slider (tests/regression/inputs/spring_slider.yaml, x =
   and the run completes within the same error as from 0.01;
 - em follows the tolerance too (error below newmark's bound at 1e-3);
 - a restart from a checkpoint continues the steps bitwise;
+- a tolerance no step meets runs at min_step with one warning, also where a step is stretched to
+  land on an output time;
 - from rest under a load ramped from zero newmark, genalpha and em complete (the estimate's floor
   of motion) within 1e-3 m of the closed form;
 - a tolerance outside [0, 1) is one line and exit 1, from the input and from the option."""
 
 import math
 import re
-import shutil
 import subprocess
 
 import numpy as np
@@ -69,7 +70,6 @@ checkpoint = f"{args.work_dir}/em_checkpointed.ckpt.h5"
 mt.run_msflex(args, source, full, extra=["-quiet", "-analysis_step_tolerance", "1e-3", "-analysis_integrator", "em", "-checkpoint_every", "37",
                                          "-checkpoint_file", checkpoint])
 uninterrupted = mt.history(full)
-shutil.copy(full, f"{args.work_dir}/em_uninterrupted.h5")
 restarted = subprocess.run(mt.mpi_launcher(args.mpiexec, args.np) + [args.msflex, "--restart", checkpoint, "-quiet"], capture_output=True, text=True)
 check.true(f"restart with step_tolerance: exit 0 ({restarted.stderr.strip()[:200]})", restarted.returncode == 0)
 again = mt.history(full)
@@ -101,6 +101,18 @@ for integrator in ("newmark", "genalpha", "em"):
         exact = 10.0 / k * (t - np.sin(2.0 * math.pi * t) / (2.0 * math.pi))
         check.less(f"ramp from rest, {integrator}: largest |x - x_exact| [m]", np.abs(h["slide.tx"] - exact).max(), 1e-3)
         check.true(f"ramp from rest, {integrator}: fewer than 400 steps ({steps.group(1)})", int(steps.group(1)) < 400)
+
+# A tolerance no step can meet: every step runs at min_step = initial_step = 0.01, accepted with one
+# warning. Next to the output time 0.50005 the controller stretches the step to 0.01005 to land on
+# it; that step counts as min_step (it looped for ever, rejected and retried at the same length).
+command = [args.msflex, source, "-output_file", f"{args.work_dir}/at_min_step.h5", "-output_overwrite", "-quiet", "-analysis_step_tolerance", "1e-9",
+           "-analysis_min_step", "0.01", "-analysis_end_time", "0.6", "-analysis_output_times", "0.50005"]
+result = mt.run_with_timeout(command, args.work_dir, 60)
+print(f"at min_step: {'hung' if result is None else f'exit {result[2]}: {result[1].strip()}'}")
+check.true("a tolerance no step meets: the run ends (exit 0) at min_step", result is not None and result[2] == 0)
+check.true("... with one warning of steps accepted at min_step", result is not None and result[1].count("are accepted whatever their estimate") == 1)
+if result is not None and result[2] == 0:
+    check.true("... and lands on the output time 0.50005", bool(np.any(np.abs(mt.history(f"{args.work_dir}/at_min_step.h5")["time"] - 0.50005) < 1e-12)))
 
 for where, extra, text in (("option", ["-analysis_step_tolerance", "2"], None), ("input", [], "step_tolerance: -1")):
     path = source
