@@ -224,13 +224,11 @@ PetscErrorCode SettingsFromOptions(MPI_Comm comm, Model *model, RunOptions *opti
              "option -analysis_max_rotation_increment (max_rotation_increment) must be below pi, got %.6g", a.max_rotation_increment);
   // A run shortened with -analysis_end_time keeps the output times it still reaches, and says
   // which it drops (they went without a word, where the same times in the input are an error).
-  const auto beyond = std::find_if(a.output_times.begin(), a.output_times.end(), [&a](double t) { return t > a.end_time; });
-  if (beyond != a.output_times.end()) {
-    const size_t dropped = (size_t)std::count_if(a.output_times.begin(), a.output_times.end(), [&a](double t) { return t > a.end_time; });
-    PetscCall(PetscFPrintf(comm, PETSC_STDERR, "msflex: warning: %zu output time(s) beyond end_time = %.9g are dropped (the first: %.9g)\n", dropped,
-                           a.end_time, *beyond));
-  }
-  a.output_times.erase(std::remove_if(a.output_times.begin(), a.output_times.end(), [&a](double t) { return t > a.end_time; }), a.output_times.end());
+  const auto beyond = std::stable_partition(a.output_times.begin(), a.output_times.end(), [&a](double t) { return t <= a.end_time; });
+  if (beyond != a.output_times.end())
+    PetscCall(PetscFPrintf(comm, PETSC_STDERR, "msflex: warning: %zu output time(s) beyond end_time = %.9g are dropped (the first: %.9g)\n",
+                           (size_t)(a.output_times.end() - beyond), a.end_time, *beyond));
+  a.output_times.erase(beyond, a.output_times.end());
   PetscCheck(a.control != PathControl::ArcLength || a.output_times.empty(), comm, PETSC_ERR_USER_INPUT,
              "output times do not apply to arc-length control, whose steps are lengths along the path");
   for (size_t i = 0; i < a.output_times.size(); ++i)

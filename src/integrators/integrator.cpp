@@ -6,6 +6,7 @@
 
 #include "core/errors.hpp"
 #include "core/format.hpp"
+#include "integrators/linearization.hpp"
 
 namespace msflex {
 
@@ -31,7 +32,7 @@ PetscErrorCode Integrator::Setup(MPI_Comm comm, const Model &model, const DofMap
   comm_  = comm;
   model_ = &model;
   map_   = &map;
-  PetscCall(MeasureModelSize()); // (a restart too: the error estimate's floor)
+  PetscCall(ModelLength(comm, model, map, &model_size_)); // the error estimate's floor (a restart too)
   dynamic_ = model.analysis.type == AnalysisType::Dynamic;
   // -log_view stages: LinearSolve (each Newton solve but its assembly: factorisation, triangular
   // or Krylov solves), Assembly (pushed by the Newton callbacks).
@@ -54,21 +55,6 @@ PetscErrorCode Integrator::InitialiseConfiguration()
 {
   PetscFunctionBeginUser;
   StateSetInitialConfiguration(*model_, *map_, &system_.GetState());
-  PetscFunctionReturn(PETSC_SUCCESS);
-}
-
-PetscErrorCode Integrator::MeasureModelSize()
-{
-  double low[3] = {INFINITY, INFINITY, INFINITY}, high[3] = {-INFINITY, -INFINITY, -INFINITY}, global_low[3], global_high[3];
-  PetscFunctionBeginUser;
-  for (const Node &node : model_->nodes)
-    for (int i = 0; i < 3; ++i) low[i] = std::min(low[i], node.position(i)), high[i] = std::max(high[i], node.position(i));
-  PetscCall(MPIU_Allreduce(low, global_low, 3, MPI_DOUBLE, MPI_MIN, comm_));
-  PetscCall(MPIU_Allreduce(high, global_high, 3, MPI_DOUBLE, MPI_MAX, comm_));
-  double squared = 0.0;
-  for (int i = 0; i < 3; ++i)
-    if (global_high[i] >= global_low[i]) squared += (global_high[i] - global_low[i]) * (global_high[i] - global_low[i]);
-  model_size_ = std::sqrt(squared);
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
@@ -448,14 +434,12 @@ PetscErrorCode Integrator::LocalErrorRatio(double dt, double *ratio)
   // under newmark stopped at t = 0), nor where the motion nearly came to rest. No error where no
   // acceleration changed (rest, uniform motion).
   const double nodes = std::sqrt((double)std::max<PetscInt>(map_->global_count.nodes, 1));
-  // (A model of one point has no size: a metre stands in for it.)
-  const double size = model_size_ > 0.0 ? model_size_ : 1.0;
-  auto         part = [tolerance](double error_squared, double motion_squared, double floor) {
+  auto         part  = [tolerance](double error_squared, double motion_squared, double floor) {
     if (error_squared == 0.0) return 0.0;
     const double scale = std::sqrt(motion_squared) + floor;
     return scale > 0.0 ? std::sqrt(error_squared) / (tolerance * scale) : INFINITY;
   };
-  *ratio = span * std::max(part(global[0], global[1], kErrorMotionFloor * size * nodes), part(global[2], global[3], kErrorMotionFloor * nodes));
+  *ratio = span * std::max(part(global[0], global[1], kErrorMotionFloor * model_size_ * nodes), part(global[2], global[3], kErrorMotionFloor * nodes));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
@@ -559,8 +543,6 @@ PetscErrorCode Integrator::TryEquations(const StepEquations &equations, double d
   }
   // Why, in words and naming where (element, node, joint), before the increments are dropped.
   outcome->reason = rotation_too_large ? "max_rotation_increment" : error_too_large ? "step_tolerance" : SNESConvergedReasons[reason];
-  if (error_too_large && !rotation_too_large)
-    outcome->why = Format("the local error estimate is %.4g times step_tolerance = %.3g", outcome->error_ratio, analysis.step_tolerance);
   if (rotation_too_large) {
     // mc and em carry a joint angle's step as 2 tan(dphi/2), which outgrows dphi (a user read 14.8
     // rad for a step of about 4 rad): the message says which measure it is.
@@ -572,7 +554,9 @@ PetscErrorCode Integrator::TryEquations(const StepEquations &equations, double d
     if (!equations.Dynamic() && max_rotation > kAbsurdRotationIncrement) // (in dynamics: real spin, and a step too long)
       outcome->why += "; an increment this large comes from a nearly singular tangent: is part of the model a mechanism, free to move without "
                       "resistance?";
-  } else if (!error_too_large) {
+  } else if (error_too_large) { // (estimated only where the rotation passed)
+    outcome->why = Format("the local error estimate is %.4g times step_tolerance = %.3g", outcome->error_ratio, analysis.step_tolerance);
+  } else {
     PetscCall(NewtonDescribeFailure(snes_, &newton_context_, &outcome->why));
     PetscCall(NewtonForgetFactorization(snes_, &newton_context_));
   }

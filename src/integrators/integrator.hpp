@@ -186,7 +186,7 @@ private:
   Mat                      null_pivot_matrix_         = nullptr;
   double                   motion_start_time_         = -INFINITY;        // InitialiseMotion's t (a restart continues after it)
   double                   previous_step_             = 0.0;              // PreviousStep
-  double                   model_size_                = 0.0;              // the diagonal of the nodes' bounding box, m (LocalErrorRatio's floor)
+  double                   model_size_                = 0.0;              // ModelLength: the bounding box's diagonal, 1 for one point (LocalErrorRatio's floor)
   bool                     error_over_tolerance_said_ = false;            // the warning of a step at min_step over step_tolerance
   bool                     singular_mass_             = false;            // the mass matrix was found singular (ConsistentReactions)
   Vec                      mass_forces_ = nullptr, mass_check_ = nullptr; // SolveSingularMassProblem's f and M a - f
@@ -205,8 +205,6 @@ private:
   // increments, the floors 1e-3 of the model's size and of a radian per node; the mid-point
   // schemes' scaled by 2 dt / (dt_prev + dt). Collective.
   PetscErrorCode LocalErrorRatio(double dt, double *ratio);
-  // model_size_ from the whole model's nodes. Collective.
-  PetscErrorCode MeasureModelSize();
   PetscLogEvent  consistent_reactions_event_ = 0;
   Vec            accelerations_              = nullptr;
   long long      consistent_reaction_solves_ = 0, consistent_reaction_failures_ = 0;

@@ -674,7 +674,7 @@ std::string PathFollower::StopAdvice() const
     // past it; the corrector then fails at a fixed t. Said when the last three rates grow with one
     // sign and 1/r^2, extrapolated linearly, reaches zero within two more steps of the last's
     // length; or when they change sign with both sides beyond every rate before and 10 times the
-    // first (at a limit point of the load factor the rate passes through zero instead, which
+    // first, or both beyond 100 times the first (at a limit point of the load factor the rate passes through zero instead, which
     // displacement control passes). Lee's frame: 0.163 at the start; with min_step 1e-4, -4.36,
     // -9.32, -29.7 (t* 0.11 steps ahead); with 1e-6 the halved steps jumped across: -72.7, 92.4,
     // 122 after at most 44.2.
@@ -686,7 +686,7 @@ std::string PathFollower::StopAdvice() const
     const double step = p2.t - p1.t;
     if (r0 * r1 > 0 && r1 * r2 > 0 && std::abs(r1) > std::abs(r0) && std::abs(r2) > std::abs(r1) && step > 0) {
       const double w1 = 1.0 / (r1 * r1), w2 = 1.0 / (r2 * r2); // falling linearly to 0 at t*
-      near = w2 / (w1 - w2) * step < 2.0 * step;
+      near = w2 / (w1 - w2) < 2.0;                             // t* within two steps of the last's length
     }
     // A sign change between rates both a hundred times the first is conclusive on its own: on
     // another processor's rounding the halved steps of Lee's frame jumped back and forth near t*

@@ -46,12 +46,12 @@ void StepController::Accept(double dt, int iterations, double error_ratio)
     if (error_ratio < 0.0) return; // a step without an estimate (mc's and em's first) keeps the step
     // Grow by at most growth_factor, shrink by at most 5; a step shortened to land on an output
     // time keeps the nominal step unless its estimate asks for less (it says nothing of more).
-    const double proposed = dt * std::clamp(ErrorStepFactor(error_ratio), 0.2, after_rejection ? 1.0 : settings_.growth_factor);
-    const bool   landed   = dt < step_ * (1.0 - 1e-12);
-    // (For a landed step the estimate's own step, dt / sqrt(ratio) unbounded above: a landing of
-    // 1e-8 s says the next may be far longer, and the nominal step stays unless it asks for less.)
-    const double asked = dt * std::max(ErrorStepFactor(error_ratio), 0.2);
-    step_              = std::clamp(landed ? std::min(step_, asked) : proposed, settings_.min_step, settings_.max_step);
+    // (For a landed step the estimate's own step, unbounded above: a landing of 1e-8 s says the
+    // next may be far longer, and the nominal step stays unless it asks for less.)
+    const double factor = std::max(ErrorStepFactor(error_ratio), 0.2);
+    const bool   landed = dt < step_ * (1.0 - 1e-12);
+    step_ = std::clamp(landed ? std::min(step_, dt * factor) : dt * std::min(factor, after_rejection ? 1.0 : settings_.growth_factor), settings_.min_step,
+                       settings_.max_step);
     return;
   }
   if (settings_.desired_iterations > 0) {

@@ -378,15 +378,14 @@ PetscErrorCode ReadRunRecord(const std::string &path, CheckpointRun *run)
   // The classification checks the whole file's checksum before HDF5 reads a byte of it: a footer
   // whose checksum does not match is damage, refused here. No footer: a file of another kind or
   // format, which the checks below name, or one of this format whose end was cut or damaged.
-  // A FIFO without a writer blocked the open for good, deaf to SIGTERM (a directory is named below).
-  std::error_code no_throw;
-  if (!std::filesystem::is_directory(path, no_throw)) {
-    const std::string not_regular = NotRegularFileProblem(path);
-    PetscCheck(not_regular.empty(), PETSC_COMM_SELF, PETSC_ERR_FILE_OPEN, "cannot read the checkpoint '%s': %s", p, not_regular.c_str());
-  }
   ExistingFile existing;
   std::string  problem = ClassifyExistingFile(path, &existing);
   PetscCheck(problem.empty(), PETSC_COMM_SELF, PETSC_ERR_FILE_OPEN, "%s", problem.c_str());
+  // What is not a regular file is refused before HDF5 opens it: the open of a FIFO without a writer
+  // blocked for good, deaf to SIGTERM (a directory HDF5's open names, as before).
+  std::error_code no_throw;
+  PetscCheck(existing.kind != ExistingKind::NotRegular || std::filesystem::is_directory(path, no_throw), PETSC_COMM_SELF, PETSC_ERR_FILE_OPEN,
+             "cannot read the checkpoint '%s': %s", p, NotRegularFileProblem(path).c_str());
   PetscCall(OpenHdf5File(path, H5F_ACC_RDONLY, H5P_DEFAULT, &file));
   PetscCheck(existing.kind != ExistingKind::MsflexResult, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED,
              "'%s' is an msflex result file, not a checkpoint; restart from the run's checkpoint (by default <output name>.ckpt.h5)", p);

@@ -102,6 +102,14 @@ MotionUpdate NodeSpinUpdate(const TimeScheme &scheme, const NodeState &node)
   return AdvanceMotion(scheme, node.rotation_motion, QuaternionToMatrix(node.rotation_start).transpose() * node.rotation_increment);
 }
 
+// The node's material spin at the end of the step from its material increment: Theta = R_n^T omega
+// (Newmark family, or the prescribed spin), theta = R_n^T alpha (mid-point).
+static MotionUpdate NodeEndSpin(const TimeScheme &scheme, const NodeState &s)
+{
+  if (!scheme.Midpoint()) return NodeSpinUpdate(scheme, s);
+  return AdvanceMotion(scheme, s.rotation_motion, QuaternionToMatrix(s.rotation_start).transpose() * s.tangent_scaled_increment);
+}
+
 Vec3 NodeTangentScaledIncrement(const StepEquations &equations, const NodeState &node)
 {
   if (equations.Midpoint()) return node.tangent_scaled_increment;
@@ -366,12 +374,9 @@ void StateCommitStep(const Model &model, State *state)
       for (int half = 0; half < 2; ++half)
         J.coordinate_motion[half] = {J.coordinate_update[half].velocity, J.coordinate_update[half].acceleration, J.coordinate_update[half].pseudo_acceleration};
     for (NodeState &s : state->nodes) {
-      // Material increment: Theta = R_n^T omega (Newmark family), theta = R_n^T alpha (mid-point).
-      const MotionUpdate rotation =
-          scheme.Midpoint() ? AdvanceMotion(scheme, s.rotation_motion, QuaternionToMatrix(s.rotation_start).transpose() * s.tangent_scaled_increment)
-                            : NodeSpinUpdate(scheme, s);
-      s.translation_motion = {s.translation_update.velocity, s.translation_update.acceleration, s.translation_update.pseudo_acceleration};
-      s.rotation_motion    = {rotation.velocity, rotation.acceleration, rotation.pseudo_acceleration};
+      const MotionUpdate rotation = NodeEndSpin(scheme, s);
+      s.translation_motion        = {s.translation_update.velocity, s.translation_update.acceleration, s.translation_update.pseudo_acceleration};
+      s.rotation_motion           = {rotation.velocity, rotation.acceleration, rotation.pseudo_acceleration};
     }
   }
   for (NodeState &s : state->nodes) NodeCommit(&s);
@@ -581,9 +586,7 @@ void StateLocalErrorSums(const State &state, double dt, double sums[4])
   const double      c      = std::abs((scheme.Midpoint() ? 0.25 : scheme.beta) - 1.0 / 6.0) * dt * dt;
   for (PetscInt l = 0; l < state.num_owned_nodes; ++l) {
     const NodeState   &s    = state.nodes[l];
-    const MotionUpdate spin = scheme.Midpoint()
-                                  ? AdvanceMotion(scheme, s.rotation_motion, QuaternionToMatrix(s.rotation_start).transpose() * s.tangent_scaled_increment)
-                                  : NodeSpinUpdate(scheme, s);
+    const MotionUpdate spin = NodeEndSpin(scheme, s);
     sums[0] += (c * (s.translation_update.acceleration - s.translation_motion.acceleration)).squaredNorm();
     sums[1] += s.displacement_increment.squaredNorm();
     sums[2] += (c * (spin.acceleration - s.rotation_motion.acceleration)).squaredNorm();
